@@ -1,0 +1,14 @@
+#pragma once
+// One function per subcommand; each lives in cli/cmd_<name>.cpp and adds itself to the app.
+// The callback runs the command; errors propagate as incise::Error and main() turns them
+// into one line on stderr and exit code 1.
+#include <CLI/CLI.hpp>
+
+namespace incise::cli {
+
+void add_info(CLI::App& app);
+void add_convert(CLI::App& app);
+void add_quality(CLI::App& app);
+void add_generate(CLI::App& app);
+
+}  // namespace incise::cli

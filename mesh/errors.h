@@ -1,0 +1,40 @@
+#pragma once
+// The exception hierarchy. Every error incise reports to a user is one of these; the CLI
+// prints what() as one line and exits with code 1.
+#include <stdexcept>
+#include <string>
+
+namespace incise {
+
+class Error : public std::runtime_error {
+public:
+  using std::runtime_error::runtime_error;
+};
+
+// Malformed or unreadable file. what() is "FILE:LINE: reason" (LINE omitted when unknown).
+class IoError : public Error {
+public:
+  IoError(const std::string& file, long line, const std::string& reason)
+      : Error(file + (line > 0 ? ":" + std::to_string(line) : std::string()) + ": " + reason),
+        file_(file), line_(line) {}
+  const std::string& file() const { return file_; }
+  long line() const { return line_; }
+
+private:
+  std::string file_;
+  long line_;
+};
+
+// A mesh invariant does not hold (thrown by validate() and by edits given invalid input).
+class InvalidMesh : public Error {
+public:
+  using Error::Error;
+};
+
+// An argument or option out of its domain.
+class InvalidArgument : public Error {
+public:
+  using Error::Error;
+};
+
+} // namespace incise

@@ -1,0 +1,84 @@
+#include "mesh/generate.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "mesh/errors.h"
+
+namespace incise {
+
+void tag_boundary(TetMesh& mesh, std::uint16_t tag) {
+  for (TetId t : mesh.tets())
+    for (int f = 0; f < 4; ++f)
+      if (!mesh.neighbor(t, f).is_valid()) mesh.set_face_tag(t, f, tag);
+}
+
+namespace {
+
+// Lattice of (nx+1)(ny+1)(nz+1) points given by `pos(i,j,k)`, split into Kuhn tets. The
+// orientation is decided on the undeformed lattice so a mapping that flips a tet shows up
+// in validate() instead of being silently repaired.
+template <class Pos>
+TetMesh kuhn_lattice(const std::array<int, 3>& n, Pos pos, int label) {
+  TetMesh m;
+  const std::size_t nv = std::size_t(n[0] + 1) * (n[1] + 1) * (n[2] + 1);
+  m.reserve(nv, 6 * std::size_t(n[0]) * n[1] * n[2]);
+  auto id = [&](int i, int j, int k) {
+    return VertexId(static_cast<std::uint32_t>((std::size_t(k) * (n[1] + 1) + j) * (n[0] + 1) + i));
+  };
+  for (int k = 0; k <= n[2]; ++k)
+    for (int j = 0; j <= n[1]; ++j)
+      for (int i = 0; i <= n[0]; ++i) m.add_vertex(pos(i, j, k));
+  static const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  for (int k = 0; k < n[2]; ++k)
+    for (int j = 0; j < n[1]; ++j)
+      for (int i = 0; i < n[0]; ++i)
+        for (const auto& p : perms) {
+          int c[3] = {i, j, k};
+          VertexId v[4];
+          v[0] = id(c[0], c[1], c[2]);
+          for (int s = 0; s < 3; ++s) {
+            ++c[p[s]];
+            v[s + 1] = id(c[0], c[1], c[2]);
+          }
+          // Parity of the permutation decides the orientation in the reference lattice.
+          bool odd = (p[0] == 0 && p[1] == 2) || (p[0] == 1 && p[1] == 0) || (p[0] == 2 && p[1] == 1);
+          // Kuhn tet (0, e_p0, e_p0+e_p1, 1) has det = sign(permutation) (identity: +1).
+          if (odd)
+            m.add_tet(v[0], v[1], v[3], v[2], label);
+          else
+            m.add_tet(v[0], v[1], v[2], v[3], label);
+        }
+  tag_boundary(m);
+  m.discard_change();
+  return m;
+}
+
+}  // namespace
+
+TetMesh make_box(const Vec3& size, const std::array<int, 3>& cells, int label) {
+  for (int d = 0; d < 3; ++d) {
+    if (!(size[d] > 0) || !std::isfinite(size[d])) throw InvalidArgument("make_box: sizes must be positive and finite");
+    if (cells[d] < 1) throw InvalidArgument("make_box: cell counts must be at least 1");
+  }
+  Vec3 h(size[0] / cells[0], size[1] / cells[1], size[2] / cells[2]);
+  return kuhn_lattice(cells, [&](int i, int j, int k) { return Vec3(i * h[0], j * h[1], k * h[2]); }, label);
+}
+
+TetMesh make_ellipsoid(const Vec3& radii, int n, int label) {
+  for (int d = 0; d < 3; ++d)
+    if (!(radii[d] > 0) || !std::isfinite(radii[d])) throw InvalidArgument("make_ellipsoid: radii must be positive and finite");
+  if (n < 1) throw InvalidArgument("make_ellipsoid: resolution must be at least 1");
+  const int m = 2 * n;
+  return kuhn_lattice({m, m, m},
+                      [&](int i, int j, int k) {
+                        Vec3 q(-1.0 + 2.0 * i / m, -1.0 + 2.0 * j / m, -1.0 + 2.0 * k / m);
+                        double linf = q.cwiseAbs().maxCoeff(), l2 = q.norm();
+                        // Each cube shell |q|_inf = r maps onto the sphere of radius r.
+                        Vec3 s = l2 > 0 ? Vec3(q * (linf / l2)) : Vec3::Zero();
+                        return Vec3(s.cwiseProduct(radii));
+                      },
+                      label);
+}
+
+}  // namespace incise

@@ -1,0 +1,22 @@
+#pragma once
+// Structured tetrahedral meshes for tests, benchmarks and users.
+#include <array>
+
+#include "mesh/tet_mesh.h"
+
+namespace incise {
+
+// Box [0,size.x] x [0,size.y] x [0,size.z] with cells.x*cells.y*cells.z cubes, each split
+// into 6 Kuhn tets around its main diagonal (conforming across cubes). Boundary faces are
+// tagged kTagSurface; every tet gets `label`. Throws InvalidArgument for sizes <= 0 or cell
+// counts < 1.
+TetMesh make_box(const Vec3& size, const std::array<int, 3>& cells, int label = 1);
+
+// Ellipsoid centred at the origin with semi-axes `radii`: a box of (2n)^3 cubes on
+// [-1,1]^3 mapped radially onto the unit ball, then scaled. n >= 1.
+TetMesh make_ellipsoid(const Vec3& radii, int n, int label = 1);
+
+// Tags every boundary face kTagSurface (used by generators and readers).
+void tag_boundary(TetMesh& mesh, std::uint16_t tag = kTagSurface);
+
+}  // namespace incise

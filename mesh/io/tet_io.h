@@ -1,0 +1,45 @@
+#pragma once
+// Reading and writing tetrahedral meshes. The format is chosen by extension and checked
+// against the content:
+//   .msh        Gmsh 2.2 ASCII (read/write), 4.1 ASCII (read), 1.0 (read)
+//   .mesh       Medit (read/write)
+//   .vtk        VTK legacy, ASCII or binary (read/write)
+//   .vtu        VTK XML UnstructuredGrid, ascii or base64 binary, either byte order (read/write)
+//   .node/.ele  TetGen (read/write; either name may be given)
+// Region labels travel through every format that carries them. Non-tet cells are skipped,
+// unreferenced vertices kept. Tets are reoriented to positive volume on read. Every write is
+// atomic (temporary file in the same directory, then rename).
+#include <string>
+#include <vector>
+
+#include "mesh/tet_mesh.h"
+
+namespace incise {
+
+enum class TetFormat { Auto, Gmsh22, Medit, VtkLegacy, Vtu, TetGen };
+
+struct ReadReport {
+  std::size_t skipped_cells = 0;         // triangles, lines, points beside the tets
+  std::size_t reoriented_tets = 0;       // tets read with negative volume and flipped
+  std::size_t unreferenced_vertices = 0;
+  std::string format;                    // e.g. "gmsh 4.1 ascii"
+};
+
+struct WriteOptions {
+  TetFormat format = TetFormat::Auto;  // Auto: from the extension
+  bool binary = false;                 // VTK legacy / VTU: binary (VTU: base64 raw)
+  bool big_endian = false;             // VTU binary: byte order of the payload
+  bool write_boundary = true;          // also write boundary triangles with their tags,
+                                       // where the format carries them (msh, mesh)
+};
+
+// Throws IoError("FILE:LINE: reason") on malformed input.
+TetMesh read_tet_mesh(const std::string& path, ReadReport* report = nullptr);
+void write_tet_mesh(const TetMesh& mesh, const std::string& path, const WriteOptions& options = {});
+
+// The format an extension maps to (Auto if unknown).
+TetFormat format_from_path(const std::string& path);
+// Whether a path names a tet-mesh format (as opposed to a surface).
+bool is_tet_mesh_path(const std::string& path);
+
+}  // namespace incise

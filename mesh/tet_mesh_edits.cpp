@@ -1,0 +1,253 @@
+// Refinement (edge / face / tet splits) and flips (2-3, 3-2, 4-4, edge removal).
+// Every operation is "remove these tets, add those", so incidence upkeep is the one path in
+// tet_mesh.cpp and the cost is proportional to the tets involved.
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "mesh/errors.h"
+#include "mesh/tet_mesh.h"
+
+namespace incise {
+
+namespace {
+// A tet built by a flip must be clearly positive: a computed volume of 1e-20 on a
+// coplanar configuration can turn negative when the same tet is evaluated with its
+// vertices in another order. The margin is relative to the longest edge, so it is scale-free.
+bool clearly_positive(const std::array<Vec3, 4>& p) {
+  const Vec3 e1 = p[1] - p[0], e2 = p[2] - p[0], e3 = p[3] - p[0];
+  double l2 = std::max({e1.squaredNorm(), e2.squaredNorm(), e3.squaredNorm(), (p[2] - p[1]).squaredNorm(),
+                        (p[3] - p[1]).squaredNorm(), (p[3] - p[2]).squaredNorm()});
+  return e1.dot(e2.cross(e3)) > 1e-12 * l2 * std::sqrt(l2);
+}
+
+std::array<std::uint32_t, 3> sorted_key(VertexId a, VertexId b, VertexId c) {
+  std::array<std::uint32_t, 3> k{a.idx(), b.idx(), c.idx()};
+  std::sort(k.begin(), k.end());
+  return k;
+}
+}  // namespace
+
+void TetMesh::star_split(TetId t, VertexId p, const std::array<double, 4>& w) {
+  const auto parent = tet_v_[t.idx()];
+  const auto tags = face_tag_[t.idx()];
+  const int lab = label_[t.idx()];
+  remove_tet(t);
+  for (int s = 0; s < 4; ++s) {
+    if (!(w[s] > 0)) continue;
+    auto child = parent;
+    child[s] = p;
+    TetId c = add_tet(child[0], child[1], child[2], child[3], lab);
+    // Child face j lies in parent face j when j == s (it is that face, shrunk to nothing
+    // new) or when p lies on parent face j (w[j] == 0); only those inherit a tag.
+    for (int j = 0; j < 4; ++j)
+      if ((j == s || w[j] == 0) && !tet_n_[c.idx()][j].is_valid()) face_tag_[c.idx()][j] = tags[j];
+  }
+}
+
+VertexId TetMesh::split_edge(VertexId a, VertexId b, double s) {
+  if (!(s > 0 && s < 1)) throw InvalidArgument("split_edge: parameter must be in (0,1)");
+  EdgeStar star = edge_star(a, b);
+  if (star.tets.empty()) throw InvalidArgument("split_edge: no tet has edge (" + std::to_string(a.idx()) + "," +
+                                               std::to_string(b.idx()) + ")");
+  const VertexId par[2] = {a, b};
+  const double wt[2] = {1 - s, s};
+  VertexId p = add_vertex_interpolated(par, wt);
+  for (TetId t : star.tets) {
+    std::array<double, 4> w{0, 0, 0, 0};
+    w[local_index(t, a)] = 1 - s;
+    w[local_index(t, b)] = s;
+    star_split(t, p, w);
+  }
+  return p;
+}
+
+VertexId TetMesh::split_face(TetId t, int f, const std::array<double, 3>& w) {
+  if (!is_alive(t) || f < 0 || f > 3) throw InvalidArgument("split_face: bad tet or face");
+  for (double x : w)
+    if (!(x > 0)) throw InvalidArgument("split_face: barycentric weights must be positive");
+  auto fv = face_vertices(t, f);
+  TetId u = tet_n_[t.idx()][f];
+  VertexId p = add_vertex_interpolated(fv, w);
+  for (TetId x : {t, u}) {
+    if (!x.is_valid()) continue;
+    std::array<double, 4> wx{0, 0, 0, 0};
+    for (int k = 0; k < 3; ++k) wx[local_index(x, fv[k])] = w[k];
+    star_split(x, p, wx);
+  }
+  return p;
+}
+
+VertexId TetMesh::split_tet(TetId t, const std::array<double, 4>& w) {
+  if (!is_alive(t)) throw InvalidArgument("split_tet: tet is not alive");
+  for (double x : w)
+    if (!(x > 0)) throw InvalidArgument("split_tet: barycentric weights must be positive");
+  VertexId p = add_vertex_interpolated(tet_v_[t.idx()], w);
+  star_split(t, p, w);
+  return p;
+}
+
+std::vector<TetId> TetMesh::retriangulate(std::span<const TetId> old_tets,
+                                          std::span<const std::array<VertexId, 4>> new_tets) {
+  std::map<std::array<std::uint32_t, 3>, std::uint16_t> tags;
+  const int lab = label_[old_tets.front().idx()];
+  for (TetId t : old_tets)
+    for (int f = 0; f < 4; ++f)
+      if (!tet_n_[t.idx()][f].is_valid() && face_tag_[t.idx()][f] != kTagNone) {
+        auto fv = face_vertices(t, f);
+        tags[sorted_key(fv[0], fv[1], fv[2])] = face_tag_[t.idx()][f];
+      }
+  for (TetId t : old_tets) remove_tet(t);
+  std::vector<TetId> out;
+  out.reserve(new_tets.size());
+  for (const auto& q : new_tets) {
+    TetId c = add_tet(q[0], q[1], q[2], q[3], lab);
+    out.push_back(c);
+  }
+  if (!tags.empty())
+    for (TetId c : out)
+      for (int f = 0; f < 4; ++f)
+        if (!tet_n_[c.idx()][f].is_valid()) {
+          auto fv = face_vertices(c, f);
+          auto it = tags.find(sorted_key(fv[0], fv[1], fv[2]));
+          if (it != tags.end()) face_tag_[c.idx()][f] = it->second;
+        }
+  return out;
+}
+
+bool TetMesh::is_flip23_ok(TetId t, int f) const {
+  if (!is_alive(t) || f < 0 || f > 3) return false;
+  TetId u = tet_n_[t.idx()][f];
+  if (!u.is_valid() || label_[u.idx()] != label_[t.idx()]) return false;
+  VertexId a = tet_v_[t.idx()][f];
+  int g = -1;
+  for (int k = 0; k < 4; ++k)
+    if (tet_n_[u.idx()][k] == t) g = k;
+  VertexId b = tet_v_[u.idx()][g];
+  // The new edge a-b must not exist already.
+  for (TetId w : vertex_tets_[a.idx()])
+    if (local_index(w, b) >= 0) return false;
+  auto x = face_vertices(t, f);
+  for (int k = 0; k < 3; ++k)
+    if (!clearly_positive({rest_[x[k].idx()], rest_[x[(k + 1) % 3].idx()], rest_[a.idx()], rest_[b.idx()]})) return false;
+  return true;
+}
+
+std::array<TetId, 3> TetMesh::flip23(TetId t, int f) {
+  if (!is_flip23_ok(t, f)) throw InvalidArgument("flip23: flip of tet " + std::to_string(t.idx()) + " face " +
+                                                 std::to_string(f) + " is not valid");
+  TetId u = tet_n_[t.idx()][f];
+  VertexId a = tet_v_[t.idx()][f];
+  int g = -1;
+  for (int k = 0; k < 4; ++k)
+    if (tet_n_[u.idx()][k] == t) g = k;
+  VertexId b = tet_v_[u.idx()][g];
+  auto x = face_vertices(t, f);
+  // (x, y, z) has its normal towards b, so (x_k, x_k+1, a, b) is positively oriented.
+  std::array<std::array<VertexId, 4>, 3> q;
+  for (int k = 0; k < 3; ++k) q[k] = {x[k], x[(k + 1) % 3], a, b};
+  const TetId old[2] = {t, u};
+  auto out = retriangulate(old, q);
+  return {out[0], out[1], out[2]};
+}
+
+std::vector<std::array<VertexId, 4>> TetMesh::edge_removal_tets(const EdgeStar& star, VertexId a, VertexId b,
+                                                                std::span<const std::array<int, 3>> triangles) const {
+  const int n = static_cast<int>(star.tets.size());
+  if (!star.closed || n < 3) throw InvalidArgument("edge removal: edge is on the boundary or has fewer than 3 tets");
+  if (static_cast<int>(triangles.size()) != n - 2)
+    throw InvalidArgument("edge removal: a ring of " + std::to_string(n) + " needs " + std::to_string(n - 2) +
+                          " triangles");
+  // A triangulation of the ring polygon uses each ring side once and each diagonal twice.
+  std::map<std::pair<int, int>, int> uses;
+  std::vector<std::array<VertexId, 4>> out;
+  for (auto tri : triangles) {
+    std::sort(tri.begin(), tri.end());  // increasing ring order = the ring's orientation
+    if (tri[0] < 0 || tri[2] >= n || tri[0] == tri[1] || tri[1] == tri[2])
+      throw InvalidArgument("edge removal: bad triangle indices");
+    for (int k = 0; k < 3; ++k) ++uses[{std::min(tri[k], tri[(k + 1) % 3]), std::max(tri[k], tri[(k + 1) % 3])}];
+    VertexId ci = star.ring[tri[0]], cj = star.ring[tri[1]], ck = star.ring[tri[2]];
+    out.push_back({ci, cj, ck, b});
+    out.push_back({ci, ck, cj, a});
+  }
+  for (const auto& [e, cnt] : uses) {
+    bool side = (e.second - e.first == 1) || (e.first == 0 && e.second == n - 1);
+    if (cnt != (side ? 1 : 2)) throw InvalidArgument("edge removal: triangles do not triangulate the ring");
+  }
+  if (static_cast<int>(uses.size()) != n + (n - 3)) throw InvalidArgument("edge removal: triangles do not triangulate the ring");
+  return out;
+}
+
+bool TetMesh::is_edge_removal_ok(VertexId a, VertexId b, std::span<const std::array<int, 3>> triangles) const {
+  if (!is_alive(a) || !is_alive(b)) return false;
+  EdgeStar star;
+  try {
+    star = edge_star(a, b);
+  } catch (const InvalidMesh&) {
+    return false;
+  }
+  if (!star.closed || star.tets.size() < 3) return false;
+  for (TetId t : star.tets)
+    if (label_[t.idx()] != label_[star.tets.front().idx()]) return false;
+  std::vector<std::array<VertexId, 4>> q;
+  try {
+    q = edge_removal_tets(star, a, b, triangles);
+  } catch (const InvalidArgument&) {
+    return false;
+  }
+  for (const auto& x : q)
+    if (!clearly_positive({rest_[x[0].idx()], rest_[x[1].idx()], rest_[x[2].idx()], rest_[x[3].idx()]})) return false;
+  // New interior diagonals must not already be mesh edges elsewhere.
+  for (const auto& tri : triangles)
+    for (int k = 0; k < 3; ++k) {
+      int i = std::min(tri[k], tri[(k + 1) % 3]), j = std::max(tri[k], tri[(k + 1) % 3]);
+      int n = static_cast<int>(star.ring.size());
+      if (j - i == 1 || (i == 0 && j == n - 1)) continue;
+      VertexId ci = star.ring[i], cj = star.ring[j];
+      for (TetId w : vertex_tets_[ci.idx()])
+        if (local_index(w, cj) >= 0) return false;
+    }
+  return true;
+}
+
+std::vector<TetId> TetMesh::remove_edge(VertexId a, VertexId b, std::span<const std::array<int, 3>> triangles) {
+  if (!is_edge_removal_ok(a, b, triangles))
+    throw InvalidArgument("remove_edge: removing edge (" + std::to_string(a.idx()) + "," + std::to_string(b.idx()) +
+                          ") with this triangulation is not valid");
+  EdgeStar star = edge_star(a, b);
+  auto q = edge_removal_tets(star, a, b, triangles);
+  return retriangulate(star.tets, q);
+}
+
+bool TetMesh::is_flip32_ok(VertexId a, VertexId b) const {
+  const std::array<int, 3> tri[1] = {{0, 1, 2}};
+  return is_edge_removal_ok(a, b, tri);
+}
+
+std::array<TetId, 2> TetMesh::flip32(VertexId a, VertexId b) {
+  const std::array<int, 3> tri[1] = {{0, 1, 2}};
+  auto out = remove_edge(a, b, tri);
+  return {out[0], out[1]};
+}
+
+namespace {
+std::array<std::array<int, 3>, 2> flip44_triangles(int k) {
+  if (k == 0) return {{{0, 1, 2}, {0, 2, 3}}};
+  return {{{1, 2, 3}, {0, 1, 3}}};
+}
+}  // namespace
+
+bool TetMesh::is_flip44_ok(VertexId a, VertexId b, int k) const {
+  if (k != 0 && k != 1) return false;
+  auto tri = flip44_triangles(k);
+  return is_edge_removal_ok(a, b, tri);
+}
+
+std::array<TetId, 4> TetMesh::flip44(VertexId a, VertexId b, int k) {
+  if (k != 0 && k != 1) throw InvalidArgument("flip44: k must be 0 or 1");
+  auto tri = flip44_triangles(k);
+  auto out = remove_edge(a, b, tri);
+  return {out[0], out[1], out[2], out[3]};
+}
+
+}  // namespace incise

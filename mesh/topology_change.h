@@ -1,0 +1,41 @@
+#pragma once
+// The one record by which everything outside mesh/ learns about edits. A batch of edits
+// (one cut, one improvement pass) yields one TopologyChange; consumers (sim backends,
+// spatial indices) update their per-element data from it alone, without a global rebuild.
+#include <array>
+#include <vector>
+
+#include "mesh/handles.h"
+
+namespace incise {
+
+// A vertex created by an edit. Its rest position is sum_k weights[k] * rest(parents[k]);
+// consumers derive any other per-vertex quantity (current position, displacement,
+// velocity) with the same weights. Unused parent slots are invalid with weight 0.
+// A duplicated vertex (cut) has one parent with weight 1.
+struct VertexOrigin {
+  VertexId vertex;
+  std::array<VertexId, 4> parents;
+  std::array<double, 4> weights{0, 0, 0, 0};
+};
+
+struct TopologyChange {
+  // Tets alive before the batch and dead after it (ids may have been reused: a reused id
+  // appears in both lists, removed first).
+  std::vector<TetId> removed_tets;
+  // Tets alive after the batch that did not exist before it.
+  std::vector<TetId> added_tets;
+  // In creation order: parents always precede their children.
+  std::vector<VertexOrigin> added_vertices;
+  // Isolated vertices deleted by the batch.
+  std::vector<VertexId> removed_vertices;
+  // Vertices (old or new) whose set of incident tets changed, each listed once.
+  std::vector<VertexId> touched_vertices;
+
+  bool empty() const {
+    return removed_tets.empty() && added_tets.empty() && added_vertices.empty() &&
+           removed_vertices.empty() && touched_vertices.empty();
+  }
+};
+
+} // namespace incise
