@@ -33,9 +33,26 @@ struct WriteOptions {
                                        // where the format carries them (msh, mesh)
 };
 
+// Extra data written beside the mesh (VTU and VTK legacy only): simulation frames write
+// current positions, displacement per point and stress per cell this way.
+struct Field {
+  std::string name;
+  int components = 1;          // 1 (scalar) or 3 (vector)
+  std::vector<double> values;  // point data: components * vertex_capacity(), indexed by VertexId
+                               // cell data: components * tet_capacity(), indexed by TetId
+};
+struct MeshFields {
+  const std::vector<Vec3>* points = nullptr;  // positions to write instead of rest (by VertexId)
+  std::vector<Field> point_data;
+  std::vector<Field> cell_data;
+};
+
 // Throws IoError("FILE:LINE: reason") on malformed input.
 TetMesh read_tet_mesh(const std::string& path, ReadReport* report = nullptr);
 void write_tet_mesh(const TetMesh& mesh, const std::string& path, const WriteOptions& options = {});
+// VTU (or VTK legacy, by extension) with current positions and fields; atomic.
+void write_tet_mesh_with_fields(const TetMesh& mesh, const std::string& path, const MeshFields& fields,
+                                const WriteOptions& options = {});
 
 // The format an extension maps to (Auto if unknown).
 TetFormat format_from_path(const std::string& path);

@@ -1,0 +1,37 @@
+#include "sim/material.h"
+
+#include <cmath>
+
+#include "mesh/errors.h"
+
+namespace incise {
+
+void check_material(const Material& m, const std::string& what) {
+  if (!(m.young > 0) || !std::isfinite(m.young))
+    throw InvalidArgument(what + ".young: expected a finite Young's modulus > 0");
+  if (!(m.density > 0) || !std::isfinite(m.density))
+    throw InvalidArgument(what + ".density: expected a finite density > 0");
+  if (!(m.poisson >= 0) || !std::isfinite(m.poisson))
+    throw InvalidArgument(what + ".poisson: expected a Poisson's ratio in [0, 0.5)");
+  if (m.poisson >= 0.5)
+    throw InvalidArgument(what + ".poisson: " + std::to_string(m.poisson) +
+                          " is >= 0.5; linear elasticity is singular at 0.5 (incompressible) and "
+                          "unstable above; use at most 0.4999");
+}
+
+void MaterialTable::set_default(const Material& m) {
+  check_material(m, "materials.*");
+  default_ = m;
+}
+
+void MaterialTable::set(int label, const Material& m) {
+  check_material(m, "materials." + std::to_string(label));
+  by_label_[label] = m;
+}
+
+const Material& MaterialTable::get(int label) const {
+  auto it = by_label_.find(label);
+  return it == by_label_.end() ? default_ : it->second;
+}
+
+}  // namespace incise

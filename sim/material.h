@@ -1,0 +1,37 @@
+#pragma once
+// Materials per region label: Young's modulus, Poisson's ratio, density. Shared by every
+// simulation backend so a scene describes tissue once.
+#include <string>
+#include <unordered_map>
+
+namespace incise {
+
+struct Material {
+  double young = 1e6;     // Young's modulus E [Pa], > 0
+  double poisson = 0.3;   // Poisson's ratio nu, in [0, 0.5): 0.5 makes linear elasticity singular
+  double density = 1000;  // [kg/m^3], > 0
+
+  // Lame parameters.
+  double lambda() const { return young * poisson / ((1 + poisson) * (1 - 2 * poisson)); }
+  double mu() const { return young / (2 * (1 + poisson)); }
+};
+
+// Throws InvalidArgument naming `what` (e.g. "materials.2") and the bad field.
+void check_material(const Material& m, const std::string& what);
+
+class MaterialTable {
+public:
+  MaterialTable() = default;
+  explicit MaterialTable(const Material& fallback) { set_default(fallback); }
+  void set_default(const Material& m);                      // used for labels not set explicitly
+  void set(int label, const Material& m);
+  const Material& get(int label) const;                     // O(1)
+  const Material& fallback() const { return default_; }
+  const std::unordered_map<int, Material>& by_label() const { return by_label_; }
+
+private:
+  Material default_;
+  std::unordered_map<int, Material> by_label_;
+};
+
+}  // namespace incise
