@@ -1,0 +1,148 @@
+// Spring-mass backend benchmarks; every figure is a ratio against a baseline measured in the
+// same run (absolute times on a shared machine are noise).
+//  1. step cost per integrator relative to symplectic Euler (same mesh, same state);
+//  2. estimated stable time step against mesh resolution (expected ~ h);
+//  3. local update (apply one TopologyChange) vs a full rebuild after k edited tets in an
+//     N-tet mesh.
+// Usage: bench_springs [--quick]
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <random>
+#include <vector>
+
+#include "mesh/generate.h"
+#include "mesh/tet_mesh.h"
+#include "sim/spring_model.h"
+
+using namespace incise;
+
+namespace {
+
+double now_ms() {
+  using namespace std::chrono;
+  return duration<double, std::milli>(steady_clock::now().time_since_epoch()).count();
+}
+
+MaterialTable soft_tissue() { return MaterialTable(Material{3e3, 0.45, 1000}); }
+
+void perturb(SpringModel& s, const TetMesh& m, double amount) {
+  std::mt19937 rng(1);
+  std::uniform_real_distribution<double> u(-amount, amount);
+  for (VertexId v : m.vertices()) s.set_position(v, m.rest(v) + Vec3(u(rng), u(rng), u(rng)));
+}
+
+// Refinement and flip edits around random tets (no removals: they keep the mesh a solid).
+int edit_tets(TetMesh& m, std::mt19937& rng, int k) {
+  std::uniform_int_distribution<std::uint32_t> pick(0, static_cast<std::uint32_t>(m.tet_capacity() - 1));
+  int done = 0;
+  while (done < k) {
+    TetId t(pick(rng));
+    if (!m.is_alive(t)) continue;
+    auto v = m.tet_vertices(t);
+    switch (rng() % 4) {
+      case 0: m.split_edge(v[0], v[1], 0.4); break;
+      case 1: m.split_face(t, static_cast<int>(rng() % 4)); break;
+      case 2: m.split_tet(t); break;
+      default: {
+        const int f = static_cast<int>(rng() % 4);
+        if (!m.is_flip23_ok(t, f)) continue;
+        m.flip23(t, f);
+      }
+    }
+    ++done;
+  }
+  return done;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
+
+  // ---- 1. step cost per integrator ---------------------------------------------------------
+  {
+    const int n = quick ? 10 : 20;
+    TetMesh m = make_box(Vec3(0.1, 0.1, 0.1), {n, n, n});
+    std::printf("== step cost per integrator, %zu tets, %zu vertices (relative to symplectic Euler)\n",
+                m.num_tets(), m.num_vertices());
+    std::printf("%-18s %10s %12s %10s %14s\n", "integrator", "dt/dt_s", "ms/step", "ratio", "CG it/step");
+    double base = 0;
+    for (Integrator integ : {Integrator::SymplecticEuler, Integrator::ExplicitEuler, Integrator::Verlet,
+                             Integrator::ImplicitEuler}) {
+      SpringOptions o;
+      o.damping = 2.0;
+      o.compute_energy = false;
+      o.cg_tolerance = 1e-6;
+      SpringModel s(m, soft_tissue(), o);
+      perturb(s, m, 1e-4);
+      const bool implicit = integ == Integrator::ImplicitEuler;
+      const double factor = implicit ? 10.0 : 0.5;
+      const double dt = factor * (integ == Integrator::ExplicitEuler ? s.stable_time_step(integ) : s.stable_time_step());
+      const int steps = implicit ? (quick ? 10 : 30) : (quick ? 50 : 200);
+      s.step(dt, integ);  // warm-up
+      long cg = 0;
+      const double t0 = now_ms();
+      for (int i = 0; i < steps; ++i) cg += s.step(dt, integ).cg_iterations;
+      const double per = (now_ms() - t0) / steps;
+      if (integ == Integrator::SymplecticEuler) base = per;
+      std::printf("%-18s %10.2f %12.3f %10.2f %14.1f\n", integrator_name(integ), factor, per, per / base,
+                  double(cg) / steps);
+    }
+    std::printf("(implicit Euler at 10x the stable step; explicit Euler at 0.5x its own, damped, limit)\n\n");
+  }
+
+  // ---- 2. stable time step vs resolution -----------------------------------------------------
+  {
+    std::printf("== estimated stable time step vs mesh resolution (unit cube, E 3 kPa, nu 0.45)\n");
+    std::printf("%8s %10s %14s %14s %14s\n", "cells", "h", "dt_stable [s]", "dt/dt(h0)", "h/h0");
+    double dt0 = 0, h0 = 0;
+    for (int n : {4, 8, 16, 32}) {
+      if (quick && n > 16) break;
+      TetMesh m = make_box(Vec3(1, 1, 1), {n, n, n});
+      SpringModel s(m, soft_tissue());
+      const double h = 1.0 / n, dt = s.stable_time_step();
+      if (n == 4) dt0 = dt, h0 = h;
+      std::printf("%8d %10.4f %14.4e %14.4f %14.4f\n", n, h, dt, dt / dt0, h / h0);
+    }
+    for (double nu : {0.3, 0.45, 0.49, 0.499}) {
+      TetMesh m = make_box(Vec3(1, 1, 1), {8, 8, 8});
+      SpringModel s(m, MaterialTable(Material{3e3, nu, 1000}));
+      std::printf("   nu %.3f (8^3 cells): dt_stable %.4e s\n", nu, s.stable_time_step());
+    }
+    std::printf("\n");
+  }
+
+  // ---- 3. local update vs full rebuild --------------------------------------------------------
+  {
+    std::printf("== local update vs full rebuild after k edited tets\n");
+    std::printf("%10s %6s %14s %14s %12s %14s\n", "N tets", "k", "update [ms]", "rebuild [ms]", "ratio", "visits/update");
+    std::vector<int> sizes = quick ? std::vector<int>{8, 16} : std::vector<int>{12, 24, 48};
+    for (int n : sizes) {
+      TetMesh m = make_box(Vec3(1, 1, 1), {n, n, n});
+      SpringModel s(m, soft_tissue());
+      std::mt19937 rng(7);
+      for (int k : {1, 10, 100}) {
+        // Several repetitions of the update (cheap) against one rebuild (expensive).
+        const int reps = 20;
+        double t_update = 0;
+        s.reset_counters();
+        for (int r = 0; r < reps; ++r) {
+          edit_tets(m, rng, k);
+          TopologyChange ch = m.take_change();
+          const double t0 = now_ms();
+          s.apply(m, ch);
+          t_update += now_ms() - t0;
+        }
+        t_update /= reps;
+        const double visits = double(s.counters().visits) / double(s.counters().updates);
+        const double t0 = now_ms();
+        SpringModel fresh(m, soft_tissue());
+        const double t_rebuild = now_ms() - t0;
+        std::printf("%10zu %6d %14.4f %14.2f %12.0f %14.0f\n", m.num_tets(), k, t_update, t_rebuild,
+                    t_rebuild / t_update, visits);
+      }
+    }
+  }
+  return 0;
+}

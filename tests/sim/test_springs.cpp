@@ -1,0 +1,652 @@
+// Spring-mass backend: calibration against elasticity, integrator periods and energy
+// behaviour, the stable step, the anti-inversion barrier, local updates and extremes.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <iostream>
+#include <limits>
+#include <random>
+#include <set>
+#include <sstream>
+
+#include "mesh/errors.h"
+#include "mesh/generate.h"
+#include "mesh/tet_mesh.h"
+#include "sim/integrator.h"
+#include "sim/spring_model.h"
+
+using namespace incise;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+const Integrator kAll[] = {Integrator::ExplicitEuler, Integrator::SymplecticEuler, Integrator::Verlet,
+                           Integrator::ImplicitEuler};
+
+MaterialTable table(double young, double poisson, double density = 1000) {
+  return MaterialTable(Material{young, poisson, density});
+}
+
+// Silences (and records) std::cerr for the scope: explicit Euler warns by design.
+struct CaptureCerr {
+  std::ostringstream out;
+  std::streambuf* old;
+  CaptureCerr() : old(std::cerr.rdbuf(out.rdbuf())) {}
+  ~CaptureCerr() { std::cerr.rdbuf(old); }
+};
+
+TetId random_tet(const TetMesh& m, std::mt19937& rng) {
+  std::uniform_int_distribution<std::uint32_t> pick(0, static_cast<std::uint32_t>(m.tet_capacity() - 1));
+  for (;;) {
+    TetId t(pick(rng));
+    if (m.is_alive(t)) return t;
+  }
+}
+
+// A flip check; after tet removals an edge star can be non-manifold, which the mesh reports
+// by throwing: that flip is simply not available.
+template <class Check>
+bool ok(Check check) {
+  try {
+    return check();
+  } catch (const InvalidMesh&) {
+    return false;
+  }
+}
+
+// One random edit (as in tests/mesh/test_tet_mesh.cpp, plus occasional tet removal);
+// returns whether something was changed.
+bool random_edit_impl(TetMesh& m, std::mt19937& rng, bool allow_remove) {
+  std::uniform_real_distribution<double> u(0.25, 0.75);
+  std::uniform_int_distribution<int> op(0, allow_remove ? 6 : 5), loc(0, 3);
+  TetId t = random_tet(m, rng);
+  auto v = m.tet_vertices(t);
+  switch (op(rng)) {
+    case 0: {
+      int i = loc(rng), j = (i + 1 + loc(rng) % 3) % 4;
+      m.split_edge(v[i], v[j], u(rng));
+      return true;
+    }
+    case 1: {
+      double a = u(rng), b = u(rng), c = u(rng), s = a + b + c;
+      m.split_face(t, loc(rng), {a / s, b / s, c / s});
+      return true;
+    }
+    case 2: {
+      double w[4], s = 0;
+      for (double& x : w) s += (x = u(rng));
+      m.split_tet(t, {w[0] / s, w[1] / s, w[2] / s, w[3] / s});
+      return true;
+    }
+    case 3: {
+      int f = loc(rng);
+      if (!ok([&] { return m.is_flip23_ok(t, f); })) return false;
+      m.flip23(t, f);
+      return true;
+    }
+    case 4: {
+      int i = loc(rng), j = (i + 1 + loc(rng) % 3) % 4;
+      if (!ok([&] { return m.is_flip32_ok(v[i], v[j]); })) return false;
+      m.flip32(v[i], v[j]);
+      return true;
+    }
+    case 5: {
+      int i = loc(rng), j = (i + 1 + loc(rng) % 3) % 4, k = loc(rng) % 2;
+      if (!ok([&] { return m.is_flip44_ok(v[i], v[j], k); })) return false;
+      m.flip44(v[i], v[j], k);
+      return true;
+    }
+    default: {  // rare: removal leaves boundary changes and possibly isolated vertices
+      if (rng() % 8 != 0 || m.num_tets() < 20) return false;
+      m.remove_tet(t);
+      return true;
+    }
+  }
+}
+
+bool random_edit(TetMesh& m, std::mt19937& rng, bool allow_remove) {
+  try {
+    return random_edit_impl(m, rng, allow_remove);
+  } catch (const InvalidMesh&) {  // an edge star made non-manifold by a removal: refused, unchanged
+    return false;
+  }
+}
+
+// Moves interior vertices by up to `amount` edge lengths, undoing moves that invert a tet.
+void jitter(TetMesh& m, double amount, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<std::uint8_t> on_boundary(m.vertex_capacity(), 0);
+  for (const auto& f : m.boundary_faces())
+    for (VertexId v : f.vertices) on_boundary[v.idx()] = 1;
+  for (VertexId v : m.vertices()) {
+    if (on_boundary[v.idx()]) continue;
+    double h = 1e300;
+    for (TetId t : m.incident_tets(v))
+      for (VertexId w : m.tet_vertices(t))
+        if (w != v) h = std::min(h, (m.rest(w) - m.rest(v)).norm());
+    const Vec3 old = m.rest(v);
+    m.set_rest(v, old + amount * h * Vec3(u(rng), u(rng), u(rng)));
+    for (TetId t : m.incident_tets(v))
+      if (m.volume(t) <= 0) m.set_rest(v, old);
+  }
+}
+
+TetMesh single_tet(const std::array<Vec3, 4>& p) {
+  TetMesh m;
+  VertexId v[4];
+  for (int i = 0; i < 4; ++i) v[i] = m.add_vertex(p[i]);
+  m.add_tet(v[0], v[1], v[2], v[3]);
+  m.discard_change();
+  return m;
+}
+
+double total_energy(const SpringModel& s) { return s.kinetic_energy() + s.potential_energy(); }
+
+// Random small displacement of every vertex (zero velocity, so zero momentum).
+void perturb(SpringModel& s, const TetMesh& m, double amount, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-amount, amount);
+  for (VertexId v : m.vertices()) s.set_position(v, m.rest(v) + Vec3(u(rng), u(rng), u(rng)));
+}
+
+// Fixes the vertices with rest coordinate `axis` within tol of `value`; returns them.
+std::vector<VertexId> select_plane(const TetMesh& m, int axis, double value, double tol = 1e-9) {
+  std::vector<VertexId> out;
+  for (VertexId v : m.vertices())
+    if (std::abs(m.rest(v)[axis] - value) <= tol) out.push_back(v);
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("integrator names parse and bad names are refused", "[springs]") {
+  for (Integrator i : kAll) CHECK(parse_integrator(integrator_name(i)) == i);
+  CHECK_THROWS_AS(parse_integrator("rk4"), InvalidArgument);
+  CHECK_THROWS_WITH(parse_integrator("Verlet"), Catch::Contains("symplectic-euler"));
+}
+
+TEST_CASE("calibration reproduces E and nu on an isotropic network", "[springs]") {
+  SpringOptions o;
+  for (double nu : {0.27, 0.3, 0.45, 0.4999}) {  // r = (4nu-1)/(1-2nu) above the 0.1 floor
+    Material m{2e5, nu, 1000};
+    const SpringCalibration c = calibrate_springs(m, o);
+    // Isotropic central-force network: lambda = mu = S/15 with S = 6c / 2.5 ... i.e. mu_s = c/2.5.
+    const double mu_s = c.spring_modulus / 2.5, lambda = mu_s + c.volume_modulus;
+    CHECK(mu_s == Approx(m.mu()).epsilon(1e-12));
+    CHECK(lambda == Approx(m.lambda()).epsilon(1e-9));
+    CHECK(c.effective_poisson == Approx(nu).epsilon(1e-9));
+  }
+  for (double nu : {0.0, 0.1, 0.2}) {  // below 1/4: E kept, nu lifted by the barrier floor
+    Material m{2e5, nu, 1000};
+    const SpringCalibration c = calibrate_springs(m, o);
+    const double mu = c.spring_modulus / 2.5, lambda = mu + c.volume_modulus;
+    CHECK(mu * (3 * lambda + 2 * mu) / (lambda + mu) == Approx(m.young).epsilon(1e-12));
+    CHECK(c.effective_poisson > 0.25);
+    CHECK(c.volume_modulus > 0);
+  }
+  SpringOptions off;
+  off.volume_term = false;
+  CHECK(calibrate_springs(Material{3e4, 0.3, 1}, off).spring_modulus == 3e4);  // Van Gelder
+}
+
+TEST_CASE("builder: a spring per edge, lumped masses sum to the total mass", "[springs]") {
+  std::vector<TetMesh> meshes;
+  meshes.push_back(make_box(Vec3(1, 2, 3), {2, 3, 4}));
+  meshes.push_back(make_ellipsoid(Vec3(1, 0.5, 0.7), 2));
+  meshes.push_back(make_box(Vec3(1, 1, 1), {3, 3, 3}));
+  jitter(meshes.back(), 0.2, 3);
+  for (TetMesh& m : meshes) {
+    // Two labels with different density and stiffness.
+    MaterialTable mats(Material{1e5, 0.3, 1000});
+    mats.set(7, Material{4e6, 0.45, 2500});
+    double mass = 0;
+    int i = 0;
+    for (TetId t : m.tets()) {
+      if (i++ % 3 == 0) m.set_label(t, 7);
+      mass += mats.get(m.label(t)).density * m.volume(t);
+    }
+    SpringModel s(m, mats);
+    std::set<std::pair<std::uint32_t, std::uint32_t>> edges;
+    for (TetId t : m.tets()) {
+      auto v = m.tet_vertices(t);
+      for (int a = 0; a < 4; ++a)
+        for (int b = a + 1; b < 4; ++b)
+          edges.insert({std::min(v[a].idx(), v[b].idx()), std::max(v[a].idx(), v[b].idx())});
+    }
+    CHECK(s.num_springs() == edges.size());
+    CHECK(s.num_volume_terms() == m.num_tets());
+    double msum = 0;
+    for (VertexId v : m.vertices()) msum += s.mass(v);
+    CHECK(msum == Approx(mass).epsilon(1e-12));
+    for (const auto& sp : s.springs()) {
+      CHECK(sp.stiffness > 0);
+      CHECK(sp.rest_length == Approx((m.rest(sp.a) - m.rest(sp.b)).norm()).epsilon(1e-14));
+    }
+    // At rest: no force, no energy, so nothing moves.
+    CHECK(std::abs(s.potential_energy()) < 1e-12);
+    s.step(0.5 * s.stable_time_step(), Integrator::SymplecticEuler);
+    for (VertexId v : m.vertices()) CHECK((s.positions()[v.idx()] - m.rest(v)).norm() < 1e-12);
+  }
+}
+
+TEST_CASE("single spring: period matches 2 pi sqrt(m/k) for every integrator", "[springs]") {
+  // Corner tet: vertex 0 moves along x, so only spring (0,1) acts to first order (springs
+  // (0,2), (0,3) are perpendicular); 1, 2, 3 are fixed. No volume term.
+  TetMesh m = single_tet({Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(0, 0, 1)});
+  SpringOptions o;
+  o.volume_term = false;
+  for (Integrator integ : kAll) {
+    SpringModel s(m, table(1e4, 0.3), o);
+    for (std::uint32_t i = 1; i < 4; ++i) s.set_fixed(VertexId(i), true);
+    const double k = s.spring(VertexId(0), VertexId(1))->stiffness, mass = s.mass(VertexId(0));
+    const double period = 2 * kPi * std::sqrt(mass / k);
+    const double amp = 1e-4, dt = period / 400;
+    s.set_position(VertexId(0), Vec3(amp, 0, 0));
+    CaptureCerr quiet;
+    std::vector<double> crossings;  // upward zero crossings of x
+    double prev = amp;
+    for (int n = 1; n <= 400 * 6; ++n) {
+      s.step(dt, integ);
+      const double x = s.positions()[0].x();
+      if (prev < 0 && x >= 0) crossings.push_back((n - 1 + prev / (prev - x)) * dt);
+      prev = x;
+    }
+    REQUIRE(crossings.size() >= 5);
+    const double measured = (crossings.back() - crossings.front()) / double(crossings.size() - 1);
+    INFO(integrator_name(integ) << ": period " << measured << " vs analytic " << period);
+    CHECK(measured == Approx(period).epsilon(2e-4));
+  }
+}
+
+TEST_CASE("energy over long runs: symplectic and Verlet bounded, explicit grows, implicit decays",
+          "[springs]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {2, 2, 2});
+  jitter(m, 0.1, 4);
+  auto run = [&](Integrator integ, double dt_factor, int steps, double& e0, double& emin, double& emax) {
+    SpringModel s(m, table(1e4, 0.3));
+    perturb(s, m, 0.02, 9);
+    const double dt = dt_factor * s.stable_time_step();
+    e0 = emin = emax = total_energy(s);
+    CaptureCerr quiet;
+    double e = e0;
+    for (int n = 0; n < steps; ++n) {
+      e = s.step(dt, integ).kinetic_energy;
+      e += s.potential_energy();
+      emin = std::min(emin, e);
+      emax = std::max(emax, e);
+    }
+    return e;
+  };
+  double e0, lo, hi;
+  for (Integrator integ : {Integrator::SymplecticEuler, Integrator::Verlet}) {
+    // Symplectic Euler's energy error is first order in dt, Verlet's second: a band that
+    // shrinks with dt and does not drift (the shadow Hamiltonian is conserved).
+    const double dt_factor = integ == Integrator::Verlet ? 0.5 : 0.2;
+    const double end = run(integ, dt_factor, 50000, e0, lo, hi);
+    INFO(integrator_name(integ) << ": E0 " << e0 << " range [" << lo << ", " << hi << "] end " << end);
+    CHECK(hi < 1.1 * e0);
+    CHECK(lo > 0.9 * e0);
+    CHECK(end == Approx(e0).epsilon(0.1));
+  }
+  {
+    // Undamped explicit Euler multiplies each mode's energy by 1 + (w dt)^2 per step.
+    SpringModel s(m, table(1e4, 0.3));
+    perturb(s, m, 0.02, 9);
+    const double dt = 0.05 * s.stable_time_step();
+    e0 = total_energy(s);
+    CaptureCerr quiet;
+    double prev = e0, e = e0;
+    int n = 0, decreases = 0;
+    for (; n < 20000 && e < 10 * e0; ++n) {
+      const StepStats st = s.step(dt, Integrator::ExplicitEuler);
+      e = st.kinetic_energy + st.potential_energy;
+      if (e < prev * (1 - 1e-12)) ++decreases;
+      prev = e;
+    }
+    INFO("explicit-euler: E0 " << e0 << " E " << e << " after " << n << " steps");
+    CHECK(std::isfinite(e));
+    CHECK(e >= 10 * e0);
+    CHECK(decreases == 0);
+  }
+  {
+    const double end = run(Integrator::ImplicitEuler, 0.5, 5000, e0, lo, hi);
+    INFO("implicit-euler: E0 " << e0 << " max " << hi << " end " << end);
+    CHECK(hi <= e0 * (1 + 1e-9));
+    CHECK(end < 0.2 * e0);
+  }
+}
+
+TEST_CASE("the stable step estimate bounds the real limit and is not far below it", "[springs]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {3, 3, 3});
+  jitter(m, 0.2, 6);
+  auto blows_up = [&](double factor) {
+    SpringModel s(m, table(1e5, 0.3));
+    perturb(s, m, 1e-4, 2);
+    const double e0 = total_energy(s), dt = factor * s.stable_time_step();
+    CaptureCerr quiet;
+    for (int n = 0; n < 3000; ++n) s.step(dt, Integrator::SymplecticEuler);
+    const double e = total_energy(s);
+    return !std::isfinite(e) || e > 100 * e0;
+  };
+  CHECK(!blows_up(0.99));
+  CHECK(blows_up(3.0));  // Gershgorin is within a factor 3 of the true limit here
+}
+
+TEST_CASE("a step above the stable step warns once and is flagged", "[springs]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {2, 2, 2});
+  SpringOptions o;
+  o.damping = 1.0;
+  SpringModel s(m, table(1e4, 0.3), o);
+  const double dt = s.stable_time_step();
+  CHECK(s.stable_time_step(Integrator::ImplicitEuler) == std::numeric_limits<double>::infinity());
+  CHECK(s.stable_time_step(Integrator::ExplicitEuler) < dt);
+  CaptureCerr cap;
+  CHECK(!s.step(0.5 * dt, Integrator::SymplecticEuler).stable_step_exceeded);
+  CHECK(cap.out.str().empty());
+  CHECK(s.step(2 * dt, Integrator::SymplecticEuler).stable_step_exceeded);
+  CHECK(s.step(2 * dt, Integrator::SymplecticEuler).stable_step_exceeded);
+  CHECK(!s.step(100 * dt, Integrator::ImplicitEuler).stable_step_exceeded);
+  const std::string out = cap.out.str();
+  CHECK(out.find("warn") != std::string::npos);
+  CHECK(out.find("warn") == out.rfind("warn"));  // once
+  CHECK_THROWS_AS(s.step(0, Integrator::Verlet), InvalidArgument);
+  CHECK_THROWS_AS(s.step(std::nan(""), Integrator::Verlet), InvalidArgument);
+}
+
+TEST_CASE("implicit Euler is stable at 100x the explicit limit", "[springs]") {
+  TetMesh m = make_box(Vec3(0.1, 0.1, 0.3), {2, 2, 6});
+  jitter(m, 0.15, 8);
+  SpringModel s(m, table(5e4, 0.4));
+  for (VertexId v : select_plane(m, 2, 0.0)) s.set_fixed(v, true);
+  s.set_gravity(Vec3(0, 0, -9.81));
+  perturb(s, m, 1e-3, 3);
+  for (VertexId v : select_plane(m, 2, 0.0)) s.set_position(v, m.rest(v));
+  const double dt = 100 * s.stable_time_step();
+  double e_prev = total_energy(s);
+  int increases = 0;
+  StepStats st;
+  for (int n = 0; n < 200; ++n) {
+    st = s.step(dt, Integrator::ImplicitEuler);
+    const double e = st.kinetic_energy + st.potential_energy;
+    REQUIRE(std::isfinite(e));
+    if (e > e_prev + 1e-9 * std::abs(e_prev)) ++increases;
+    e_prev = e;
+  }
+  CHECK(increases == 0);
+  CHECK(st.cg_relative_residual <= 1e-8);
+  double vmax = 0, umax = 0;
+  for (VertexId v : m.vertices()) {
+    vmax = std::max(vmax, s.velocities()[v.idx()].norm());
+    umax = std::max(umax, (s.positions()[v.idx()] - m.rest(v)).norm());
+  }
+  CHECK(umax < 0.3);       // sagged, did not explode
+  CHECK(umax > 0);
+  CHECK(vmax * dt < 1e-6 * umax);  // settled
+  // The same run explicitly at 100x blows up (or at least says it might).
+  SpringModel e(m, table(5e4, 0.4));
+  CaptureCerr quiet;
+  CHECK(e.step(dt, Integrator::SymplecticEuler).stable_step_exceeded);
+}
+
+TEST_CASE("damping decays energy", "[springs]") {
+  TetMesh m = make_ellipsoid(Vec3(1, 0.6, 0.5), 2);
+  for (Integrator integ : kAll) {
+    SpringOptions o;
+    o.damping = 5.0;
+    SpringModel s(m, table(1e4, 0.35), o);
+    perturb(s, m, 0.01, 5);
+    const double dt = 0.5 * std::min(s.stable_time_step(), s.stable_time_step(integ) > 0 ? s.stable_time_step(integ) : 1e300);
+    const double e0 = total_energy(s);
+    double prev = e0;
+    int increases = 0;
+    CaptureCerr quiet;
+    const int steps = static_cast<int>(3.0 / dt);  // energy ~ exp(-c t) = exp(-15)
+    for (int n = 0; n < steps; ++n) {
+      StepStats st = s.step(dt, integ);
+      const double e = st.kinetic_energy + st.potential_energy;
+      if (n % 50 == 0) {
+        if (e > prev * 1.001) ++increases;
+        prev = e;
+      }
+    }
+    INFO(integrator_name(integ) << ": E0 " << e0 << " E(3s) " << total_energy(s));
+    CHECK(increases == 0);
+    CHECK(total_energy(s) < 1e-5 * e0);
+  }
+}
+
+TEST_CASE("uniaxial bar: midsection strain close to F/(EA)", "[springs]") {
+  // Static equilibrium by implicit Euler with a huge step (each step a Newton step). The
+  // middle of a long bar is in uniaxial stress whatever the clamp does at the end.
+  struct Case {
+    std::array<int, 3> cells;
+    int axis;
+    double nu;
+  };
+  const double E = 1e6, L = 8, F = 10;  // strain 1e-5
+  for (const Case& c : {Case{{16, 2, 2}, 0, 0.3}, Case{{2, 16, 2}, 1, 0.3}, Case{{2, 2, 16}, 2, 0.3},
+                        Case{{16, 2, 2}, 0, 0.25}, Case{{16, 2, 2}, 0, 0.45}, Case{{24, 3, 3}, 0, 0.3}}) {
+    Vec3 size = Vec3::Ones();
+    size[c.axis] = L;
+    TetMesh m = make_box(size, c.cells);
+    SpringOptions o;
+    o.cg_tolerance = 1e-12;
+    o.cg_max_iterations = 20000;
+    SpringModel s(m, table(E, c.nu), o);
+    for (VertexId v : select_plane(m, c.axis, 0.0)) s.set_fixed(v, true);
+    const auto end = select_plane(m, c.axis, L);
+    Vec3 f = Vec3::Zero();
+    f[c.axis] = F / double(end.size());
+    for (VertexId v : end) s.set_external_force(v, f);
+    for (int n = 0; n < 6; ++n) s.step(1e6, Integrator::ImplicitEuler);
+    auto mean_u = [&](double at) {
+      double u = 0;
+      const auto plane = select_plane(m, c.axis, at);
+      for (VertexId v : plane) u += s.positions()[v.idx()][c.axis] - m.rest(v)[c.axis];
+      return u / double(plane.size());
+    };
+    const double strain = (mean_u(5.0) - mean_u(3.0)) / 2.0;
+    const double exact = F / E;  // A = 1
+    INFO("cells " << c.cells[0] << "x" << c.cells[1] << "x" << c.cells[2] << " axis " << c.axis << " nu " << c.nu
+                  << ": spring strain / FEM strain = " << strain / exact);
+    WARN("uniaxial bar, axis " << c.axis << ", nu " << c.nu << ": spring stiffness / E = " << exact / strain);
+    CHECK(strain == Approx(exact).epsilon(0.25));
+  }
+}
+
+TEST_CASE("the volume barrier stops a squashed tet from inverting; edge springs alone do not",
+          "[springs]") {
+  const double s3 = std::sqrt(3.0);
+  TetMesh m = single_tet({Vec3(1, 0, 0), Vec3(-0.5, s3 / 2, 0), Vec3(-0.5, -s3 / 2, 0), Vec3(0, 0, std::sqrt(2.0))});
+  const double A = 3 * s3 / 4, V0 = m.volume(m.tets()[0]);
+  for (double load : {1.0, 5.0, 20.0}) {  // in units of k * l0; edge springs give way near 0.5
+    for (bool barrier : {true, false}) {
+      SpringOptions o;
+      o.volume_term = barrier;
+      o.damping = 20;
+      SpringModel s(m, table(1e5, 0.3), o);
+      for (std::uint32_t i = 0; i < 3; ++i) s.set_fixed(VertexId(i), true);
+      const auto sp = *s.spring(VertexId(0), VertexId(3));
+      s.set_external_force(VertexId(3), Vec3(0, 0, -load * sp.stiffness * sp.rest_length));
+      const double dt = 0.2 * s.stable_time_step();
+      for (int n = 0; n < 3000; ++n) s.step(dt, Integrator::ImplicitEuler);
+      const double z = s.positions()[3].z();
+      const double J = z * A / 3 / V0;
+      INFO("load " << load << " k l0, barrier " << barrier << ": J = " << J);
+      CHECK(std::isfinite(J));
+      CHECK(s.positions()[3].head<2>().norm() < 1e-9);  // symmetric: stays on the axis
+      if (barrier)
+        CHECK(J > 0);
+      else
+        CHECK(J < 0);
+    }
+  }
+}
+
+TEST_CASE("prescribed and fixed vertices", "[springs]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {2, 2, 2});
+  for (Integrator integ : kAll) {
+    SpringModel s(m, table(1e4, 0.3));
+    const auto bottom = select_plane(m, 2, 0.0), top = select_plane(m, 2, 1.0);
+    for (VertexId v : bottom) s.set_fixed(v, true);
+    const double dt = 0.5 * s.stable_time_step();
+    for (int n = 1; n <= 20; ++n) {
+      for (VertexId v : top) s.set_prescribed(v, m.rest(v) + Vec3(0, 0, 0.001 * n));
+      CaptureCerr quiet;
+      s.step(dt, integ);
+      for (VertexId v : top) CHECK((s.positions()[v.idx()] - (m.rest(v) + Vec3(0, 0, 0.001 * n))).norm() < 1e-15);
+      for (VertexId v : top) CHECK(s.velocities()[v.idx()].z() == Approx(0.001 / dt));
+      for (VertexId v : bottom) CHECK(s.positions()[v.idx()] == m.rest(v));
+    }
+    // The middle layer was pulled up.
+    double uz = 0;
+    for (VertexId v : select_plane(m, 2, 0.5)) uz += s.positions()[v.idx()].z() - 0.5;
+    CHECK(uz > 0);
+  }
+}
+
+TEST_CASE("local updates after thousands of random edits equal a fresh build", "[springs][locality]") {
+  struct Setup {
+    TetMesh mesh;
+    bool volume;
+  };
+  std::vector<Setup> setups;
+  setups.push_back({make_box(Vec3(1, 1, 1), {3, 3, 3}), true});
+  setups.push_back({make_ellipsoid(Vec3(2, 1, 0.5), 2), true});
+  setups.push_back({make_box(Vec3(1e-3, 2e-3, 1e-3), {2, 3, 2}), true});  // x1e-3
+  setups.push_back({make_box(Vec3(1e3, 1e3, 3e3), {2, 2, 4}), false});    // x1e3, springs only
+  setups.push_back({make_box(Vec3(1, 1, 1), {4, 4, 4}), true});
+  jitter(setups.back().mesh, 0.2, 11);
+  MaterialTable mats(Material{1e5, 0.3, 1000});
+  mats.set(2, Material{1e9, 0.49, 1500});
+  mats.set(3, Material{10, 0.1, 900});
+  std::uint32_t seed = 1;
+  for (Setup& su : setups) {
+    TetMesh& m = su.mesh;
+    int i = 0;
+    for (TetId t : m.tets()) m.set_label(t, 1 + (i++ % 3));
+    SpringOptions o;
+    o.volume_term = su.volume;
+    SpringModel s(m, mats, o);
+    // An affine state: interpolated new vertices must land exactly on it.
+    Eigen::Matrix3d F;
+    F << 1.1, 0.2, 0.0, -0.1, 0.9, 0.3, 0.05, 0.0, 1.2;
+    const Vec3 b(0.3, -0.2, 0.1), w(0.5, -1, 2);
+    const double scale = m.rest(m.vertices().back()).norm();
+    // The velocity field vanishes at the one fixed vertex, so it stays affine.
+    const VertexId pinned = m.vertices().front();
+    const Vec3 o0 = m.rest(pinned);
+    for (VertexId v : m.vertices()) {
+      s.set_position(v, F * m.rest(v) + b * scale);
+      s.set_velocity(v, w.cross(m.rest(v) - o0));
+    }
+    s.set_fixed(pinned, true);
+    std::mt19937 rng(seed++);
+    int edits = 0;
+    auto compare = [&]() {
+      SpringModel fresh(m, mats, o);
+      REQUIRE(s.num_springs() == fresh.num_springs());
+      REQUIRE(s.num_volume_terms() == fresh.num_volume_terms());
+      const auto a = s.springs(), c = fresh.springs();
+      for (std::size_t k = 0; k < a.size(); ++k) {
+        REQUIRE(a[k].a == c[k].a);
+        REQUIRE(a[k].b == c[k].b);
+        REQUIRE(a[k].rest_length == Approx(c[k].rest_length).epsilon(1e-12));
+        REQUIRE(a[k].stiffness == Approx(c[k].stiffness).epsilon(1e-12));
+      }
+      for (TetId t : m.tets()) {
+        const auto p = s.volume_term(t), q = fresh.volume_term(t);
+        REQUIRE(p.has_value() == q.has_value());
+        if (p) {
+          REQUIRE(p->rest_volume == Approx(q->rest_volume).epsilon(1e-12));
+          REQUIRE(p->kappa == q->kappa);
+        }
+      }
+      for (VertexId v : m.vertices()) {
+        REQUIRE(s.mass(v) == Approx(fresh.mass(v)).epsilon(1e-12));
+        const Vec3 expect = F * m.rest(v) + b * scale;
+        REQUIRE((s.positions()[v.idx()] - expect).norm() <= 1e-12 * scale);
+        const Vec3 u = w.cross(m.rest(v) - o0);
+        REQUIRE((s.velocities()[v.idx()] - u).norm() <= 1e-12 * scale * w.norm());
+      }
+      REQUIRE(s.stable_time_step() == Approx(fresh.stable_time_step()).epsilon(1e-12));
+    };
+    for (int n = 0; n < 1500; ++n) {
+      // Batches of 1 to 3 edits per TopologyChange.
+      const int batch = 1 + static_cast<int>(rng() % 3);
+      for (int k = 0; k < batch; ++k) edits += random_edit(m, rng, true);
+      s.apply(m, m.take_change());
+      if (n % 250 == 0) compare();
+      if (m.num_tets() > 4000) break;
+    }
+    INFO("setup " << seed - 1 << " after " << edits << " edits");
+    CHECK(edits > 300);
+    compare();
+    // The updated model still steps.
+    s.step(0.5 * s.stable_time_step(), Integrator::SymplecticEuler);
+    for (VertexId v : m.vertices()) REQUIRE(s.positions()[v.idx()].allFinite());
+  }
+}
+
+TEST_CASE("work per local update does not grow with mesh size", "[springs][locality]") {
+  auto visits_per_update = [](int n) {
+    TetMesh m = make_box(Vec3(1, 1, 1), {n, n, n});
+    SpringModel s(m, table(1e5, 0.3));
+    std::mt19937 rng(3);
+    s.reset_counters();
+    for (int i = 0; i < 1500; ++i) {
+      random_edit(m, rng, false);
+      s.apply(m, m.take_change());
+    }
+    return double(s.counters().visits) / double(s.counters().updates);
+  };
+  const double small = visits_per_update(6);  // 1,296 tets
+  const double large = visits_per_update(30);  // 162,000 tets
+  WARN("spring locality: visits per update at 1.3k tets = " << small << ", at 162k tets = " << large);
+  CHECK(large < 1.5 * small);
+}
+
+TEST_CASE("extremes: E from 1e1 to 1e9 and scale x1e-3..x1e3 give finite, self-similar results",
+          "[springs]") {
+  // Gravity chosen so the load strain rho g L / E is 1e-3 and damping a fixed fraction of
+  // w_max: in these units every case is the same problem, so u/L must agree.
+  std::vector<double> sag;
+  for (double E : {1e1, 1e5, 1e9}) {
+    for (double scale : {1e-3, 1.0, 1e3}) {
+      TetMesh m = make_box(Vec3(scale, scale, 2 * scale), {2, 2, 4});
+      const double rho = 1000;
+      SpringOptions probe;
+      const double w = SpringModel(m, table(E, 0.3, rho), probe).max_angular_frequency();
+      SpringOptions o;
+      o.damping = 0.05 * w;
+      for (Integrator integ : {Integrator::SymplecticEuler, Integrator::ImplicitEuler}) {
+        SpringModel s(m, table(E, 0.3, rho), o);
+        for (VertexId v : select_plane(m, 2, 0.0)) s.set_fixed(v, true);
+        s.set_gravity(Vec3(0, 0, -1e-3 * E / (rho * 2 * scale)));
+        const double dt = (integ == Integrator::ImplicitEuler ? 20 : 0.5) * s.stable_time_step();
+        for (int n = 0; n < 400; ++n) s.step(dt, integ);
+        double u = 0;
+        for (VertexId v : select_plane(m, 2, 2 * scale, 1e-9 * scale)) u += s.positions()[v.idx()].z() - 2 * scale;
+        INFO("E " << E << " scale " << scale << " " << integrator_name(integ) << ": top sag / L = " << u / scale);
+        REQUIRE(std::isfinite(u));
+        CHECK(u < 0);
+        CHECK(std::isfinite(s.stable_time_step()));
+        if (integ == Integrator::ImplicitEuler) sag.push_back(u / scale);
+      }
+    }
+  }
+  for (double x : sag) CHECK(x == Approx(sag[4]).epsilon(1e-6));
+  // Poisson's ratio towards 0.5: the barrier stiffens, the stable step shrinks, still finite.
+  TetMesh m = make_box(Vec3(1, 1, 1), {2, 2, 2});
+  double prev_dt = 1e300;
+  for (double nu : {0.0, 0.3, 0.45, 0.49, 0.499, 0.4999}) {
+    SpringModel s(m, table(1e5, nu));
+    for (VertexId v : select_plane(m, 2, 0.0)) s.set_fixed(v, true);
+    s.set_gravity(Vec3(0, 0, -9.81));
+    CHECK(s.stable_time_step() <= prev_dt);
+    prev_dt = s.stable_time_step();
+    for (int n = 0; n < 20; ++n) s.step(1e-3, Integrator::ImplicitEuler);
+    for (VertexId v : m.vertices()) REQUIRE(s.positions()[v.idx()].allFinite());
+  }
+}
