@@ -1,0 +1,87 @@
+// K*x: matrix-free (two passes over incident tets) vs the assembled sparse matrix (our TBB CSR
+// product and Eigen's serial SpMV), on box meshes from 10k to 1M tets, with 1 and 2 threads,
+// next to a STREAM-triad bandwidth measurement in the same run: ratio and percent of the
+// memory-bandwidth bound.
+//   bench_fem_kx [--sizes 10000,100000,1000000] [--reps 7] [--out DIR]
+#include <cmath>
+#include <random>
+
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+
+#include "bench/bench_common.h"
+#include "mesh/generate.h"
+#include "sim/assembled_stiffness.h"
+#include "sim/fem_model.h"
+
+using namespace incise;
+using namespace incise::bench;
+
+namespace {
+
+// STREAM triad a = b + s c over 3 x 32M doubles (768 MB): GB/s counting 3 x 8 bytes per entry.
+double stream_triad_gbs(int reps) {
+  const std::size_t n = std::size_t(1) << 25;
+  std::vector<double> a(n, 0.0), b(n, 1.0), c(n, 2.0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n), [&](auto r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) a[i] = b[i] = c[i] = 1.0;
+  });
+  const double ms = time_ms(reps, [&] {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1 << 16), [&](auto r) {
+      for (std::size_t i = r.begin(); i != r.end(); ++i) a[i] = b[i] + 3.0 * c[i];
+    });
+  });
+  return 3.0 * 8.0 * double(n) / (ms * 1e6);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Args args(argc, argv);
+  const auto sizes = args.list("--sizes", "10000,100000,1000000");
+  const int reps = int(args.num("--reps", 7));
+  Csv csv(args.get("--out", "."), "fem_kx.csv",
+          "tets,vertices,threads,matrix_free_ms,assembled_ms,eigen_spmv_ms,ratio_assembled_over_mf,mf_gbs,"
+          "assembled_gbs,stream_gbs,mf_pct_bound,assembled_pct_bound,assembly_ms,model_build_ms,nnz");
+  std::printf("K*x, median of %d; bandwidth bound from a STREAM triad measured in the same run\n", reps);
+  std::printf("%9s %3s %10s %10s %10s %8s %8s %8s %8s\n", "tets", "thr", "mf ms", "csr ms", "eigen ms", "csr/mf",
+              "mf %bw", "csr %bw", "GB/s");
+  for (double target : sizes) {
+    const int n = std::max(1, int(std::lround(std::cbrt(target / 6))));
+    TetMesh m = make_box(Vec3(1, 1, 1), {n, n, n});
+    const double t_build0 = now_ms();
+    FemModel model(m, MaterialTable(Material{}));
+    const double build_ms = now_ms() - t_build0;
+    const double t_as0 = now_ms();
+    AssembledStiffness as(model);
+    const double assembly_ms = now_ms() - t_as0;
+    std::mt19937 rng(1);
+    std::normal_distribution<double> nd;
+    Eigen::VectorXd x(model.rows()), y(model.rows()), y2(model.rows());
+    for (Eigen::Index i = 0; i < x.size(); ++i) x[i] = nd(rng);
+    // Minimal traffic per product. Matrix-free: per tet the precomputed data (B 72, V/mu/lambda 24,
+    // R 72, vertex ids 16), the 4 corner forces written and read back (2 x 96), the incidence
+    // entry per corner (4 x 4); x read and y written once. Assembled: values + column indices
+    // (12 per nonzero), row pointers, x and y.
+    const double nt = double(m.num_tets()), nv = double(m.num_vertices());
+    const double mf_bytes = nt * (72 + 24 + 72 + 16 + 2 * 96 + 16) + nv * 2 * 24;
+    const double nnz = double(as.matrix().nonZeros());
+    const double as_bytes = nnz * 12 + nv * 3 * 4 + nv * 2 * 24;
+    for (int threads : {1, 2}) {
+      tbb::global_control gc(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+      const double bw = stream_triad_gbs(5);
+      const double mf = time_ms(reps, [&] { model.multiply(x, y); });
+      const double csr = time_ms(reps, [&] { as.multiply(x, y2); });
+      const double eig = time_ms(reps, [&] { y2.noalias() = as.matrix() * x; });
+      const double mf_gbs = mf_bytes / (mf * 1e6), as_gbs = as_bytes / (csr * 1e6);
+      std::printf("%9.0f %3d %10.3f %10.3f %10.3f %8.2f %7.1f%% %7.1f%% %8.1f\n", nt, threads, mf, csr, eig, csr / mf,
+                  100 * mf_gbs / bw, 100 * as_gbs / bw, bw);
+      csv.row(nt, nv, threads, mf, csr, eig, csr / mf, mf_gbs, as_gbs, bw, 100 * mf_gbs / bw, 100 * as_gbs / bw,
+              assembly_ms, build_ms, nnz);
+    }
+    std::printf("          (model build %.0f ms, assembly %.0f ms, %.1fM nonzeros = %.0f MB)\n", build_ms, assembly_ms,
+                nnz / 1e6, nnz * 12 / 1e6);
+  }
+  std::printf("ratio > 1: matrix-free is faster than the assembled product. CSV: %s\n", csv.path().c_str());
+  return 0;
+}

@@ -1,0 +1,326 @@
+#include "sim/fem_model.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/LU>
+#include <Eigen/SVD>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "mesh/errors.h"
+
+namespace incise {
+
+namespace {
+
+// grad N_j of a tet from its inverse rest edge matrix (row j-1 for j=1..3, minus their sum for 0).
+inline Eigen::Vector3d shape_gradient(const Eigen::Matrix3d& bm, int j) {
+  if (j == 0) return -(bm.row(0) + bm.row(1) + bm.row(2)).transpose();
+  return bm.row(j - 1).transpose();
+}
+
+inline Eigen::Matrix3d stress_of(const Eigen::Matrix3d& h, double mu, double lambda) {
+  const Eigen::Matrix3d eps = 0.5 * (h + h.transpose());
+  return 2 * mu * eps + lambda * eps.trace() * Eigen::Matrix3d::Identity();
+}
+
+template <class F>
+void parallel_range(std::size_t n, F&& f) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 512), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) f(i);
+  });
+}
+
+}  // namespace
+
+double von_mises_of(const Eigen::Matrix3d& s) {
+  const double a = s(0, 0) - s(1, 1), b = s(1, 1) - s(2, 2), c = s(2, 2) - s(0, 0);
+  const double sh = s(0, 1) * s(0, 1) + s(1, 2) * s(1, 2) + s(0, 2) * s(0, 2);
+  return std::sqrt(0.5 * (a * a + b * b + c * c) + 3 * sh);
+}
+
+FemModel::FemModel(const TetMesh& mesh, const MaterialTable& materials, FemKind kind)
+    : mesh_(&mesh), materials_(materials), kind_(kind) {
+  check_material(materials_.fallback(), "materials.*");
+  for (const auto& [label, m] : materials_.by_label()) check_material(m, "materials." + std::to_string(label));
+  grow();
+  parallel_range(tet_capacity_, [&](std::size_t t) { compute_tet(std::uint32_t(t)); });
+  parallel_range(vertex_capacity_, [&](std::size_t v) { compute_vertex(std::uint32_t(v)); });
+}
+
+void FemModel::grow() {
+  const std::size_t nt = mesh_->tet_capacity(), nv = mesh_->vertex_capacity();
+  if (nt > tet_capacity_) {
+    alive_.resize(nt, 0);
+    verts_.resize(nt);
+    bm_.resize(nt, Eigen::Matrix3d::Zero());
+    vol_.resize(nt, 0);
+    mu_.resize(nt, 0);
+    lambda_.resize(nt, 0);
+    rho_.resize(nt, 0);
+    rot_.resize(nt, Eigen::Matrix3d::Identity());
+    force_.resize(nt);
+    tet_capacity_ = nt;
+  }
+  if (nv > vertex_capacity_) {
+    // Geometric growth: a conservativeResize per added vertex would make every split O(mesh).
+    // Slots beyond the mesh's capacity behave as dead vertices (zero rows, not free).
+    const std::size_t cap = vertex_capacity_ == 0 ? nv : std::max(nv, vertex_capacity_ + vertex_capacity_ / 2);
+    const Eigen::Index old = diag_.size();
+    diag_.conservativeResize(Eigen::Index(3 * cap));
+    mass_.conservativeResize(Eigen::Index(3 * cap));
+    diag_.tail(diag_.size() - old).setZero();
+    mass_.tail(mass_.size() - old).setZero();
+    corner_slots_.resize(cap);
+    vertex_capacity_ = cap;
+  }
+}
+
+void FemModel::compute_tet(std::uint32_t ti) {
+  const TetId t(ti);
+  if (!mesh_->is_alive(t)) {
+    alive_[ti] = 0;
+    return;
+  }
+  const auto& v = mesh_->tet_vertices(t);
+  for (int k = 0; k < 4; ++k) verts_[ti][k] = v[k].idx();
+  const Vec3& x0 = mesh_->rest(v[0]);
+  Eigen::Matrix3d dm;
+  dm.col(0) = mesh_->rest(v[1]) - x0;
+  dm.col(1) = mesh_->rest(v[2]) - x0;
+  dm.col(2) = mesh_->rest(v[3]) - x0;
+  const double vol = dm.determinant() / 6;
+  if (!(vol > 0) || !std::isfinite(vol))
+    throw InvalidMesh("fem: tet " + std::to_string(ti) + " has rest volume " + std::to_string(vol) +
+                      " (degenerate or inverted); repair the mesh first");
+  bm_[ti] = dm.inverse();
+  vol_[ti] = vol;
+  const Material& m = materials_.get(mesh_->label(t));
+  mu_[ti] = m.mu();
+  lambda_[ti] = m.lambda();
+  rho_[ti] = m.density;
+  rot_[ti].setIdentity();
+  alive_[ti] = 1;
+}
+
+void FemModel::compute_vertex(std::uint32_t vi) {
+  Eigen::Vector3d d = Eigen::Vector3d::Zero();
+  double m = 0;
+  const VertexId v(vi);
+  auto& slots = corner_slots_[vi];
+  slots.clear();
+  if (vi < mesh_->vertex_capacity() && mesh_->is_alive(v)) {
+    for (TetId t : mesh_->incident_tets(v)) {
+      const std::uint32_t ti = t.idx();
+      int j = 0;
+      while (verts_[ti][j] != vi) ++j;
+      slots.push_back(4 * ti + std::uint32_t(j));
+      const Eigen::Vector3d g = shape_gradient(bm_[ti], j);
+      const Eigen::Vector3d rg = rot_[ti] * g;
+      d += vol_[ti] * (mu_[ti] * g.squaredNorm() * Eigen::Vector3d::Ones() + (mu_[ti] + lambda_[ti]) * rg.cwiseAbs2());
+      m += rho_[ti] * vol_[ti] / 4;
+    }
+  }
+  diag_.segment<3>(3 * vi) = d;
+  mass_.segment<3>(3 * vi).setConstant(m);
+}
+
+void FemModel::apply(const TopologyChange& change) {
+  grow();
+  ++work_.updates;
+  for (TetId t : change.removed_tets)
+    if (t.idx() < tet_capacity_) alive_[t.idx()] = 0;
+  for (TetId t : change.added_tets) {
+    compute_tet(t.idx());
+    ++work_.tets_recomputed;
+  }
+  for (VertexId v : change.removed_vertices) {
+    corner_slots_[v.idx()].clear();
+    diag_.segment<3>(3 * v.idx()).setZero();
+    mass_.segment<3>(3 * v.idx()).setZero();
+    ++work_.vertices_updated;
+  }
+  for (VertexId v : change.touched_vertices) {
+    compute_vertex(v.idx());
+    ++work_.vertices_updated;
+  }
+}
+
+inline Eigen::Matrix3d FemModel::tet_stress(std::uint32_t ti, const Eigen::VectorXd& x, bool subtract_rotation) const {
+  const auto& v = verts_[ti];
+  const Eigen::Vector3d x0 = x.segment<3>(3 * v[0]);
+  Eigen::Matrix3d d;
+  for (int j = 0; j < 3; ++j) d.col(j) = x.segment<3>(3 * v[j + 1]) - x0;
+  Eigen::Matrix3d h = d * bm_[ti];
+  if (kind_ == FemKind::Corotational) {
+    h = rot_[ti].transpose() * h;
+    if (subtract_rotation) h += rot_[ti].transpose() - Eigen::Matrix3d::Identity();  // R^T F - I
+  }
+  return stress_of(h, mu_[ti], lambda_[ti]);
+}
+
+void FemModel::gather(Eigen::VectorXd& y, bool accumulate) const {
+  const double* f = force_.data()->data();  // Matrix<double,3,4> is column-major: corner j at 3j
+  parallel_range(vertex_capacity_, [&](std::size_t vi) {
+    Eigen::Vector3d s = Eigen::Vector3d::Zero();
+    for (std::uint32_t slot : corner_slots_[vi]) s += Eigen::Map<const Eigen::Vector3d>(f + 3 * std::size_t(slot));
+    if (accumulate) y.segment<3>(3 * vi) += s;
+    else y.segment<3>(3 * vi) = s;
+  });
+}
+
+void FemModel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
+  if (x.size() != rows()) throw InvalidArgument("fem: K*x with a vector of the wrong size (apply() the last change?)");
+  const bool corot = kind_ == FemKind::Corotational;
+  parallel_range(tet_capacity_, [&](std::size_t ti) {
+    if (!alive_[ti]) return;
+    Eigen::Matrix3d p = vol_[ti] * tet_stress(std::uint32_t(ti), x, false);
+    if (corot) p = rot_[ti] * p;  // linear: R = I, skip the product
+    const Eigen::Matrix3d f = p * bm_[ti].transpose();  // columns: forces on corners 1..3
+    auto& out = force_[ti];
+    out.rightCols<3>() = f;
+    out.col(0) = -f.rowwise().sum();
+  });
+  y.resize(rows());
+  gather(y, false);
+}
+
+void FemModel::add_rotation_rhs(Eigen::VectorXd& b) const {
+  if (kind_ != FemKind::Corotational) return;
+  if (b.size() != rows()) throw InvalidArgument("fem: rotation rhs with a vector of the wrong size");
+  parallel_range(tet_capacity_, [&](std::size_t ti) {
+    if (!alive_[ti]) return;
+    const Eigen::Matrix3d& r = rot_[ti];
+    const Eigen::Matrix3d p =
+        vol_[ti] * r * stress_of(Eigen::Matrix3d::Identity() - r.transpose(), mu_[ti], lambda_[ti]);
+    const Eigen::Matrix3d f = p * bm_[ti].transpose();
+    force_[ti].rightCols<3>() = f;
+    force_[ti].col(0) = -f.rowwise().sum();
+  });
+  gather(b, true);
+}
+
+void FemModel::internal_forces(const Eigen::VectorXd& u, Eigen::VectorXd& f) const {
+  if (u.size() != rows()) throw InvalidArgument("fem: internal forces with a vector of the wrong size");
+  parallel_range(tet_capacity_, [&](std::size_t ti) {
+    if (!alive_[ti]) return;
+    const Eigen::Matrix3d p = vol_[ti] * rot_[ti] * tet_stress(std::uint32_t(ti), u, true);
+    const Eigen::Matrix3d g = p * bm_[ti].transpose();
+    force_[ti].rightCols<3>() = -g;
+    force_[ti].col(0) = g.rowwise().sum();
+  });
+  f.resize(rows());
+  gather(f, false);
+}
+
+void FemModel::update_rotations(const Eigen::VectorXd& u) {
+  if (kind_ != FemKind::Corotational) return;
+  if (u.size() != rows()) throw InvalidArgument("fem: rotations from a vector of the wrong size");
+  parallel_range(tet_capacity_, [&](std::size_t ti) {
+    if (!alive_[ti]) return;
+    const auto& v = verts_[ti];
+    const Eigen::Vector3d u0 = u.segment<3>(3 * v[0]);
+    Eigen::Matrix3d d;
+    for (int j = 0; j < 3; ++j) d.col(j) = u.segment<3>(3 * v[j + 1]) - u0;
+    const Eigen::Matrix3d f = Eigen::Matrix3d::Identity() + d * bm_[ti];
+    if (!f.allFinite()) {
+      rot_[ti].setIdentity();
+      return;
+    }
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(f, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Eigen::Matrix3d uu = svd.matrixU();
+    const Eigen::Matrix3d& vv = svd.matrixV();
+    Eigen::Matrix3d r = uu * vv.transpose();
+    if (r.determinant() < 0) {  // inverted (or reflected) element: nearest proper rotation
+      uu.col(2) = -uu.col(2);
+      r = uu * vv.transpose();
+    }
+    rot_[ti] = r;
+  });
+  parallel_range(vertex_capacity_, [&](std::size_t v) { compute_vertex(std::uint32_t(v)); });
+}
+
+std::vector<double> FemModel::von_mises(const Eigen::VectorXd& u) const {
+  std::vector<double> out(tet_capacity_, 0.0);
+  parallel_range(tet_capacity_, [&](std::size_t ti) {
+    if (alive_[ti]) out[ti] = von_mises_of(tet_stress(std::uint32_t(ti), u, true));
+  });
+  return out;
+}
+
+Eigen::SparseMatrix<double> FemModel::assemble() const {
+  // Row-wise from the vertex incidence: each vertex's block row is filled by one task, so the
+  // assembly is parallel and needs no triplet list (144 per tet would not fit at 1M tets).
+  // K is symmetric, so filling CSR arrays into a column-major matrix gives K itself.
+  const std::size_t nv = vertex_capacity_;
+  std::vector<std::vector<std::uint32_t>> nbrs(nv);
+  parallel_range(nv, [&](std::size_t vi) {
+    if (vi >= mesh_->vertex_capacity() || !mesh_->is_alive(VertexId(std::uint32_t(vi)))) return;
+    auto& nb = nbrs[vi];
+    for (TetId t : mesh_->incident_tets(VertexId(std::uint32_t(vi))))
+      for (std::uint32_t w : verts_[t.idx()]) nb.push_back(w);
+    std::sort(nb.begin(), nb.end());
+    nb.erase(std::unique(nb.begin(), nb.end()), nb.end());
+  });
+  const Eigen::Index n = rows();
+  Eigen::SparseMatrix<double> k(n, n);
+  std::vector<std::int64_t> start(nv + 1, 0);
+  for (std::size_t vi = 0; vi < nv; ++vi) start[vi + 1] = start[vi] + std::int64_t(9 * nbrs[vi].size());
+  k.resizeNonZeros(Eigen::Index(start[nv]));
+  auto* outer = k.outerIndexPtr();
+  auto* inner = k.innerIndexPtr();
+  double* val = k.valuePtr();
+  for (std::size_t vi = 0; vi < nv; ++vi) {
+    const std::int64_t per_row = std::int64_t(3 * nbrs[vi].size());
+    for (int a = 0; a < 3; ++a) outer[3 * vi + a] = int(start[vi] + a * per_row);
+  }
+  outer[n] = int(start[nv]);
+  parallel_range(nv, [&](std::size_t vi) {
+    const auto& nb = nbrs[vi];
+    const std::int64_t per_row = std::int64_t(3 * nb.size());
+    for (int a = 0; a < 3; ++a)
+      for (std::size_t c = 0; c < nb.size(); ++c)
+        for (int b = 0; b < 3; ++b) {
+          const std::int64_t pos = start[vi] + a * per_row + std::int64_t(3 * c + b);
+          inner[pos] = int(3 * nb[c] + b);
+          val[pos] = 0;
+        }
+    if (nb.empty()) return;
+    for (TetId t : mesh_->incident_tets(VertexId(std::uint32_t(vi)))) {
+      const std::uint32_t ti = t.idx();
+      const auto& tv = verts_[ti];
+      int i = 0;
+      while (tv[i] != vi) ++i;
+      const Eigen::Matrix3d& r = rot_[ti];
+      const Eigen::Vector3d gi = shape_gradient(bm_[ti], i);
+      for (int j = 0; j < 4; ++j) {
+        const Eigen::Vector3d gj = shape_gradient(bm_[ti], j);
+        Eigen::Matrix3d blk = vol_[ti] * (mu_[ti] * gi.dot(gj) * Eigen::Matrix3d::Identity() +
+                                          mu_[ti] * gj * gi.transpose() + lambda_[ti] * gi * gj.transpose());
+        blk = r * blk * r.transpose();
+        const std::size_t c = std::size_t(std::lower_bound(nb.begin(), nb.end(), tv[j]) - nb.begin());
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b) val[start[vi] + a * per_row + std::int64_t(3 * c + b)] += blk(a, b);
+      }
+    }
+  });
+  return k;
+}
+
+void interpolate_added_vertices(const TopologyChange& change, std::size_t vertex_slots, Eigen::VectorXd& field) {
+  const Eigen::Index old = field.size();
+  if (Eigen::Index(3 * vertex_slots) > old) {
+    field.conservativeResize(Eigen::Index(3 * vertex_slots));
+    field.tail(field.size() - old).setZero();
+  }
+  for (const VertexOrigin& o : change.added_vertices) {
+    Eigen::Vector3d s = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 4; ++k)
+      if (o.parents[k].is_valid() && o.weights[k] != 0) s += o.weights[k] * field.segment<3>(3 * o.parents[k].idx());
+    field.segment<3>(3 * o.vertex.idx()) = s;
+  }
+  for (VertexId v : change.removed_vertices) field.segment<3>(3 * v.idx()).setZero();
+}
+
+}  // namespace incise

@@ -1,0 +1,124 @@
+#pragma once
+// FemModel: linear and corotational constant-strain tetrahedra on a TetMesh, and the
+// matrix-free stiffness product K x driven by vertex -> incident-tet incidence.
+//
+// Unknowns are displacements indexed by VertexId: 3 * vertex_slots() doubles, (x,y,z) of vertex
+// v at 3v..3v+2. vertex_slots() >= mesh.vertex_capacity() grows geometrically, so that edits
+// adding vertices do not resize every vector each time; slots of dead vertices, of vertices
+// without tets and beyond the mesh's capacity have zero rows and diagonal.
+// Per-tet data (shape gradients, rest volume, Lame parameters, rotation) lives in arrays indexed
+// by TetId that grow with tet_capacity(); dead slots are skipped. apply(change) recomputes only
+// what a TopologyChange names (the added tets, the touched vertices' diagonal and mass).
+//
+// K x is computed in two conflict-free parallel passes: per tet P_t = V R sigma(R^T H_t(x)),
+// then per vertex (K x)_v = sum over incident tets of P_t g_{t,v}. The mesh must outlive the
+// model and every edit batch must be fed to apply() before the next product.
+//
+// Corotational: R_t is the rotation of the polar decomposition of the deformation gradient
+// F = I + H_t(u), refreshed by update_rotations(u); with R fixed, K_R = R K R^T and the
+// internal force is f_int(u) = -(K_R u - b_R) (see rotation_rhs). Inverted elements (det F <= 0)
+// get the closest proper rotation (the SVD column of the smallest singular value is flipped),
+// never NaN. For Linear, R = I and b_R = 0.
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+
+#include "mesh/tet_mesh.h"
+#include "sim/linear_operator.h"
+#include "sim/material.h"
+
+namespace incise {
+
+enum class FemKind { Linear, Corotational };
+
+// Work done by local updates (counted, not timed, so tests can check locality).
+struct FemWork {
+  std::uint64_t updates = 0;           // apply() calls
+  std::uint64_t tets_recomputed = 0;   // per-tet precomputations
+  std::uint64_t vertices_updated = 0;  // diagonal / mass entries recomputed
+};
+
+class FemModel : public LinearOperator {
+public:
+  // O(mesh). Throws InvalidArgument for a bad material and InvalidMesh for a degenerate tet.
+  FemModel(const TetMesh& mesh, const MaterialTable& materials, FemKind kind = FemKind::Linear);
+
+  FemKind kind() const { return kind_; }
+  const TetMesh& mesh() const { return *mesh_; }
+  const MaterialTable& materials() const { return materials_; }
+  std::size_t num_dofs() const { return 3 * vertex_capacity_; }
+  std::size_t vertex_slots() const { return vertex_capacity_; }
+
+  // Local update after an edit batch: O(size of the change).
+  void apply(const TopologyChange& change);
+  const FemWork& work() const { return work_; }
+  void reset_work() { work_ = {}; }
+
+  // ---- LinearOperator: y = K x (K_R for corotational), parallel --------------------
+  Eigen::Index rows() const override { return Eigen::Index(num_dofs()); }
+  void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const override;
+  const Eigen::VectorXd& diagonal() const override { return diag_; }
+
+  // Lumped mass per unknown (density * V / 4 per tet corner, repeated on x,y,z).
+  const Eigen::VectorXd& lumped_mass() const { return mass_; }
+
+  // Corotational: per-tet rotations from displacement u (O(mesh), parallel); also refreshes
+  // the diagonal. No-op for Linear.
+  void update_rotations(const Eigen::VectorXd& u);
+  // b_R = sum_t V R sigma(sym(I - R^T)) g: the right-hand side term of the linearized
+  // corotational force (zero for Linear). Adds into b.
+  void add_rotation_rhs(Eigen::VectorXd& b) const;
+  // f_int(u) with the current rotations (call update_rotations(u) first for corotational).
+  void internal_forces(const Eigen::VectorXd& u, Eigen::VectorXd& f) const;
+  // Von Mises stress per tet (by TetId; dead slots 0) for displacement u and current rotations.
+  std::vector<double> von_mises(const Eigen::VectorXd& u) const;
+
+  // The assembled K (K_R) as a sparse matrix of num_dofs() rows; O(mesh). The assembled
+  // backend and the direct solver use it.
+  Eigen::SparseMatrix<double> assemble() const;
+
+  // Per-tet access (tests, benchmarks).
+  bool tet_alive(TetId t) const { return t.idx() < alive_.size() && alive_[t.idx()]; }
+  double tet_volume(TetId t) const { return vol_[t.idx()]; }
+  const Eigen::Matrix3d& rotation(TetId t) const { return rot_[t.idx()]; }
+
+private:
+  void grow();
+  void compute_tet(std::uint32_t t);
+  void compute_vertex(std::uint32_t v);  // diagonal and mass from incident tets
+  Eigen::Matrix3d tet_stress(std::uint32_t t, const Eigen::VectorXd& x, bool subtract_rotation) const;
+  void gather(Eigen::VectorXd& y, bool accumulate) const;
+
+  const TetMesh* mesh_;
+  MaterialTable materials_;
+  FemKind kind_;
+  std::size_t vertex_capacity_ = 0, tet_capacity_ = 0;
+
+  // Per tet (by TetId).
+  std::vector<std::uint8_t> alive_;
+  std::vector<std::array<std::uint32_t, 4>> verts_;
+  std::vector<Eigen::Matrix3d> bm_;   // inverse rest edge matrix: row j-1 is grad N_j (j=1..3)
+  std::vector<double> vol_, mu_, lambda_, rho_;
+  std::vector<Eigen::Matrix3d> rot_;  // identity for Linear
+  mutable std::vector<Eigen::Matrix<double, 3, 4>> force_;  // pass-1 scratch: per-corner force
+
+  // Per vertex: its incident corners as slots 4 * tet + local, so the gather pass reads only
+  // the per-corner forces (one indirection, no local-index search). Rebuilt with the vertex.
+  std::vector<std::vector<std::uint32_t>> corner_slots_;
+
+  // Per unknown.
+  Eigen::VectorXd diag_, mass_;
+  FemWork work_;
+};
+
+// Grows `field` (3 per vertex) to at least `vertex_slots` vertices and gives each added vertex
+// the weighted combination of its parents' values; removed vertices get 0. O(size of the
+// change) when no growth is needed (pass FemModel::vertex_slots()).
+void interpolate_added_vertices(const TopologyChange& change, std::size_t vertex_slots, Eigen::VectorXd& field);
+
+// Von Mises equivalent of a symmetric stress tensor.
+double von_mises_of(const Eigen::Matrix3d& s);
+
+}  // namespace incise

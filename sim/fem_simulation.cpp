@@ -1,0 +1,316 @@
+#include "sim/fem_simulation.h"
+
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include "mesh/errors.h"
+#include "sim/assembled_stiffness.h"
+
+namespace incise {
+
+namespace {
+
+// a * diag(m) + c * K: the backward-Euler system (a = 1 + dt*damping, c = dt^2) or K itself.
+class ScaledSystem : public LinearOperator {
+public:
+  ScaledSystem(const LinearOperator& k, const Eigen::VectorXd& mass, double a, double c)
+      : k_(k), mass_(mass), a_(a), c_(c) {
+    if (a_ == 0 && c_ == 1) diag_ = k_.diagonal();
+    else diag_ = c_ * k_.diagonal() + a_ * mass_;
+  }
+  Eigen::Index rows() const override { return k_.rows(); }
+  void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const override {
+    k_.multiply(x, y);
+    if (a_ == 0 && c_ == 1) return;  // static: K itself
+    y = c_ * y + a_ * mass_.cwiseProduct(x);
+  }
+  const Eigen::VectorXd& diagonal() const override { return diag_; }
+
+private:
+  const LinearOperator& k_;
+  const Eigen::VectorXd& mass_;
+  double a_, c_;
+  Eigen::VectorXd diag_;
+};
+
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+FemSimulation::FemSimulation(const TetMesh& mesh, const MaterialTable& materials, const FemSimulationOptions& options)
+    : mesh_(&mesh), opt_(options), model_(mesh, materials, options.kind), cg_(options.cg) {
+  if (!(opt_.dt > 0) || !std::isfinite(opt_.dt)) throw InvalidArgument("fem: dt: expected a positive number");
+  if (!(opt_.damping >= 0)) throw InvalidArgument("fem: damping: expected a number >= 0");
+  if (opt_.nonlinear_iterations < 1) throw InvalidArgument("fem: nonlinear_iterations: expected an integer >= 1");
+  cg_.set_tolerance(opt_.cg.tolerance);
+  cg_.set_max_iterations(opt_.cg.max_iterations);
+  cg_.set_budget_ms(opt_.cg.budget_ms);
+  grow();
+  for (std::size_t v = 0; v < model_.vertex_slots(); ++v) update_free(std::uint32_t(v));
+}
+
+FemSimulation::~FemSimulation() = default;
+
+void FemSimulation::grow() {
+  const Eigen::Index n = model_.rows();
+  for (Eigen::VectorXd* f : {&u_, &v_, &f_ext_, &target_}) {
+    const Eigen::Index old = f->size();
+    if (n > old) {
+      f->conservativeResize(n);
+      f->tail(n - old).setZero();
+    }
+  }
+  constrained_.resize(model_.vertex_slots(), 0);
+  free_.resize(std::size_t(n), 0);
+}
+
+void FemSimulation::update_free(std::uint32_t v) {
+  const VertexId id(v);
+  const bool f = v < mesh_->vertex_capacity() && mesh_->is_alive(id) && !mesh_->incident_tets(id).empty() &&
+                 !constrained_[v];
+  for (int a = 0; a < 3; ++a) free_[3 * v + a] = f;
+}
+
+void FemSimulation::prescribe(VertexId v, const Vec3& d) {
+  if (!mesh_->is_alive(v)) throw InvalidArgument("fem: prescribe: vertex " + std::to_string(v.idx()) + " is not alive");
+  if (!constrained_[v.idx()]) {
+    constrained_[v.idx()] = 1;
+    rigid_dirty_ = direct_dirty_ = true;
+    update_free(v.idx());
+  }
+  target_.segment<3>(3 * v.idx()) = d;
+}
+
+void FemSimulation::release(VertexId v) {
+  if (!constrained_[v.idx()]) return;
+  constrained_[v.idx()] = 0;
+  rigid_dirty_ = direct_dirty_ = true;
+  update_free(v.idx());
+}
+
+void FemSimulation::reset_state() {
+  u_.setZero();
+  v_.setZero();
+}
+
+std::vector<Vec3> FemSimulation::positions() const {
+  std::vector<Vec3> p(mesh_->vertex_capacity(), Vec3::Zero());
+  for (std::size_t v = 0; v < p.size(); ++v)
+    if (mesh_->is_alive(VertexId(std::uint32_t(v)))) p[v] = mesh_->rest(VertexId(std::uint32_t(v))) + u_.segment<3>(3 * v);
+  return p;
+}
+
+std::vector<double> FemSimulation::von_mises() {
+  model_.update_rotations(u_);
+  return model_.von_mises(u_);
+}
+
+void FemSimulation::apply(const TopologyChange& change) {
+  model_.apply(change);
+  grow();
+  interpolate_added_vertices(change, model_.vertex_slots(), u_);
+  interpolate_added_vertices(change, model_.vertex_slots(), v_);
+  interpolate_added_vertices(change, model_.vertex_slots(), target_);
+  for (const VertexOrigin& o : change.added_vertices) {
+    bool all = true, any = false;
+    for (int k = 0; k < 4; ++k)
+      if (o.parents[k].is_valid() && o.weights[k] != 0) {
+        any = true;
+        all = all && constrained_[o.parents[k].idx()];
+      }
+    constrained_[o.vertex.idx()] = any && all;
+    f_ext_.segment<3>(3 * o.vertex.idx()).setZero();  // loads stay on the nodes they were put on
+    update_free(o.vertex.idx());
+  }
+  for (VertexId v : change.removed_vertices) {
+    constrained_[v.idx()] = 0;
+    f_ext_.segment<3>(3 * v.idx()).setZero();
+    update_free(v.idx());
+  }
+  for (VertexId v : change.touched_vertices) update_free(v.idx());
+  if (!change.empty()) assembled_dirty_ = direct_dirty_ = rigid_dirty_ = true;
+}
+
+void FemSimulation::check_rigid_modes() const {
+  // Face-connected parts; each needs 3 non-collinear constrained vertices or it can move rigidly.
+  const TetMesh& m = *mesh_;
+  std::vector<std::int32_t> part(m.tet_capacity(), -1);
+  std::vector<std::uint32_t> stack;
+  std::vector<std::int32_t> vertex_seen(m.vertex_capacity(), -1);
+  int nparts = 0, bad = 0;
+  std::ostringstream msg;
+  for (std::size_t s = 0; s < m.tet_capacity(); ++s) {
+    if (!m.is_alive(TetId(std::uint32_t(s))) || part[s] >= 0) continue;
+    const int id = nparts++;
+    std::vector<Vec3> pts;
+    std::size_t ntets = 0;
+    part[s] = id;
+    stack.assign(1, std::uint32_t(s));
+    while (!stack.empty()) {
+      const TetId t(stack.back());
+      stack.pop_back();
+      ++ntets;
+      for (VertexId v : m.tet_vertices(t))
+        if (vertex_seen[v.idx()] != id) {
+          vertex_seen[v.idx()] = id;
+          if (constrained_[v.idx()]) pts.push_back(m.rest(v));
+        }
+      for (int f = 0; f < 4; ++f) {
+        const TetId n = m.neighbor(t, f);
+        if (n.is_valid() && part[n.idx()] < 0) {
+          part[n.idx()] = id;
+          stack.push_back(n.idx());
+        }
+      }
+    }
+    // Non-collinear: some point far from the line through the two most distant ones.
+    bool ok = false;
+    if (pts.size() >= 3) {
+      const Vec3 a = pts[0];
+      std::size_t ib = 0;
+      for (std::size_t i = 1; i < pts.size(); ++i)
+        if ((pts[i] - a).squaredNorm() > (pts[ib] - a).squaredNorm()) ib = i;
+      const Vec3 dir = pts[ib] - a;
+      const double len = dir.norm();
+      if (len > 0) {
+        const Vec3 d = dir / len;
+        for (const Vec3& p : pts)
+          if ((p - a - (p - a).dot(d) * d).norm() > 1e-9 * len) ok = true;
+      }
+    }
+    if (!ok) {
+      if (bad < 3)
+        msg << (bad ? "; " : "") << "part " << id << " (" << ntets << " tets, near (" << m.rest(m.tet_vertices(TetId(std::uint32_t(s)))[0]).transpose()
+            << ")) has " << pts.size() << " constrained vertices" << (pts.size() >= 3 ? ", all on one line" : "");
+      ++bad;
+    }
+  }
+  if (bad)
+    throw InvalidArgument("static solve is under-constrained: " + std::to_string(bad) + " of " +
+                          std::to_string(nparts) + " connected parts can move rigidly: " + msg.str() +
+                          "; fix or prescribe at least 3 non-collinear nodes per part, or use a dynamic integrator");
+}
+
+void FemSimulation::body_and_external_forces(Eigen::VectorXd& b) const {
+  b = f_ext_;
+  if (opt_.gravity.squaredNorm() > 0) {
+    const Eigen::VectorXd& m = model_.lumped_mass();
+    for (Eigen::Index i = 0; i < b.size(); i += 3) b.segment<3>(i) += m[i] * opt_.gravity;
+  }
+}
+
+void FemSimulation::solve_system(const LinearOperator& k, double a, double c, const Eigen::VectorXd& b,
+                                 Eigen::VectorXd& x, double budget_ms, FrameStats& st) {
+  if (opt_.method == SolverMethod::Direct) {
+    const auto t0 = std::chrono::steady_clock::now();
+    if (direct_dirty_ || model_.kind() == FemKind::Corotational || a != direct_mass_coeff_ || c != direct_stiffness_coeff_) {
+      if (!direct_) direct_ = std::make_unique<DirectSolver>();
+      Eigen::SparseMatrix<double> mat = c * model_.assemble();
+      if (a != 0) {
+        const Eigen::VectorXd& m = model_.lumped_mass();
+        for (Eigen::Index i = 0; i < mat.outerSize(); ++i) mat.coeffRef(i, i) += a * m[i];
+      }
+      direct_->compute(mat, free_);
+      direct_dirty_ = false;
+      direct_mass_coeff_ = a;
+      direct_stiffness_coeff_ = c;
+    }
+    direct_->solve(b, x);
+    // Report the true residual so CG and direct stats compare.
+    ScaledSystem op(k, model_.lumped_mass(), a, c);
+    op.multiply(x, tmp_);
+    tmp_ = b - tmp_;
+    for (Eigen::Index i = 0; i < tmp_.size(); ++i)
+      if (!free_[std::size_t(i)]) tmp_[i] = 0;
+    Eigen::VectorXd xk = x;
+    for (Eigen::Index i = 0; i < xk.size(); ++i)
+      if (free_[std::size_t(i)]) xk[i] = 0;
+    Eigen::VectorXd bk;
+    op.multiply(xk, bk);
+    bk = b - bk;
+    for (Eigen::Index i = 0; i < bk.size(); ++i)
+      if (!free_[std::size_t(i)]) bk[i] = 0;
+    const double bn = bk.norm();
+    st.relative_residual = bn > 0 ? tmp_.norm() / bn : 0;
+    st.solve_ms += ms_since(t0);
+    if (!x.allFinite()) {
+      st.info = SolveInfo::NumericalIssue;
+      st.message = "direct solver: NaN/Inf in the solution";
+    }
+    return;
+  }
+  ScaledSystem op(k, model_.lumped_mass(), a, c);
+  cg_.compute(op, &free_);
+  cg_.set_budget_ms(budget_ms);
+  cg_.solve_with_guess(b, x);
+  const SolveStats& s = cg_.stats();
+  st.iterations += s.iterations;
+  st.relative_residual = s.relative_residual;
+  st.solve_ms += s.solve_ms;
+  st.budget_exhausted = st.budget_exhausted || s.budget_exhausted;
+  st.info = s.info;
+  st.message = s.message;
+}
+
+const FrameStats& FemSimulation::step() {
+  const auto t0 = std::chrono::steady_clock::now();
+  stats_ = FrameStats{};
+  grow();
+  const LinearOperator* k = &model_;
+  auto refresh_operator = [&] {
+    if (opt_.backend == StiffnessBackend::Assembled && opt_.method == SolverMethod::Cg) {
+      if (!assembled_) assembled_ = std::make_unique<AssembledStiffness>(model_);
+      else if (assembled_dirty_ || model_.kind() == FemKind::Corotational) assembled_->rebuild();
+      assembled_dirty_ = false;
+      k = assembled_.get();
+    }
+  };
+  const double budget = opt_.cg.budget_ms;
+  auto remaining = [&] {
+    if (budget <= 0) return 0.0;
+    return std::max(1e-6, budget - ms_since(t0));
+  };
+
+  if (!opt_.dynamic) {
+    if (opt_.check_rigid_modes && rigid_dirty_) {
+      check_rigid_modes();
+      rigid_dirty_ = false;
+    }
+    const int rounds = model_.kind() == FemKind::Corotational ? opt_.nonlinear_iterations : 1;
+    for (int it = 0; it < rounds; ++it) {
+      model_.update_rotations(u_);
+      refresh_operator();
+      body_and_external_forces(b_);
+      model_.add_rotation_rhs(b_);
+      x_ = opt_.warm_start ? u_ : Eigen::VectorXd::Zero(u_.size());
+      for (std::size_t i = 0; i < free_.size(); ++i)
+        if (!free_[i]) x_[Eigen::Index(i)] = target_[Eigen::Index(i)];
+      solve_system(*k, 0.0, 1.0, b_, x_, remaining(), stats_);
+      if (stats_.info == SolveInfo::NotPositiveDefinite || stats_.info == SolveInfo::NumericalIssue) break;
+      u_ = x_;
+      if (stats_.budget_exhausted) break;
+    }
+  } else {
+    const double dt = opt_.dt;
+    model_.update_rotations(u_);
+    refresh_operator();
+    // b = M v + dt (f_ext + f_int(u))
+    body_and_external_forces(b_);
+    model_.internal_forces(u_, tmp_);
+    b_ = model_.lumped_mass().cwiseProduct(v_) + dt * (b_ + tmp_);
+    x_ = opt_.warm_start ? v_ : Eigen::VectorXd::Zero(v_.size());
+    for (std::size_t i = 0; i < free_.size(); ++i)
+      if (!free_[i]) x_[Eigen::Index(i)] = (target_[Eigen::Index(i)] - u_[Eigen::Index(i)]) / dt;
+    solve_system(*k, 1 + dt * opt_.damping, dt * dt, b_, x_, remaining(), stats_);
+    if (stats_.info != SolveInfo::NotPositiveDefinite && stats_.info != SolveInfo::NumericalIssue) {
+      v_ = x_;
+      u_ += dt * v_;
+    }
+  }
+  return stats_;
+}
+
+}  // namespace incise

@@ -1,0 +1,131 @@
+#pragma once
+// FemSimulation: one frame at a time of the FEM model on a (possibly changing) TetMesh.
+//
+// Static mode (default) solves K u = f each frame; dynamic mode takes one backward-Euler step
+//   ((1 + dt*damping) M + dt^2 K) v' = M v + dt (f_ext + f_int(u)),  u' = u + dt v'
+// with the same solvers. Corotational models re-linearize about the current displacement
+// (`nonlinear_iterations` times per static frame), so repeated frames converge to the
+// corotational equilibrium.
+//
+// Solvers: CG on the matrix-free model or on the assembled matrix (same CG, same stats), or
+// the direct LDL^T reference. CG is warm-started from the previous frame and may stop on a
+// wall-clock budget; the approximate solution is kept and the next frame continues from it.
+//
+// Constraints are per vertex: fix() (zero displacement) or prescribe() (a displacement);
+// they enter CG by projection and the right-hand side. A static solve first checks, per
+// face-connected part of the mesh, that at least 3 non-collinear vertices are constrained, and
+// throws InvalidArgument naming the part otherwise (the check is O(mesh), run only after the
+// constraint set or the topology changed).
+//
+// Topology changes: apply(change) after every mesh edit batch. Per-tet data, diagonal and
+// masses are updated locally; new vertices get interpolated displacement and velocity, and are
+// constrained (with interpolated values) when all their parents are.
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "mesh/tet_mesh.h"
+#include "sim/cg_solver.h"
+#include "sim/fem_model.h"
+#include "sim/material.h"
+
+namespace incise {
+
+class AssembledStiffness;
+class DirectSolver;
+
+enum class SolverMethod { Cg, Direct };
+enum class StiffnessBackend { MatrixFree, Assembled };
+
+struct FemSimulationOptions {
+  FemKind kind = FemKind::Linear;                       // Linear or Corotational elements
+  SolverMethod method = SolverMethod::Cg;               // Direct: SimplicialLDLT reference
+  StiffnessBackend backend = StiffnessBackend::MatrixFree;  // operator CG multiplies with
+  CgOptions cg;                                         // tolerance, cap, budget, preconditioner
+  bool warm_start = true;                               // start CG from the previous frame
+  bool dynamic = false;                                 // backward Euler instead of static
+  double dt = 0.01;                                     // dynamic time step [s]
+  double damping = 0;                                   // mass-proportional damping [1/s]
+  int nonlinear_iterations = 1;                         // corotational re-linearizations per static frame
+  Vec3 gravity = Vec3::Zero();                          // body acceleration [m/s^2]
+  bool check_rigid_modes = true;                        // refuse under-constrained static solves
+};
+
+// Statistics of one frame (sums over the corotational re-linearizations).
+struct FrameStats {
+  int iterations = 0;
+  double relative_residual = 0;
+  double solve_ms = 0;
+  bool budget_exhausted = false;
+  SolveInfo info = SolveInfo::Success;
+  std::string message;
+};
+
+class FemSimulation {
+public:
+  FemSimulation(const TetMesh& mesh, const MaterialTable& materials, const FemSimulationOptions& options = {});
+  ~FemSimulation();
+
+  // ---- constraints and loads (by vertex) ------------------------------------------
+  void fix(VertexId v) { prescribe(v, Vec3::Zero()); }
+  void prescribe(VertexId v, const Vec3& displacement);
+  void release(VertexId v);
+  bool is_constrained(VertexId v) const { return constrained_[v.idx()] != 0; }
+  void set_force(VertexId v, const Vec3& f) { f_ext_.segment<3>(3 * v.idx()) = f; }
+  void add_force(VertexId v, const Vec3& f) { f_ext_.segment<3>(3 * v.idx()) += f; }
+  void clear_forces() { f_ext_.setZero(); }
+  void set_gravity(const Vec3& g) { opt_.gravity = g; }
+
+  // ---- frames ------------------------------------------------------------------------
+  // One frame. Throws InvalidArgument when a static solve is under-constrained; a breakdown
+  // (not positive definite, NaN) is returned in the stats with a message.
+  const FrameStats& step();
+  const FrameStats& last_stats() const { return stats_; }
+  // The static solve's rigid-mode check on its own (O(mesh)); throws InvalidArgument.
+  void check_constraints() const { check_rigid_modes(); }
+  void reset_state();  // zero displacement and velocity
+
+  // ---- topology ------------------------------------------------------------------------
+  void apply(const TopologyChange& change);
+
+  // ---- state (by VertexId; 3 per vertex) -----------------------------------------------
+  const Eigen::VectorXd& displacement() const { return u_; }
+  Eigen::VectorXd& displacement() { return u_; }
+  const Eigen::VectorXd& velocity() const { return v_; }
+  std::vector<Vec3> positions() const;                  // rest + displacement
+  std::vector<double> von_mises();                      // per TetId, current state
+  const std::vector<std::uint8_t>& free_mask() const { return free_; }
+
+  FemModel& model() { return model_; }
+  const FemModel& model() const { return model_; }
+  FemSimulationOptions& options() { return opt_; }
+  ConjugateGradient& cg() { return cg_; }
+
+private:
+  void grow();
+  void update_free(std::uint32_t v);
+  void check_rigid_modes() const;
+  void body_and_external_forces(Eigen::VectorXd& b) const;
+  void solve_system(const LinearOperator& op, double mass_coeff, double stiffness_coeff, const Eigen::VectorXd& b,
+                    Eigen::VectorXd& x, double budget_ms, FrameStats& st);
+
+  const TetMesh* mesh_;
+  FemSimulationOptions opt_;
+  FemModel model_;
+  std::unique_ptr<AssembledStiffness> assembled_;
+  std::unique_ptr<DirectSolver> direct_;
+  bool assembled_dirty_ = true, direct_dirty_ = true, rigid_dirty_ = true;
+  double direct_mass_coeff_ = -1, direct_stiffness_coeff_ = -1;
+  ConjugateGradient cg_;
+
+  Eigen::VectorXd u_, v_, f_ext_, target_;  // target_: prescribed displacement per unknown
+  std::vector<std::uint8_t> constrained_;   // per vertex
+  std::vector<std::uint8_t> free_;          // per unknown: CG may change it
+  FrameStats stats_;
+  Eigen::VectorXd b_, x_, tmp_;
+};
+
+}  // namespace incise

@@ -1,0 +1,532 @@
+#include "sim/scene.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <ostream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "mesh/errors.h"
+#include "mesh/generate.h"
+#include "mesh/io/atomic_file.h"
+#include "mesh/io/tet_io.h"
+#include "sim/integrator.h"
+#include "sim/spring_model.h"
+
+namespace incise {
+
+namespace {
+
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+
+// Reads typed values and reports "FILE: key: expected ..." on anything else.
+class Reader {
+public:
+  explicit Reader(std::string path) : path_(std::move(path)) {}
+  [[noreturn]] void fail(const std::string& key, const std::string& what) const { throw IoError(path_, 0, key + ": " + what); }
+
+  void keys(const json& obj, const std::string& key, std::initializer_list<const char*> allowed) const {
+    if (!obj.is_object()) fail(key.empty() ? "(top level)" : key, "expected an object");
+    for (auto it = obj.begin(); it != obj.end(); ++it) {
+      const std::string& k = it.key();
+      if (!k.empty() && k[0] == '_') continue;  // "_comment" and friends
+      bool ok = false;
+      for (const char* a : allowed) ok = ok || k == a;
+      if (!ok) {
+        std::string list;
+        for (const char* a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+        fail(join(key, k), "unknown key; expected one of " + list);
+      }
+    }
+  }
+  static std::string join(const std::string& a, const std::string& b) { return a.empty() ? b : a + "." + b; }
+
+  double number(const json& j, const std::string& key) const {
+    if (!j.is_number()) fail(key, "expected a number");
+    const double v = j.get<double>();
+    if (!std::isfinite(v)) fail(key, "expected a finite number");
+    return v;
+  }
+  double positive(const json& j, const std::string& key) const {
+    if (!j.is_number() || !(j.get<double>() > 0) || !std::isfinite(j.get<double>())) fail(key, "expected a positive number");
+    return j.get<double>();
+  }
+  double non_negative(const json& j, const std::string& key) const {
+    if (!j.is_number() || !(j.get<double>() >= 0) || !std::isfinite(j.get<double>())) fail(key, "expected a number >= 0");
+    return j.get<double>();
+  }
+  int integer(const json& j, const std::string& key, int min) const {
+    if (!j.is_number_integer() || j.get<long long>() < min || j.get<long long>() > 1000000000)
+      fail(key, "expected an integer >= " + std::to_string(min));
+    return int(j.get<long long>());
+  }
+  bool boolean(const json& j, const std::string& key) const {
+    if (!j.is_boolean()) fail(key, "expected true or false");
+    return j.get<bool>();
+  }
+  std::string string(const json& j, const std::string& key) const {
+    if (!j.is_string()) fail(key, "expected a string");
+    return j.get<std::string>();
+  }
+  Vec3 vec3(const json& j, const std::string& key) const {
+    if (!j.is_array() || j.size() != 3) fail(key, "expected an array of 3 numbers");
+    Vec3 v;
+    for (int i = 0; i < 3; ++i) v[i] = number(j[std::size_t(i)], key + "[" + std::to_string(i) + "]");
+    return v;
+  }
+  SceneBox box(const json& j, const std::string& key) const {
+    if (!j.is_array() || j.size() != 6) fail(key, "expected [xmin, ymin, zmin, xmax, ymax, zmax]");
+    SceneBox b;
+    for (int i = 0; i < 3; ++i) {
+      b.lo[i] = number(j[std::size_t(i)], key + "[" + std::to_string(i) + "]");
+      b.hi[i] = number(j[std::size_t(i + 3)], key + "[" + std::to_string(i + 3) + "]");
+      if (b.lo[i] > b.hi[i]) fail(key, "expected min <= max on every axis (axis " + std::to_string(i) + ")");
+    }
+    return b;
+  }
+  const std::string& path() const { return path_; }
+
+private:
+  std::string path_;
+};
+
+Material read_material(const Reader& rd, const json& j, const std::string& key, const Material& base) {
+  rd.keys(j, key, {"young", "poisson", "density"});
+  Material m = base;
+  if (j.contains("young")) m.young = rd.positive(j["young"], key + ".young");
+  if (j.contains("poisson")) {
+    m.poisson = rd.number(j["poisson"], key + ".poisson");
+    if (m.poisson < 0 || m.poisson >= 0.5)
+      rd.fail(key + ".poisson", "expected a Poisson's ratio in [0, 0.5) (0.5 makes linear elasticity singular; use at most 0.4999)");
+  }
+  if (j.contains("density")) m.density = rd.positive(j["density"], key + ".density");
+  return m;
+}
+
+SceneLoad read_load(const Reader& rd, const json& j, const std::string& key) {
+  if (!j.is_object()) rd.fail(key, "expected an object");
+  if (!j.contains("type")) rd.fail(key + ".type", "missing; expected \"force\", \"gravity\" or \"probe\"");
+  const std::string type = rd.string(j["type"], key + ".type");
+  SceneLoad l;
+  l.key = key;
+  auto ramp = [&] {
+    if (j.contains("from_frame")) l.from_frame = rd.integer(j["from_frame"], key + ".from_frame", 0);
+    if (j.contains("to_frame")) l.to_frame = rd.integer(j["to_frame"], key + ".to_frame", 0);
+    else l.to_frame = l.from_frame;
+    if (l.to_frame < l.from_frame) rd.fail(key + ".to_frame", "expected an integer >= from_frame");
+    l.ramp = j.contains("from_frame") || j.contains("to_frame");
+  };
+  auto need = [&](const char* k) -> const json& {
+    if (!j.contains(k)) rd.fail(key + "." + k, "missing");
+    return j[k];
+  };
+  if (type == "force") {
+    rd.keys(j, key, {"type", "box", "total", "from_frame", "to_frame"});
+    l.kind = SceneLoad::Kind::Force;
+    l.box = rd.box(need("box"), key + ".box");
+    l.value = rd.vec3(need("total"), key + ".total");
+    ramp();
+  } else if (type == "gravity") {
+    rd.keys(j, key, {"type", "g"});
+    l.kind = SceneLoad::Kind::Gravity;
+    l.value = rd.vec3(need("g"), key + ".g");
+  } else if (type == "probe") {
+    rd.keys(j, key, {"type", "box", "displacement", "from_frame", "to_frame"});
+    l.kind = SceneLoad::Kind::Probe;
+    l.box = rd.box(need("box"), key + ".box");
+    l.value = rd.vec3(need("displacement"), key + ".displacement");
+    ramp();
+    l.ramp = true;
+  } else {
+    rd.fail(key + ".type", "expected \"force\", \"gravity\" or \"probe\", got \"" + type + "\"");
+  }
+  return l;
+}
+
+void write_text_atomic(const std::string& path, const std::string& text) {
+  AtomicFile f(path);
+  f.write(text);
+  f.commit();
+}
+
+}  // namespace
+
+double SceneLoad::factor(int frame) const {
+  if (!ramp) return 1;
+  if (frame <= from_frame) return to_frame == from_frame && frame >= from_frame ? 1.0 : 0.0;
+  if (frame >= to_frame) return 1;
+  return double(frame - from_frame) / double(to_frame - from_frame);
+}
+
+Scene parse_scene(const std::string& text, const std::string& path) {
+  json j;
+  try {
+    j = json::parse(text, nullptr, true, /*ignore_comments=*/true);
+  } catch (const json::parse_error& e) {
+    long line = 1;
+    for (std::size_t i = 0; i < text.size() && i < e.byte; ++i) line += text[i] == '\n';
+    std::string what = e.what();
+    const auto p = what.find("parse error");
+    throw IoError(path, line, "invalid JSON: " + (p == std::string::npos ? what : what.substr(p)));
+  }
+  const Reader rd(path);
+  rd.keys(j, "", {"mesh", "model", "materials", "fixed", "loads", "solver", "time", "output"});
+  Scene s;
+  s.path = path;
+
+  if (!j.contains("mesh")) rd.fail("mesh", "missing; expected a mesh file name or {\"generate\": \"box\", ...}");
+  const json& jm = j["mesh"];
+  if (jm.is_string()) {
+    s.mesh_file = jm.get<std::string>();
+    if (s.mesh_file.empty()) rd.fail("mesh", "expected a non-empty file name");
+  } else if (jm.is_object()) {
+    if (!jm.contains("generate")) rd.fail("mesh.generate", "missing; expected \"box\" or \"ellipsoid\"");
+    s.generator = rd.string(jm["generate"], "mesh.generate");
+    if (s.generator == "box") {
+      rd.keys(jm, "mesh", {"generate", "size", "cells"});
+      if (jm.contains("size")) s.gen_size = rd.vec3(jm["size"], "mesh.size");
+      if (jm.contains("cells")) {
+        const json& c = jm["cells"];
+        if (!c.is_array() || c.size() != 3) rd.fail("mesh.cells", "expected an array of 3 integers >= 1");
+        for (int i = 0; i < 3; ++i) s.gen_cells[std::size_t(i)] = rd.integer(c[std::size_t(i)], "mesh.cells[" + std::to_string(i) + "]", 1);
+      }
+      for (int i = 0; i < 3; ++i)
+        if (!(s.gen_size[i] > 0)) rd.fail("mesh.size", "expected 3 positive numbers");
+    } else if (s.generator == "ellipsoid") {
+      rd.keys(jm, "mesh", {"generate", "radii", "resolution"});
+      if (jm.contains("radii")) s.gen_size = rd.vec3(jm["radii"], "mesh.radii");
+      if (jm.contains("resolution")) s.gen_resolution = rd.integer(jm["resolution"], "mesh.resolution", 1);
+      for (int i = 0; i < 3; ++i)
+        if (!(s.gen_size[i] > 0)) rd.fail("mesh.radii", "expected 3 positive numbers");
+    } else {
+      rd.fail("mesh.generate", "expected \"box\" or \"ellipsoid\", got \"" + s.generator + "\"");
+    }
+  } else {
+    rd.fail("mesh", "expected a mesh file name or {\"generate\": \"box\", ...}");
+  }
+
+  if (j.contains("model")) {
+    const std::string m = rd.string(j["model"], "model");
+    if (m == "fem-linear") s.model = SceneModel::FemLinear;
+    else if (m == "fem-corotational") s.model = SceneModel::FemCorotational;
+    else if (m == "springs") s.model = SceneModel::Springs;
+    else rd.fail("model", "expected \"fem-linear\", \"fem-corotational\" or \"springs\", got \"" + m + "\"");
+  }
+
+  if (j.contains("materials")) {
+    const json& jm2 = j["materials"];
+    if (!jm2.is_object()) rd.fail("materials", "expected an object keyed by \"*\" or a region label");
+    Material fallback;
+    if (jm2.contains("*")) fallback = read_material(rd, jm2["*"], "materials.*", fallback);
+    s.materials.set_default(fallback);
+    for (auto it = jm2.begin(); it != jm2.end(); ++it) {
+      if (it.key() == "*" || (!it.key().empty() && it.key()[0] == '_')) continue;
+      std::size_t used = 0;
+      int label = 0;
+      try {
+        label = std::stoi(it.key(), &used);
+      } catch (...) {
+        used = 0;
+      }
+      if (used != it.key().size() || it.key().empty())
+        rd.fail("materials." + it.key(), "expected \"*\" or an integer region label as key");
+      s.materials.set(label, read_material(rd, it.value(), "materials." + it.key(), fallback));
+    }
+  }
+
+  if (j.contains("fixed")) {
+    const json& jf = j["fixed"];
+    if (!jf.is_array()) rd.fail("fixed", "expected an array of {\"box\": [...]}");
+    for (std::size_t i = 0; i < jf.size(); ++i) {
+      const std::string key = "fixed[" + std::to_string(i) + "]";
+      rd.keys(jf[i], key, {"box"});
+      if (!jf[i].contains("box")) rd.fail(key + ".box", "missing");
+      s.fixed.push_back(rd.box(jf[i]["box"], key + ".box"));
+    }
+  }
+  if (j.contains("loads")) {
+    const json& jl = j["loads"];
+    if (!jl.is_array()) rd.fail("loads", "expected an array of loads");
+    for (std::size_t i = 0; i < jl.size(); ++i) s.loads.push_back(read_load(rd, jl[i], "loads[" + std::to_string(i) + "]"));
+  }
+
+  if (j.contains("solver")) {
+    const json& js = j["solver"];
+    rd.keys(js, "solver", {"method", "tolerance", "max_iterations", "budget_ms", "warm_start", "preconditioner", "operator",
+                           "nonlinear_iterations"});
+    if (js.contains("method")) {
+      const std::string m = rd.string(js["method"], "solver.method");
+      if (m == "cg") s.method = SolverMethod::Cg;
+      else if (m == "direct") s.method = SolverMethod::Direct;
+      else rd.fail("solver.method", "expected \"cg\" or \"direct\", got \"" + m + "\"");
+    }
+    if (js.contains("tolerance")) s.cg.tolerance = rd.positive(js["tolerance"], "solver.tolerance");
+    if (js.contains("max_iterations")) s.cg.max_iterations = rd.integer(js["max_iterations"], "solver.max_iterations", 1);
+    if (js.contains("budget_ms")) s.cg.budget_ms = rd.non_negative(js["budget_ms"], "solver.budget_ms");
+    if (js.contains("warm_start")) s.warm_start = rd.boolean(js["warm_start"], "solver.warm_start");
+    if (js.contains("preconditioner")) {
+      const std::string p = rd.string(js["preconditioner"], "solver.preconditioner");
+      if (p == "jacobi") s.cg.preconditioner = Preconditioner::Jacobi;
+      else if (p == "none") s.cg.preconditioner = Preconditioner::None;
+      else rd.fail("solver.preconditioner", "expected \"jacobi\" or \"none\", got \"" + p + "\"");
+    }
+    if (js.contains("operator")) {
+      const std::string o = rd.string(js["operator"], "solver.operator");
+      if (o == "matrix-free") s.backend = StiffnessBackend::MatrixFree;
+      else if (o == "assembled") s.backend = StiffnessBackend::Assembled;
+      else rd.fail("solver.operator", "expected \"matrix-free\" or \"assembled\", got \"" + o + "\"");
+    }
+    if (js.contains("nonlinear_iterations"))
+      s.nonlinear_iterations = rd.integer(js["nonlinear_iterations"], "solver.nonlinear_iterations", 1);
+  }
+
+  if (j.contains("time")) {
+    const json& jt = j["time"];
+    rd.keys(jt, "time", {"frames", "dt", "integrator", "damping", "substeps"});
+    if (jt.contains("frames")) s.frames = rd.integer(jt["frames"], "time.frames", 1);
+    if (jt.contains("dt")) s.dt = rd.positive(jt["dt"], "time.dt");
+    if (jt.contains("integrator")) s.integrator = rd.string(jt["integrator"], "time.integrator");
+    if (jt.contains("damping")) s.damping = rd.non_negative(jt["damping"], "time.damping");
+    if (jt.contains("substeps")) s.substeps = rd.integer(jt["substeps"], "time.substeps", 1);
+  }
+  if (s.model == SceneModel::Springs) {
+    if (s.integrator.empty()) s.integrator = "symplectic-euler";
+    try {
+      parse_integrator(s.integrator);
+    } catch (const InvalidArgument& e) {
+      rd.fail("time.integrator", e.what());
+    }
+    if (s.method == SolverMethod::Direct) rd.fail("solver.method", "\"direct\" is for FEM models; springs use \"cg\" (implicit-euler)");
+  } else {
+    if (s.integrator.empty()) s.integrator = "static";
+    if (s.integrator != "static" && s.integrator != "implicit-euler")
+      rd.fail("time.integrator", "expected \"static\" or \"implicit-euler\" for FEM models, got \"" + s.integrator + "\"");
+  }
+
+  if (j.contains("output")) {
+    const json& jo = j["output"];
+    rd.keys(jo, "output", {"every", "binary"});
+    if (jo.contains("every")) s.output_every = rd.integer(jo["every"], "output.every", 1);
+    if (jo.contains("binary")) s.output_binary = rd.boolean(jo["binary"], "output.binary");
+  }
+  return s;
+}
+
+Scene load_scene(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError(path, 0, "cannot open scene file");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return parse_scene(ss.str(), path);
+}
+
+SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
+  const Reader rd(s.path);
+  // ---- mesh ---------------------------------------------------------------------------
+  TetMesh mesh;
+  if (!s.generator.empty()) {
+    mesh = s.generator == "box" ? make_box(s.gen_size, s.gen_cells) : make_ellipsoid(s.gen_size, s.gen_resolution);
+  } else {
+    fs::path p(s.mesh_file);
+    if (p.is_relative()) p = fs::path(s.path).parent_path() / p;
+    mesh = read_tet_mesh(p.string());
+  }
+  mesh.discard_change();
+  if (mesh.num_tets() == 0) rd.fail("mesh", "the mesh has no tetrahedra");
+
+  // ---- boxes -> vertex sets (checked before anything is written) -----------------------
+  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+  for (VertexId v : mesh.vertices()) {
+    lo = lo.cwiseMin(mesh.rest(v));
+    hi = hi.cwiseMax(mesh.rest(v));
+  }
+  const double tol = 1e-9 * (hi - lo).norm();
+  auto select = [&](const SceneBox& b, const std::string& key) {
+    std::vector<VertexId> out;
+    for (VertexId v : mesh.vertices())
+      if (!mesh.incident_tets(v).empty() && b.contains(mesh.rest(v), tol)) out.push_back(v);
+    if (out.empty()) {
+      std::ostringstream m;
+      m << "selects no vertex; the mesh spans [" << lo.x() << ", " << lo.y() << ", " << lo.z() << "] to [" << hi.x() << ", "
+        << hi.y() << ", " << hi.z() << "]";
+      rd.fail(key, m.str());
+    }
+    return out;
+  };
+  std::vector<VertexId> fixed;
+  for (std::size_t i = 0; i < s.fixed.size(); ++i) {
+    auto sel = select(s.fixed[i], "fixed[" + std::to_string(i) + "].box");
+    fixed.insert(fixed.end(), sel.begin(), sel.end());
+  }
+  std::vector<std::vector<VertexId>> load_vertices(s.loads.size());
+  Vec3 gravity = Vec3::Zero();
+  for (std::size_t i = 0; i < s.loads.size(); ++i) {
+    if (s.loads[i].kind == SceneLoad::Kind::Gravity) gravity += s.loads[i].value;
+    else load_vertices[i] = select(s.loads[i].box, s.loads[i].key + ".box");
+  }
+
+
+  // ---- model (only the one the scene uses) ---------------------------------------------
+  std::unique_ptr<FemSimulation> fem;
+  std::unique_ptr<SpringModel> springs;
+  Integrator integrator = Integrator::SymplecticEuler;
+  if (s.model == SceneModel::Springs) {
+    SpringOptions so;
+    so.damping = s.damping;
+    so.cg_tolerance = s.cg.tolerance;
+    so.cg_max_iterations = s.cg.max_iterations;
+    so.compute_energy = false;
+    springs = std::make_unique<SpringModel>(mesh, s.materials, so);
+    integrator = parse_integrator(s.integrator);
+    for (VertexId v : fixed) springs->set_fixed(v, true);
+    springs->set_gravity(gravity);
+  } else {
+    FemSimulationOptions fo;
+    fo.kind = s.model == SceneModel::FemCorotational ? FemKind::Corotational : FemKind::Linear;
+    fo.method = s.method;
+    fo.backend = s.backend;
+    fo.cg = s.cg;
+    fo.warm_start = s.warm_start;
+    fo.dynamic = s.integrator == "implicit-euler";
+    fo.dt = s.dt;
+    fo.damping = s.damping;
+    fo.nonlinear_iterations = s.nonlinear_iterations;
+    fo.gravity = gravity;
+    fem = std::make_unique<FemSimulation>(mesh, s.materials, fo);
+    for (VertexId v : fixed) fem->fix(v);
+    for (std::size_t i = 0; i < s.loads.size(); ++i)
+      if (s.loads[i].kind == SceneLoad::Kind::Probe)
+        for (VertexId v : load_vertices[i]) fem->prescribe(v, Vec3::Zero());
+    if (!fo.dynamic) {
+      try {
+        fem->check_constraints();
+      } catch (const InvalidArgument& e) {
+        rd.fail("fixed", e.what());
+      }
+    }
+  }
+
+  const int frames = opt.frames >= 0 ? opt.frames : s.frames;
+  const bool write = !opt.out_dir.empty();
+  if (write) {
+    std::error_code ec;
+    fs::create_directories(opt.out_dir, ec);
+    if (ec) throw IoError(opt.out_dir, 0, "cannot create output directory: " + ec.message());
+  }
+
+  SceneRunSummary sum;
+  sum.vertices = mesh.num_vertices();
+  sum.tets = mesh.num_tets();
+  std::ostringstream csv, pvd;
+  csv << "frame,time,iterations,relative_residual,solve_ms,budget_exhausted,converged,max_displacement\n";
+  csv << std::setprecision(9);
+  pvd << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
+         "  <Collection>\n";
+  auto finish = [&] {
+    if (!write) return;
+    pvd << "  </Collection>\n</VTKFile>\n";
+    write_text_atomic((fs::path(opt.out_dir) / "stats.csv").string(), csv.str());
+    write_text_atomic((fs::path(opt.out_dir) / "frames.pvd").string(), pvd.str());
+    sum.files.push_back("stats.csv");
+    sum.files.push_back("frames.pvd");
+  };
+
+  std::vector<Vec3> force(mesh.vertex_capacity());
+  const bool dynamic = s.model == SceneModel::Springs || s.integrator == "implicit-euler";
+  try {
+    for (int frame = 0; frame < frames; ++frame) {
+      // Loads and probes at this frame.
+      std::fill(force.begin(), force.end(), Vec3::Zero());
+      for (std::size_t i = 0; i < s.loads.size(); ++i) {
+        const SceneLoad& l = s.loads[i];
+        const double f = l.factor(frame);
+        if (l.kind == SceneLoad::Kind::Force) {
+          for (VertexId v : load_vertices[i]) force[v.idx()] += f * l.value / double(load_vertices[i].size());
+        } else if (l.kind == SceneLoad::Kind::Probe) {
+          for (VertexId v : load_vertices[i]) {
+            if (fem) fem->prescribe(v, f * l.value);
+            else springs->set_prescribed(v, mesh.rest(v) + f * l.value);
+          }
+        }
+      }
+      FrameStats st;
+      Eigen::VectorXd disp;
+      if (fem) {
+        fem->clear_forces();
+        for (std::size_t v = 0; v < force.size(); ++v)
+          if (force[v].squaredNorm() > 0) fem->set_force(VertexId(std::uint32_t(v)), force[v]);
+        try {
+          st = fem->step();
+        } catch (const InvalidArgument& e) {
+          rd.fail("fixed", e.what());
+        }
+        if (st.info == SolveInfo::NotPositiveDefinite || st.info == SolveInfo::NumericalIssue)
+          throw Error(s.path + ": frame " + std::to_string(frame) + ": " + st.message);
+        disp = fem->displacement().head(Eigen::Index(3 * mesh.vertex_capacity()));
+      } else {
+        for (std::size_t v = 0; v < force.size(); ++v)
+          if (mesh.is_alive(VertexId(std::uint32_t(v)))) springs->set_external_force(VertexId(std::uint32_t(v)), force[v]);
+        const auto t0 = std::chrono::steady_clock::now();
+        for (int k = 0; k < s.substeps; ++k) {
+          const StepStats ss = springs->step(s.dt, integrator);
+          st.iterations += ss.cg_iterations;
+          st.relative_residual = ss.cg_relative_residual;
+        }
+        st.solve_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+        disp = Eigen::VectorXd::Zero(Eigen::Index(3 * mesh.vertex_capacity()));
+        const auto& x = springs->positions();
+        for (VertexId v : mesh.vertices()) disp.segment<3>(3 * v.idx()) = x[v.idx()] - mesh.rest(v);
+        if (!disp.allFinite())
+          throw Error(s.path + ": frame " + std::to_string(frame) +
+                      ": spring model produced NaN/Inf (time step above the stable limit?)");
+      }
+      double maxd = 0;
+      for (Eigen::Index i = 0; i < disp.size(); i += 3) maxd = std::max(maxd, disp.segment<3>(i).norm());
+      const double time = dynamic ? (frame + 1) * s.dt * (s.model == SceneModel::Springs ? s.substeps : 1) : frame;
+      const bool converged = st.info == SolveInfo::Success;
+      csv << frame << "," << time << "," << st.iterations << "," << st.relative_residual << "," << st.solve_ms << ","
+          << (st.budget_exhausted ? 1 : 0) << "," << (converged ? 1 : 0) << "," << maxd << "\n";
+      sum.total_iterations += st.iterations;
+      sum.total_solve_ms += st.solve_ms;
+      sum.frames_budget_exhausted += st.budget_exhausted;
+      sum.frames_not_converged += !converged;
+      sum.max_displacement = maxd;
+      ++sum.frames;
+
+      if (write && (frame % s.output_every == 0 || frame == frames - 1)) {
+        char name[64];
+        std::snprintf(name, sizeof name, "frame_%04d.vtu", frame);
+        std::vector<Vec3> pts(mesh.vertex_capacity(), Vec3::Zero());
+        for (VertexId v : mesh.vertices()) pts[v.idx()] = mesh.rest(v) + disp.segment<3>(3 * v.idx());
+        MeshFields fields;
+        fields.points = &pts;
+        fields.point_data.push_back(Field{"displacement", 3, std::vector<double>(disp.data(), disp.data() + disp.size())});
+        if (fem) fields.cell_data.push_back(Field{"von_mises", 1, fem->von_mises()});
+        WriteOptions wo;
+        wo.binary = s.output_binary;
+        write_tet_mesh_with_fields(mesh, (fs::path(opt.out_dir) / name).string(), fields, wo);
+        pvd << "    <DataSet timestep=\"" << time << "\" group=\"\" part=\"0\" file=\"" << name << "\"/>\n";
+        sum.files.push_back(name);
+      }
+      if (opt.progress) {
+        *opt.progress << "simulate: frame " << frame + 1 << "/" << frames << ": " << st.iterations << " iterations, residual "
+                      << st.relative_residual << ", " << std::fixed << std::setprecision(2) << st.solve_ms << " ms"
+                      << std::defaultfloat << std::setprecision(6) << (st.budget_exhausted ? ", budget exhausted" : "")
+                      << (!converged && !st.budget_exhausted && fem ? ", NOT CONVERGED" : "") << "\n";
+      }
+    }
+  } catch (...) {
+    finish();  // keep the series and stats of the frames that were computed
+    throw;
+  }
+  finish();
+  return sum;
+}
+
+}  // namespace incise

@@ -1,0 +1,176 @@
+// Scenes: every bad key is named with what was expected, nothing is written on bad input,
+// and a scene runs end to end into VTU frames, a .pvd series and stats.csv.
+#include <catch2/catch.hpp>
+
+#include <filesystem>
+#include <cmath>
+#include <fstream>
+#include <unistd.h>
+#include <sstream>
+
+#include "mesh/errors.h"
+#include "mesh/io/tet_io.h"
+#include "sim/scene.h"
+
+using namespace incise;
+namespace fs = std::filesystem;
+
+namespace {
+
+const char* kGood = R"({
+  "mesh": {"generate": "box", "size": [4, 1, 1], "cells": [8, 2, 2]},
+  "model": "fem-linear",
+  "materials": {"*": {"young": 1e5, "poisson": 0.3, "density": 1000}, "2": {"young": 1e7}},
+  "fixed": [{"box": [0, 0, 0, 0, 1, 1]}],
+  "loads": [{"type": "probe", "box": [4, 0, 0, 4, 1, 1], "displacement": [0, 0, -0.2], "from_frame": 0, "to_frame": 4}, {"type": "gravity", "g": [0, 0, -9.81]}],
+  "solver": {"method": "cg", "tolerance": 1e-9, "max_iterations": 5000, "budget_ms": 0, "warm_start": true, "preconditioner": "jacobi"},
+  "time": {"frames": 6}
+})";
+
+// kGood with one top-level key (each sits on one line) replaced by `value` (a JSON text).
+std::string with(const std::string& key, const std::string& value) {
+  std::string s = kGood;
+  const std::string tag = "\"" + key + "\": ";
+  const auto p = s.find(tag);
+  REQUIRE(p != std::string::npos);
+  // Replace up to the end of that value: the next top-level line break.
+  const auto e = s.find(",\n", p);
+  return s.substr(0, p) + tag + value + (e == std::string::npos ? "\n}" : s.substr(e));
+}
+
+std::string error_of(const std::string& text) {
+  try {
+    parse_scene(text, "scene.json");
+  } catch (const IoError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+fs::path temp_dir(const std::string& name) {
+  fs::path p = fs::temp_directory_path() / ("incise_test_scene_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(p);
+  return p;
+}
+
+}  // namespace
+
+TEST_CASE("scene errors name the key and what was expected", "[scene][errors]") {
+  CHECK(error_of(kGood) == "(no error)");
+  CHECK(error_of(with("solver", R"({"tolerance": -1})")) == "scene.json: solver.tolerance: expected a positive number");
+  CHECK(error_of(with("solver", R"({"tolerance": "small"})")) == "scene.json: solver.tolerance: expected a positive number");
+  CHECK(error_of(with("solver", R"({"max_iterations": 0})")) == "scene.json: solver.max_iterations: expected an integer >= 1");
+  CHECK(error_of(with("solver", R"({"budget_ms": -5})")) == "scene.json: solver.budget_ms: expected a number >= 0");
+  CHECK_THAT(error_of(with("solver", R"({"method": "lu"})")), Catch::StartsWith("scene.json: solver.method: expected \"cg\" or \"direct\""));
+  CHECK_THAT(error_of(with("solver", R"({"tolerence": 1e-6})")), Catch::StartsWith("scene.json: solver.tolerence: unknown key"));
+  CHECK_THAT(error_of(with("solver", R"({"preconditioner": "ilu"})")), Catch::Contains("solver.preconditioner: expected \"jacobi\" or \"none\""));
+  CHECK_THAT(error_of(with("model", R"("fem")")), Catch::StartsWith("scene.json: model: expected \"fem-linear\""));
+  CHECK_THAT(error_of(with("materials", R"({"*": {"poisson": 0.5}})")), Catch::Contains("materials.*.poisson: expected a Poisson's ratio in [0, 0.5)"));
+  CHECK_THAT(error_of(with("materials", R"({"liver": {"young": 1}})")), Catch::Contains("materials.liver: expected \"*\" or an integer"));
+  CHECK_THAT(error_of(with("materials", R"({"3": {"young": 0}})")), Catch::Contains("materials.3.young: expected a positive number"));
+  CHECK_THAT(error_of(with("fixed", R"([{"box": [0, 0, 0, 1, 1]}])")), Catch::Contains("fixed[0].box: expected [xmin, ymin, zmin, xmax, ymax, zmax]"));
+  CHECK_THAT(error_of(with("fixed", R"([{"box": [1, 0, 0, 0, 1, 1]}])")), Catch::Contains("fixed[0].box: expected min <= max"));
+  CHECK_THAT(error_of(with("loads", R"([{"type": "push"}])")), Catch::Contains("loads[0].type: expected \"force\", \"gravity\" or \"probe\""));
+  CHECK_THAT(error_of(with("loads", R"([{"type": "force", "box": [0,0,0,1,1,1]}])")), Catch::Contains("loads[0].total: missing"));
+  CHECK_THAT(error_of(with("loads", R"([{"type": "gravity", "g": [0, 0]}])")), Catch::Contains("loads[0].g: expected an array of 3 numbers"));
+  CHECK_THAT(error_of(with("loads", R"([{"type": "probe", "box": [0,0,0,1,1,1], "displacement": [0,0,1], "from_frame": 5, "to_frame": 2}])")),
+             Catch::Contains("loads[0].to_frame: expected an integer >= from_frame"));
+  CHECK_THAT(error_of(with("time", R"({"frames": 0})")), Catch::Contains("time.frames: expected an integer >= 1"));
+  CHECK_THAT(error_of(with("time", R"({"integrator": "verlet"})")), Catch::Contains("time.integrator: expected \"static\" or \"implicit-euler\""));
+  CHECK_THAT(error_of(with("mesh", R"({"generate": "torus"})")), Catch::Contains("mesh.generate: expected \"box\" or \"ellipsoid\""));
+  CHECK_THAT(error_of(with("mesh", "42")), Catch::Contains("mesh: expected a mesh file name"));
+  CHECK_THAT(error_of(std::string(kGood) + "x"), Catch::StartsWith("scene.json:9: invalid JSON"));
+  CHECK_THAT(error_of("{\n \"mesh\": \"a.vtu\",\n \"oops\": 1}"), Catch::Contains("scene.json: oops: unknown key"));
+  CHECK_THAT(error_of("[1, 2]"), Catch::Contains("expected an object"));
+  // Comments (as in the documentation) are accepted.
+  CHECK(error_of("{ // a comment\n \"mesh\": \"a.vtu\" }") == "(no error)");
+}
+
+TEST_CASE("bad scene content is refused before anything is written", "[scene][errors]") {
+  const fs::path out = temp_dir("bad");
+  SceneRunOptions ro;
+  ro.out_dir = out.string();
+  // A box outside the mesh.
+  Scene s = parse_scene(with("fixed", R"([{"box": [10, 10, 10, 11, 11, 11]}])"), "scene.json");
+  CHECK_THROWS_WITH(run_scene(s, ro), Catch::Contains("scene.json: fixed[0].box: selects no vertex; the mesh spans"));
+  // Under-constrained static scene.
+  s = parse_scene(with("fixed", "[]"), "scene.json");
+  s.loads.erase(s.loads.begin());  // no probe either
+  CHECK_THROWS_WITH(run_scene(s, ro), Catch::Contains("scene.json: fixed: static solve is under-constrained"));
+  // A missing mesh file is named.
+  s = parse_scene(with("mesh", R"("no_such_mesh.vtu")"), "/tmp/x/scene.json");
+  CHECK_THROWS_WITH(run_scene(s, ro), Catch::Contains("no_such_mesh.vtu"));
+  CHECK_FALSE(fs::exists(out));
+}
+
+TEST_CASE("a scene runs end to end: frames, series and stats", "[scene]") {
+  const fs::path out = temp_dir("good");
+  SceneRunOptions ro;
+  ro.out_dir = out.string();
+  const Scene s = parse_scene(kGood, "scene.json");
+  const SceneRunSummary sum = run_scene(s, ro);
+  CHECK(sum.frames == 6);
+  CHECK(sum.frames_not_converged == 0);
+  for (int f = 0; f < 6; ++f) CHECK(fs::exists(out / ("frame_000" + std::to_string(f) + ".vtu")));
+  REQUIRE(fs::exists(out / "frames.pvd"));
+  REQUIRE(fs::exists(out / "stats.csv"));
+  std::ifstream csv(out / "stats.csv");
+  std::string header;
+  std::getline(csv, header);
+  CHECK_THAT(header, Catch::StartsWith("frame,time,iterations,relative_residual,solve_ms,budget_exhausted"));
+  int rows = 0;
+  for (std::string line; std::getline(csv, line);) ++rows;
+  CHECK(rows == 6);
+  // The last frame's points are current positions: the probed face (x = 4) moved by -0.2 in z,
+  // so its z values are the lattice values {0, 0.5, 1} shifted by -0.2.
+  const TetMesh frame = read_tet_mesh((out / "frame_0005.vtu").string());
+  int n = 0;
+  for (VertexId v : frame.vertices())
+    if (std::abs(frame.rest(v).x() - 4) < 1e-12) {
+      const double z = frame.rest(v).z() + 0.2;
+      CHECK(std::abs(z - std::round(2 * z) / 2) < 1e-12);
+      ++n;
+    }
+  CHECK(n == 9);
+  CHECK(sum.max_displacement >= 0.2 - 1e-9);
+  fs::remove_all(out);
+}
+
+TEST_CASE("dynamic FEM, springs and budgeted scenes run", "[scene]") {
+  const fs::path out = temp_dir("dyn");
+  SceneRunOptions ro;
+  ro.out_dir = out.string();
+  Scene s = parse_scene(with("time", R"({"frames": 5, "dt": 0.01, "integrator": "implicit-euler", "damping": 1})"), "scene.json");
+  SceneRunSummary sum = run_scene(s, ro);
+  CHECK(sum.frames == 5);
+  CHECK(sum.frames_not_converged == 0);
+
+  s = parse_scene(with("model", R"("springs")"), "scene.json");
+  s.integrator = "implicit-euler";
+  s.frames = 3;
+  sum = run_scene(s, ro);
+  CHECK(sum.frames == 3);
+  CHECK(std::isfinite(sum.max_displacement));
+
+  s = parse_scene(with("solver", R"({"budget_ms": 0.001, "tolerance": 1e-12})"), "scene.json");
+  s.frames = 3;
+  sum = run_scene(s, SceneRunOptions{});
+  CHECK(sum.frames_budget_exhausted == 3);
+
+  s = parse_scene(with("solver", R"({"method": "direct"})"), "scene.json");
+  s.model = SceneModel::FemCorotational;
+  sum = run_scene(s, SceneRunOptions{});
+  CHECK(sum.frames_not_converged == 0);
+  fs::remove_all(out);
+}
+
+TEST_CASE("the bundled sample scene parses and runs", "[scene]") {
+  const std::string path = std::string(INCISE_SOURCE_DIR) + "/samples/scenes/beam.json";
+  const Scene s = load_scene(path);
+  SceneRunOptions ro;
+  ro.frames = 2;
+  const SceneRunSummary sum = run_scene(s, ro);
+  CHECK(sum.frames == 2);
+  CHECK(sum.tets > 1000);
+  CHECK(sum.max_displacement > 0);
+}
