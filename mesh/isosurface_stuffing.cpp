@@ -12,6 +12,7 @@
 
 #include "mesh/errors.h"
 #include "mesh/generate.h"
+#include "mesh/isosurface_stuffing_graded.h"
 
 // Lattice layout. Cubes of side h indexed c = (i,j,k), i in [0, n). Lattice points carry
 // doubled integer coordinates: corner (i,j,k) -> (2i,2j,2k), centre of cube c -> 2c+1, so
@@ -89,7 +90,7 @@ private:
   std::size_t size_ = 0;
 };
 
-using Key3 = std::array<std::int32_t, 3>;
+using Key3 = stuffing_detail::Key3;
 
 std::uint64_t pack(const Key3& k) {
   return std::uint64_t(k[0]) | (std::uint64_t(k[1]) << kKeyBits) | (std::uint64_t(k[2]) << (2 * kKeyBits));
@@ -175,9 +176,14 @@ public:
     // One cube of margin on each side: lattice points on the lattice's own border are
     // then strictly outside the (box-clipped) domain, so no output tet needs a missing cube.
     origin_ = lo_ - Vec3::Constant(h_);
-    std::vector<Node> leaves = descend();
-    build_lattice_tets(leaves);
-    find_cut_points();
+    if (opt_.graded) {
+      build_graded_lattice();
+    } else {
+      std::vector<Node> leaves = descend();
+      build_lattice_tets(leaves);
+      collect_cuts();
+    }
+    solve_cuts();
     warp();
     fill();
     return make_mesh();
@@ -311,7 +317,9 @@ private:
       throw InvalidArgument("isosurface_stuffing: sdf >= 0 at every lattice point in the box: empty mesh");
   }
 
-  void find_cut_points() {
+  // The sign-changing lattice edges. Only (centre, centre, corner, corner) tets have them, so
+  // local edges (0,1) and (2,3) are the long ones.
+  void collect_cuts() {
     static constexpr int kEdges[6][2] = {{0, 1}, {2, 3}, {0, 2}, {0, 3}, {1, 2}, {1, 3}};
     for (const auto& t : lattice_tets_)
       for (int e = 0; e < 6; ++e) {
@@ -321,6 +329,62 @@ private:
         cut_of_.insert(edge_key(a, b), static_cast<std::uint32_t>(cuts_.size()), inserted);
         if (inserted) cuts_.push_back({std::min(a, b), std::max(a, b), e < 2, 0.0, Vec3::Zero()});
       }
+  }
+
+  // Graded lattice (isosurface_stuffing_graded.h). The cut, warp and stencil steps below are
+  // the uniform ones; they stay exactly the uniform algorithm if every lattice tet that
+  // touches a vertex they can move or cut (one with f = 0 or ending a sign-changing edge) is
+  // a finest BCC tet: those vertices then have the uniform lattice's star. Coarse and
+  // transition tets are then wholly inside or outside and keep their lattice shape. The
+  // lattice builder arranges that for a 1-Lipschitz f; this checks it, and rebuilds finer
+  // around every offending tet until it holds (an sdf that breaks the contract costs rounds,
+  // never a wrong mesh).
+  void build_graded_lattice() {
+    stuffing_detail::GradedLatticeInput in;
+    in.cells = n_;
+    in.h = h_;
+    in.max_tets = opt_.max_tets;
+    in.value = [this](const Key3& k) { return value_[vertex(k)]; };
+    in.refuse = [this](double estimate) {
+      estimate_ = estimate;
+      refuse();
+    };
+    for (int round = 0;; ++round) {
+      lattice_tets_.clear();
+      fine_.clear();
+      cuts_.clear();
+      cut_of_ = KeyMap(1 << 12);
+      stuffing_detail::graded_bcc_lattice(in, [this](const std::array<Key3, 4>& k, bool fine) {
+        std::array<std::uint32_t, 4> t{vertex(k[0]), vertex(k[1]), vertex(k[2]), vertex(k[3])};
+        if (sign_[t[0]] < 0 || sign_[t[1]] < 0 || sign_[t[2]] < 0 || sign_[t[3]] < 0) {
+          lattice_tets_.push_back(t);
+          fine_.push_back(fine);
+          if (lattice_tets_.size() > opt_.max_tets) {
+            estimate_ = std::max(estimate_, double(lattice_tets_.size()));
+            refuse();
+          }
+        }
+      });
+      if (lattice_tets_.empty())
+        throw InvalidArgument("isosurface_stuffing: sdf >= 0 at every lattice point in the box: empty mesh");
+      collect_cuts();
+      std::vector<std::uint8_t> touched(key_.size(), 0);
+      for (const CutEdge& c : cuts_) touched[c.u] = touched[c.w] = 1;
+      const std::size_t before = in.forced.size();
+      for (std::size_t i = 0; i < lattice_tets_.size(); ++i) {
+        if (fine_[i]) continue;
+        const auto& t = lattice_tets_[i];
+        bool bad = false;
+        for (std::uint32_t v : t) bad |= sign_[v] >= 0 || touched[v];
+        if (bad)
+          for (std::uint32_t v : t) in.forced.push_back(key_[v]);
+      }
+      if (in.forced.size() == before) return;
+      if (round >= 40) throw Error("isosurface_stuffing: internal error: the graded lattice does not settle");
+    }
+  }
+
+  void solve_cuts() {
     const double tol = 1e-12 * h_;
     for (CutEdge& c : cuts_) {
       const Vec3 xu = pos_[c.u], xw = pos_[c.w];
@@ -546,6 +610,7 @@ private:
   std::vector<std::int8_t> sign_;  // -1 inside, 0 on the surface (or warped), +1 outside
 
   std::vector<std::array<std::uint32_t, 4>> lattice_tets_;  // tets with an inside vertex
+  std::vector<std::uint8_t> fine_;                          // graded: lattice_tets_[i] is a finest BCC tet
   KeyMap cut_of_;                                           // edge -> cut point
   std::vector<CutEdge> cuts_;
   std::vector<std::array<std::uint32_t, 4>> out_;
@@ -558,8 +623,6 @@ TetMesh isosurface_stuffing(const std::function<double(const Vec3&)>& sdf, const
   if (!sdf) throw InvalidArgument("isosurface_stuffing: no sdf given");
   if (!(options.cell_size > 0) || !std::isfinite(options.cell_size))
     throw InvalidArgument("isosurface_stuffing: cell_size must be positive and finite");
-  if (options.graded)
-    throw InvalidArgument("isosurface_stuffing: the graded (octree) variant is not implemented; use graded = false");
   if (!(options.alpha_long > 0 && options.alpha_long < 0.5) || !(options.alpha_short > 0 && options.alpha_short < 0.5))
     throw InvalidArgument("isosurface_stuffing: alpha_long and alpha_short must lie in (0, 0.5)");
   if (options.max_tets == 0) throw InvalidArgument("isosurface_stuffing: max_tets must be positive");

@@ -24,6 +24,23 @@
 //    a manifold with the surface's topology depends on h resolving the surface's features.
 //  - Output: positively oriented tets labelled options.label, boundary faces tagged
 //    kTagSurface, no pending TopologyChange.
+//  - Graded (options.graded): the lattice comes from an octree balanced 2:1 across faces and
+//    edges. Its leaves are cubes of edge h over the whole star of every lattice vertex the
+//    cut and warp steps can touch (f = 0 there, or it ends a sign-changing edge) and double
+//    in size away from the surface, inside and outside; bisected and quadrisected BCC tets
+//    and half pyramids join cells of different sizes. Cut, warp (same alphas) and stencils
+//    are the uniform ones. The rule is checked at run time (and the octree refined until it
+//    holds, which only an sdf off the contract needs), so every tet the stencils change sees
+//    exactly the uniform lattice around it and the uniform [10.7, 164.8] deg argument applies
+//    to it; every other output tet is an unchanged lattice tet (45 to 120 deg). That rule is
+//    stricter than the paper's graded octree, whose own graded alphas and bounds are not
+//    reproduced here. Measured, 300 random shapes, placements and h: 12.9 .. 155.0 deg
+//    (uniform on the same inputs: 10.9 .. 158.0). Near the surface the lattice is the uniform
+//    one, so boundary and volume match the uniform mesh's (up to the warping order); the
+//    interior costs O(area / h^2) tets and sdf calls instead of O(volume / h^3): on a sphere
+//    0.51, 0.29, 0.16 of the uniform tet count at r/h = 16, 32, 64. A level set saturating
+//    within ~3h of its surface makes the graded build sample every lattice point (in blocks
+//    whose value is below the saturation), as the uniform build does.
 // Throws InvalidArgument for bad options, a box that is empty or not finite, a sdf returning
 // NaN, an empty result (sdf >= 0 at every lattice point), or an estimated size above
 // max_tets (the message gives the estimate).
@@ -36,14 +53,15 @@ namespace incise {
 
 struct StuffingOptions {
   double cell_size = 0;        // BCC lattice spacing h: cube edge (long edges); required, > 0
-  bool graded = false;         // octree-graded lattice: not implemented, true is refused
+  bool graded = false;         // octree-graded lattice: finest (h) near the surface only
   double alpha_long = 0.24999; // warp threshold on long (same-grid) edges, fraction of length
   double alpha_short = 0.41189;// warp threshold on short (cross-grid) edges, fraction of length
   int label = 1;               // region label of every output tet
   std::size_t max_tets = 50'000'000;  // refuse (with an estimate) beyond this many tets
 };
 
-// Dihedral angle bounds (degrees) the paper guarantees for the default alphas.
+// Dihedral angle bounds (degrees) the paper guarantees for the default alphas (graded: see
+// the contract above).
 inline constexpr double kStuffingMinDihedral = 10.7;
 inline constexpr double kStuffingMaxDihedral = 164.8;
 

@@ -313,7 +313,7 @@ TEST_CASE("stuffing: bad options and empty results are refused", "[stuffing]") {
   CHECK_THROWS_AS(isosurface_stuffing(s, lo, hi, with([](auto& o) { o.cell_size = -1; })), InvalidArgument);
   CHECK_THROWS_AS(isosurface_stuffing(s, lo, hi, with([](auto& o) { o.cell_size = std::nan(""); })), InvalidArgument);
   CHECK_THROWS_AS(isosurface_stuffing(s, lo, hi, with([](auto& o) { o.cell_size = INFINITY; })), InvalidArgument);
-  CHECK_THROWS_AS(isosurface_stuffing(s, lo, hi, with([](auto& o) { o.graded = true; })), InvalidArgument);
+  CHECK_THROWS_AS(isosurface_stuffing(s, lo, hi, with([](auto& o) { o.graded = true; o.cell_size = 0; })), InvalidArgument);
   CHECK_THROWS_AS(isosurface_stuffing(s, lo, hi, with([](auto& o) { o.alpha_long = 0.5; })), InvalidArgument);
   CHECK_THROWS_AS(isosurface_stuffing(s, lo, hi, with([](auto& o) { o.alpha_short = std::nan(""); })), InvalidArgument);
   CHECK_THROWS_AS(isosurface_stuffing(s, hi, lo, opt), InvalidArgument);                          // empty box
