@@ -14,8 +14,9 @@ struct SurfaceMesh {
 };
 
 // Reads any surface format assimp reads (OBJ, STL ascii/binary, PLY, OFF, glTF, ...).
-// Polygons are triangulated; vertices are kept as in the file (not welded). Throws
-// IoError naming the file for unreadable input or a file without triangles.
+// Polygons are fan-triangulated, node transforms applied, points and lines dropped;
+// vertices are kept as the importer gives them (not welded; STL has one per corner).
+// Throws IoError naming the file for unreadable input or a file without triangles.
 SurfaceMesh read_surface(const std::string& path);
 
 // Writes OFF, OBJ, or STL (ASCII) chosen by extension; atomic.

@@ -3,12 +3,18 @@
 // against the content:
 //   .msh        Gmsh 2.2 ASCII (read/write), 4.1 ASCII (read), 1.0 (read)
 //   .mesh       Medit (read/write)
-//   .vtk        VTK legacy, ASCII or binary (read/write)
-//   .vtu        VTK XML UnstructuredGrid, ascii or base64 binary, either byte order (read/write)
+//   .vtk        VTK legacy 4.2 / 5.1, ASCII or binary (read/write 4.2)
+//   .vtu        VTK XML UnstructuredGrid, ascii or base64 binary (inline or appended,
+//               UInt32/UInt64 headers, either byte order, zlib-compressed read) (read/write)
 //   .node/.ele  TetGen (read/write; either name may be given)
-// Region labels travel through every format that carries them. Non-tet cells are skipped,
-// unreferenced vertices kept. Tets are reoriented to positive volume on read. Every write is
-// atomic (temporary file in the same directory, then rename).
+// Region labels travel through every format that carries them (msh physical tag, medit ref,
+// vtk/vtu cell data "label" -- also read as "gmsh:physical", "CellEntityIds", "medit:ref" --,
+// TetGen region attribute). Non-tet cells are skipped and counted, unreferenced vertices
+// kept. Quadratic tets are read as their four corners. Tets are reoriented to positive volume
+// on read. Every boundary face is tagged kTagSurface, or with the tag of a boundary triangle
+// the file carries (msh, medit). Positions are written in shortest round-trip form, so they
+// read back bit-exact. Every write is atomic (temporary file in the same directory, then
+// rename); a failed write leaves the destination untouched.
 #include <string>
 #include <vector>
 
@@ -22,6 +28,8 @@ struct ReadReport {
   std::size_t skipped_cells = 0;         // triangles, lines, points beside the tets
   std::size_t reoriented_tets = 0;       // tets read with negative volume and flipped
   std::size_t unreferenced_vertices = 0;
+  std::size_t degenerate_tets = 0;       // zero volume, kept as read
+  std::size_t tagged_boundary_faces = 0; // boundary faces that got a tag from the file
   std::string format;                    // e.g. "gmsh 4.1 ascii"
 };
 
@@ -29,6 +37,7 @@ struct WriteOptions {
   TetFormat format = TetFormat::Auto;  // Auto: from the extension
   bool binary = false;                 // VTK legacy / VTU: binary (VTU: base64 raw)
   bool big_endian = false;             // VTU binary: byte order of the payload
+  bool header_uint64 = false;          // VTU binary: UInt64 block headers (else UInt32)
   bool write_boundary = true;          // also write boundary triangles with their tags,
                                        // where the format carries them (msh, mesh)
 };

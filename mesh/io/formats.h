@@ -1,0 +1,62 @@
+#pragma once
+// Internal to mesh/io: what each format reader produces and each writer consumes. Readers
+// only parse (checking every index and count against the file); build_mesh() turns the raw
+// arrays into a TetMesh in one O(N) pass (orientation, boundary tags, report).
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "mesh/io/atomic_file.h"
+#include "mesh/io/tet_io.h"
+
+namespace incise::io {
+
+struct RawMesh {
+  std::vector<Vec3> points;
+  std::vector<std::array<std::uint32_t, 4>> tets;  // indices into points
+  std::vector<int> tet_labels;
+  std::vector<long> tet_lines;                     // source line of each tet (0: unknown)
+  std::string tet_file;                            // file the tets came from (TetGen: .ele)
+  std::vector<std::array<std::uint32_t, 3>> tris;  // boundary triangles with tags (msh, medit)
+  std::vector<int> tri_tags;
+  std::size_t skipped_cells = 0;
+  std::string format;
+};
+
+// Parses `text` (the content of `file`); throws IoError on anything malformed.
+RawMesh parse_gmsh(const std::string& file, const std::string& text);
+RawMesh parse_medit(const std::string& file, const std::string& text);
+RawMesh parse_vtk_legacy(const std::string& file, const std::string& text);
+RawMesh parse_vtu(const std::string& file, const std::string& text);
+RawMesh parse_tetgen(const std::string& node_file, const std::string& node_text, const std::string& ele_file,
+                     const std::string& ele_text);
+
+TetMesh build_mesh(RawMesh&& raw, const std::string& file, ReadReport* report);
+
+// The live part of a mesh, densely renumbered, for writers.
+struct FlatMesh {
+  std::vector<Vec3> points;
+  std::vector<std::array<std::uint32_t, 4>> tets;
+  std::vector<int> labels;
+  std::vector<std::array<std::uint32_t, 3>> faces;  // boundary, outward
+  std::vector<std::uint16_t> face_tags;
+  std::vector<std::uint32_t> vertex_ids;  // dense index -> VertexId
+  std::vector<std::uint32_t> tet_ids;     // dense index -> TetId
+  // Fields gathered to dense order (components * count values each).
+  struct DenseField {
+    std::string name;
+    int components = 1;
+    std::vector<double> values;
+  };
+  std::vector<DenseField> point_data;
+  std::vector<DenseField> cell_data;
+};
+
+void write_gmsh22(const FlatMesh& m, AtomicFile& out, const WriteOptions& options);
+void write_medit(const FlatMesh& m, AtomicFile& out, const WriteOptions& options);
+void write_vtk_legacy(const FlatMesh& m, AtomicFile& out, const WriteOptions& options);
+void write_vtu(const FlatMesh& m, AtomicFile& out, const WriteOptions& options);
+void write_tetgen(const FlatMesh& m, AtomicFile& node, AtomicFile& ele, const WriteOptions& options);
+
+}  // namespace incise::io

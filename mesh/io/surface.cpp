@@ -1,0 +1,227 @@
+// Triangle surfaces: assimp for reading, a few plain text formats for writing.
+#include "mesh/io/surface.h"
+
+#include <assimp/Importer.hpp>
+#include <assimp/scene.h>
+#include <sys/stat.h>
+
+#include <cctype>
+#include <fstream>
+#include <sstream>
+
+#include "mesh/errors.h"
+#include "mesh/io/atomic_file.h"
+#include "mesh/io/parse_util.h"
+
+namespace incise {
+
+namespace {
+std::string lower_ext(const std::string& path) {
+  auto slash = path.find_last_of('/');
+  auto dot = path.find_last_of('.');
+  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return {};
+  std::string ext = path.substr(dot + 1);
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+// assimp's PLY importer loops forever on some malformed headers (found by fuzz_surface), so
+// the header is checked here first: known keywords, well-formed element and property lines.
+void check_ply_header(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  long n = 0;
+  auto fail = [&](const std::string& why) { io::throw_io(path, n, "bad PLY header: " + why); };
+  static const char* kTypes[] = {"char",  "uchar", "short",  "ushort",  "int",     "uint",   "float",  "double", "int8",
+                                 "uint8", "int16", "uint16", "int32",   "uint32",  "float32", "float64"};
+  auto is_type = [&](const std::string& t) {
+    for (const char* k : kTypes)
+      if (t == k) return true;
+    return false;
+  };
+  while (std::getline(in, line)) {
+    ++n;
+    if (n > 10000) fail("no end_header in the first 10000 lines");
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    std::istringstream ls(line);
+    std::string kw;
+    ls >> kw;
+    if (n == 1) {
+      if (kw != "ply") fail("the first line must be 'ply'");
+      continue;
+    }
+    if (kw == "end_header") return;
+    if (kw == "comment" || kw == "obj_info") continue;
+    std::vector<std::string> w;
+    for (std::string t; ls >> t;) w.push_back(t);
+    if (kw == "format") {
+      if (w.size() != 2 || (w[0] != "ascii" && w[0] != "binary_little_endian" && w[0] != "binary_big_endian"))
+        fail("bad format line");
+    } else if (kw == "element") {
+      if (w.size() != 2 || w[1].find_first_not_of("0123456789") != std::string::npos || w[1].size() > 10)
+        fail("bad element line");
+    } else if (kw == "property") {
+      bool ok = (w.size() == 2 && is_type(w[0])) || (w.size() == 4 && w[0] == "list" && is_type(w[1]) && is_type(w[2]));
+      if (!ok) fail("bad property line");
+    } else {
+      fail("unknown keyword '" + io::Cursor::shorten(kw) + "'");
+    }
+  }
+  fail("no end_header");
+}
+
+}  // namespace
+
+SurfaceMesh read_surface(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) io::throw_io(path, 0, "cannot open file (does it exist?)");
+  if (S_ISDIR(st.st_mode)) io::throw_io(path, 0, "is a directory, not a file");
+  if (st.st_size == 0) io::throw_io(path, 0, "empty file");
+  if (lower_ext(path) == "ply") check_ply_header(path);
+  Assimp::Importer importer;
+  // No assimp post-processing: its steps assert (abort) on malformed input, e.g. a face
+  // with no vertices in TriangulateProcess. Polygons are fan-triangulated and node
+  // transforms applied here instead.
+  const aiScene* scene = importer.ReadFile(path, 0);
+  if (!scene) {
+    std::string why = importer.GetErrorString();
+    while (!why.empty() && (why.back() == '\n' || why.back() == '\r')) why.pop_back();
+    for (char& c : why)
+      if (c == '\n' || c == '\r') c = ' ';
+    io::throw_io(path, 0, "cannot read surface: " + (why.empty() ? std::string("unknown format") : why));
+  }
+  SurfaceMesh s;
+  auto add_mesh = [&](const aiMesh* mesh, const aiMatrix4x4& transform) {
+    if (!mesh || !mesh->mVertices || !mesh->mFaces) return;
+    const int base = static_cast<int>(s.vertices.size());
+    bool any = false;
+    for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
+      const aiFace& face = mesh->mFaces[f];
+      if (face.mNumIndices < 3 || !face.mIndices) continue;  // points and lines
+      for (unsigned k = 0; k < face.mNumIndices; ++k)
+        if (face.mIndices[k] >= mesh->mNumVertices) io::throw_io(path, 0, "face index out of range");
+      for (unsigned k = 1; k + 1 < face.mNumIndices; ++k)
+        s.triangles.push_back({base + static_cast<int>(face.mIndices[0]), base + static_cast<int>(face.mIndices[k]),
+                               base + static_cast<int>(face.mIndices[k + 1])});
+      any = true;
+    }
+    if (!any) return;
+    for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
+      const aiVector3D p = transform * mesh->mVertices[v];
+      Vec3 q(p.x, p.y, p.z);
+      if (!q.allFinite()) io::throw_io(path, 0, "non-finite vertex coordinate");
+      s.vertices.push_back(q);
+    }
+  };
+  if (scene->mRootNode) {
+    struct Item {
+      const aiNode* node;
+      aiMatrix4x4 parent;
+    };
+    std::vector<Item> stack{{scene->mRootNode, aiMatrix4x4()}};
+    std::size_t visited = 0;
+    while (!stack.empty()) {
+      Item it = stack.back();
+      stack.pop_back();
+      if (!it.node) continue;
+      if (++visited > 1000000) io::throw_io(path, 0, "scene graph too large or cyclic");
+      const aiMatrix4x4 m = it.parent * it.node->mTransformation;
+      for (unsigned i = 0; i < it.node->mNumMeshes; ++i)
+        if (it.node->mMeshes && it.node->mMeshes[i] < scene->mNumMeshes) add_mesh(scene->mMeshes[it.node->mMeshes[i]], m);
+      for (unsigned c = 0; c < it.node->mNumChildren; ++c)
+        if (it.node->mChildren) stack.push_back({it.node->mChildren[c], m});
+    }
+  } else {
+    for (unsigned i = 0; i < scene->mNumMeshes; ++i) add_mesh(scene->mMeshes[i], aiMatrix4x4());
+  }
+  if (s.triangles.empty()) io::throw_io(path, 0, "no triangles in the file");
+  return s;
+}
+
+void write_surface(const SurfaceMesh& surface, const std::string& path) {
+  const std::string ext = lower_ext(path);
+  if (ext != "off" && ext != "obj" && ext != "stl")
+    io::throw_io(path, 0, "unknown surface format '." + ext + "' (write .off, .obj or .stl)");
+  const int nv = static_cast<int>(surface.vertices.size());
+  for (const auto& t : surface.triangles)
+    for (int v : t)
+      if (v < 0 || v >= nv) throw InvalidArgument("write_surface: triangle index " + std::to_string(v) + " out of range");
+  AtomicFile out(path);
+  std::string b;
+  auto vec = [&](const Vec3& p) {
+    for (int d = 0; d < 3; ++d) {
+      b += ' ';
+      io::append_real(b, p[d]);
+    }
+  };
+  if (ext == "off") {
+    b += "OFF\n" + std::to_string(nv) + " " + std::to_string(surface.triangles.size()) + " 0\n";
+    for (const Vec3& p : surface.vertices) {
+      vec(p);
+      b += '\n';
+      out.flush_if_large(b);
+    }
+    for (const auto& t : surface.triangles) {
+      b += "3 " + std::to_string(t[0]) + " " + std::to_string(t[1]) + " " + std::to_string(t[2]) + "\n";
+      out.flush_if_large(b);
+    }
+  } else if (ext == "obj") {
+    b += "# incise surface\n";
+    for (const Vec3& p : surface.vertices) {
+      b += 'v';
+      vec(p);
+      b += '\n';
+      out.flush_if_large(b);
+    }
+    for (const auto& t : surface.triangles) {
+      b += "f " + std::to_string(t[0] + 1) + " " + std::to_string(t[1] + 1) + " " + std::to_string(t[2] + 1) + "\n";
+      out.flush_if_large(b);
+    }
+  } else {
+    b += "solid incise\n";
+    for (const auto& t : surface.triangles) {
+      const Vec3 &a = surface.vertices[t[0]], &c = surface.vertices[t[1]], &d = surface.vertices[t[2]];
+      Vec3 n = (c - a).cross(d - a);
+      double len = n.norm();
+      if (len > 0) n /= len;
+      b += "facet normal";
+      vec(n);
+      b += "\nouter loop\n";
+      for (const Vec3* p : {&a, &c, &d}) {
+        b += "vertex";
+        vec(*p);
+        b += '\n';
+      }
+      b += "endloop\nendfacet\n";
+      out.flush_if_large(b);
+    }
+    b += "endsolid incise\n";
+  }
+  out.write(b);
+  out.commit();
+}
+
+SurfaceMesh boundary_surface(const TetMesh& mesh) {
+  SurfaceMesh s;
+  std::vector<int> map(mesh.vertex_capacity(), -1);
+  std::vector<std::array<VertexId, 3>> faces;
+  for (std::uint32_t ti = 0; ti < mesh.tet_capacity(); ++ti) {
+    TetId t(ti);
+    if (!mesh.is_alive(t)) continue;
+    for (int f = 0; f < 4; ++f)
+      if (!mesh.neighbor(t, f).is_valid()) {
+        faces.push_back(mesh.face_vertices(t, f));
+        for (VertexId v : faces.back()) map[v.idx()] = 0;
+      }
+  }
+  // Increasing VertexId order, so the numbering does not depend on face order.
+  for (std::uint32_t v = 0; v < map.size(); ++v)
+    if (map[v] == 0) {
+      map[v] = static_cast<int>(s.vertices.size()) + 1;
+      s.vertices.push_back(mesh.rest(VertexId(v)));
+    }
+  s.triangles.reserve(faces.size());
+  for (const auto& f : faces) s.triangles.push_back({map[f[0].idx()] - 1, map[f[1].idx()] - 1, map[f[2].idx()] - 1});
+  return s;
+}
+
+}  // namespace incise

@@ -1,0 +1,333 @@
+// Format dispatch, the shared mesh builder and the flattening writers start from.
+#include "mesh/io/tet_io.h"
+
+#include <algorithm>
+#include <fstream>
+#include <sys/stat.h>
+#include <unordered_map>
+
+#include "mesh/errors.h"
+#include "mesh/generate.h"
+#include "mesh/io/formats.h"
+#include "mesh/io/parse_util.h"
+
+namespace incise {
+
+namespace io {
+
+std::string read_file_bytes(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) io::throw_io(path, 0, "cannot open file (does it exist?)");
+  if (S_ISDIR(st.st_mode)) io::throw_io(path, 0, "is a directory, not a file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) io::throw_io(path, 0, "cannot open file for reading");
+  std::string data;
+  in.seekg(0, std::ios::end);
+  std::streamoff size = in.tellg();
+  in.seekg(0, std::ios::beg);
+  if (size > 0) {
+    data.resize(static_cast<std::size_t>(size));
+    in.read(data.data(), size);
+    if (in.gcount() != size) io::throw_io(path, 0, "read error");
+  } else {
+    // Not seekable (a pipe): read as a stream.
+    data.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  return data;
+}
+
+namespace {
+
+struct TriKey {
+  std::uint32_t a, b, c;
+  bool operator==(const TriKey&) const = default;
+};
+struct TriKeyHash {
+  std::size_t operator()(const TriKey& k) const noexcept {
+    std::uint64_t h = k.a * 0x9E3779B97F4A7C15ull;
+    h ^= (h >> 29) + k.b * 0xBF58476D1CE4E5B9ull;
+    h ^= (h >> 31) + k.c * 0x94D049BB133111EBull;
+    return static_cast<std::size_t>(h ^ (h >> 32));
+  }
+};
+TriKey sorted_key(std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+  if (a > b) std::swap(a, b);
+  if (b > c) std::swap(b, c);
+  if (a > b) std::swap(a, b);
+  return {a, b, c};
+}
+
+}  // namespace
+
+TetMesh build_mesh(RawMesh&& raw, const std::string& file, ReadReport* report) {
+  const std::string& tfile = raw.tet_file.empty() ? file : raw.tet_file;
+  if (raw.tets.empty()) {
+    if (raw.skipped_cells > 0 || !raw.tris.empty())
+      io::throw_io(tfile, 0,
+                    "no tetrahedra (" + std::to_string(raw.skipped_cells + raw.tris.size()) +
+                        " other cells only): a volume mesh is needed, not a surface");
+    io::throw_io(tfile, 0, "no tetrahedra");
+  }
+  const std::size_t np = raw.points.size();
+  TetMesh m;
+  m.reserve(np, raw.tets.size());
+  for (const Vec3& p : raw.points) m.add_vertex(p);
+  std::size_t reoriented = 0, degenerate = 0;
+  for (std::size_t i = 0; i < raw.tets.size(); ++i) {
+    auto t = raw.tets[i];
+    long line = i < raw.tet_lines.size() ? raw.tet_lines[i] : 0;
+    auto where = [&] { return line > 0 ? std::string("tet") : "tet #" + std::to_string(i); };
+    for (std::uint32_t v : t)
+      if (v >= np) io::throw_io(tfile, line, where() + " references vertex " + std::to_string(v) + " out of range");
+    const Vec3 &a = raw.points[t[0]], &b = raw.points[t[1]], &c = raw.points[t[2]], &d = raw.points[t[3]];
+    double det = (b - a).cross(c - a).dot(d - a);
+    if (det < 0) {
+      std::swap(t[2], t[3]);
+      ++reoriented;
+    } else if (det == 0) {
+      ++degenerate;
+    }
+    TetId id;
+    try {
+      id = m.add_tet(VertexId(t[0]), VertexId(t[1]), VertexId(t[2]), VertexId(t[3]),
+                     i < raw.tet_labels.size() ? raw.tet_labels[i] : 0);
+    } catch (const InvalidMesh& e) {
+      io::throw_io(tfile, line, where() + ": " + e.what());
+    }
+    // Tets sharing a face must lie on opposite sides of it (the face runs opposite ways in
+    // the two); the same four vertices twice is the extreme case. Either is no mesh.
+    for (int f = 0; f < 4; ++f) {
+      TetId n = m.neighbor(id, f);
+      if (!n.is_valid()) continue;
+      if (m.local_index(n, VertexId(t[f])) >= 0)
+        io::throw_io(tfile, line, where() + " repeats tet #" + std::to_string(n.idx()) + " (same four vertices)");
+      int g = 0;
+      while (g < 4 && m.neighbor(n, g) != id) ++g;
+      auto fa = m.face_vertices(id, f);
+      auto fb = m.face_vertices(n, g);
+      int k = 0;
+      while (k < 3 && fb[k] != fa[0]) ++k;
+      if (g == 4 || k == 3 || fb[(k + 1) % 3] != fa[2])
+        io::throw_io(tfile, line, where() + " overlaps tet #" + std::to_string(n.idx()) +
+                                      " (both on the same side of their shared face)");
+    }
+  }
+  tag_boundary(m);
+  std::size_t tagged = 0;
+  if (!raw.tris.empty()) {
+    std::unordered_map<TriKey, int, TriKeyHash> tags;
+    tags.reserve(raw.tris.size());
+    for (std::size_t i = 0; i < raw.tris.size(); ++i) {
+      const auto& f = raw.tris[i];
+      if (f[0] >= np || f[1] >= np || f[2] >= np) continue;  // readers already reject these
+      tags[sorted_key(f[0], f[1], f[2])] = raw.tri_tags[i];
+    }
+    for (std::uint32_t ti = 0; ti < m.tet_capacity(); ++ti) {
+      TetId t(ti);
+      for (int f = 0; f < 4; ++f) {
+        if (m.neighbor(t, f).is_valid()) continue;
+        auto fv = m.face_vertices(t, f);
+        auto it = tags.find(sorted_key(fv[0].idx(), fv[1].idx(), fv[2].idx()));
+        if (it != tags.end() && it->second > 0 && it->second <= 0xffff) {
+          m.set_face_tag(t, f, static_cast<std::uint16_t>(it->second));
+          ++tagged;
+        }
+      }
+    }
+  }
+  std::size_t unreferenced = 0;
+  for (std::uint32_t v = 0; v < np; ++v)
+    if (m.incident_tets(VertexId(v)).empty()) ++unreferenced;
+  if (report) {
+    report->skipped_cells = raw.skipped_cells;
+    report->reoriented_tets = reoriented;
+    report->degenerate_tets = degenerate;
+    report->unreferenced_vertices = unreferenced;
+    report->tagged_boundary_faces = tagged;
+    report->format = raw.format;
+  }
+  m.discard_change();
+  return m;
+}
+
+namespace {
+
+FlatMesh flatten(const TetMesh& mesh, const MeshFields* fields) {
+  FlatMesh f;
+  const std::size_t vcap = mesh.vertex_capacity(), tcap = mesh.tet_capacity();
+  if (fields && fields->points && fields->points->size() < vcap)
+    throw InvalidArgument("write_tet_mesh_with_fields: points has " + std::to_string(fields->points->size()) +
+                          " entries, the mesh has vertex capacity " + std::to_string(vcap));
+  std::vector<std::uint32_t> vmap(vcap, 0xffffffffu);
+  f.points.reserve(mesh.num_vertices());
+  f.vertex_ids.reserve(mesh.num_vertices());
+  for (std::uint32_t v = 0; v < vcap; ++v) {
+    if (!mesh.is_alive(VertexId(v))) continue;
+    vmap[v] = static_cast<std::uint32_t>(f.points.size());
+    f.points.push_back(fields && fields->points ? (*fields->points)[v] : mesh.rest(VertexId(v)));
+    f.vertex_ids.push_back(v);
+  }
+  f.tets.reserve(mesh.num_tets());
+  f.labels.reserve(mesh.num_tets());
+  f.tet_ids.reserve(mesh.num_tets());
+  for (std::uint32_t ti = 0; ti < tcap; ++ti) {
+    TetId t(ti);
+    if (!mesh.is_alive(t)) continue;
+    const auto& tv = mesh.tet_vertices(t);
+    f.tets.push_back({vmap[tv[0].idx()], vmap[tv[1].idx()], vmap[tv[2].idx()], vmap[tv[3].idx()]});
+    f.labels.push_back(mesh.label(t));
+    f.tet_ids.push_back(ti);
+    for (int k = 0; k < 4; ++k) {
+      if (mesh.neighbor(t, k).is_valid()) continue;
+      auto fv = mesh.face_vertices(t, k);
+      f.faces.push_back({vmap[fv[0].idx()], vmap[fv[1].idx()], vmap[fv[2].idx()]});
+      f.face_tags.push_back(mesh.face_tag(t, k));
+    }
+  }
+  if (fields) {
+    auto gather = [](const Field& in, const std::vector<std::uint32_t>& ids, std::size_t cap, const char* kind) {
+      if (in.components < 1 || in.components > 9)
+        throw InvalidArgument("field '" + in.name + "': components must be 1..9");
+      if (in.values.size() != std::size_t(in.components) * cap)
+        throw InvalidArgument("field '" + in.name + "': expected " + std::to_string(in.components * cap) + " " +
+                              kind + " values, got " + std::to_string(in.values.size()));
+      if (in.name.empty() || in.name.find_first_of(" \t\n\"<>&") != std::string::npos)
+        throw InvalidArgument("field name '" + in.name + "' must be non-empty without blanks or XML specials");
+      FlatMesh::DenseField d{in.name, in.components, {}};
+      d.values.reserve(ids.size() * in.components);
+      for (std::uint32_t id : ids)
+        for (int c = 0; c < in.components; ++c) d.values.push_back(in.values[std::size_t(id) * in.components + c]);
+      return d;
+    };
+    for (const Field& pd : fields->point_data) f.point_data.push_back(gather(pd, f.vertex_ids, vcap, "point"));
+    for (const Field& cd : fields->cell_data) f.cell_data.push_back(gather(cd, f.tet_ids, tcap, "cell"));
+  }
+  return f;
+}
+
+std::string lower_extension(const std::string& path) {
+  auto slash = path.find_last_of('/');
+  auto dot = path.find_last_of('.');
+  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return {};
+  std::string ext = path.substr(dot + 1);
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+bool is_surface_extension(const std::string& ext) {
+  static const char* kSurface[] = {"off", "obj", "stl", "ply", "gltf", "glb", "fbx", "dae", "3ds", "x3d"};
+  return std::any_of(std::begin(kSurface), std::end(kSurface), [&](const char* s) { return ext == s; });
+}
+
+// base.node / base.ele from either name.
+std::string tetgen_base(const std::string& path) {
+  std::string ext = lower_extension(path);
+  if (ext == "node" || ext == "ele") return path.substr(0, path.size() - ext.size() - 1);
+  return path;
+}
+
+void write_impl(const TetMesh& mesh, const std::string& path, const MeshFields* fields, const WriteOptions& options) {
+  TetFormat format = options.format == TetFormat::Auto ? format_from_path(path) : options.format;
+  if (format == TetFormat::Auto) {
+    std::string ext = lower_extension(path);
+    if (is_surface_extension(ext))
+      io::throw_io(path, 0, "." + ext + " is a surface format; write the boundary with write_surface");
+    io::throw_io(path, 0, "unknown tet mesh format '." + ext + "' (use .msh, .mesh, .vtk, .vtu, .node or .ele)");
+  }
+  if (fields && format != TetFormat::Vtu && format != TetFormat::VtkLegacy)
+    throw InvalidArgument("fields can only be written to .vtu or .vtk, not " + path);
+  FlatMesh flat = flatten(mesh, fields);
+  switch (format) {
+    case TetFormat::Gmsh22: {
+      AtomicFile out(path);
+      write_gmsh22(flat, out, options);
+      out.commit();
+      break;
+    }
+    case TetFormat::Medit: {
+      AtomicFile out(path);
+      write_medit(flat, out, options);
+      out.commit();
+      break;
+    }
+    case TetFormat::VtkLegacy: {
+      AtomicFile out(path);
+      write_vtk_legacy(flat, out, options);
+      out.commit();
+      break;
+    }
+    case TetFormat::Vtu: {
+      AtomicFile out(path);
+      write_vtu(flat, out, options);
+      out.commit();
+      break;
+    }
+    case TetFormat::TetGen: {
+      std::string base = tetgen_base(path);
+      AtomicFile node(base + ".node"), ele(base + ".ele");
+      write_tetgen(flat, node, ele, options);
+      node.commit();
+      ele.commit();
+      break;
+    }
+    case TetFormat::Auto:
+      break;
+  }
+}
+
+}  // namespace
+}  // namespace io
+
+TetFormat format_from_path(const std::string& path) {
+  std::string ext = io::lower_extension(path);
+  if (ext == "msh") return TetFormat::Gmsh22;
+  if (ext == "mesh") return TetFormat::Medit;
+  if (ext == "vtk") return TetFormat::VtkLegacy;
+  if (ext == "vtu") return TetFormat::Vtu;
+  if (ext == "node" || ext == "ele") return TetFormat::TetGen;
+  return TetFormat::Auto;
+}
+
+bool is_tet_mesh_path(const std::string& path) { return format_from_path(path) != TetFormat::Auto; }
+
+TetMesh read_tet_mesh(const std::string& path, ReadReport* report) {
+  TetFormat format = format_from_path(path);
+  std::string ext = io::lower_extension(path);
+  if (format == TetFormat::Auto) {
+    if (io::is_surface_extension(ext))
+      io::throw_io(path, 0, "." + ext + " is a surface format, a volume (tetrahedral) mesh is needed");
+    io::throw_io(path, 0, "unknown tet mesh format '." + ext + "' (use .msh, .mesh, .vtk, .vtu, .node or .ele)");
+  }
+  if (format == TetFormat::TetGen) {
+    std::string base = io::tetgen_base(path);
+    std::string node_file = base + ".node", ele_file = base + ".ele";
+    std::string node_text = io::read_file_bytes(node_file);
+    std::string ele_text = io::read_file_bytes(ele_file);
+    io::RawMesh raw = io::parse_tetgen(node_file, node_text, ele_file, ele_text);
+    return io::build_mesh(std::move(raw), node_file, report);
+  }
+  std::string text = io::read_file_bytes(path);
+  if (text.empty()) io::throw_io(path, 0, "empty file");
+  io::RawMesh raw;
+  switch (format) {
+    case TetFormat::Gmsh22: raw = io::parse_gmsh(path, text); break;
+    case TetFormat::Medit: raw = io::parse_medit(path, text); break;
+    case TetFormat::VtkLegacy: raw = io::parse_vtk_legacy(path, text); break;
+    case TetFormat::Vtu: raw = io::parse_vtu(path, text); break;
+    default: break;
+  }
+  text.clear();
+  text.shrink_to_fit();
+  return io::build_mesh(std::move(raw), path, report);
+}
+
+void write_tet_mesh(const TetMesh& mesh, const std::string& path, const WriteOptions& options) {
+  io::write_impl(mesh, path, nullptr, options);
+}
+
+void write_tet_mesh_with_fields(const TetMesh& mesh, const std::string& path, const MeshFields& fields,
+                                const WriteOptions& options) {
+  io::write_impl(mesh, path, &fields, options);
+}
+
+}  // namespace incise

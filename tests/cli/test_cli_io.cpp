@@ -1,0 +1,174 @@
+// incise info / incise convert, run as a user would: exit codes, one-line errors naming the
+// file, and no partial or clobbered output when a conversion fails.
+#include <catch2/catch.hpp>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "mesh/generate.h"
+#include "mesh/io/tet_io.h"
+
+using namespace incise;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Run {
+  int rc = -1;
+  std::string out, err;
+};
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+struct Dir {
+  fs::path path;
+  Dir() {
+    path = fs::path(INCISE_BINARY_DIR) / "cli_io_tmp" / std::to_string(::getpid());
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~Dir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+  std::string operator/(const std::string& f) const { return (path / f).string(); }
+  int temporaries() const {
+    int n = 0;
+    for (const auto& e : fs::directory_iterator(path))
+      if (e.path().filename().string().find(".tmp") != std::string::npos) ++n;
+    return n;
+  }
+};
+
+Run run(const Dir& d, const std::string& args) {
+  const std::string out = d / "stdout.txt", err = d / "stderr.txt";
+  std::string cmd = std::string(INCISE_EXE) + " " + args + " > " + out + " 2> " + err;
+  int status = std::system(cmd.c_str());
+  Run r;
+  r.rc = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  r.out = slurp(out);
+  r.err = slurp(err);
+  fs::remove(out);
+  fs::remove(err);
+  return r;
+}
+
+// Exactly one line on stderr, "incise: error: FILE...".
+void require_one_line_error(const Run& r, const std::string& file) {
+  INFO("stderr: " << r.err);
+  REQUIRE(r.rc == 1);
+  REQUIRE(!r.err.empty());
+  REQUIRE(r.err.back() == '\n');
+  REQUIRE(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+  REQUIRE(r.err.rfind("incise: error: " + file, 0) == 0);
+}
+
+}  // namespace
+
+TEST_CASE("incise info on good files", "[cli][io]") {
+  Dir d;
+  TetMesh m = make_ellipsoid(Vec3(1, 2, 3), 2, 5);
+  auto tets = m.tets();
+  for (std::size_t i = 0; i < tets.size() / 3; ++i) m.set_label(tets[i], 8);
+  const double volume = m.total_volume();
+  for (std::string name : {"e.msh", "e.mesh", "e.vtk", "e.vtu", "e.node"}) {
+    write_tet_mesh(m, d / name);
+    INFO(name);
+    Run text = run(d, "info " + (d / name));
+    CHECK(text.rc == 0);
+    CHECK(text.out.find("tets                   " + std::to_string(m.num_tets())) != std::string::npos);
+    Run js = run(d, "info --json " + (d / name));
+    REQUIRE(js.rc == 0);
+    auto j = nlohmann::json::parse(js.out);
+    CHECK(j["tets"] == m.num_tets());
+    CHECK(j["vertices"] == m.num_vertices());
+    CHECK(j["volume"].get<double>() == Approx(volume).epsilon(1e-12));
+    CHECK(j["labels"]["8"] == tets.size() / 3);
+    CHECK(j["labels"]["5"] == tets.size() - tets.size() / 3);
+    CHECK(j["boundary_faces"] == m.boundary_faces().size());
+    CHECK(j["bounding_box"]["max"][2].get<double>() == Approx(3.0));
+    CHECK(j["reoriented_tets"] == 0);
+  }
+  // A surface.
+  std::ofstream(d / "t.off") << "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+  Run s = run(d, "info --json " + (d / "t.off"));
+  REQUIRE(s.rc == 0);
+  auto j = nlohmann::json::parse(s.out);
+  CHECK(j["triangles"] == 4);
+  CHECK(j["enclosed_volume"].get<double>() == Approx(1.0 / 6));
+  CHECK(run(d, "info --help").rc == 0);
+  CHECK(run(d, "convert --help").rc == 0);
+}
+
+TEST_CASE("incise info and convert on bad files: one line, exit 1", "[cli][io]") {
+  Dir d;
+  std::ofstream(d / "bad.msh") << "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n2\n1 0 0 0\n2 nan 0 0\n$EndNodes\n";
+  std::ofstream(d / "medit.msh") << "MeshVersionFormatted 2\n";
+  std::ofstream(d / "garbage.vtu") << std::string("\x00\x01\x02<VTKFile\xff", 12);
+  std::ofstream(d / "surface.off") << "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+  std::ofstream(d / "tris.mesh") << "MeshVersionFormatted 2\nDimension 3\nVertices\n3\n0 0 0 0\n1 0 0 0\n0 1 0 0\n"
+                                    "Triangles\n1\n1 2 3 1\nEnd\n";
+  Run r = run(d, "info " + (d / "bad.msh"));
+  require_one_line_error(r, d / "bad.msh:7: ");
+  CHECK(r.err.find("non-finite") != std::string::npos);
+  require_one_line_error(run(d, "info " + (d / "medit.msh")), d / "medit.msh:1: ");
+  require_one_line_error(run(d, "info " + (d / "garbage.vtu")), d / "garbage.vtu");
+  require_one_line_error(run(d, "info " + (d / "missing.vtk")), d / "missing.vtk");
+  require_one_line_error(run(d, "info " + (d / "tris.mesh")), d / "tris.mesh");
+  require_one_line_error(run(d, "convert " + (d / "surface.off") + " " + (d / "x.msh")), d / "surface.off");
+  CHECK_FALSE(fs::exists(d / "x.msh"));
+}
+
+TEST_CASE("incise convert: every direction, and failures leave no trace", "[cli][io]") {
+  Dir d;
+  TetMesh m = make_box(Vec3(2, 1, 1), {3, 2, 2}, 4);
+  auto tets = m.tets();
+  for (std::size_t i = 0; i < tets.size(); i += 2) m.set_label(tets[i], 11);
+  write_tet_mesh(m, d / "src.msh");
+  const std::vector<std::pair<std::string, std::string>> outs = {
+      {"a.mesh", ""}, {"a.vtk", ""}, {"b.vtk", "--binary"}, {"a.vtu", ""}, {"b.vtu", "--binary"},
+      {"c.vtu", "--big-endian"}, {"d.vtu", "--binary --header64"}, {"a.node", ""}, {"a.msh", "--no-boundary"}};
+  for (const auto& [name, flags] : outs) {
+    INFO(name << " " << flags);
+    Run r = run(d, "convert " + (d / "src.msh") + " " + (d / name) + " " + flags);
+    REQUIRE(r.rc == 0);
+    TetMesh back = read_tet_mesh(d / name);
+    REQUIRE(back.num_tets() == m.num_tets());
+    auto tb = back.tets();
+    for (std::size_t i = 0; i < tets.size(); ++i) REQUIRE(back.label(tb[i]) == m.label(tets[i]));
+    // And from that format back to msh.
+    REQUIRE(run(d, "convert " + (d / name) + " " + (d / ("back_" + name + ".msh"))).rc == 0);
+    CHECK(read_tet_mesh(d / ("back_" + name + ".msh")).num_tets() == m.num_tets());
+  }
+  CHECK(slurp(d / "c.vtu").find("BigEndian") != std::string::npos);
+  // Boundary as a surface.
+  REQUIRE(run(d, "convert " + (d / "src.msh") + " " + (d / "boundary.stl")).rc == 0);
+  REQUIRE(run(d, "info --json " + (d / "boundary.stl")).rc == 0);
+
+  // A failed conversion does not clobber an existing destination, nor leave temporaries.
+  std::ofstream(d / "bad.vtk") << "# vtk DataFile Version 4.2\nx\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 2 double\n0 0\n";
+  const std::string before = slurp(d / "a.vtu");
+  Run r = run(d, "convert " + (d / "bad.vtk") + " " + (d / "a.vtu"));
+  require_one_line_error(r, d / "bad.vtk");
+  CHECK(slurp(d / "a.vtu") == before);
+  Run r2 = run(d, "convert " + (d / "bad.vtk") + " " + (d / "fresh.vtu"));
+  require_one_line_error(r2, d / "bad.vtk");
+  CHECK_FALSE(fs::exists(d / "fresh.vtu"));
+  Run r3 = run(d, "convert " + (d / "src.msh") + " " + (d / "no_dir/x.vtu"));
+  require_one_line_error(r3, d / "no_dir/x.vtu");
+  Run r4 = run(d, "convert " + (d / "src.msh") + " " + (d / "x.unknown"));
+  require_one_line_error(r4, d / "x.unknown");
+  CHECK(d.temporaries() == 0);
+  // Usage errors exit 1 too.
+  CHECK(run(d, "convert " + (d / "src.msh")).rc == 1);
+}

@@ -1,0 +1,293 @@
+// Every tet format, every direction incise writes: write, read back, compare exactly
+// (positions bit-exact, connectivity, labels, boundary tags where the format carries them),
+// over several meshes and at extreme scales; then meshio must read every written file.
+#include <algorithm>
+#include <cstdlib>
+#include <map>
+#include <numeric>
+
+#include "io_test_util.h"
+#include "mesh/errors.h"
+
+using namespace incise;
+using namespace incise::test;
+
+namespace {
+
+struct Variant {
+  std::string name;  // file name written
+  WriteOptions options;
+  bool tags;         // boundary tags travel
+};
+
+std::vector<Variant> variants() {
+  std::vector<Variant> v;
+  WriteOptions ascii;
+  WriteOptions bin;
+  bin.binary = true;
+  WriteOptions be = bin;
+  be.big_endian = true;
+  WriteOptions le64 = bin;
+  le64.header_uint64 = true;
+  WriteOptions be64 = be;
+  be64.header_uint64 = true;
+  WriteOptions no_boundary;
+  no_boundary.write_boundary = false;
+  v.push_back({"m.msh", ascii, true});
+  v.push_back({"nb.msh", no_boundary, false});
+  v.push_back({"m.mesh", ascii, true});
+  v.push_back({"nb.mesh", no_boundary, false});
+  v.push_back({"ascii.vtk", ascii, false});
+  v.push_back({"binary.vtk", bin, false});
+  v.push_back({"ascii.vtu", ascii, false});
+  v.push_back({"le32.vtu", bin, false});
+  v.push_back({"be32.vtu", be, false});
+  v.push_back({"le64.vtu", le64, false});
+  v.push_back({"be64.vtu", be64, false});
+  v.push_back({"tg.node", ascii, false});
+  v.push_back({"tg2.ele", ascii, false});
+  return v;
+}
+
+struct Case {
+  std::string name;
+  TetMesh mesh;
+};
+
+std::vector<Case> cases() {
+  std::vector<Case> c;
+  c.push_back({"box", make_box(Vec3(1, 2, 3), {2, 3, 2}, 4)});
+  c.push_back({"ellipsoid", labeled_ellipsoid()});
+  c.push_back({"holes", box_with_holes()});
+  c.push_back({"tiny", labeled_ellipsoid(1e-8, Vec3(1e-8, -3e-8, 2e-9))});
+  c.push_back({"huge", labeled_ellipsoid(1e8, Vec3(3e8, -1e8, 7e7))});
+  c.push_back({"offset", labeled_ellipsoid(1e-3, Vec3(1e5, 1e5, -1e5))});
+  return c;
+}
+
+std::string read_path(const std::string& written) {
+  // A TetGen pair is read through either name; read .ele files by the .node name and
+  // vice versa, to cover both.
+  if (written.size() > 5 && written.substr(written.size() - 5) == ".node") return written.substr(0, written.size() - 5) + ".ele";
+  if (written.size() > 4 && written.substr(written.size() - 4) == ".ele") return written.substr(0, written.size() - 4) + ".node";
+  return written;
+}
+
+}  // namespace
+
+TEST_CASE("every format round-trips exactly", "[io][roundtrip]") {
+  ScratchDir dir("roundtrip");
+  for (Case& c : cases()) {
+    for (const Variant& v : variants()) {
+      const std::string path = dir / (c.name + "_" + v.name);
+      INFO(c.name << " -> " << v.name);
+      write_tet_mesh(c.mesh, path, v.options);
+      ReadReport report;
+      TetMesh back = read_tet_mesh(read_path(path), &report);
+      back.validate();
+      CHECK(report.reoriented_tets == 0);
+      CHECK(report.skipped_cells == (v.tags ? c.mesh.boundary_faces().size() : 0));
+      CHECK(report.unreferenced_vertices == 0);
+      CHECK_FALSE(back.has_pending_change());
+      require_same_mesh(c.mesh, back, v.tags);
+    }
+  }
+}
+
+TEST_CASE("formats by name and content", "[io]") {
+  CHECK(format_from_path("a/b.MSH") == TetFormat::Gmsh22);
+  CHECK(format_from_path("x.mesh") == TetFormat::Medit);
+  CHECK(format_from_path("x.vtk") == TetFormat::VtkLegacy);
+  CHECK(format_from_path("x.vtu") == TetFormat::Vtu);
+  CHECK(format_from_path("x.node") == TetFormat::TetGen);
+  CHECK(format_from_path("x.ele") == TetFormat::TetGen);
+  CHECK(format_from_path("x.off") == TetFormat::Auto);
+  CHECK(format_from_path("dir.msh/file") == TetFormat::Auto);
+  CHECK(is_tet_mesh_path("x.vtu"));
+  CHECK_FALSE(is_tet_mesh_path("x.stl"));
+
+  // An explicit format overrides the extension.
+  ScratchDir dir("explicit");
+  TetMesh m = make_box(Vec3(1, 1, 1), {1, 1, 1});
+  WriteOptions o;
+  o.format = TetFormat::Medit;
+  write_tet_mesh(m, dir / "box.txt", o);
+  CHECK(read_text(dir / "box.txt").rfind("MeshVersionFormatted", 0) == 0);
+  CHECK_THROWS_AS(write_tet_mesh(m, dir / "box.off"), IoError);
+  CHECK_THROWS_AS(write_tet_mesh(m, dir / "box.xyz"), IoError);
+}
+
+TEST_CASE("negative tets are reoriented and counted", "[io]") {
+  ScratchDir dir("reorient");
+  // Two tets sharing a face, the second written with negative orientation.
+  write_text(dir / "neg.mesh",
+             "MeshVersionFormatted 2\nDimension 3\nVertices\n5\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 -1 0\n"
+             "Tetrahedra\n2\n1 2 3 4 1\n1 2 3 5 2\nEnd\n");
+  ReadReport r;
+  TetMesh m = read_tet_mesh(dir / "neg.mesh", &r);
+  m.validate();
+  CHECK(r.reoriented_tets == 1);
+  CHECK(m.total_volume() == Approx(1.0 / 3));
+  CHECK(m.boundary_faces().size() == 6);
+}
+
+TEST_CASE("unreferenced vertices are kept and mixed cells skipped", "[io]") {
+  ScratchDir dir("mixed");
+  write_text(dir / "mixed.msh",
+             "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$PhysicalNames\n1\n3 5 \"organ\"\n$EndPhysicalNames\n"
+             "$Nodes\n7\n1 0 0 0\n2 1 0 0\n3 0 1 0\n4 0 0 1\n5 1 1 1\n10 5 5 5\n11 6 6 6\n$EndNodes\n"
+             "$Elements\n6\n1 15 2 0 1 1\n2 1 2 0 1 1 2\n3 2 2 33 1 1 3 2\n4 4 2 5 1 1 2 3 4\n"
+             "5 4 2 6 1 2 3 4 5\n6 3 2 0 1 1 2 5 3\n$EndElements\n"
+             "$NodeData\n1\n\"x\"\n1\n0.0\n3\n0\n1\n1\n1 0.5\n$EndNodeData\n");
+  ReadReport r;
+  TetMesh m = read_tet_mesh(dir / "mixed.msh", &r);
+  m.validate();
+  CHECK(m.num_vertices() == 7);
+  CHECK(m.num_tets() == 2);
+  CHECK(r.unreferenced_vertices == 2);
+  CHECK(r.skipped_cells == 4);  // point, line, triangle, quad
+  CHECK(r.tagged_boundary_faces == 1);
+  CHECK(r.format == "gmsh 2.2 ascii");
+  // The triangle (1,3,2) carries tag 33 onto the boundary face of tet 1; the rest are surface.
+  std::map<int, int> tags;
+  for (const auto& f : m.boundary_faces()) ++tags[f.tag];
+  CHECK(tags[33] == 1);
+  CHECK(tags[kTagSurface] == 5);
+  std::map<int, int> labels;
+  for (TetId t : m.tets()) ++labels[m.label(t)];
+  CHECK(labels[5] == 1);
+  CHECK(labels[6] == 1);
+}
+
+TEST_CASE("fields are written to VTU and VTK", "[io][fields]") {
+  ScratchDir dir("fields");
+  TetMesh m = box_with_holes();
+  std::vector<Vec3> current(m.vertex_capacity(), Vec3::Zero());
+  Field disp{"displacement", 3, std::vector<double>(3 * m.vertex_capacity(), 0.0)};
+  Field stress{"stress", 1, std::vector<double>(m.tet_capacity(), 0.0)};
+  Field tensor{"sigma", 9, std::vector<double>(9 * m.tet_capacity(), 0.5)};
+  for (VertexId v : m.vertices()) {
+    Vec3 d(0.01 * v.idx(), -0.02, 0.001 * v.idx() * v.idx());
+    current[v.idx()] = m.rest(v) + d;
+    for (int k = 0; k < 3; ++k) disp.values[3 * v.idx() + k] = d[k];
+  }
+  for (TetId t : m.tets()) stress.values[t.idx()] = 1e6 + t.idx();
+  MeshFields fields;
+  fields.points = &current;
+  fields.point_data = {disp};
+  fields.cell_data = {stress, tensor};
+  for (std::string name : {"f.vtu", "f.vtk"}) {
+    for (bool binary : {false, true}) {
+      WriteOptions o;
+      o.binary = binary;
+      const std::string path = dir / ((binary ? "b" : "a") + name);
+      write_tet_mesh_with_fields(m, path, fields, o);
+      TetMesh back = read_tet_mesh(path);
+      REQUIRE(back.num_tets() == m.num_tets());
+      auto vb = back.vertices();
+      auto va = m.vertices();
+      for (std::size_t i = 0; i < va.size(); ++i) REQUIRE(back.rest(vb[i]) == current[va[i].idx()]);
+      auto ta = m.tets(), tb = back.tets();
+      for (std::size_t i = 0; i < ta.size(); ++i) REQUIRE(back.label(tb[i]) == m.label(ta[i]));
+      if (have_meshio()) {
+        std::string cmd = "/usr/bin/python3 -c \"import meshio,sys,numpy as np; m=meshio.read(sys.argv[1]); "
+                          "d=m.point_data['displacement']; s=np.concatenate(m.cell_data['stress']).ravel(); "
+                          "sys.exit(0 if d.shape==(" +
+                          std::to_string(m.num_vertices()) + ",3) and abs(s.sum()-" +
+                          std::to_string(std::accumulate(stress.values.begin(), stress.values.end(), 0.0)) +
+                          ")<1e-3 else 1)\" " + path + " 2>/dev/null";
+        INFO(cmd);
+        CHECK(std::system(cmd.c_str()) == 0);
+      }
+    }
+  }
+  // Fields need a format that carries them, and sizes that match the mesh.
+  CHECK_THROWS_AS(write_tet_mesh_with_fields(m, dir / "f.msh", fields), InvalidArgument);
+  MeshFields bad;
+  bad.point_data = {Field{"short", 3, std::vector<double>(5)}};
+  CHECK_THROWS_AS(write_tet_mesh_with_fields(m, dir / "bad.vtu", bad), InvalidArgument);
+  CHECK_FALSE(fs::exists(dir / "bad.vtu"));
+}
+
+TEST_CASE("meshio reads every file incise writes", "[io][meshio]") {
+  if (!have_meshio()) {
+    WARN("/usr/bin/python3 has no meshio; skipping the meshio cross-check");
+    return;
+  }
+  ScratchDir dir("meshio_reads");
+  std::vector<Case> cs;
+  cs.push_back({"ellipsoid", labeled_ellipsoid()});
+  cs.push_back({"holes", box_with_holes()});
+  cs.push_back({"huge", labeled_ellipsoid(1e8, Vec3(3e8, -1e8, 7e7))});
+  for (Case& c : cs) {
+    double coord_sum = 0;
+    for (VertexId v : c.mesh.vertices()) coord_sum += c.mesh.rest(v).sum();
+    std::string labels;
+    for (TetId t : c.mesh.tets()) labels += std::to_string(c.mesh.label(t)) + "\n";
+    const std::string labels_file = dir / (c.name + "_labels.txt");
+    write_text(labels_file, labels);
+    char sum[64];
+    std::snprintf(sum, sizeof sum, "%.17g", coord_sum);
+    std::string cmd = "/usr/bin/python3 " + meshio_tool() + " check " + std::to_string(c.mesh.num_vertices()) + " " +
+                      std::to_string(c.mesh.num_tets()) + " " + labels_file + " " + sum;
+    for (const Variant& v : variants()) {
+      if (v.name == "tg2.ele") continue;  // meshio reads TetGen through the .node name only
+      const std::string path = dir / (c.name + "_" + v.name);
+      write_tet_mesh(c.mesh, path, v.options);
+      cmd += " " + path;
+    }
+    const std::string log = dir / (c.name + ".log");
+    int rc = std::system((cmd + " > " + log + " 2>&1").c_str());
+    INFO(c.name << ": " << read_text(log));
+    CHECK(rc == 0);
+  }
+}
+
+TEST_CASE("incise reads every tet format meshio writes", "[io][meshio]") {
+  if (!have_meshio()) {
+    WARN("/usr/bin/python3 has no meshio; skipping the meshio cross-check");
+    return;
+  }
+  ScratchDir dir("meshio_writes");
+  for (double scale : {1.0, 1e-8, 1e8}) {
+    TetMesh ref = labeled_ellipsoid(scale);
+    const std::string src = dir / "ref.vtu";
+    WriteOptions bin;
+    bin.binary = true;
+    write_tet_mesh(ref, src, bin);
+    std::string cmd = "/usr/bin/python3 " + meshio_tool() + " rewrite " + src + " " + dir.path.string() + " > " +
+                      (dir / "list.txt") + " 2>/dev/null";
+    REQUIRE(std::system(cmd.c_str()) == 0);
+    std::istringstream list(read_text(dir / "list.txt"));
+    std::string name;
+    int carries = 0;
+    int files = 0;
+    while (list >> name >> carries) {
+      ++files;
+      INFO(name << " at scale " << scale);
+      ReadReport report;
+      TetMesh m = read_tet_mesh(dir / name, &report);
+      m.validate();
+      REQUIRE(m.num_vertices() == ref.num_vertices());
+      REQUIRE(m.num_tets() == ref.num_tets());
+      auto va = ref.vertices(), vb = m.vertices();
+      // meshio writes ascii VTU with 12 significant digits; everything else is exact.
+      const double tol = name == "ascii.vtu" ? 1e-11 * scale : 0.0;
+      for (std::size_t i = 0; i < va.size(); ++i) REQUIRE((ref.rest(va[i]) - m.rest(vb[i])).norm() <= tol * 4);
+      auto ta = ref.tets(), tb = m.tets();
+      for (std::size_t i = 0; i < ta.size(); ++i) {
+        std::array<std::uint32_t, 4> x, y;
+        for (int k = 0; k < 4; ++k) {
+          x[k] = ref.tet_vertices(ta[i])[k].idx();
+          y[k] = m.tet_vertices(tb[i])[k].idx();
+        }
+        std::sort(x.begin(), x.end());
+        std::sort(y.begin(), y.end());
+        REQUIRE(x == y);
+        if (carries) REQUIRE(m.label(tb[i]) == ref.label(ta[i]));
+      }
+      CHECK(std::abs(m.total_volume() - ref.total_volume()) <= 1e-9 * ref.total_volume());
+    }
+    CHECK(files == 10);
+  }
+}
