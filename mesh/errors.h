@@ -14,9 +14,8 @@ public:
 // Malformed or unreadable file. what() is "FILE:LINE: reason" (LINE omitted when unknown).
 class IoError : public Error {
 public:
-  IoError(const std::string& file, long line, const std::string& reason)
-      : Error(file + (line > 0 ? ":" + std::to_string(line) : std::string()) + ": " + reason),
-        file_(file), line_(line) {}
+  // Out of line (mesh/errors.cpp): inlined, GCC 12 raises a false -Wrestrict (PR105329).
+  IoError(const std::string& file, long line, const std::string& reason);
   const std::string& file() const { return file_; }
   long line() const { return line_; }
 
