@@ -11,19 +11,13 @@
 #include "mesh/generate.h"
 #include "sim/assembled_stiffness.h"
 #include "sim/fem_model.h"
+#include "tests/support/mesh_edits.h"
 
 using namespace incise;
+using incise::testing::random_tet;
 using namespace incise::bench;
 
 namespace {
-
-TetId random_tet(const TetMesh& m, std::mt19937& rng) {
-  std::uniform_int_distribution<std::uint32_t> pick(0, static_cast<std::uint32_t>(m.tet_capacity() - 1));
-  for (;;) {
-    TetId t(pick(rng));
-    if (m.is_alive(t)) return t;
-  }
-}
 
 // Splits until `k` tets have been replaced (the change's removed tets), like a cut would.
 void edit(TetMesh& m, std::mt19937& rng, int k) {

@@ -15,8 +15,10 @@
 #include "mesh/generate.h"
 #include "sim/fem_simulation.h"
 #include "sim/spring_model.h"
+#include "tests/support/mesh_edits.h"
 
 using namespace incise;
+using incise::testing::jitter;
 using namespace incise::bench;
 
 namespace {
@@ -26,25 +28,6 @@ MaterialTable material(double e, double nu) {
   m.young = e;
   m.poisson = nu;
   return MaterialTable(m);
-}
-
-void jitter(TetMesh& m, double amount, std::uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(-1, 1);
-  std::vector<std::uint8_t> on(m.vertex_capacity(), 0);
-  for (const auto& f : m.boundary_faces())
-    for (VertexId v : f.vertices) on[v.idx()] = 1;
-  for (VertexId v : m.vertices()) {
-    if (on[v.idx()]) continue;
-    double h = 1e300;
-    for (TetId t : m.incident_tets(v))
-      for (VertexId w : m.tet_vertices(t))
-        if (w != v) h = std::min(h, (m.rest(w) - m.rest(v)).norm());
-    const Vec3 old = m.rest(v);
-    m.set_rest(v, old + amount * h * Vec3(u(rng), u(rng), u(rng)));
-    for (TetId t : m.incident_tets(v))
-      if (m.volume(t) <= 0) m.set_rest(v, old);
-  }
 }
 
 // Smallest dihedral angle of the mesh [degrees].

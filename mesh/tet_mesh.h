@@ -99,6 +99,8 @@ public:
     std::vector<VertexId> ring;  // ring.size() == tets.size() (+1 when open)
     bool closed = false;
   };
+  // Throws InvalidMesh when the tets around the edge form more than one fan (possible after
+  // remove_tet); split_edge does not need the order and handles that case.
   EdgeStar edge_star(VertexId a, VertexId b) const;
 
   // ---- basic edits ------------------------------------------------------------------

@@ -47,13 +47,19 @@ void TetMesh::star_split(TetId t, VertexId p, const std::array<double, 4>& w) {
 
 VertexId TetMesh::split_edge(VertexId a, VertexId b, double s) {
   if (!(s > 0 && s < 1)) throw InvalidArgument("split_edge: parameter must be in (0,1)");
-  EdgeStar star = edge_star(a, b);
-  if (star.tets.empty()) throw InvalidArgument("split_edge: no tet has edge (" + std::to_string(a.idx()) + "," +
-                                               std::to_string(b.idx()) + ")");
+  // Every tet containing the edge; no ordering needed, so an edge whose tets form several
+  // fans (possible after remove_tet) splits as well.
+  std::vector<TetId> around;
+  for (TetId t : vertex_tets_[a.idx()]) {
+    ++counters_.visits;
+    if (local_index(t, b) >= 0) around.push_back(t);
+  }
+  if (around.empty()) throw InvalidArgument("split_edge: no tet has edge (" + std::to_string(a.idx()) + "," +
+                                            std::to_string(b.idx()) + ")");
   const VertexId par[2] = {a, b};
   const double wt[2] = {1 - s, s};
   VertexId p = add_vertex_interpolated(par, wt);
-  for (TetId t : star.tets) {
+  for (TetId t : around) {
     std::array<double, 4> w{0, 0, 0, 0};
     w[local_index(t, a)] = 1 - s;
     w[local_index(t, b)] = s;

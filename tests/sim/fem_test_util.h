@@ -1,5 +1,6 @@
 #pragma once
-// Helpers shared by the FEM tests: random mesh edits, jitter, loads on box faces.
+// Helpers shared by the FEM tests: loads on box faces (random edits and jitter come from
+// tests/support/mesh_edits.h).
 #include <cmath>
 #include <random>
 #include <vector>
@@ -7,94 +8,14 @@
 #include "mesh/generate.h"
 #include "mesh/tet_mesh.h"
 #include "sim/fem_simulation.h"
+#include "tests/support/mesh_edits.h"
 
 namespace incise::test {
 
-inline TetId random_tet(const TetMesh& m, std::mt19937& rng) {
-  std::uniform_int_distribution<std::uint32_t> pick(0, static_cast<std::uint32_t>(m.tet_capacity() - 1));
-  for (;;) {
-    TetId t(pick(rng));
-    if (m.is_alive(t)) return t;
-  }
-}
-
-// One random edit (split edge/face/tet, flip 2-3/3-2/4-4, or remove a boundary tet); returns
-// whether the mesh changed.
-inline bool random_edit(TetMesh& m, std::mt19937& rng, bool allow_remove = false) {
-  std::uniform_real_distribution<double> u(0.25, 0.75);
-  std::uniform_int_distribution<int> op(0, allow_remove ? 6 : 5), loc(0, 3);
-  TetId t = random_tet(m, rng);
-  auto v = m.tet_vertices(t);
-  switch (op(rng)) {
-    case 0: {
-      int i = loc(rng), j = (i + 1 + loc(rng) % 3) % 4;
-      m.split_edge(v[i], v[j], u(rng));
-      return true;
-    }
-    case 1: {
-      double a = u(rng), b = u(rng), c = u(rng), s = a + b + c;
-      m.split_face(t, loc(rng), {a / s, b / s, c / s});
-      return true;
-    }
-    case 2: {
-      double w[4], s = 0;
-      for (double& x : w) s += (x = u(rng));
-      m.split_tet(t, {w[0] / s, w[1] / s, w[2] / s, w[3] / s});
-      return true;
-    }
-    case 3: {
-      int f = loc(rng);
-      if (!m.is_flip23_ok(t, f)) return false;
-      m.flip23(t, f);
-      return true;
-    }
-    case 4: {
-      int i = loc(rng), j = (i + 1 + loc(rng) % 3) % 4;
-      if (!m.is_flip32_ok(v[i], v[j])) return false;
-      m.flip32(v[i], v[j]);
-      return true;
-    }
-    case 5: {
-      int i = loc(rng), j = (i + 1 + loc(rng) % 3) % 4, k = loc(rng) % 2;
-      if (!m.is_flip44_ok(v[i], v[j], k)) return false;
-      m.flip44(v[i], v[j], k);
-      return true;
-    }
-    default: {  // remove a tet on the boundary (keeps the mesh mostly in one piece)
-      bool boundary = false;
-      for (int f = 0; f < 4; ++f) boundary = boundary || !m.neighbor(t, f).is_valid();
-      if (!boundary || m.num_tets() < 10) return false;
-      m.remove_tet(t);
-      return true;
-    }
-  }
-}
-
-inline std::vector<std::uint8_t> boundary_vertices(const TetMesh& m) {
-  std::vector<std::uint8_t> on(m.vertex_capacity(), 0);
-  for (const auto& f : m.boundary_faces())
-    for (VertexId v : f.vertices) on[v.idx()] = 1;
-  return on;
-}
-
-// Moves interior vertices by up to `amount` of the shortest incident edge, undoing moves that
-// would invert a tet.
-inline void jitter(TetMesh& m, double amount, std::uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(-1, 1);
-  const auto on_boundary = boundary_vertices(m);
-  for (VertexId v : m.vertices()) {
-    if (on_boundary[v.idx()]) continue;
-    double h = 1e300;
-    for (TetId t : m.incident_tets(v))
-      for (VertexId w : m.tet_vertices(t))
-        if (w != v) h = std::min(h, (m.rest(w) - m.rest(v)).norm());
-    const Vec3 old = m.rest(v);
-    m.set_rest(v, old + amount * h * Vec3(u(rng), u(rng), u(rng)));
-    for (TetId t : m.incident_tets(v))
-      if (m.volume(t) <= 0) m.set_rest(v, old);
-  }
-}
+using incise::testing::boundary_vertices;
+using incise::testing::jitter;
+using incise::testing::random_edit;
+using incise::testing::random_tet;
 
 // Consistent nodal forces of a uniform traction on the boundary faces lying in the plane
 // x[axis] == value: each triangle gives traction * area / 3 to each of its corners.

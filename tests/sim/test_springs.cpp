@@ -14,8 +14,10 @@
 #include "mesh/tet_mesh.h"
 #include "sim/integrator.h"
 #include "sim/spring_model.h"
+#include "tests/support/mesh_edits.h"
 
 using namespace incise;
+using namespace incise::testing;
 
 namespace {
 
@@ -34,103 +36,6 @@ struct CaptureCerr {
   CaptureCerr() : old(std::cerr.rdbuf(out.rdbuf())) {}
   ~CaptureCerr() { std::cerr.rdbuf(old); }
 };
-
-TetId random_tet(const TetMesh& m, std::mt19937& rng) {
-  std::uniform_int_distribution<std::uint32_t> pick(0, static_cast<std::uint32_t>(m.tet_capacity() - 1));
-  for (;;) {
-    TetId t(pick(rng));
-    if (m.is_alive(t)) return t;
-  }
-}
-
-// A flip check; after tet removals an edge star can be non-manifold, which the mesh reports
-// by throwing: that flip is simply not available.
-template <class Check>
-bool ok(Check check) {
-  try {
-    return check();
-  } catch (const InvalidMesh&) {
-    return false;
-  }
-}
-
-// One random edit (as in tests/mesh/test_tet_mesh.cpp, plus occasional tet removal);
-// returns whether something was changed.
-bool random_edit_impl(TetMesh& m, std::mt19937& rng, bool allow_remove) {
-  std::uniform_real_distribution<double> u(0.25, 0.75);
-  std::uniform_int_distribution<int> op(0, allow_remove ? 6 : 5), loc(0, 3);
-  TetId t = random_tet(m, rng);
-  auto v = m.tet_vertices(t);
-  switch (op(rng)) {
-    case 0: {
-      int i = loc(rng), j = (i + 1 + loc(rng) % 3) % 4;
-      m.split_edge(v[i], v[j], u(rng));
-      return true;
-    }
-    case 1: {
-      double a = u(rng), b = u(rng), c = u(rng), s = a + b + c;
-      m.split_face(t, loc(rng), {a / s, b / s, c / s});
-      return true;
-    }
-    case 2: {
-      double w[4], s = 0;
-      for (double& x : w) s += (x = u(rng));
-      m.split_tet(t, {w[0] / s, w[1] / s, w[2] / s, w[3] / s});
-      return true;
-    }
-    case 3: {
-      int f = loc(rng);
-      if (!ok([&] { return m.is_flip23_ok(t, f); })) return false;
-      m.flip23(t, f);
-      return true;
-    }
-    case 4: {
-      int i = loc(rng), j = (i + 1 + loc(rng) % 3) % 4;
-      if (!ok([&] { return m.is_flip32_ok(v[i], v[j]); })) return false;
-      m.flip32(v[i], v[j]);
-      return true;
-    }
-    case 5: {
-      int i = loc(rng), j = (i + 1 + loc(rng) % 3) % 4, k = loc(rng) % 2;
-      if (!ok([&] { return m.is_flip44_ok(v[i], v[j], k); })) return false;
-      m.flip44(v[i], v[j], k);
-      return true;
-    }
-    default: {  // rare: removal leaves boundary changes and possibly isolated vertices
-      if (rng() % 8 != 0 || m.num_tets() < 20) return false;
-      m.remove_tet(t);
-      return true;
-    }
-  }
-}
-
-bool random_edit(TetMesh& m, std::mt19937& rng, bool allow_remove) {
-  try {
-    return random_edit_impl(m, rng, allow_remove);
-  } catch (const InvalidMesh&) {  // an edge star made non-manifold by a removal: refused, unchanged
-    return false;
-  }
-}
-
-// Moves interior vertices by up to `amount` edge lengths, undoing moves that invert a tet.
-void jitter(TetMesh& m, double amount, std::uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(-1, 1);
-  std::vector<std::uint8_t> on_boundary(m.vertex_capacity(), 0);
-  for (const auto& f : m.boundary_faces())
-    for (VertexId v : f.vertices) on_boundary[v.idx()] = 1;
-  for (VertexId v : m.vertices()) {
-    if (on_boundary[v.idx()]) continue;
-    double h = 1e300;
-    for (TetId t : m.incident_tets(v))
-      for (VertexId w : m.tet_vertices(t))
-        if (w != v) h = std::min(h, (m.rest(w) - m.rest(v)).norm());
-    const Vec3 old = m.rest(v);
-    m.set_rest(v, old + amount * h * Vec3(u(rng), u(rng), u(rng)));
-    for (TetId t : m.incident_tets(v))
-      if (m.volume(t) <= 0) m.set_rest(v, old);
-  }
-}
 
 TetMesh single_tet(const std::array<Vec3, 4>& p) {
   TetMesh m;

@@ -1,0 +1,101 @@
+#pragma once
+// Shared by tests and benchmarks: seeded random mesh edits and vertex jitter. One place, so
+// every locality / local-update test drives the mesh the same way.
+#include <algorithm>
+#include <random>
+#include <vector>
+
+#include "mesh/errors.h"
+#include "mesh/tet_mesh.h"
+
+namespace incise::testing {
+
+inline TetId random_tet(const TetMesh& m, std::mt19937& rng) {
+  std::uniform_int_distribution<std::uint32_t> pick(0, static_cast<std::uint32_t>(m.tet_capacity() - 1));
+  for (;;) {
+    TetId t(pick(rng));
+    if (m.is_alive(t)) return t;
+  }
+}
+
+// One random edit: split an edge / face / tet at a random interior point, or a 2-3, 3-2 or
+// 4-4 flip where the check allows it, or (allow_remove) remove a boundary tet. Returns whether
+// the mesh changed; an edit the mesh refuses leaves it unchanged.
+inline bool random_edit(TetMesh& m, std::mt19937& rng, bool allow_remove = false) {
+  std::uniform_real_distribution<double> u(0.25, 0.75);
+  std::uniform_int_distribution<int> op(0, allow_remove ? 6 : 5), loc(0, 3);
+  const TetId t = random_tet(m, rng);
+  const auto v = m.tet_vertices(t);
+  switch (op(rng)) {
+    case 0: {
+      int i = loc(rng), j = (i + 1 + loc(rng) % 3) % 4;
+      m.split_edge(v[i], v[j], u(rng));
+      return true;
+    }
+    case 1: {
+      double a = u(rng), b = u(rng), c = u(rng), s = a + b + c;
+      m.split_face(t, loc(rng), {a / s, b / s, c / s});
+      return true;
+    }
+    case 2: {
+      double w[4], s = 0;
+      for (double& x : w) s += (x = u(rng));
+      m.split_tet(t, {w[0] / s, w[1] / s, w[2] / s, w[3] / s});
+      return true;
+    }
+    case 3: {
+      int f = loc(rng);
+      if (!m.is_flip23_ok(t, f)) return false;
+      m.flip23(t, f);
+      return true;
+    }
+    case 4: {
+      int i = loc(rng), j = (i + 1 + loc(rng) % 3) % 4;
+      if (!m.is_flip32_ok(v[i], v[j])) return false;
+      m.flip32(v[i], v[j]);
+      return true;
+    }
+    case 5: {
+      int i = loc(rng), j = (i + 1 + loc(rng) % 3) % 4, k = loc(rng) % 2;
+      if (!m.is_flip44_ok(v[i], v[j], k)) return false;
+      m.flip44(v[i], v[j], k);
+      return true;
+    }
+    default: {  // a boundary tet, so the mesh mostly stays in one piece
+      bool boundary = false;
+      for (int f = 0; f < 4; ++f) boundary = boundary || !m.neighbor(t, f).is_valid();
+      if (!boundary || m.num_tets() < 20) return false;
+      m.remove_tet(t);
+      return true;
+    }
+  }
+}
+
+inline std::vector<std::uint8_t> boundary_vertices(const TetMesh& m) {
+  std::vector<std::uint8_t> on(m.vertex_capacity(), 0);
+  for (const auto& f : m.boundary_faces())
+    for (VertexId v : f.vertices) on[v.idx()] = 1;
+  return on;
+}
+
+// Moves interior vertices by up to `amount` of their shortest incident edge in random
+// directions, undoing any move that would invert a tet: breaks the coplanarities of
+// structured meshes so flips apply and shapes vary.
+inline void jitter(TetMesh& m, double amount, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const auto on_boundary = boundary_vertices(m);
+  for (VertexId v : m.vertices()) {
+    if (on_boundary[v.idx()]) continue;
+    double h = 1e300;
+    for (TetId t : m.incident_tets(v))
+      for (VertexId w : m.tet_vertices(t))
+        if (w != v) h = std::min(h, (m.rest(w) - m.rest(v)).norm());
+    const Vec3 old = m.rest(v);
+    m.set_rest(v, old + amount * h * Vec3(u(rng), u(rng), u(rng)));
+    for (TetId t : m.incident_tets(v))
+      if (m.volume(t) <= 0) m.set_rest(v, old);
+  }
+}
+
+}  // namespace incise::testing
