@@ -10,5 +10,8 @@ void add_info(CLI::App& app);
 void add_convert(CLI::App& app);
 void add_quality(CLI::App& app);
 void add_generate(CLI::App& app);
+void add_simulate(CLI::App& app);
+void add_tetra(CLI::App& app);
+void add_prepare(CLI::App& app);
 
 }  // namespace incise::cli

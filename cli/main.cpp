@@ -14,6 +14,9 @@ int main(int argc, char** argv) {
   incise::cli::add_convert(app);
   incise::cli::add_quality(app);
   incise::cli::add_generate(app);
+  incise::cli::add_simulate(app);
+  incise::cli::add_tetra(app);
+  incise::cli::add_prepare(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -1,0 +1,116 @@
+// incise prepare IN -o OUT: the whole preparation pipeline in one command:
+// check -> repair (when asked) -> tetrahedralize -> quality report (text on stdout, JSON
+// beside the mesh as <OUT without extension>.quality.json) -> simulation-ready mesh with
+// region labels and boundary tags.
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iostream>
+
+#include "cli/commands.h"
+#include "mesh/errors.h"
+#include "mesh/io/tet_io.h"
+
+#ifdef INCISE_HAVE_TETRA
+#include "mesh/tetrahedralize/pipeline.h"
+#include "quality/report.h"
+#if __has_include("cli/quality_json.h")
+#include "cli/quality_json.h"
+#define INCISE_HAVE_QUALITY_JSON 1
+#endif
+#endif
+
+namespace incise::cli {
+
+#ifdef INCISE_HAVE_TETRA
+
+// Defined in cmd_tetra.cpp: the subcommand with every pipeline option.
+struct PipelineCli;
+using PipelineRun = std::function<void(const PipelineCli&, const PipelineOptions&)>;
+CLI::App* add_pipeline_command(CLI::App& app, const std::string& name, const std::string& help, PipelineRun run);
+const std::string& pipeline_input(const PipelineCli& cli);
+const std::string& pipeline_output(const PipelineCli& cli);
+bool pipeline_quiet(const PipelineCli& cli);
+
+namespace {
+
+std::string report_path(const std::string& out) {
+  std::filesystem::path p(out);
+  std::string stem = p.filename().string();
+  for (const char* ext : {".node", ".ele", ".msh", ".mesh", ".vtk", ".vtu"})
+    if (stem.size() > std::strlen(ext) && stem.compare(stem.size() - std::strlen(ext), std::string::npos, ext) == 0) {
+      stem.resize(stem.size() - std::strlen(ext));
+      break;
+    }
+  return (p.parent_path() / (stem + ".quality.json")).string();
+}
+
+}  // namespace
+
+void add_prepare(CLI::App& app) {
+  auto report_file = std::make_shared<std::string>();
+  auto* c = add_pipeline_command(
+      app, "prepare", "Surface or labeled image -> checked, simulation-ready tet mesh and quality report",
+      [report_file](const PipelineCli& cli, const PipelineOptions& opt) {
+        const bool quiet = pipeline_quiet(cli);
+        const std::string& out = pipeline_output(cli);
+        auto log = [&](const std::string& m) {
+          if (!quiet) std::cerr << "prepare: " << m << "\n";
+        };
+        PipelineReport rep;
+        TetMesh mesh = mesh_file(pipeline_input(cli), opt, &rep, log);
+        const QualityReport q = compute_quality_report(mesh);
+        write_tet_mesh(mesh, out);
+        const std::string json_path = report_file->empty() ? report_path(out) : *report_file;
+#ifdef INCISE_HAVE_QUALITY_JSON
+        {
+          nlohmann::json j = quality_report_json(q);
+          nlohmann::json prep;
+          prep["input"] = rep.input;
+          prep["image"] = rep.image;
+          if (!rep.image) prep["check"] = rep.check.summary();
+          prep["repaired"] = rep.repaired;
+          if (rep.repaired) {
+            prep["repair_voxel"] = rep.repair.voxel;
+            prep["repair_closing_radius"] = rep.repair.closing_radius;
+            prep["repair_distance_max"] = rep.repair.distance.max;
+            prep["repair_distance_mean"] = rep.repair.distance.mean;
+          }
+          prep["engine"] = rep.stats.engine;
+          prep["size"] = rep.stats.size;
+          prep["seconds"] = rep.stats.seconds;
+          prep["input_volume"] = rep.stats.input_volume;
+          prep["messages"] = rep.messages;
+          j["prepare"] = prep;
+          const std::string tmp = json_path + ".tmp";
+          {
+            std::ofstream f(tmp);
+            f << j.dump(2) << "\n";
+            if (!f) throw IoError(tmp, 0, "cannot write the quality report");
+          }
+          std::filesystem::rename(tmp, json_path);
+        }
+#endif
+        std::cout << format_quality_report(q);
+        for (const std::string& m : rep.messages) std::cout << "prepare: " << m << "\n";
+        std::cerr << "prepare: " << rep.stats.summary() << " -> " << out
+#ifdef INCISE_HAVE_QUALITY_JSON
+                  << " (report " << json_path << ")"
+#endif
+                  << "\n";
+      });
+  c->add_option("--report", *report_file, "Quality report JSON path (default: OUT with .quality.json)");
+}
+
+#else  // built without CGAL / OpenVDB
+
+void add_prepare(CLI::App& app) {
+  auto* c = app.add_subcommand("prepare", "Surface or image -> simulation-ready mesh (needs INCISE_WITH_CGAL)");
+  c->allow_extras();
+  c->callback([] { throw Error("prepare: this incise was built without CGAL (configure with -DINCISE_WITH_CGAL=ON)"); });
+}
+
+#endif
+
+}  // namespace incise::cli
