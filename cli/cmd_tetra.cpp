@@ -33,6 +33,7 @@ struct PipelineCli {
   std::vector<std::string> label_sizes;
   std::size_t max_tets = TetraOptions{}.max_tets;
   bool repair = false;
+  bool graded = false;
   std::string voxel = "0.5%";
   double close = -1;
   bool quiet = false;
@@ -56,6 +57,8 @@ struct PipelineCli {
     if (!edge_size.empty()) o.tetra.edge_size = Length::parse(edge_size);
     o.tetra.seed = seed;
     o.tetra.max_tets = max_tets;
+    if (graded && o.engine != TetraEngine::Stuffing) throw InvalidArgument("--graded: only with --engine stuffing");
+    o.tetra.graded = graded;
     o.tetra.progress = !quiet;
     for (const std::string& ls : label_sizes) {
       const auto eq = ls.find('=');
@@ -87,6 +90,7 @@ CLI::App* add_pipeline_command(CLI::App& app, const std::string& name, const std
   c->add_option("-o,--output", o->out, "Output tet mesh (.msh .mesh .vtk .vtu .node; by extension)")->required();
   c->add_option("--engine", o->engine, "cgal (Delaunay refinement, accurate) or stuffing (BCC lattice, fast)")
       ->capture_default_str();
+  c->add_flag("--graded", o->graded, "Stuffing engine: octree-graded lattice, tets grow away from the surface");
   c->add_option("--size", o->size,
                 "Target size: tet circumradius bound; absolute (0.05) or % of the bounding-box diagonal (3%)")
       ->capture_default_str();

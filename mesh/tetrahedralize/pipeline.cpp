@@ -38,6 +38,7 @@ TetMesh tetrahedralize_stuffing(const SignedDistance& sdf, const TetraOptions& o
     throw InvalidArgument("stuffing: --size " + fmt(opt.size.resolve(diag)) + " is larger than the model allows (use at most " +
                           fmt(diag / 4) + ")");
   so.max_tets = opt.max_tets;
+  so.graded = opt.graded;
   if (opt.progress) std::cerr << "tetra: isosurface stuffing, lattice spacing " << so.cell_size << "\n";
   TetMesh mesh = isosurface_stuffing([&sdf](const Vec3& p) { return sdf(p); }, lo, hi, so);
   // Where the lattice does not resolve thin parts the boundary can pinch; removing the few

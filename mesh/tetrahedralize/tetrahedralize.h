@@ -57,6 +57,8 @@ struct TetraOptions {
   std::map<int, double> label_sizes;  // images: absolute size per label (overrides `size`)
   std::size_t max_tets = 30'000'000;  // refuse sizes whose estimated tet count exceeds this
   bool progress = false;              // progress lines on stderr
+  bool graded = false;                // stuffing engine: octree-graded lattice (fewer, larger
+                                      // tets inside; `size` holds at the surface)
 };
 
 struct TetraStats {

@@ -54,6 +54,23 @@ TEST_CASE("Stuffing engine: guaranteed dihedral bounds, volume, labels", "[tetra
   }
 }
 
+TEST_CASE("Graded stuffing from a level set: fewer tets, same surface, same bounds", "[tetra]") {
+  PipelineOptions po;
+  po.engine = TetraEngine::Stuffing;
+  po.tetra.size = Length{0.01, true};
+  const SurfaceMesh s = sphere_surface(1.0, 5);
+  PipelineReport uniform_rep, graded_rep;
+  const TetMesh uniform = mesh_surface(s, po, &uniform_rep);
+  po.tetra.graded = true;
+  const TetMesh graded = mesh_surface(s, po, &graded_rep);
+  check_output(graded, enclosed_volume(s), 0.03);
+  INFO("graded " << graded.num_tets() << " vs uniform " << uniform.num_tets() << " tets");
+  CHECK(graded.num_tets() < 0.7 * uniform.num_tets());
+  CHECK(graded.total_volume() == Approx(uniform.total_volume()).epsilon(0.01));
+  CHECK(graded_rep.stats.min_dihedral >= kStuffingMinDihedral - 1e-6);
+  CHECK(graded_rep.stats.max_dihedral <= kStuffingMaxDihedral + 1e-6);
+}
+
 TEST_CASE("Repair closes holes and meshes the closed shape", "[tetra][cgal]") {
   SurfaceMesh s = sphere_surface(1, 3);
   for (int k = 0; k < 6; ++k) s.triangles.erase(s.triangles.begin() + 37 * k);  // six holes
