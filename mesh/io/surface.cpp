@@ -12,6 +12,7 @@
 #include "mesh/errors.h"
 #include "mesh/io/atomic_file.h"
 #include "mesh/io/parse_util.h"
+#include "mesh/io/tet_io.h"
 
 namespace incise {
 
@@ -77,6 +78,8 @@ SurfaceMesh read_surface(const std::string& path) {
   if (S_ISDIR(st.st_mode)) io::throw_io(path, 0, "is a directory, not a file");
   if (st.st_size == 0) io::throw_io(path, 0, "empty file");
   if (lower_ext(path) == "ply") check_ply_header(path);
+  if (is_tet_mesh_path(path))
+    io::throw_io(path, 0, "is a tetrahedral mesh format; a surface is needed here (OBJ, STL, PLY, OFF, glTF, ...)");
   Assimp::Importer importer;
   // No assimp post-processing: its steps assert (abort) on malformed input, e.g. a face
   // with no vertices in TriangulateProcess. Polygons are fan-triangulated and node
