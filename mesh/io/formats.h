@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "mesh/io/atomic_file.h"
@@ -25,6 +26,11 @@ struct RawMesh {
 };
 
 // Parses `text` (the content of `file`); throws IoError on anything malformed.
+// Lower-case extension without the dot ("" if none).
+std::string lower_extension(const std::string& path);
+// How good a name is for the label array of a VTK / VTU file, best first (0: not a label).
+int label_rank(std::string_view name);
+
 RawMesh parse_gmsh(const std::string& file, const std::string& text);
 RawMesh parse_medit(const std::string& file, const std::string& text);
 RawMesh parse_vtk_legacy(const std::string& file, const std::string& text);

@@ -11,20 +11,13 @@
 
 #include "mesh/errors.h"
 #include "mesh/io/atomic_file.h"
+#include "mesh/io/formats.h"
 #include "mesh/io/parse_util.h"
 #include "mesh/io/tet_io.h"
 
 namespace incise {
 
 namespace {
-std::string lower_ext(const std::string& path) {
-  auto slash = path.find_last_of('/');
-  auto dot = path.find_last_of('.');
-  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return {};
-  std::string ext = path.substr(dot + 1);
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
 // assimp's PLY importer loops forever on some malformed headers (found by fuzz_surface), so
 // the header is checked here first: known keywords, well-formed element and property lines.
 void check_ply_header(const std::string& path) {
@@ -77,7 +70,7 @@ SurfaceMesh read_surface(const std::string& path) {
   if (::stat(path.c_str(), &st) != 0) io::throw_io(path, 0, "cannot open file (does it exist?)");
   if (S_ISDIR(st.st_mode)) io::throw_io(path, 0, "is a directory, not a file");
   if (st.st_size == 0) io::throw_io(path, 0, "empty file");
-  if (lower_ext(path) == "ply") check_ply_header(path);
+  if (io::lower_extension(path) == "ply") check_ply_header(path);
   if (is_tet_mesh_path(path))
     io::throw_io(path, 0, "is a tetrahedral mesh format; a surface is needed here (OBJ, STL, PLY, OFF, glTF, ...)");
   Assimp::Importer importer;
@@ -141,7 +134,7 @@ SurfaceMesh read_surface(const std::string& path) {
 }
 
 void write_surface(const SurfaceMesh& surface, const std::string& path) {
-  const std::string ext = lower_ext(path);
+  const std::string ext = io::lower_extension(path);
   if (ext != "off" && ext != "obj" && ext != "stl")
     io::throw_io(path, 0, "unknown surface format '." + ext + "' (write .off, .obj or .stl)");
   const int nv = static_cast<int>(surface.vertices.size());

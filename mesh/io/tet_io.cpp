@@ -15,6 +15,25 @@ namespace incise {
 
 namespace io {
 
+std::string lower_extension(const std::string& path) {
+  auto slash = path.find_last_of('/');
+  auto dot = path.find_last_of('.');
+  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return {};
+  std::string ext = path.substr(dot + 1);
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+// Label arrays in VTK files, best first (0: not a label array).
+int label_rank(std::string_view name) {
+  if (name == "label") return 4;
+  if (name == "gmsh:physical") return 3;
+  if (name == "CellEntityIds") return 2;
+  if (name == "medit:ref") return 1;
+  return 0;
+}
+
+
 std::string read_file_bytes(const std::string& path) {
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0) io::throw_io(path, 0, "cannot open file (does it exist?)");
@@ -203,15 +222,6 @@ FlatMesh flatten(const TetMesh& mesh, const MeshFields* fields) {
     for (const Field& cd : fields->cell_data) f.cell_data.push_back(gather(cd, f.tet_ids, tcap, "cell"));
   }
   return f;
-}
-
-std::string lower_extension(const std::string& path) {
-  auto slash = path.find_last_of('/');
-  auto dot = path.find_last_of('.');
-  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return {};
-  std::string ext = path.substr(dot + 1);
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
 }
 
 bool is_surface_extension(const std::string& ext) {

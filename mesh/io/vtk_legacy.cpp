@@ -24,15 +24,6 @@ NumType vtk_legacy_type(std::string_view n) {
 
 namespace {
 
-// Label arrays, best first.
-int label_rank(std::string_view name) {
-  if (name == "label") return 4;
-  if (name == "gmsh:physical") return 3;
-  if (name == "CellEntityIds") return 2;
-  if (name == "medit:ref") return 1;
-  return 0;
-}
-
 class VtkReader {
 public:
   VtkReader(const std::string& file, const std::string& text) : c_(file, text) {}

@@ -297,14 +297,6 @@ std::vector<double> Vtu::decode(const Array& a, std::size_t expected) {
   return out;
 }
 
-int label_rank(std::string_view name) {
-  if (name == "label") return 4;
-  if (name == "gmsh:physical") return 3;
-  if (name == "CellEntityIds") return 2;
-  if (name == "medit:ref") return 1;
-  return 0;
-}
-
 RawMesh Vtu::parse() {
   RawMesh m;
   Tag t;

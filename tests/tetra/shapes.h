@@ -1,5 +1,7 @@
 #pragma once
 // Closed test surfaces with known volumes (tests/tetra only).
+#include <catch2/catch.hpp>
+
 #include <cmath>
 #include <map>
 
@@ -75,6 +77,16 @@ inline SurfaceMesh merged(const SurfaceMesh& a, const SurfaceMesh& b) {
   s.vertices.insert(s.vertices.end(), b.vertices.begin(), b.vertices.end());
   for (auto t : b.triangles) s.triangles.push_back({t[0] + off, t[1] + off, t[2] + off});
   return s;
+}
+
+// The invariants every output must satisfy.
+inline void check_output(const TetMesh& m, double input_volume, double volume_tol) {
+  REQUIRE(m.num_tets() > 0);
+  m.validate({true, true});  // incidence, positive volumes, closed manifold boundary
+  for (TetId t : m.tets()) REQUIRE(m.volume(t) > 0);
+  for (const BoundaryFace& f : m.boundary_faces()) REQUIRE(f.tag == kTagSurface);
+  INFO("volume ratio " << m.total_volume() / input_volume);
+  CHECK(m.total_volume() == Approx(input_volume).epsilon(volume_tol));
 }
 
 }  // namespace incise::test

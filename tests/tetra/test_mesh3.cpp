@@ -17,16 +17,6 @@ namespace {
 
 const std::string kData = INCISE_CGAL_DATA_DIR;
 
-// The invariants every output must satisfy.
-void check_output(const TetMesh& m, double input_volume, double volume_tol) {
-  REQUIRE(m.num_tets() > 0);
-  m.validate({true, true});  // incidence, positive volumes, closed manifold boundary
-  for (TetId t : m.tets()) REQUIRE(m.volume(t) > 0);
-  for (const BoundaryFace& f : m.boundary_faces()) REQUIRE(f.tag == kTagSurface);
-  INFO("volume ratio " << m.total_volume() / input_volume);
-  CHECK(m.total_volume() == Approx(input_volume).epsilon(volume_tol));
-}
-
 bool same_mesh(const TetMesh& a, const TetMesh& b) {
   if (a.num_vertices() != b.num_vertices() || a.num_tets() != b.num_tets()) return false;
   for (VertexId v : a.vertices())

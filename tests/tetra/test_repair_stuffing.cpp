@@ -16,15 +16,6 @@ namespace {
 
 const std::string kData = INCISE_CGAL_DATA_DIR;
 
-void check_output(const TetMesh& m, double input_volume, double volume_tol) {
-  REQUIRE(m.num_tets() > 0);
-  m.validate({true, true});
-  for (TetId t : m.tets()) REQUIRE(m.volume(t) > 0);
-  for (const BoundaryFace& f : m.boundary_faces()) REQUIRE(f.tag == kTagSurface);
-  INFO("volume ratio " << m.total_volume() / input_volume);
-  CHECK(m.total_volume() == Approx(input_volume).epsilon(volume_tol));
-}
-
 double union_of_spheres(double r, double d) {
   const double lens = M_PI * (4 * r + d) * (2 * r - d) * (2 * r - d) / 12;
   return 2 * 4.0 / 3 * M_PI * r * r * r - lens;
