@@ -131,7 +131,10 @@ void FemSimulation::apply(const TopologyChange& change) {
     update_free(v.idx());
   }
   for (VertexId v : change.touched_vertices) update_free(v.idx());
-  if (!change.empty()) assembled_dirty_ = direct_dirty_ = rigid_dirty_ = true;
+  // The rigid-mode check is O(mesh), so a topology change does not re-arm it: the per-cut
+  // path stays local. A cut that frees a part shows up as a CG breakdown or non-convergence;
+  // callers that want the precise diagnosis call check_constraints().
+  if (!change.empty()) assembled_dirty_ = direct_dirty_ = true;
 }
 
 void FemSimulation::check_rigid_modes() const {

@@ -15,7 +15,7 @@
 // they enter CG by projection and the right-hand side. A static solve first checks, per
 // face-connected part of the mesh, that at least 3 non-collinear vertices are constrained, and
 // throws InvalidArgument naming the part otherwise (the check is O(mesh), run only after the
-// constraint set or the topology changed).
+// constraint set changed, never after apply(): call check_constraints() after a cut if wanted).
 //
 // Topology changes: apply(change) after every mesh edit batch. Per-tet data, diagonal and
 // masses are updated locally; new vertices get interpolated displacement and velocity, and are
