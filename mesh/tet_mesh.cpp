@@ -208,6 +208,45 @@ VertexId TetMesh::add_vertex_interpolated(std::span<const VertexId> parents, std
   return o.vertex;
 }
 
+void TetMesh::move_vertex(VertexId v, std::span<const VertexId> parents, std::span<const double> weights) {
+  if (!is_alive(v)) throw InvalidArgument("move_vertex: " + vid(v) + " is not alive");
+  if (parents.empty() || parents.size() > 4 || parents.size() != weights.size())
+    throw InvalidArgument("move_vertex: need 1 to 4 parents with one weight each");
+  ++counters_.edits;
+  Vec3 p = Vec3::Zero();
+  VertexOrigin o;
+  o.vertex = v;
+  for (std::size_t k = 0; k < parents.size(); ++k) {
+    if (!is_alive(parents[k])) throw InvalidArgument("move_vertex: parent " + vid(parents[k]) + " is dead");
+    p += weights[k] * rest_[parents[k].idx()];
+    o.parents[k] = parents[k];
+    o.weights[k] = weights[k];
+  }
+  rest_[v.idx()] = p;
+  pending_moved_.push_back(o);
+  // The tets' rest shapes changed: consumers must rebuild their per-tet data.
+  for (TetId t : vertex_tets_[v.idx()]) {
+    ++counters_.visits;
+    events_.push_back({Event::RemoveTet, t});
+    events_.push_back({Event::AddTet, t});
+    for (VertexId x : tet_v_[t.idx()]) touch(x);
+  }
+  touch(v);
+}
+
+bool TetMesh::is_move_ok(VertexId v, const Vec3& p, double min_volume_fraction) const {
+  if (!is_alive(v)) return false;
+  for (TetId t : vertex_tets_[v.idx()]) {
+    std::array<Vec3, 4> x;
+    for (int k = 0; k < 4; ++k) x[k] = rest_[tet_v_[t.idx()][k].idx()];
+    const double before = (x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0]));
+    x[local_index(t, v)] = p;
+    const double after = (x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0]));
+    if (!(after > 0) || after < min_volume_fraction * before) return false;
+  }
+  return true;
+}
+
 void TetMesh::remove_vertex(VertexId v) {
   if (!is_alive(v)) throw InvalidArgument("remove_vertex: " + vid(v) + " is not alive");
   if (!vertex_tets_[v.idx()].empty()) throw InvalidMesh("remove_vertex: " + vid(v) + " is still used by tets");
@@ -362,6 +401,7 @@ TopologyChange TetMesh::take_change() {
     if (tet_alive_[id] && s.any_add) ch.added_tets.emplace_back(id);
   }
   ch.added_vertices = std::move(pending_vertices_);
+  ch.moved_vertices = std::move(pending_moved_);
   ch.removed_vertices = std::move(pending_removed_vertices_);
   for (VertexId v : pending_touched_) {
     touched_mark_[v.idx()] = 0;
@@ -369,6 +409,7 @@ TopologyChange TetMesh::take_change() {
   }
   events_.clear();
   pending_vertices_.clear();
+  pending_moved_.clear();
   pending_removed_vertices_.clear();
   pending_touched_.clear();
   pending_.any = false;

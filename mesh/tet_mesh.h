@@ -109,6 +109,14 @@ public:
   // A vertex whose rest position is interpolated from parents; recorded as such in the
   // TopologyChange (weights need not sum to 1 only for duplication, where it is {1}).
   VertexId add_vertex_interpolated(std::span<const VertexId> parents, std::span<const double> weights);
+  // Moves v's rest position to sum_k weights[k] * rest(parents[k]), where parents/weights are
+  // the barycentric coordinates of the new position in a tet of the mesh before the move
+  // (usually one of v's own tets). Recorded in TopologyChange::moved_vertices, and v's tets as
+  // removed + added. Does not check orientation: callers check first (is_move_ok).
+  void move_vertex(VertexId v, std::span<const VertexId> parents, std::span<const double> weights);
+  // True when moving v to p keeps every incident tet's signed volume above
+  // min_volume_fraction times its current volume (and positive).
+  bool is_move_ok(VertexId v, const Vec3& p, double min_volume_fraction = 0.0) const;
   // Removes an isolated vertex (throws InvalidMesh if tets still use it).
   void remove_vertex(VertexId v);
   // Adds a tet and links it to its face neighbours. Throws InvalidMesh for a repeated
@@ -206,6 +214,7 @@ private:
   // Pending batch.
   std::vector<Event> events_;
   std::vector<VertexOrigin> pending_vertices_;
+  std::vector<VertexOrigin> pending_moved_;
   std::vector<VertexId> pending_removed_vertices_;
   std::vector<VertexId> pending_touched_;
   std::vector<std::uint8_t> touched_mark_;  // per vertex: already in pending_touched_

@@ -27,6 +27,14 @@ struct TopologyChange {
   std::vector<TetId> added_tets;
   // In creation order: parents always precede their children.
   std::vector<VertexOrigin> added_vertices;
+  // Vertices whose rest position an edit moved (smoothing), in the order of the moves. The
+  // record's parents and weights give the new rest position as a point of the mesh *before*
+  // the move (parents may include the vertex itself, with its old value). Consumers apply
+  // added_vertices first, then these, each in order, interpolating every per-vertex field
+  // (displacement, current position, velocity): the deformed shape then stays where it was.
+  // The tets around a moved vertex are listed as removed and added (their rest shape changed).
+  // Editors that both insert and move in one batch insert first (the order above is exact).
+  std::vector<VertexOrigin> moved_vertices;
   // Isolated vertices deleted by the batch.
   std::vector<VertexId> removed_vertices;
   // Vertices (old or new) whose set of incident tets changed, each listed once.
@@ -34,7 +42,7 @@ struct TopologyChange {
 
   bool empty() const {
     return removed_tets.empty() && added_tets.empty() && added_vertices.empty() &&
-           removed_vertices.empty() && touched_vertices.empty();
+           moved_vertices.empty() && removed_vertices.empty() && touched_vertices.empty();
   }
 };
 

@@ -297,6 +297,23 @@ void SpringModel::apply(const TetMesh& mesh, const TopologyChange& change) {
     mass_[i] = 0;
     touch(i);
   }
+  // Moved vertices (smoothing): the deformation at the new rest position, so the current
+  // shape does not change.
+  for (const VertexOrigin& o : change.moved_vertices) {
+    const std::uint32_t i = o.vertex.idx();
+    Vec3 x = Vec3::Zero(), u = Vec3::Zero(), target = Vec3::Zero();
+    for (int k = 0; k < 4; ++k) {
+      if (!o.parents[k].is_valid() || o.weights[k] == 0) continue;
+      const std::uint32_t p = o.parents[k].idx();
+      x += o.weights[k] * x_[p];
+      u += o.weights[k] * v_[p];
+      target += o.weights[k] * target_[p];
+    }
+    x_[i] = x;
+    v_[i] = u;
+    if (prescribed_[i]) target_[i] = target;
+    touch(i);
+  }
   auto add_edges = [&](const std::array<VertexId, 4>& tv) {
     for (const auto& e : kEdges) edge_scratch_.push_back(edge_key(tv[e[0]].idx(), tv[e[1]].idx()));
     for (VertexId w : tv) touch(w.idx());

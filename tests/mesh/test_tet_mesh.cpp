@@ -229,3 +229,32 @@ TEST_CASE("edits are local: incidence visits per edit do not grow with mesh size
   // large mesh may only be cheaper; what matters is that it is not more expensive.
   CHECK(large < 1.5 * small);
 }
+
+TEST_CASE("move_vertex records the move and its tets; backends can interpolate from it", "[mesh][move]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {3, 3, 3});
+  m.discard_change();
+  // An interior vertex: (1/3, 1/3, 1/3).
+  VertexId v;
+  for (VertexId x : m.vertices())
+    if ((m.rest(x) - Vec3(1.0 / 3, 1.0 / 3, 1.0 / 3)).norm() < 1e-12) v = x;
+  REQUIRE(v.is_valid());
+  const double vol = m.total_volume();
+  // New position: a point inside one of v's own tets, given by barycentric coordinates there.
+  const TetId t = m.incident_tets(v)[0];
+  const auto tv = m.tet_vertices(t);
+  const std::array<double, 4> w = {0.7, 0.1, 0.1, 0.1};
+  Vec3 p = Vec3::Zero();
+  for (int k = 0; k < 4; ++k) p += w[k] * m.rest(tv[k]);
+  CHECK(m.is_move_ok(v, p));
+  CHECK_FALSE(m.is_move_ok(v, Vec3(2, 2, 2)));
+  m.move_vertex(v, tv, w);
+  m.validate({true, true});
+  CHECK((m.rest(v) - p).norm() < 1e-15);
+  CHECK(m.total_volume() == Approx(vol).epsilon(1e-12));
+  const TopologyChange ch = m.take_change();
+  REQUIRE(ch.moved_vertices.size() == 1);
+  CHECK(ch.moved_vertices[0].vertex == v);
+  CHECK(ch.added_vertices.empty());
+  CHECK(ch.removed_tets.size() == m.incident_tets(v).size());
+  CHECK(ch.added_tets.size() == m.incident_tets(v).size());
+}
