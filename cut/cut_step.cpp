@@ -1,0 +1,431 @@
+#include "cut/cut_step.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "cut/predicates.h"
+
+namespace incise::cut_detail {
+
+namespace {
+// The floor of the snap threshold: points made by earlier splits are floating point, so a
+// vertex meant to lie on a blade is only within rounding of it.
+constexpr double kSnapFloor = 1e-6;
+// Relative tolerance of "inside the piece" for points that are on its plane.
+constexpr double kInsideTol = 1e-9;
+
+std::uint32_t face_key(TetId t, int f) { return 4 * t.idx() + std::uint32_t(f); }
+}  // namespace
+
+CutStep::CutStep(TetMesh& mesh, const PositionFn& positions, double snap)
+    : mesh_(mesh), positions_(positions), snap_(std::max(snap, kSnapFloor)) {}
+
+Vec3 CutStep::position(VertexId v) const {
+  auto it = created_pos_.find(v.idx());
+  if (it != created_pos_.end()) return it->second;
+  return positions_ ? positions_(v) : mesh_.rest(v);
+}
+
+std::array<Vec3, 4> CutStep::tet_positions(TetId t) const {
+  const auto& tv = mesh_.tet_vertices(t);
+  return {position(tv[0]), position(tv[1]), position(tv[2]), position(tv[3])};
+}
+
+double CutStep::snap_length(VertexId v) {
+  auto it = snap_len_.find(v.idx());
+  if (it != snap_len_.end()) return it->second;
+  const Vec3 x = position(v);
+  double l2 = 1e300;
+  for (TetId t : mesh_.incident_tets(v))
+    for (VertexId w : mesh_.tet_vertices(t))
+      if (w != v) l2 = std::min(l2, (position(w) - x).squaredNorm());
+  const double len = snap_ * std::sqrt(l2);
+  snap_len_[v.idx()] = len;
+  return len;
+}
+
+void CutStep::note_destroyed(TetId t) {
+  if (!born_.count(t.idx())) destroyed_.insert(t.idx());
+  else born_.erase(t.idx());
+}
+
+void CutStep::note_new_vertex(VertexId p) {
+  radius_[p.idx()] = pending_radius_;
+  for (TetId t : mesh_.incident_tets(p)) {
+    born_.insert(t.idx());
+    if (in_cand_.insert(t.idx()).second) cand_.push_back(t);
+  }
+  // Snap lengths of the neighbours changed (a shorter edge); forget them.
+  for (TetId t : mesh_.incident_tets(p))
+    for (VertexId w : mesh_.tet_vertices(t)) snap_len_.erase(w.idx());
+}
+
+double CutStep::vertex_radius(VertexId v) {
+  auto it = radius_.find(v.idx());
+  // Existing vertices: the floor only. The blade's rim and front must stay a chain of mesh
+  // edges for the next step to continue from; snapping them onto nearby vertices breaks the
+  // chain, so the snap threshold acts on the blade's plane (side()), not on its boundary.
+  return it != radius_.end() ? it->second : snap_length(v) * (kSnapFloor / snap_);
+}
+
+VertexId CutStep::insert_point(TetId t, std::array<double, 4> w) {
+  const auto tv = mesh_.tet_vertices(t);
+  for (double& x : w) x = std::max(x, 0.0);
+  // A point within a vertex's snap radius is that vertex. Vertices made this step keep the
+  // radius of the element they were made in: a blade segment passes within that distance of
+  // a point snapped onto an edge, and must not then refine the shrinking faces around it.
+  {
+    const double sum = w[0] + w[1] + w[2] + w[3];
+    Vec3 x = Vec3::Zero();
+    double longest = 0;
+    for (int k = 0; k < 4; ++k) {
+      x += w[k] / sum * position(tv[k]);
+      for (int j = k + 1; j < 4; ++j) longest = std::max(longest, (position(tv[k]) - position(tv[j])).norm());
+    }
+    int best = -1;
+    double best_d = 1e300;
+    for (int k = 0; k < 4; ++k) {
+      const double d = (x - position(tv[k])).norm();
+      if (d <= vertex_radius(tv[k]) && d < best_d) {
+        best = k;
+        best_d = d;
+      }
+    }
+    if (best >= 0) return tv[best];
+    pending_radius_ = kSnapFloor * longest;
+  }
+  for (double& x : w)
+    if (x < kSnapFloor) x = 0;
+  double sum = w[0] + w[1] + w[2] + w[3];
+  if (!(sum > 0)) {  // every weight snapped: the nearest vertex
+    const int k = int(std::max_element(w.begin(), w.end()) - w.begin());
+    return tv[k];
+  }
+  for (double& x : w) x /= sum;
+  int nz = 0;
+  for (double x : w) nz += x > 0;
+  VertexId p;
+  if (nz == 1) {
+    for (int k = 0; k < 4; ++k)
+      if (w[k] > 0) return tv[k];
+  } else if (nz == 2) {
+    int a = -1, b = -1;
+    for (int k = 0; k < 4; ++k)
+      if (w[k] > 0) (a < 0 ? a : b) = k;
+    for (TetId x : mesh_.incident_tets(tv[a]))
+      if (mesh_.local_index(x, tv[b]) >= 0) note_destroyed(x);
+    p = mesh_.split_edge(tv[a], tv[b], w[b]);
+    created_pos_[p.idx()] = w[a] * position(tv[a]) + w[b] * position(tv[b]);
+  } else if (nz == 3) {
+    int f = 0;
+    while (w[f] > 0) ++f;
+    const auto fv = mesh_.face_vertices(t, f);
+    std::array<double, 3> w3;
+    Vec3 x = Vec3::Zero();
+    for (int k = 0; k < 3; ++k) {
+      w3[k] = w[mesh_.local_index(t, fv[k])];
+      x += w3[k] * position(fv[k]);
+    }
+    note_destroyed(t);
+    if (mesh_.neighbor(t, f).is_valid()) note_destroyed(mesh_.neighbor(t, f));
+    p = mesh_.split_face(t, f, w3);
+    created_pos_[p.idx()] = x;
+  } else {
+    Vec3 x = Vec3::Zero();
+    for (int k = 0; k < 4; ++k) x += w[k] * position(tv[k]);
+    note_destroyed(t);
+    p = mesh_.split_tet(t, w);
+    created_pos_[p.idx()] = x;
+  }
+  note_new_vertex(p);
+  return p;
+}
+
+void CutStep::collect(const Piece& piece, std::span<const TetId> seeds,
+                      const std::function<std::vector<TetId>()>& fallback) {
+  current_piece_ = on_piece_.size();
+  on_piece_.emplace_back();
+  side_cache_.emplace_back();
+  // Tolerance of the overlap test: a little more than the snap reach, relative to the piece.
+  const double tol = 1e-9 * (piece.hi - piece.lo).norm();
+  std::vector<TetId> queue;
+  std::unordered_set<std::uint32_t> seen;
+  auto touches = [&](TetId t) {
+    const auto x = tet_positions(t);
+    for (const CutTriangle& tri : piece.triangles)
+      if (tet_may_touch_triangle(x, tri, tol)) return true;
+    return false;
+  };
+  auto try_seed = [&](TetId t) {
+    if (!mesh_.is_alive(t) || !seen.insert(t.idx()).second) return;
+    if (touches(t)) queue.push_back(t);
+  };
+  for (TetId t : seeds) try_seed(t);
+  if (queue.empty() && fallback)
+    for (TetId t : fallback()) try_seed(t);
+  for (std::size_t i = 0; i < queue.size(); ++i) {
+    const TetId t = queue[i];
+    if (in_cand_.insert(t.idx()).second) cand_.push_back(t);
+    for (int f = 0; f < 4; ++f) {
+      const TetId n = mesh_.neighbor(t, f);
+      if (n.is_valid() && seen.insert(n.idx()).second && touches(n)) queue.push_back(n);
+    }
+  }
+}
+
+void CutStep::embed_boundary(const Piece& piece) {
+  auto& on = on_piece_[current_piece_];
+  // Which boundary segments each vertex lies on (bit i: segment i). A line through a vertex of
+  // a face meets the face's plane only there (or lies in it), so a face with a vertex on the
+  // segment has nothing to insert; testing it anyway would intersect the segment with planes
+  // it lies in up to rounding, and refine without end.
+  std::unordered_map<std::uint32_t, std::uint32_t> on_segment;
+  auto mark = [&](VertexId v, std::uint32_t segments) {
+    on_segment[v.idx()] |= segments;
+    if (on.insert(v.idx()).second) boundary_vertices_.push_back(v);
+  };
+  const std::size_t ns = piece.boundary.size();
+  // Segments embedded before (by an earlier piece of this step, or the previous step's front)
+  // are reused as they are: embedding the same segment twice would snap differently and
+  // leave a strip between the two cut surfaces.
+  std::vector<bool> known(ns, false);
+  for (std::size_t i = 0; i < ns; ++i)
+    for (const EmbeddedSegment& e : embedded_) {
+      const auto& g = piece.boundary[i];
+      if ((e.a == g[0] && e.b == g[1]) || (e.a == g[1] && e.b == g[0])) {
+        known[i] = true;
+        for (VertexId v : e.vertices)
+          if (mesh_.is_alive(v)) mark(v, 1u << i);
+        break;
+      }
+    }
+  // Corners first: each inside the body becomes a vertex (or snaps to one). Corner i starts
+  // segment i and ends segment i-1 (the boundary is a closed loop).
+  for (std::size_t i = 0; i < ns; ++i) {
+    if (known[i] || known[(i + ns - 1) % ns]) continue;
+    const Vec3 c = piece.boundary[i][0];
+    const std::uint32_t bits = (1u << i) | (1u << ((i + ns - 1) % ns));
+    for (std::size_t i = 0; i < cand_.size(); ++i) {
+      const TetId t = cand_[i];
+      if (!mesh_.is_alive(t)) continue;
+      const auto x = tet_positions(t);
+      const double vol = (x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0]));
+      if (!(vol > 0)) continue;
+      std::array<double, 4> w;
+      bool inside = true;
+      for (int f = 0; f < 4 && inside; ++f) {
+        const auto& l = kFaceLocal[f];
+        w[f] = (x[l[1]] - x[l[0]]).cross(x[l[2]] - x[l[0]]).dot(c - x[l[0]]) / -vol;  // >= 0 inside
+        inside = w[f] >= -1e-12;
+      }
+      if (!inside) continue;
+      mark(insert_point(t, w), bits);
+      break;
+    }
+  }
+  // Then the segments: every face a segment crosses gets the crossing point.
+  std::vector<TetId> work(cand_.begin(), cand_.end());
+  std::unordered_set<std::uint32_t> queued(in_cand_);
+  // Each real crossing makes one vertex; the cap only guards against a pathological cascade
+  // on degenerate input (the cut is then less exact, never invalid).
+  std::size_t splits = 0;
+  const std::size_t max_splits = 64 + 16 * cand_.size() * piece.boundary.size();
+  while (!work.empty() && splits < max_splits) {
+    const TetId t = work.back();
+    work.pop_back();
+    queued.erase(t.idx());
+    if (!mesh_.is_alive(t)) continue;
+    bool split = false;
+    for (int f = 0; f < 4 && !split; ++f) {
+      const auto fv = mesh_.face_vertices(t, f);
+      const Vec3 a = position(fv[0]), b = position(fv[1]), c = position(fv[2]);
+      std::uint32_t face_bits = 0;
+      for (VertexId v : fv) {
+        auto it = on_segment.find(v.idx());
+        if (it != on_segment.end()) face_bits |= it->second;
+      }
+      for (std::size_t si = 0; si < ns; ++si) {
+        if (known[si] || (face_bits & (1u << si))) continue;
+        const auto& seg = piece.boundary[si];
+        const int sp = orient3d(a, b, c, seg[0]), sq = orient3d(a, b, c, seg[1]);
+        if (sp * sq >= 0) continue;
+        const Vec3 n = (b - a).cross(c - a);
+        const double vp = n.dot(seg[0] - a), vq = n.dot(seg[1] - a);
+        const double s = std::clamp(vp / (vp - vq), 0.0, 1.0);
+        const Vec3 x = seg[0] + s * (seg[1] - seg[0]);
+        const auto w3 = triangle_barycentric(a, b, c, x);
+        if (w3[0] < -1e-12 || w3[1] < -1e-12 || w3[2] < -1e-12) continue;
+        std::array<double, 4> w{0, 0, 0, 0};
+        for (int k = 0; k < 3; ++k) w[mesh_.local_index(t, fv[k])] = w3[k];
+        const std::size_t before = mesh_.vertex_capacity(), alive_before = mesh_.num_vertices();
+        const VertexId p = insert_point(t, w);
+        mark(p, 1u << si);
+        if (mesh_.num_vertices() != alive_before || mesh_.vertex_capacity() != before) {
+          for (TetId x2 : mesh_.incident_tets(p))
+            if (queued.insert(x2.idx()).second) work.push_back(x2);
+          split = true;
+          ++splits;
+          break;
+        }
+      }
+    }
+  }
+  for (std::size_t i = 0; i < ns; ++i) {
+    if (known[i]) continue;
+    EmbeddedSegment e{piece.boundary[i][0], piece.boundary[i][1], {}};
+    for (const auto& [v, bits] : on_segment)
+      if (bits & (1u << i)) e.vertices.emplace_back(v);
+    embedded_.push_back(std::move(e));
+  }
+}
+
+int CutStep::side(const Piece& piece, std::size_t k, VertexId v) {
+  if (on_piece_[k].count(v.idx())) return 0;
+  auto it = side_cache_[k].find(v.idx());
+  if (it != side_cache_[k].end()) return it->second;
+  const Vec3 x = position(v);
+  int s = piece.side(x);
+  if (s != 0 && std::abs(piece.distance(x)) <= snap_length(v)) s = 0;
+  side_cache_[k][v.idx()] = s;
+  return s;
+}
+
+void CutStep::split_crossings(const Piece& piece) {
+  const std::size_t k = current_piece_;
+  struct EdgeSplit {
+    VertexId a, b;
+    double s;
+  };
+  std::map<std::pair<std::uint32_t, std::uint32_t>, EdgeSplit> edges;
+  // Snapping must not flatten a whole tet into the plane: the cut surface could then not say
+  // which side the tet is on, and would leave a hole there. Such a tet gets its farthest
+  // snapped vertex back on its exact side.
+  for (std::size_t i = 0; i < cand_.size(); ++i) {
+    const TetId t = cand_[i];
+    if (!mesh_.is_alive(t)) continue;
+    const auto& tv = mesh_.tet_vertices(t);
+    if (side(piece, k, tv[0]) || side(piece, k, tv[1]) || side(piece, k, tv[2]) || side(piece, k, tv[3])) continue;
+    int far = -1;
+    double far_d = -1;
+    for (int j = 0; j < 4; ++j) {
+      if (on_piece_[k].count(tv[j].idx())) continue;
+      const double d = std::abs(piece.distance(position(tv[j])));
+      if (d > far_d) {
+        far_d = d;
+        far = j;
+      }
+    }
+    if (far >= 0) side_cache_[k][tv[far].idx()] = piece.side(position(tv[far]));
+  }
+  for (std::size_t i = 0; i < cand_.size(); ++i) {
+    const TetId t = cand_[i];
+    if (!mesh_.is_alive(t)) continue;
+    const auto& tv = mesh_.tet_vertices(t);
+    int s[4];
+    bool plus = false, minus = false;
+    for (int j = 0; j < 4; ++j) {
+      s[j] = side(piece, k, tv[j]);
+      plus |= s[j] > 0;
+      minus |= s[j] < 0;
+    }
+    if (!(plus && minus)) continue;
+    // The tet's section with the plane; after the boundary is embedded it lies wholly inside
+    // or wholly outside the piece, so its centroid decides.
+    Vec3 c = Vec3::Zero();
+    int n = 0;
+    std::vector<EdgeSplit> crossing;
+    for (int a = 0; a < 4; ++a) {
+      if (s[a] == 0) {
+        c += position(tv[a]);
+        ++n;
+      }
+      for (int b = a + 1; b < 4; ++b) {
+        if (s[a] * s[b] >= 0) continue;
+        const Vec3 xa = position(tv[a]), xb = position(tv[b]);
+        const double da = piece.distance(xa), db = piece.distance(xb);
+        double u = (da - db) != 0 ? da / (da - db) : 0.5;
+        u = std::clamp(u, 1e-9, 1 - 1e-9);
+        c += (1 - u) * xa + u * xb;
+        ++n;
+        crossing.push_back({tv[a], tv[b], u});
+      }
+    }
+    if (!piece.contains(c / n, kInsideTol)) continue;
+    for (const EdgeSplit& e : crossing) {
+      edges.emplace(std::make_pair(std::min(e.a.idx(), e.b.idx()), std::max(e.a.idx(), e.b.idx())), e);
+    }
+  }
+  for (const auto& [key, e] : edges) {
+    if (!mesh_.is_alive(e.a) || !mesh_.is_alive(e.b)) continue;
+    bool exists = false;
+    for (TetId x : mesh_.incident_tets(e.a))
+      if (mesh_.local_index(x, e.b) >= 0) {
+        exists = true;
+        note_destroyed(x);
+      }
+    if (!exists) continue;
+    pending_radius_ = kSnapFloor * (position(e.a) - position(e.b)).norm();
+    const VertexId p = mesh_.split_edge(e.a, e.b, e.s);
+    created_pos_[p.idx()] = (1 - e.s) * position(e.a) + e.s * position(e.b);
+    on_piece_[k].insert(p.idx());
+    note_new_vertex(p);
+  }
+}
+
+std::vector<CutFacePair> CutStep::cut_faces(std::span<const Piece> pieces) {
+  std::vector<CutFacePair> out;
+  std::unordered_set<std::uint32_t> done;
+  for (std::size_t k = 0; k < pieces.size(); ++k) {
+    const Piece& piece = pieces[k];
+    for (std::size_t i = 0; i < cand_.size(); ++i) {
+      const TetId t = cand_[i];
+      if (!mesh_.is_alive(t)) continue;
+      const auto& tv = mesh_.tet_vertices(t);
+      for (int f = 0; f < 4; ++f) {
+        const TetId n = mesh_.neighbor(t, f);
+        if (!n.is_valid() || done.count(face_key(t, f))) continue;
+        const auto fv = mesh_.face_vertices(t, f);
+        if (side(piece, k, fv[0]) != 0 || side(piece, k, fv[1]) != 0 || side(piece, k, fv[2]) != 0) continue;
+        const int g = [&] {
+          for (int j = 0; j < 4; ++j)
+            if (mesh_.neighbor(n, j) == t) return j;
+          return -1;
+        }();
+        if (g < 0) continue;
+        const int sa = side(piece, k, tv[f]), sb = side(piece, k, mesh_.tet_vertices(n)[g]);
+        if (sa * sb >= 0) continue;  // a flat tet lying in the plane: the cut goes around it
+        const Vec3 c = (position(fv[0]) + position(fv[1]) + position(fv[2])) / 3;
+        if (!piece.contains(c, kInsideTol)) continue;
+        done.insert(face_key(t, f));
+        done.insert(face_key(n, g));
+        out.push_back({{t, f}, {n, g}});
+      }
+    }
+  }
+  return out;
+}
+
+void CutStep::add_known_segment(const Vec3& a, const Vec3& b, std::vector<VertexId> vertices) {
+  embedded_.push_back({a, b, std::move(vertices)});
+}
+
+std::vector<VertexId> CutStep::segment_vertices(const Vec3& a, const Vec3& b) const {
+  for (const EmbeddedSegment& e : embedded_)
+    if ((e.a == a && e.b == b) || (e.a == b && e.b == a)) {
+      std::vector<VertexId> out;
+      for (VertexId v : e.vertices)
+        if (mesh_.is_alive(v)) out.push_back(v);
+      return out;
+    }
+  return {};
+}
+
+std::vector<TetId> CutStep::live_candidates() const {
+  std::vector<TetId> out;
+  for (TetId t : cand_)
+    if (mesh_.is_alive(t)) out.push_back(t);
+  return out;
+}
+
+}  // namespace incise::cut_detail

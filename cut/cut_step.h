@@ -1,0 +1,90 @@
+#pragma once
+// Internal to cut/: the edits of one subdivision cut step, piece by piece (see cutter.h for
+// the algorithm). CutStep owns the step's scratch (candidate tets, current positions of the
+// vertices it creates, the side of each vertex w.r.t. each piece), all sized by the region the
+// blade touches, never by the mesh.
+#include <functional>
+#include <span>
+#include <unordered_map>
+#include <unordered_set>
+#include <vector>
+
+#include "cut/cut_piece.h"
+#include "mesh/tet_mesh.h"
+
+namespace incise::cut_detail {
+
+struct FaceRef {
+  TetId tet;
+  int local = 0;
+};
+// An interior face the cut surface runs through: both sides.
+struct CutFacePair {
+  FaceRef a, b;
+};
+
+class CutStep {
+public:
+  using PositionFn = std::function<Vec3(VertexId)>;
+  CutStep(TetMesh& mesh, const PositionFn& positions, double snap);
+
+  // Current position of a vertex (created this step, or given by the caller, or rest).
+  Vec3 position(VertexId v) const;
+
+  // Tets that may touch the piece, found by a walk from `seeds` through face neighbours;
+  // when no seed touches it, `fallback` is called for seeds (the first contact).
+  void collect(const Piece& piece, std::span<const TetId> seeds, const std::function<std::vector<TetId>()>& fallback);
+  // Makes the piece's boundary segments unions of mesh edges (tet, face, edge splits).
+  void embed_boundary(const Piece& piece);
+  // Splits every edge crossing the piece inside its region.
+  void split_crossings(const Piece& piece);
+  // After all pieces: the interior faces lying on a piece, with the two tets on its two sides.
+  std::vector<CutFacePair> cut_faces(std::span<const Piece> pieces);
+
+  // Live candidate tets (where the next step's walk starts, and the improvement seeds).
+  std::vector<TetId> live_candidates() const;
+  // Vertices on a piece's boundary (the blade front and the cut's rim): improvement keeps them.
+  const std::vector<VertexId>& boundary_vertices() const { return boundary_vertices_; }
+  std::size_t tets_cut() const { return destroyed_.size(); }
+  // A segment already made of mesh edges (the previous step's front): pieces with it as a
+  // boundary segment reuse its vertices instead of embedding it again.
+  void add_known_segment(const Vec3& a, const Vec3& b, std::vector<VertexId> vertices);
+  // Vertices on an embedded boundary segment (e.g. this step's front).
+  std::vector<VertexId> segment_vertices(const Vec3& a, const Vec3& b) const;
+  // Records the current position of a vertex created outside (duplicates).
+  void set_position(VertexId v, const Vec3& x) { created_pos_[v.idx()] = x; }
+
+private:
+  int side(const Piece& piece, std::size_t piece_index, VertexId v);
+  double snap_length(VertexId v);
+  double vertex_radius(VertexId v);
+  // Inserts the point with barycentric w in t, snapping small weights to zero; returns the
+  // vertex now at that point (existing or new).
+  VertexId insert_point(TetId t, std::array<double, 4> w);
+  void note_destroyed(TetId t);
+  void note_new_vertex(VertexId p);
+  std::array<Vec3, 4> tet_positions(TetId t) const;
+
+  TetMesh& mesh_;
+  PositionFn positions_;
+  double snap_;
+  std::vector<TetId> cand_;
+  std::unordered_set<std::uint32_t> in_cand_;
+  std::unordered_map<std::uint32_t, Vec3> created_pos_;
+  std::unordered_map<std::uint32_t, double> snap_len_;
+  std::unordered_map<std::uint32_t, double> radius_;  // snap radius of vertices made this step
+  double pending_radius_ = 0;
+  std::unordered_set<std::uint32_t> born_, destroyed_;
+  // Per piece: vertices created on it (exactly on it by construction) and cached sides.
+  std::vector<std::unordered_set<std::uint32_t>> on_piece_;
+  std::vector<std::unordered_map<std::uint32_t, int>> side_cache_;
+  std::size_t current_piece_ = 0;
+  std::vector<VertexId> boundary_vertices_;
+  struct EmbeddedSegment {
+    Vec3 a, b;
+    std::vector<VertexId> vertices;
+  };
+  std::vector<EmbeddedSegment> embedded_;
+};
+
+}  // namespace incise::cut_detail

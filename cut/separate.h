@@ -1,0 +1,25 @@
+#pragma once
+// Internal to cut/: opening the cut. Each vertex of a cut face keeps one connected component of
+// its tet star (components joined across faces that are not cut) and gets one duplicate per
+// further component, so the two sides separate along the whole cut surface while a vertex on
+// the cut front (one component) stays shared. Opened faces are tagged kTagCut.
+#include <span>
+#include <vector>
+
+#include "cut/cut_step.h"
+#include "mesh/tet_mesh.h"
+
+namespace incise::cut_detail {
+
+struct SeparationResult {
+  std::size_t vertices_duplicated = 0;  // new vertices made
+  std::size_t faces_opened = 0;         // cut faces that became boundary (pairs)
+  double area = 0;                      // rest area of the opened faces (one side)
+  std::vector<TetId> opened_tets;       // one tet on each side of every opened face
+};
+
+// `duplicate(v)` is called before v's extra components move to a new vertex (to record its
+// current position); returns the new vertex.
+SeparationResult separate(TetMesh& mesh, std::span<const CutFacePair> faces);
+
+}  // namespace incise::cut_detail

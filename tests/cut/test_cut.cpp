@@ -1,0 +1,206 @@
+// Cutting: invariants after every step, exact cut placement, separation and the front,
+// degenerate contacts, carving, and the TopologyChange the backends consume.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include "cut/cutter.h"
+#include "cut/predicates.h"
+#include "mesh/generate.h"
+#include "quality/components.h"
+#include "tests/cut/cut_checks.h"
+#include "tests/support/mesh_edits.h"
+
+using namespace incise;
+using namespace incise::test;
+
+namespace {
+CutOptions plain(double snap = 0) {
+  CutOptions o;
+  o.snap = snap;
+  o.improve = false;
+  return o;
+}
+// Largest distance of a kTagCut face vertex from the plane through `p` with normal `n`.
+double cut_face_distance(const TetMesh& m, const Vec3& p, const Vec3& n) {
+  double d = 0;
+  for (const auto& f : m.boundary_faces())
+    if (f.tag == kTagCut)
+      for (VertexId v : f.vertices) d = std::max(d, std::abs(n.normalized().dot(m.rest(v) - p)));
+  return d;
+}
+}  // namespace
+
+TEST_CASE("orient3d follows the mesh's orientation convention", "[cut]") {
+  CHECK(orient3d(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(1, 1, 1)) == 1);
+  CHECK(orient3d(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(1, 1, -1)) == -1);
+  CHECK(orient3d(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(5, -3, 0)) == 0);
+  // Exact on nearly coplanar input where a floating determinant is noise.
+  CHECK(orient3d(Vec3(0.1, 0.1, 0.1), Vec3(0.2, 0.2, 0.2), Vec3(0.3, 0.3, 0.3), Vec3(1, 2, 3)) == 0);
+}
+
+TEST_CASE("a progressive through-cut separates the box into two parts", "[cut]") {
+  for (double jit : {0.0, 0.3}) {
+    TetMesh m = make_box(Vec3(1, 1, 1), {4, 4, 4});
+    if (jit > 0) testing::jitter(m, jit, 3);
+    m.discard_change();
+    const auto vol0 = label_volumes(m);
+    Cutter cutter(m, plain());
+    // The blade spans x beyond the box, at a y between vertex layers, and moves down in z.
+    const double y = 0.43;
+    cutter.start({Vec3(-0.2, y, 1.3), Vec3(1.2, y, 1.3)});
+    for (int s = 1; s <= 8; ++s) {
+      const double z = 1.3 - s * 0.2;
+      const CutStepReport r = cutter.advance({Vec3(-0.2, y, z), Vec3(1.2, y, z)});
+      check_cut_invariants(m, vol0);
+      CHECK(r.change.added_tets.size() == r.tets_added);
+      if (s <= 4) CHECK(tet_components(m).count == 1);  // partial: still one piece
+    }
+    CHECK(tet_components(m).count == 2);
+    // The cut surface is the unit square at y: both sides tagged, on the blade's plane.
+    CHECK(tagged_area(m, kTagCut) == Approx(2.0).epsilon(1e-6));
+    CHECK(cut_face_distance(m, Vec3(0, y, 0), Vec3(0, 1, 0)) < 1e-6);
+  }
+}
+
+TEST_CASE("a partial cut keeps its front attached and the next step continues it", "[cut]") {
+  TetMesh m = make_ellipsoid(Vec3(1, 0.8, 0.6), 4);
+  m.discard_change();
+  const auto vol0 = label_volumes(m);
+  Cutter cutter(m, plain());
+  // A blade shorter than the body, entering from the top and stopping inside.
+  cutter.start({Vec3(-0.3, 0.05, 0.9), Vec3(0.4, 0.05, 0.9)});
+  double swept_inside = 0;
+  for (int s = 1; s <= 5; ++s) {
+    const double z = 0.9 - 0.2 * s;
+    cutter.advance({Vec3(-0.3, 0.05, z), Vec3(0.4, 0.05, z)});
+    check_cut_invariants(m, vol0);
+    CHECK(tet_components(m).count == 1);
+  }
+  (void)swept_inside;
+  CHECK(tagged_area(m, kTagCut) > 0);
+  CHECK(cut_face_distance(m, Vec3(0, 0.05, 0), Vec3(0, 1, 0)) < 1e-6);
+}
+
+TEST_CASE("blades through vertex layers, along edges and in faces are normal cases", "[cut]") {
+  for (double snap : {0.0, 0.1}) {
+    TetMesh m = make_box(Vec3(1, 1, 1), {4, 4, 4});
+    m.discard_change();
+    const auto vol0 = label_volumes(m);
+    Cutter cutter(m, plain(snap));
+    // y = 0.5 is a vertex layer; the Kuhn tets have faces and edges in it.
+    cutter.start({Vec3(-0.1, 0.5, 1.2), Vec3(1.1, 0.5, 1.2)});
+    for (int s = 1; s <= 4; ++s) {
+      cutter.advance({Vec3(-0.1, 0.5, 1.2 - 0.35 * s), Vec3(1.1, 0.5, 1.2 - 0.35 * s)});
+      check_cut_invariants(m, vol0);
+    }
+    CHECK(tet_components(m).count == 2);
+    CHECK(tagged_area(m, kTagCut) == Approx(2.0).epsilon(1e-9));
+    CHECK(cut_face_distance(m, Vec3(0, 0.5, 0), Vec3(0, 1, 0)) < 1e-12);
+  }
+  // A diagonal blade through vertices and edges of the Kuhn split.
+  TetMesh m = make_box(Vec3(1, 1, 1), {3, 3, 3});
+  m.discard_change();
+  const auto vol0 = label_volumes(m);
+  Cutter cutter(m, plain());
+  const CutStepReport r = cutter.cut_plane(Vec3(0.5, 0.5, 0.5), Vec3(1, -1, 0));
+  check_cut_invariants(m, vol0);
+  CHECK(tet_components(m).count == 2);
+  CHECK(tagged_area(m, kTagCut) == Approx(2 * std::sqrt(2.0)).epsilon(1e-9));
+  CHECK(r.fragments.size() == 1);
+}
+
+TEST_CASE("a rotating blade cuts two non-coplanar triangles per step", "[cut]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {5, 5, 5});
+  testing::jitter(m, 0.2, 9);
+  m.discard_change();
+  const auto vol0 = label_volumes(m);
+  Cutter cutter(m, plain(0.05));
+  cutter.start({Vec3(-0.2, 0.5, 1.3), Vec3(1.2, 0.5, 1.3)});
+  for (int s = 1; s <= 6; ++s) {
+    const double a = 0.08 * s, z = 1.3 - 0.25 * s;
+    cutter.advance({Vec3(-0.2, 0.5 - a, z), Vec3(1.2, 0.5 + a, z)});
+    check_cut_invariants(m, vol0);
+  }
+  CHECK(tet_components(m).count == 2);
+}
+
+TEST_CASE("snapping trades distance from the blade for fewer new tets", "[cut]") {
+  std::size_t added_exact = 0, added_snap = 0;
+  for (double snap : {0.0, 0.3}) {
+    TetMesh m = make_box(Vec3(1, 1, 1), {6, 6, 6});
+    testing::jitter(m, 0.3, 5);
+    m.discard_change();
+    const auto vol0 = label_volumes(m);
+    Cutter cutter(m, plain(snap));
+    const auto r = cutter.cut_plane(Vec3(0.5, 0.52, 0.5), Vec3(0.1, 1, 0.05));
+    check_cut_invariants(m, vol0);
+    CHECK(tet_components(m).count == 2);
+    const double d = cut_face_distance(m, Vec3(0.5, 0.52, 0.5), Vec3(0.1, 1, 0.05));
+    if (snap == 0) {
+      added_exact = r.tets_added;
+      CHECK(d < 1e-6);
+    } else {
+      added_snap = r.tets_added;
+      CHECK(d < snap * 0.5);  // within the threshold times the longest local edge
+    }
+  }
+  CHECK(added_snap < added_exact);
+}
+
+TEST_CASE("carving removes the touched tets and tags what they expose", "[cut]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {5, 5, 5});
+  m.discard_change();
+  const double vol0 = m.total_volume();
+  CutOptions o = plain();
+  o.mode = CutMode::Remove;
+  Cutter cutter(m, o);
+  cutter.start({Vec3(-0.2, 0.47, 1.3), Vec3(1.2, 0.47, 1.3)});
+  for (int s = 1; s <= 4; ++s) cutter.advance({Vec3(-0.2, 0.47, 1.3 - 0.45 * s), Vec3(1.2, 0.47, 1.3 - 0.45 * s)});
+  REQUIRE_NOTHROW(m.validate({true, true}));
+  CHECK(m.total_volume() < vol0);
+  CHECK(tet_components(m).count == 2);
+  CHECK(tagged_area(m, kTagCut) > 2.0);
+}
+
+TEST_CASE("cuts act on the current configuration and new vertices follow it", "[cut]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {4, 4, 4});
+  m.discard_change();
+  // A deformation: shear x += 0.3 z. The blade cuts the plane x = 0.6 in the deformed shape.
+  std::vector<Vec3> cur(m.vertex_capacity());
+  for (VertexId v : m.vertices()) cur[v.idx()] = m.rest(v) + Vec3(0.3 * m.rest(v).z(), 0, 0);
+  auto pos = [&](VertexId v) { return cur[v.idx()]; };
+  Cutter cutter(m, plain());
+  const auto r = cutter.cut_plane(Vec3(0.6, 0, 0), Vec3(1, 0, 0), pos);
+  m.validate({true, true});
+  // Every new vertex's current position (interpolated with the record's weights) is on the
+  // deformed blade plane or a duplicate of one that is.
+  cur.resize(m.vertex_capacity());
+  for (const VertexOrigin& o : r.change.added_vertices) {
+    Vec3 x = Vec3::Zero(), rest = Vec3::Zero();
+    for (int k = 0; k < 4; ++k)
+      if (o.parents[k].is_valid()) {
+        x += o.weights[k] * cur[o.parents[k].idx()];
+        rest += o.weights[k] * m.rest(o.parents[k]);
+      }
+    cur[o.vertex.idx()] = x;
+    CHECK((rest - m.rest(o.vertex)).norm() < 1e-12);
+    CHECK(std::abs(x.x() - 0.6) < 1e-9);
+  }
+  CHECK(tet_components(m).count == 2);
+}
+
+TEST_CASE("bad blades are refused with a clear error", "[cut]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {2, 2, 2});
+  m.discard_change();
+  CutOptions o;
+  o.snap = 0.7;
+  CHECK_THROWS_AS(Cutter(m, o), InvalidArgument);
+  Cutter cutter(m, plain());
+  CHECK_THROWS_AS(cutter.start({Vec3(NAN, 0, 0), Vec3(1, 0, 0)}), InvalidArgument);
+  CHECK_THROWS_AS(cutter.cut_plane(Vec3(0, 0, 0), Vec3(0, 0, 0)), InvalidArgument);
+  // A blade that does not move or misses the body changes nothing.
+  cutter.start({Vec3(0, 0.5, 2), Vec3(1, 0.5, 2)});
+  CHECK(cutter.advance({Vec3(0, 0.5, 2), Vec3(1, 0.5, 2)}).change.empty());
+  CHECK(cutter.advance({Vec3(0, 0.5, 3), Vec3(1, 0.5, 3)}).change.empty());
+}
