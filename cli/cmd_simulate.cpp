@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/commands.h"
+#include "cut/scene_cuts.h"
 #include "sim/scene.h"
 
 namespace incise::cli {
@@ -29,7 +30,7 @@ void add_simulate(CLI::App& app) {
     ro.out_dir = o->out;
     ro.frames = o->frames;
     ro.progress = o->quiet ? nullptr : &std::cerr;
-    const SceneRunSummary s = run_scene(scene, ro);
+    const SceneRunSummary s = run_scene_with_cuts(scene, ro);
     if (o->json) {
       nlohmann::json j = {{"scene", o->scene},
                           {"output", o->out},
@@ -41,13 +42,17 @@ void add_simulate(CLI::App& app) {
                           {"frames_budget_exhausted", s.frames_budget_exhausted},
                           {"frames_not_converged", s.frames_not_converged},
                           {"max_displacement", s.max_displacement},
+                          {"total_cut_ms", s.total_cut_ms},
+                          {"fragments_handled", s.fragments_handled},
                           {"files", s.files.size()}};
       std::cout << j.dump(2) << "\n";
     } else {
       std::cout << "simulate: " << s.frames << " frames on " << s.vertices << " vertices / " << s.tets << " tets, "
                 << s.total_iterations << " CG iterations, " << s.total_solve_ms << " ms solving, "
                 << s.frames_budget_exhausted << " frames stopped by the budget, " << s.frames_not_converged
-                << " not converged; max displacement " << s.max_displacement << "; " << s.files.size() << " files in "
+                << " not converged; max displacement " << s.max_displacement
+                << (scene.cuts.empty() ? "" : "; cutting " + std::to_string(s.total_cut_ms) + " ms") << "; "
+                << s.files.size() << " files in "
                 << o->out << "\n";
     }
   });

@@ -27,6 +27,19 @@ bool Piece::contains(const Vec3& x, double rel_tol) const {
   return false;
 }
 
+double Piece::boundary_distance(const Vec3& x) const {
+  double d = 1e300;
+  for (std::size_t i = 0; i < boundary.size(); ++i) {
+    if (!rim[i]) continue;
+    const auto& s = boundary[i];
+    const Vec3 e = s[1] - s[0];
+    const double l2 = e.squaredNorm();
+    const double u = l2 > 0 ? std::clamp(e.dot(x - s[0]) / l2, 0.0, 1.0) : 0.0;
+    d = std::min(d, (s[0] + u * e - x).norm());
+  }
+  return d;
+}
+
 namespace {
 bool coplanar(const CutTriangle& t, const Vec3& x) {
   const Vec3 n = t.normal();
@@ -35,6 +48,7 @@ bool coplanar(const CutTriangle& t, const Vec3& x) {
 }
 
 void finish(Piece& p) {
+  p.rim.assign(p.boundary.size(), true);
   p.normal = p.triangles[0].normal().normalized();
   p.lo = p.hi = p.triangles[0].p[0];
   for (const CutTriangle& t : p.triangles)
@@ -70,7 +84,21 @@ std::vector<Piece> make_pieces(std::span<const CutTriangle> triangles) {
     out.push_back(std::move(p));
     ++i;
   }
+  // Segments two pieces share (the crease of a rotating blade) are inside the cut surface.
+  for (std::size_t i = 0; i < out.size(); ++i)
+    for (const auto& s : std::vector<std::array<Vec3, 2>>(out[i].boundary))
+      for (std::size_t j = i + 1; j < out.size(); ++j)
+        for (const auto& g : out[j].boundary)
+          if ((s[0] == g[0] && s[1] == g[1]) || (s[0] == g[1] && s[1] == g[0])) mark_inner_segment(out, s[0], s[1]);
   return out;
+}
+
+void mark_inner_segment(std::vector<Piece>& pieces, const Vec3& a, const Vec3& b) {
+  for (Piece& p : pieces)
+    for (std::size_t i = 0; i < p.boundary.size(); ++i) {
+      const auto& g = p.boundary[i];
+      if ((a == g[0] && b == g[1]) || (a == g[1] && b == g[0])) p.rim[i] = false;
+    }
 }
 
 bool tet_may_touch_triangle(const std::array<Vec3, 4>& tet, const CutTriangle& tri, double tol) {

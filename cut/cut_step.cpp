@@ -16,7 +16,40 @@ constexpr double kSnapFloor = 1e-6;
 constexpr double kInsideTol = 1e-9;
 
 std::uint32_t face_key(TetId t, int f) { return 4 * t.idx() + std::uint32_t(f); }
+
+// Whether splitting tet t at rest point p (barycentric w, slots with w > 0 get a child) gives
+// children of clearly positive rest volume. Repeated cuts in one place make small tets; a
+// split of an already flat one could round to a zero volume, so the cutter snaps instead.
+bool children_ok(const TetMesh& m, TetId t, const Vec3& p, const std::array<double, 4>& w) {
+  const auto& tv = m.tet_vertices(t);
+  std::array<Vec3, 4> x;
+  double l2 = 0;
+  for (int k = 0; k < 4; ++k) x[k] = m.rest(tv[k]);
+  for (int a = 0; a < 4; ++a)
+    for (int b = a + 1; b < 4; ++b) l2 = std::max(l2, (x[a] - x[b]).squaredNorm());
+  const double margin = 1e-13 * l2 * std::sqrt(l2);
+  for (int s = 0; s < 4; ++s) {
+    if (!(w[s] > 0)) continue;
+    std::array<Vec3, 4> c = x;
+    c[s] = p;
+    if (!((c[1] - c[0]).dot((c[2] - c[0]).cross(c[3] - c[0])) > margin)) return false;
+  }
+  return true;
+}
 }  // namespace
+
+bool CutStep::edge_split_ok(VertexId a, VertexId b, double s) const {
+  const Vec3 p = (1 - s) * mesh_.rest(a) + s * mesh_.rest(b);
+  for (TetId t : mesh_.incident_tets(a)) {
+    const int lb = mesh_.local_index(t, b);
+    if (lb < 0) continue;
+    std::array<double, 4> w{0, 0, 0, 0};
+    w[mesh_.local_index(t, a)] = 1 - s;
+    w[lb] = s;
+    if (!children_ok(mesh_, t, p, w)) return false;
+  }
+  return true;
+}
 
 CutStep::CutStep(TetMesh& mesh, const PositionFn& positions, double snap)
     : mesh_(mesh), positions_(positions), snap_(std::max(snap, kSnapFloor)) {}
@@ -59,6 +92,14 @@ void CutStep::note_new_vertex(VertexId p) {
   // Snap lengths of the neighbours changed (a shorter edge); forget them.
   for (TetId t : mesh_.incident_tets(p))
     for (VertexId w : mesh_.tet_vertices(t)) snap_len_.erase(w.idx());
+}
+
+double CutStep::star_radius(VertexId v) const {
+  const Vec3 x = position(v);
+  double l2 = 0;
+  for (TetId t : mesh_.incident_tets(v))
+    for (VertexId w : mesh_.tet_vertices(t)) l2 = std::max(l2, (position(w) - x).squaredNorm());
+  return std::sqrt(l2);
 }
 
 double CutStep::vertex_radius(VertexId v) {
@@ -109,10 +150,14 @@ VertexId CutStep::insert_point(TetId t, std::array<double, 4> w) {
   if (nz == 1) {
     for (int k = 0; k < 4; ++k)
       if (w[k] > 0) return tv[k];
-  } else if (nz == 2) {
+  }
+  // Splits whose children would be flat snap to the nearest vertex instead.
+  auto nearest = [&] { return tv[int(std::max_element(w.begin(), w.end()) - w.begin())]; };
+  if (nz == 2) {
     int a = -1, b = -1;
     for (int k = 0; k < 4; ++k)
       if (w[k] > 0) (a < 0 ? a : b) = k;
+    if (!edge_split_ok(tv[a], tv[b], w[b])) return nearest();
     for (TetId x : mesh_.incident_tets(tv[a]))
       if (mesh_.local_index(x, tv[b]) >= 0) note_destroyed(x);
     p = mesh_.split_edge(tv[a], tv[b], w[b]);
@@ -127,13 +172,27 @@ VertexId CutStep::insert_point(TetId t, std::array<double, 4> w) {
       w3[k] = w[mesh_.local_index(t, fv[k])];
       x += w3[k] * position(fv[k]);
     }
+    Vec3 pr = Vec3::Zero();
+    for (int q = 0; q < 3; ++q) pr += w3[q] * mesh_.rest(fv[q]);
+    const TetId u = mesh_.neighbor(t, f);
+    bool ok = children_ok(mesh_, t, pr, w);
+    if (ok && u.is_valid()) {
+      std::array<double, 4> wu{0, 0, 0, 0};
+      for (int q = 0; q < 3; ++q) wu[mesh_.local_index(u, fv[q])] = w3[q];
+      ok = children_ok(mesh_, u, pr, wu);
+    }
+    if (!ok) return nearest();
     note_destroyed(t);
-    if (mesh_.neighbor(t, f).is_valid()) note_destroyed(mesh_.neighbor(t, f));
+    if (u.is_valid()) note_destroyed(u);
     p = mesh_.split_face(t, f, w3);
     created_pos_[p.idx()] = x;
   } else {
-    Vec3 x = Vec3::Zero();
-    for (int k = 0; k < 4; ++k) x += w[k] * position(tv[k]);
+    Vec3 x = Vec3::Zero(), pr = Vec3::Zero();
+    for (int k = 0; k < 4; ++k) {
+      x += w[k] * position(tv[k]);
+      pr += w[k] * mesh_.rest(tv[k]);
+    }
+    if (!children_ok(mesh_, t, pr, w)) return nearest();
     note_destroyed(t);
     p = mesh_.split_tet(t, w);
     created_pos_[p.idx()] = x;
@@ -286,7 +345,12 @@ int CutStep::side(const Piece& piece, std::size_t k, VertexId v) {
   if (it != side_cache_[k].end()) return it->second;
   const Vec3 x = position(v);
   int s = piece.side(x);
-  if (s != 0 && std::abs(piece.distance(x)) <= snap_length(v)) s = 0;
+  // Snap onto the plane only where the vertex's whole star is inside the piece: at the rim the
+  // cut surface would otherwise pinch through the snapped vertex (two sheets touching at a
+  // point, a non-manifold boundary once opened).
+  if (s != 0 && std::abs(piece.distance(x)) <= snap_length(v) && piece.contains(x, 0) &&
+      piece.boundary_distance(x) > star_radius(v))
+    s = 0;
   side_cache_[k][v.idx()] = s;
   return s;
 }
@@ -298,6 +362,12 @@ void CutStep::split_crossings(const Piece& piece) {
     double s;
   };
   std::map<std::pair<std::uint32_t, std::uint32_t>, EdgeSplit> edges;
+  // Vertices whose side one of the two corrections below set; each vertex changes at most
+  // once, so the passes end.
+  std::unordered_set<std::uint32_t> pinned;
+  for (bool changed = true; changed;) {
+  changed = false;
+  edges.clear();
   // Snapping must not flatten a whole tet into the plane: the cut surface could then not say
   // which side the tet is on, and would leave a hole there. Such a tet gets its farthest
   // snapped vertex back on its exact side.
@@ -316,7 +386,7 @@ void CutStep::split_crossings(const Piece& piece) {
         far = j;
       }
     }
-    if (far >= 0) side_cache_[k][tv[far].idx()] = piece.side(position(tv[far]));
+    if (far >= 0 && pinned.insert(tv[far].idx()).second) side_cache_[k][tv[far].idx()] = piece.side(position(tv[far]));
   }
   for (std::size_t i = 0; i < cand_.size(); ++i) {
     const TetId t = cand_[i];
@@ -345,7 +415,22 @@ void CutStep::split_crossings(const Piece& piece) {
         const Vec3 xa = position(tv[a]), xb = position(tv[b]);
         const double da = piece.distance(xa), db = piece.distance(xb);
         double u = (da - db) != 0 ? da / (da - db) : 0.5;
-        u = std::clamp(u, 1e-9, 1 - 1e-9);
+        // A crossing this close to an endpoint would make a flat tet: the endpoint is on the
+        // plane instead (the snap floor, relative to this edge).
+        const int near = u < kSnapFloor ? a : (u > 1 - kSnapFloor ? b : -1);
+        if (near >= 0 && !on_piece_[k].count(tv[near].idx()) && pinned.insert(tv[near].idx()).second) {
+          side_cache_[k][tv[near].idx()] = 0;
+          changed = true;
+        }
+        u = std::clamp(u, kSnapFloor, 1 - kSnapFloor);
+        if (near < 0 && !edge_split_ok(tv[a], tv[b], u)) {
+          const int nv = u < 0.5 ? a : b;
+          if (!on_piece_[k].count(tv[nv].idx()) && pinned.insert(tv[nv].idx()).second) {
+            side_cache_[k][tv[nv].idx()] = 0;
+            changed = true;
+          }
+          continue;  // not split: this tet's section stays uncut (rare, on near-flat tets only)
+        }
         c += (1 - u) * xa + u * xb;
         ++n;
         crossing.push_back({tv[a], tv[b], u});
@@ -356,6 +441,7 @@ void CutStep::split_crossings(const Piece& piece) {
       edges.emplace(std::make_pair(std::min(e.a.idx(), e.b.idx()), std::max(e.a.idx(), e.b.idx())), e);
     }
   }
+  }
   for (const auto& [key, e] : edges) {
     if (!mesh_.is_alive(e.a) || !mesh_.is_alive(e.b)) continue;
     bool exists = false;
@@ -364,7 +450,7 @@ void CutStep::split_crossings(const Piece& piece) {
         exists = true;
         note_destroyed(x);
       }
-    if (!exists) continue;
+    if (!exists || !edge_split_ok(e.a, e.b, e.s)) continue;
     pending_radius_ = kSnapFloor * (position(e.a) - position(e.b)).norm();
     const VertexId p = mesh_.split_edge(e.a, e.b, e.s);
     created_pos_[p.idx()] = (1 - e.s) * position(e.a) + e.s * position(e.b);

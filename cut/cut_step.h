@@ -58,6 +58,8 @@ private:
   int side(const Piece& piece, std::size_t piece_index, VertexId v);
   double snap_length(VertexId v);
   double vertex_radius(VertexId v);
+  double star_radius(VertexId v) const;  // longest edge at v
+  bool edge_split_ok(VertexId a, VertexId b, double s) const;
   // Inserts the point with barycentric w in t, snapping small weights to zero; returns the
   // vertex now at that point (existing or new).
   VertexId insert_point(TetId t, std::array<double, 4> w);

@@ -75,7 +75,9 @@ CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const Position
   if (triangles.empty()) return rep;
   if (mesh_->has_pending_change())
     throw InvalidArgument("cut: the mesh has edits not yet taken (call take_change() before cutting)");
-  const std::vector<Piece> pieces = make_pieces(triangles);
+  std::vector<Piece> pieces = make_pieces(triangles);
+  // The previous step's front is where this step's cut continues, not a rim.
+  if (use_front && has_front_) mark_inner_segment(pieces, front_segment_.a, front_segment_.b);
   // First contact (no front yet): the tets whose current box meets the pieces' box. This is
   // the one O(mesh) pass of a cut; every later step walks from the previous step's tets.
   auto scan = [&]() {

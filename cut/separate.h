@@ -14,6 +14,7 @@ namespace incise::cut_detail {
 struct SeparationResult {
   std::size_t vertices_duplicated = 0;  // new vertices made
   std::size_t faces_opened = 0;         // cut faces that became boundary (pairs)
+  std::size_t faces_dropped = 0;        // left closed: they would have pinched the boundary
   double area = 0;                      // rest area of the opened faces (one side)
   std::vector<TetId> opened_tets;       // one tet on each side of every opened face
 };

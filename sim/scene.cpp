@@ -1,5 +1,6 @@
 #include "sim/scene.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -176,7 +177,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     throw IoError(path, line, "invalid JSON: " + (p == std::string::npos ? what : what.substr(p)));
   }
   const Reader rd(path);
-  rd.keys(j, "", {"mesh", "model", "materials", "fixed", "loads", "solver", "time", "output"});
+  rd.keys(j, "", {"mesh", "model", "materials", "fixed", "loads", "solver", "time", "output", "cuts", "fragments"});
   Scene s;
   s.path = path;
 
@@ -315,6 +316,49 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     if (jo.contains("every")) s.output_every = rd.integer(jo["every"], "output.every", 1);
     if (jo.contains("binary")) s.output_binary = rd.boolean(jo["binary"], "output.binary");
   }
+  if (j.contains("cuts")) {
+    const json& jc = j["cuts"];
+    if (!jc.is_array()) rd.fail("cuts", "expected an array of {\"blade\": [[ax,ay,az],[bx,by,bz]], \"sweep\": [dx,dy,dz], ...}");
+    for (std::size_t i = 0; i < jc.size(); ++i) {
+      const std::string key = "cuts[" + std::to_string(i) + "]";
+      const json& c = jc[i];
+      rd.keys(c, key, {"blade", "sweep", "from_frame", "to_frame", "mode", "snap", "improve"});
+      SceneCut cut;
+      cut.key = key;
+      if (!c.contains("blade") || !c["blade"].is_array() || c["blade"].size() != 2)
+        rd.fail(key + ".blade", "expected [[ax,ay,az],[bx,by,bz]]");
+      cut.a = rd.vec3(c["blade"][0], key + ".blade[0]");
+      cut.b = rd.vec3(c["blade"][1], key + ".blade[1]");
+      if (!c.contains("sweep")) rd.fail(key + ".sweep", "missing; expected [dx,dy,dz]");
+      cut.sweep = rd.vec3(c["sweep"], key + ".sweep");
+      if (c.contains("from_frame")) cut.from_frame = rd.integer(c["from_frame"], key + ".from_frame", 0);
+      cut.to_frame = cut.from_frame;
+      if (c.contains("to_frame")) cut.to_frame = rd.integer(c["to_frame"], key + ".to_frame", cut.from_frame);
+      if (c.contains("mode")) {
+        cut.mode = rd.string(c["mode"], key + ".mode");
+        if (cut.mode != "subdivide" && cut.mode != "remove")
+          rd.fail(key + ".mode", "expected \"subdivide\" or \"remove\", got \"" + cut.mode + "\"");
+      }
+      if (c.contains("snap")) {
+        cut.snap = rd.number(c["snap"], key + ".snap");
+        if (!(cut.snap >= 0 && cut.snap < 0.5)) rd.fail(key + ".snap", "expected a number in [0, 0.5)");
+      }
+      if (c.contains("improve")) {
+        if (!c["improve"].is_boolean()) rd.fail(key + ".improve", "expected true or false");
+        cut.improve = c["improve"].get<bool>();
+      }
+      s.cuts.push_back(cut);
+    }
+  }
+  if (j.contains("fragments")) {
+    const std::string f = rd.string(j["fragments"], "fragments");
+    if (f == "auto") s.fragments = FragmentPolicy::Auto;
+    else if (f == "keep") s.fragments = FragmentPolicy::Keep;
+    else if (f == "fix") s.fragments = FragmentPolicy::Fix;
+    else if (f == "remove") s.fragments = FragmentPolicy::Remove;
+    else if (f == "error") s.fragments = FragmentPolicy::Error;
+    else rd.fail("fragments", "expected \"auto\", \"keep\", \"fix\", \"remove\" or \"error\", got \"" + f + "\"");
+  }
   return s;
 }
 
@@ -339,6 +383,9 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
   }
   mesh.discard_change();
   if (mesh.num_tets() == 0) rd.fail("mesh", "the mesh has no tetrahedra");
+  if (!s.cuts.empty() && !opt.cut_hook)
+    throw InvalidArgument(s.path + ": the scene has cuts: run it with `incise simulate` or run_scene_with_cuts() "
+                          "(cut/scene_cuts.h)");
 
   // ---- boxes -> vertex sets (checked before anything is written) -----------------------
   Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
@@ -424,7 +471,8 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
   sum.vertices = mesh.num_vertices();
   sum.tets = mesh.num_tets();
   std::ostringstream csv, pvd;
-  csv << "frame,time,iterations,relative_residual,solve_ms,budget_exhausted,converged,max_displacement\n";
+  csv << "frame,time,iterations,relative_residual,solve_ms,budget_exhausted,converged,max_displacement"
+      << (s.cuts.empty() ? "" : ",cut_ms,tets") << "\n";
   csv << std::setprecision(9);
   pvd << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
          "  <Collection>\n";
@@ -439,8 +487,61 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
 
   std::vector<Vec3> force(mesh.vertex_capacity());
   const bool dynamic = s.model == SceneModel::Springs || s.integrator == "implicit-euler";
+  FragmentPolicy policy = s.fragments;
+  if (policy == FragmentPolicy::Auto) policy = dynamic ? FragmentPolicy::Keep : FragmentPolicy::Remove;
+  std::function<void(const TopologyChange&)> apply_change = [&](const TopologyChange& ch) {
+    if (ch.empty()) return;
+    if (fem) fem->apply(ch);
+    else springs->apply(mesh, ch);
+  };
+  // Cuts before this frame's solve: the hook edits the mesh; every backend applies the one
+  // TopologyChange locally. Detached parts without a fixed or prescribed vertex follow the
+  // scene's fragment policy (a static solve has no equilibrium for a free part).
+  auto cut_before = [&](int frame) -> double {
+    if (!opt.cut_hook) return 0;
+    auto current = [&](VertexId v) -> Vec3 {
+      if (fem) return mesh.rest(v) + fem->displacement().segment<3>(3 * v.idx());
+      return springs->positions()[v.idx()];
+    };
+    SceneCutResult cr = opt.cut_hook(frame, mesh, current, apply_change);
+    for (const auto& part : cr.fragments) {
+      std::vector<VertexId> verts;
+      bool held = false;
+      for (TetId t : part) {
+        if (!mesh.is_alive(t)) continue;
+        for (VertexId v : mesh.tet_vertices(t)) {
+          verts.push_back(v);
+          held = held || (fem ? fem->is_constrained(v) : springs->is_fixed(v));
+        }
+      }
+      if (held || verts.empty() || policy == FragmentPolicy::Keep) continue;
+      ++sum.fragments_handled;
+      if (policy == FragmentPolicy::Error)
+        throw Error(s.path + ": frame " + std::to_string(frame) + ": a cut detached a part of " +
+                    std::to_string(part.size()) + " tets with no fixed vertex (set \"fragments\" to \"remove\", " +
+                    "\"fix\" or \"keep\")");
+      if (policy == FragmentPolicy::Fix) {
+        for (VertexId v : verts) {
+          if (fem) fem->fix(v);
+          else springs->set_fixed(v, true);
+        }
+      } else {  // Remove
+        for (TetId t : part)
+          if (mesh.is_alive(t)) mesh.remove_tet(t);
+        std::sort(verts.begin(), verts.end());
+        verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+        for (VertexId v : verts)
+          if (mesh.is_alive(v) && mesh.incident_tets(v).empty()) mesh.remove_vertex(v);
+        apply_change(mesh.take_change());
+      }
+    }
+    force.resize(mesh.vertex_capacity());
+    return cr.ms;
+  };
   try {
     for (int frame = 0; frame < frames; ++frame) {
+      const double cut_ms = cut_before(frame);
+      sum.total_cut_ms += cut_ms;
       // Loads and probes at this frame.
       std::fill(force.begin(), force.end(), Vec3::Zero());
       for (std::size_t i = 0; i < s.loads.size(); ++i) {
@@ -491,7 +592,9 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
       const double time = dynamic ? (frame + 1) * s.dt * (s.model == SceneModel::Springs ? s.substeps : 1) : frame;
       const bool converged = st.info == SolveInfo::Success;
       csv << frame << "," << time << "," << st.iterations << "," << st.relative_residual << "," << st.solve_ms << ","
-          << (st.budget_exhausted ? 1 : 0) << "," << (converged ? 1 : 0) << "," << maxd << "\n";
+          << (st.budget_exhausted ? 1 : 0) << "," << (converged ? 1 : 0) << "," << maxd;
+      if (!s.cuts.empty()) csv << "," << cut_ms << "," << mesh.num_tets();
+      csv << "\n";
       sum.total_iterations += st.iterations;
       sum.total_solve_ms += st.solve_ms;
       sum.frames_budget_exhausted += st.budget_exhausted;
@@ -508,6 +611,14 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
         fields.points = &pts;
         fields.point_data.push_back(Field{"displacement", 3, std::vector<double>(disp.data(), disp.data() + disp.size())});
         if (fem) fields.cell_data.push_back(Field{"von_mises", 1, fem->von_mises()});
+        if (!s.cuts.empty()) {
+          // Cut faces per tet (0..4): ParaView's threshold on it shows the cut surfaces.
+          std::vector<double> cut_faces(mesh.tet_capacity(), 0.0);
+          for (TetId t : mesh.tets())
+            for (int f = 0; f < 4; ++f)
+              if (!mesh.neighbor(t, f).is_valid() && mesh.face_tag(t, f) == kTagCut) cut_faces[t.idx()] += 1;
+          fields.cell_data.push_back(Field{"cut_faces", 1, std::move(cut_faces)});
+        }
         WriteOptions wo;
         wo.binary = s.output_binary;
         write_tet_mesh_with_fields(mesh, (fs::path(opt.out_dir) / name).string(), fields, wo);

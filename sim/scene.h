@@ -9,12 +9,14 @@
 // output is written. A scene builds only what it uses (no assembled matrix, factorization or
 // spring network unless asked for).
 #include <array>
+#include <functional>
 #include <iosfwd>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "mesh/tet_mesh.h"
+#include "mesh/topology_change.h"
 #include "sim/fem_simulation.h"
 #include "sim/material.h"
 
@@ -41,6 +43,31 @@ struct SceneLoad {
 
 enum class SceneModel { FemLinear, FemCorotational, Springs };
 
+// A blade cut over frames: segment a-b moves by `sweep`, linearly from frame `from_frame` to
+// `to_frame` (one cut step per frame; equal frames: the whole sweep before that frame's solve).
+struct SceneCut {
+  std::string key;              // "cuts[0]", for messages
+  Vec3 a = Vec3::Zero(), b = Vec3::Zero(), sweep = Vec3::Zero();
+  int from_frame = 0, to_frame = 0;
+  std::string mode = "subdivide";  // or "remove"
+  double snap = 0.05;
+  bool improve = true;
+};
+
+// What a part that a cut detached (and that holds no fixed or prescribed vertex) becomes.
+enum class FragmentPolicy { Auto, Keep, Fix, Remove, Error };
+
+// What a scene's cuts did before one frame. Cutting lives in cut/, which sim does not depend
+// on: the runner calls a hook (cut/scene_cuts.h provides it) with the current positions and a
+// function that hands each cut step's TopologyChange to the backend (so the next blade of the
+// same frame sees the new vertices' current positions).
+struct SceneCutResult {
+  double ms = 0;                              // cut steps (cut + local improvement)
+  std::vector<std::vector<TetId>> fragments;  // detached parts (tets), as the cutter found them
+};
+using SceneCutHook = std::function<SceneCutResult(int frame, TetMesh& mesh, const std::function<Vec3(VertexId)>& current,
+                                                  const std::function<void(const TopologyChange&)>& apply)>;
+
 struct Scene {
   std::string path;                 // the scene file (messages, relative paths)
   // Mesh: a file (relative to the scene) or a generator.
@@ -65,6 +92,9 @@ struct Scene {
   std::string integrator;           // "" = model default (fem: static; springs: symplectic-euler)
   double damping = 0;
   int substeps = 1;                 // springs: steps per frame
+  // cuts
+  std::vector<SceneCut> cuts;
+  FragmentPolicy fragments = FragmentPolicy::Auto;  // Auto: remove for static FEM, keep otherwise
   // output
   int output_every = 1;
   bool output_binary = true;
@@ -79,6 +109,7 @@ struct SceneRunOptions {
   std::string out_dir;                // created if missing; empty: write nothing
   int frames = -1;                    // override scene frames when >= 0
   std::ostream* progress = nullptr;   // one line per frame (stderr in the CLI)
+  SceneCutHook cut_hook;              // required when the scene has cuts (cut/scene_cuts.h)
 };
 
 struct SceneRunSummary {
@@ -87,6 +118,8 @@ struct SceneRunSummary {
   double total_solve_ms = 0;
   int frames_budget_exhausted = 0;
   int frames_not_converged = 0;
+  double total_cut_ms = 0;
+  std::size_t fragments_handled = 0;  // detached parts fixed, removed or kept by the policy
   double max_displacement = 0;        // at the last frame
   std::size_t vertices = 0, tets = 0;
   std::vector<std::string> files;     // written, relative to out_dir

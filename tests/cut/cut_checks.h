@@ -2,6 +2,8 @@
 // Shared by the cut tests and the torture run: the invariants every cut step must keep.
 #include <catch2/catch.hpp>
 
+#include <cstdlib>
+#include <iostream>
 #include <map>
 
 #include "cut/cutter.h"

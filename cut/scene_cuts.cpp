@@ -1,0 +1,59 @@
+#include "cut/scene_cuts.h"
+
+#include <algorithm>
+#include <memory>
+
+#include "cut/cutter.h"
+
+namespace incise {
+
+namespace {
+// Fraction of the sweep done when `frame` is solved.
+double sweep_fraction(const SceneCut& c, int frame) {
+  if (frame < c.from_frame) return 0;
+  if (c.to_frame <= c.from_frame || frame >= c.to_frame) return 1;
+  return double(frame - c.from_frame + 1) / double(c.to_frame - c.from_frame + 1);
+}
+}  // namespace
+
+SceneCutHook make_scene_cut_hook(const Scene& scene) {
+  struct State {
+    std::vector<std::unique_ptr<Cutter>> cutters;
+    std::vector<double> done;  // fraction cut so far
+  };
+  auto st = std::make_shared<State>();
+  st->cutters.resize(scene.cuts.size());
+  st->done.assign(scene.cuts.size(), 0.0);
+  const std::vector<SceneCut> cuts = scene.cuts;
+  return [st, cuts](int frame, TetMesh& mesh, const std::function<Vec3(VertexId)>& current,
+                    const std::function<void(const TopologyChange&)>& apply) {
+    SceneCutResult res;
+    for (std::size_t i = 0; i < cuts.size(); ++i) {
+      const SceneCut& c = cuts[i];
+      const double f = sweep_fraction(c, frame);
+      if (f <= st->done[i]) continue;
+      if (!st->cutters[i]) {
+        CutOptions o;
+        o.mode = c.mode == "remove" ? CutMode::Remove : CutMode::Subdivide;
+        o.snap = c.snap;
+        o.improve = c.improve;
+        st->cutters[i] = std::make_unique<Cutter>(mesh, o);
+        st->cutters[i]->start({c.a, c.b});
+      }
+      const Vec3 off = f * c.sweep;
+      CutStepReport r = st->cutters[i]->advance({c.a + off, c.b + off}, current);
+      st->done[i] = f;
+      apply(r.change);
+      res.ms += r.ms;
+      for (Fragment& fr : r.fragments) res.fragments.push_back(std::move(fr.tets));
+    }
+    return res;
+  };
+}
+
+SceneRunSummary run_scene_with_cuts(const Scene& scene, SceneRunOptions options) {
+  if (!scene.cuts.empty()) options.cut_hook = make_scene_cut_hook(scene);
+  return run_scene(scene, options);
+}
+
+}  // namespace incise
