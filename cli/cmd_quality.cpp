@@ -3,9 +3,9 @@
 #include <iostream>
 
 #include "cli/commands.h"
-#include "cli/quality_json.h"
 #include "mesh/io/tet_io.h"
 #include "quality/report.h"
+#include "quality/report_json.h"
 
 namespace incise::cli {
 

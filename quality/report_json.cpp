@@ -1,8 +1,8 @@
-#include "cli/quality_json.h"
+#include "quality/report_json.h"
 
 #include <cmath>
 
-namespace incise::cli {
+namespace incise {
 
 namespace {
 
@@ -106,4 +106,4 @@ json quality_report_json(const QualityReport& r) {
   return j;
 }
 
-}  // namespace incise::cli
+}  // namespace incise

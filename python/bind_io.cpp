@@ -1,0 +1,79 @@
+// incise.read / incise.write: every tet format of mesh/io/tet_io.h, chosen by extension.
+#include "python/bindings.h"
+
+#include "mesh/errors.h"
+#include "mesh/io/tet_io.h"
+
+namespace incise::python {
+
+namespace {
+
+// A point or cell field: capacity values (scalar) or capacity by 3 (vector), row = id.
+Field to_field(const std::string& name, const py::handle& h, std::size_t capacity, const char* what) {
+  auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(h);
+  const bool ok = a && a.shape(0) == static_cast<py::ssize_t>(capacity) &&
+                  (a.ndim() == 1 || (a.ndim() == 2 && a.shape(1) == 3));
+  if (!ok)
+    throw InvalidArgument(std::string(what) + " '" + name + "': expected " + std::to_string(capacity) +
+                          " values or " + std::to_string(capacity) + " by 3");
+  Field f;
+  f.name = name;
+  f.components = a.ndim() == 1 ? 1 : 3;
+  f.values.assign(a.data(), a.data() + a.size());
+  return f;
+}
+
+}  // namespace
+
+void bind_io(py::module_& m) {
+  m.def(
+      "read",
+      [](const std::string& path, bool report) -> py::object {
+        ReadReport r;
+        TetMesh mesh = read_tet_mesh(path, &r);
+        if (!report) return py::cast(std::move(mesh));
+        py::dict d;
+        d["format"] = r.format;
+        d["skipped_cells"] = r.skipped_cells;
+        d["reoriented_tets"] = r.reoriented_tets;
+        d["unreferenced_vertices"] = r.unreferenced_vertices;
+        d["degenerate_tets"] = r.degenerate_tets;
+        d["tagged_boundary_faces"] = r.tagged_boundary_faces;
+        return py::make_tuple(std::move(mesh), d);
+      },
+      py::arg("path"), py::arg("report") = false,
+      "Reads a tet mesh (.msh .mesh .vtk .vtu .node/.ele); with report=True returns (mesh, dict). "
+      "Raises IoError('FILE:LINE: reason').");
+  m.def(
+      "write",
+      [](const TetMesh& mesh, const std::string& path, bool binary, const py::object& positions,
+         const py::dict& point_data, const py::dict& cell_data) {
+        WriteOptions o;
+        o.binary = binary;
+        if (positions.is_none() && point_data.empty() && cell_data.empty()) {
+          write_tet_mesh(mesh, path, o);
+          return;
+        }
+        // Fields and deformed positions: VTU / VTK legacy only (ParaView frames).
+        MeshFields fields;
+        std::vector<Vec3> current;
+        if (!positions.is_none()) {
+          Field p = to_field("positions", positions, mesh.vertex_capacity(), "positions");
+          if (p.components != 3) throw InvalidArgument("positions: expected vertex_capacity by 3");
+          current.resize(mesh.vertex_capacity());
+          for (std::size_t i = 0; i < current.size(); ++i) current[i] = Vec3(p.values[3 * i], p.values[3 * i + 1], p.values[3 * i + 2]);
+          fields.points = &current;
+        }
+        for (auto [k, v] : point_data)
+          fields.point_data.push_back(to_field(k.cast<std::string>(), v, mesh.vertex_capacity(), "point_data"));
+        for (auto [k, v] : cell_data)
+          fields.cell_data.push_back(to_field(k.cast<std::string>(), v, mesh.tet_capacity(), "cell_data"));
+        write_tet_mesh_with_fields(mesh, path, fields, o);
+      },
+      py::arg("mesh"), py::arg("path"), py::arg("binary") = false, py::arg("positions") = py::none(),
+      py::arg("point_data") = py::dict(), py::arg("cell_data") = py::dict(),
+      "Writes atomically, format by extension. positions / point_data / cell_data (rows indexed "
+      "by id, as TetMesh.points) need .vtu or .vtk.");
+}
+
+}  // namespace incise::python
