@@ -58,10 +58,7 @@ void bind_io(py::module_& m) {
         MeshFields fields;
         std::vector<Vec3> current;
         if (!positions.is_none()) {
-          Field p = to_field("positions", positions, mesh.vertex_capacity(), "positions");
-          if (p.components != 3) throw InvalidArgument("positions: expected vertex_capacity by 3");
-          current.resize(mesh.vertex_capacity());
-          for (std::size_t i = 0; i < current.size(); ++i) current[i] = Vec3(p.values[3 * i], p.values[3 * i + 1], p.values[3 * i + 2]);
+          current = to_points(positions, mesh.vertex_capacity(), "positions");
           fields.points = &current;
         }
         for (auto [k, v] : point_data)

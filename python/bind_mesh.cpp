@@ -20,6 +20,15 @@ py::array_t<double> to_array(const std::vector<Vec3>& points) {
   return a;
 }
 
+std::vector<Vec3> to_points(const py::handle& h, std::size_t rows, const char* what) {
+  auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(h);
+  if (!a || a.ndim() != 2 || a.shape(1) != 3 || a.shape(0) != static_cast<py::ssize_t>(rows))
+    throw InvalidArgument(std::string(what) + ": expected " + std::to_string(rows) + " by 3");
+  std::vector<Vec3> p(rows);
+  for (std::size_t i = 0; i < rows; ++i) p[i] = Vec3(a.data()[3 * i], a.data()[3 * i + 1], a.data()[3 * i + 2]);
+  return p;
+}
+
 Vec3 to_vec3(const py::handle& h, const char* what) {
   auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(h);
   if (!a || a.size() != 3) throw InvalidArgument(std::string(what) + ": expected 3 numbers");

@@ -26,15 +26,10 @@ QualityOptions quality_options(int worst, const std::string& metric, double sliv
   return q;
 }
 
+// Empty (rest positions) when not given.
 std::vector<Vec3> positions_or_rest(const TetMesh& mesh, const py::object& positions) {
-  std::vector<Vec3> p;
-  if (positions.is_none()) return p;
-  auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(positions);
-  if (!a || a.ndim() != 2 || a.shape(1) != 3 || a.shape(0) != static_cast<py::ssize_t>(mesh.vertex_capacity()))
-    throw InvalidArgument("positions: expected vertex_capacity by 3");
-  p.resize(mesh.vertex_capacity());
-  for (std::size_t i = 0; i < p.size(); ++i) p[i] = Vec3(a.data()[3 * i], a.data()[3 * i + 1], a.data()[3 * i + 2]);
-  return p;
+  if (positions.is_none()) return {};
+  return to_points(positions, mesh.vertex_capacity(), "positions");
 }
 
 }  // namespace
@@ -52,10 +47,7 @@ void bind_quality(py::module_& m) {
           ReadReport read;
           const TetMesh mesh = read_tet_mesh(file, &read);
           const std::vector<Vec3> p = positions_or_rest(mesh, positions);
-          nlohmann::json j = quality_report_json(compute_quality_report(mesh, q, p));
-          j["file"] = file;
-          j["read"] = {{"format", read.format}, {"reoriented_tets", read.reoriented_tets}, {"skipped_cells", read.skipped_cells}};
-          return json_to_python(j.dump());
+          return json_to_python(quality_report_json(compute_quality_report(mesh, q, p), file, read).dump());
         }
         const TetMesh& mesh = mesh_or_path.cast<const TetMesh&>();
         const std::vector<Vec3> p = positions_or_rest(mesh, positions);

@@ -25,6 +25,8 @@ void bind_tetra(py::module_& m);
 // (n, 3) float64 array copied from positions (copies: the mesh's storage moves when it grows,
 // so a view could dangle after an edit).
 py::array_t<double> to_array(const std::vector<Vec3>& points);
+// `rows` by 3 numbers -> positions (e.g. a deformed configuration indexed by vertex id).
+std::vector<Vec3> to_points(const py::handle& h, std::size_t rows, const char* what);
 // A 3-vector from any sequence of 3 numbers.
 Vec3 to_vec3(const py::handle& h, const char* what);
 // One id or a sequence / array of ids, each checked alive in `mesh`.
