@@ -25,6 +25,40 @@ Field to_field(const std::string& name, const py::handle& h, std::size_t capacit
 
 }  // namespace
 
+py::tuple surface_to_python(const SurfaceMesh& surface) {
+  py::array_t<long long> f({static_cast<py::ssize_t>(surface.triangles.size()), py::ssize_t(3)});
+  auto w = f.mutable_unchecked<2>();
+  for (std::size_t i = 0; i < surface.triangles.size(); ++i)
+    for (int k = 0; k < 3; ++k) w(i, k) = surface.triangles[i][k];
+  return py::make_tuple(to_array(surface.vertices), f);
+}
+
+SurfaceMesh surface_from_python(const py::handle& h) {
+  const char* what = "surface";
+  if (!py::isinstance<py::tuple>(h) && !py::isinstance<py::list>(h))
+    throw InvalidArgument(std::string(what) + ": expected a path or a (vertices, triangles) pair");
+  auto seq = h.cast<py::sequence>();
+  if (seq.size() != 2) throw InvalidArgument(std::string(what) + ": expected a (vertices, triangles) pair");
+  auto v = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(seq[0]);
+  if (!v || v.ndim() != 2 || v.shape(1) != 3) throw InvalidArgument(std::string(what) + ": vertices must be #V by 3");
+  SurfaceMesh s;
+  s.vertices = to_points(v, v.shape(0), "surface vertices");
+  auto f = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(seq[1]);
+  if (!f || f.ndim() != 2 || f.shape(1) != 3) throw InvalidArgument(std::string(what) + ": triangles must be #F by 3");
+  for (py::ssize_t i = 0; i < f.shape(0); ++i) {
+    std::array<int, 3> t;
+    for (int k = 0; k < 3; ++k) {
+      const long long x = f.data()[3 * i + k];
+      if (x < 0 || x >= v.shape(0))
+        throw InvalidArgument(std::string(what) + ": triangle #" + std::to_string(i) + " references vertex " +
+                              std::to_string(x) + " out of range");
+      t[k] = static_cast<int>(x);
+    }
+    s.triangles.push_back(t);
+  }
+  return s;
+}
+
 void bind_io(py::module_& m) {
   m.def(
       "read",
@@ -71,6 +105,16 @@ void bind_io(py::module_& m) {
       py::arg("point_data") = py::dict(), py::arg("cell_data") = py::dict(),
       "Writes atomically, format by extension. positions / point_data / cell_data (rows indexed "
       "by id, as TetMesh.points) need .vtu or .vtk.");
+  m.def(
+      "read_surface", [](const std::string& path) { return surface_to_python(read_surface(path)); }, py::arg("path"),
+      "A triangle surface (OBJ, STL, PLY, OFF, glTF, ... through assimp) as (vertices, triangles)");
+  m.def(
+      "write_surface",
+      [](const py::object& surface, const std::string& path) { write_surface(surface_from_python(surface), path); },
+      py::arg("surface"), py::arg("path"), "Writes (vertices, triangles) as OFF, OBJ or STL by extension; atomic");
+  m.def(
+      "boundary_surface", [](const TetMesh& mesh) { return surface_to_python(boundary_surface(mesh)); },
+      py::arg("mesh"), "The mesh boundary as (vertices, triangles), outward oriented, vertices compacted");
 }
 
 }  // namespace incise::python

@@ -11,7 +11,7 @@ namespace incise::python {
 void bind_tetra(py::module_& m) {
   m.def(
       "tetrahedralize",
-      [](const std::string& path, const std::string& size, const std::string& engine, bool repair,
+      [](const py::object& input, const std::string& size, const std::string& engine, bool repair,
          const std::string& optimize, unsigned seed, double facet_angle, double radius_edge, bool graded,
          bool progress, bool report) -> py::object {
         PipelineOptions o;
@@ -26,11 +26,15 @@ void bind_tetra(py::module_& m) {
         o.tetra.radius_edge = radius_edge;
         o.tetra.graded = graded;
         o.tetra.progress = progress;
+        const bool is_path = py::isinstance<py::str>(input);
+        const std::string path = is_path ? input.cast<std::string>() : std::string();
+        const SurfaceMesh surface = is_path ? SurfaceMesh() : surface_from_python(input);
         PipelineReport rep;
         TetMesh mesh;
         {
           py::gil_scoped_release unlocked;  // minutes on big inputs; let other threads run
-          mesh = mesh_file(path, o, &rep);
+          if (is_path) mesh = mesh_file(path, o, &rep);
+          else mesh = mesh_surface(surface, o, &rep);
         }
         if (!report) return py::cast(std::move(mesh));
         py::dict d;
@@ -46,11 +50,12 @@ void bind_tetra(py::module_& m) {
         d["messages"] = rep.messages;
         return py::make_tuple(std::move(mesh), d);
       },
-      py::arg("path"), py::kw_only(), py::arg("size") = "3%", py::arg("engine") = "cgal", py::arg("repair") = false,
+      py::arg("input"), py::kw_only(), py::arg("size") = "3%", py::arg("engine") = "cgal", py::arg("repair") = false,
       py::arg("optimize") = "perturb,exude", py::arg("seed") = 0u, py::arg("facet_angle") = 25.0,
       py::arg("radius_edge") = 2.5, py::arg("graded") = false, py::arg("progress") = false,
       py::arg("report") = false,
-      "Tet mesh of a closed surface (.obj .stl .ply .off ...) or a labeled image (.inr, .inr.gz); "
+      "Tet mesh of a surface file (.obj .stl .ply .off ...), a (vertices, triangles) pair, or a "
+      "labeled image (.inr, .inr.gz); "
       "size is absolute ('0.05') or relative to the bounding-box diagonal ('3%'). With report=True "
       "returns (mesh, dict).");
 }

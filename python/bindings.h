@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "mesh/io/surface.h"
 #include "mesh/tet_mesh.h"
 
 namespace incise::python {
@@ -31,6 +32,9 @@ std::vector<Vec3> to_points(const py::handle& h, std::size_t rows, const char* w
 Vec3 to_vec3(const py::handle& h, const char* what);
 // One id or a sequence / array of ids, each checked alive in `mesh`.
 std::vector<VertexId> to_vertices(const TetMesh& mesh, const py::handle& h);
+// Triangle surfaces as (#V by 3 float64, #F by 3 int64) pairs.
+py::tuple surface_to_python(const SurfaceMesh& surface);
+SurfaceMesh surface_from_python(const py::handle& h);
 // JSON text -> Python object (json.loads), for reports the CLI prints as JSON.
 py::object json_to_python(const std::string& text);
 

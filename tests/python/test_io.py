@@ -50,3 +50,11 @@ def test_failed_write_keeps_the_destination(tmp_path, box):
     with pytest.raises(incise.InvalidArgument):
         incise.write(box, str(path), cell_data={"s": np.ones(2)})
     assert path.read_text() == "precious"
+
+
+def test_boundary_surface_encloses_the_volume(box):
+    v, f = incise.boundary_surface(box)
+    assert f.shape == (len(box.boundary_faces()[0]), 3)
+    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    enclosed = np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6  # outward: positive
+    assert enclosed == pytest.approx(box.volume(), rel=1e-12)

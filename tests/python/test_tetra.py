@@ -35,3 +35,18 @@ def test_tetrahedralize_errors(tmp_path):
         incise.tetrahedralize(cgal_mesh("cube.off"), size="-3%")
     with pytest.raises(incise.InvalidArgument, match="engine"):
         incise.tetrahedralize(cgal_mesh("cube.off"), engine="tetgen")
+
+
+def test_tetrahedralize_a_surface_in_memory(tmp_path):
+    # The boundary of a box, as arrays: meshing it again gives the box's volume.
+    box = incise.generate_box((2.0, 1.0, 1.0), (2, 1, 1))
+    surface = incise.boundary_surface(box)
+    mesh = incise.tetrahedralize(surface, size="8%", engine="cgal")
+    mesh.validate(check_manifold_boundary=True)
+    assert mesh.volume() == pytest.approx(2.0, rel=0.03)
+    path = str(tmp_path / "box.off")
+    incise.write_surface(surface, path)
+    v, f = incise.read_surface(path)
+    assert np.array_equal(v, surface[0]) and np.array_equal(f, surface[1])
+    with pytest.raises(incise.InvalidArgument, match="triangle #0 references vertex 99"):
+        incise.tetrahedralize((v, [[0, 1, 99]]))
