@@ -102,6 +102,28 @@ py::array_t<long long> id_array(const std::vector<Id>& ids) {
   return a;
 }
 
+TetId to_tet(const TetMesh& mesh, long long t) {
+  if (t < 0 || t >= static_cast<long long>(mesh.tet_capacity()) || !mesh.is_alive(TetId(t)))
+    throw InvalidArgument("tet " + std::to_string(t) + " is not a live tet of the mesh");
+  return TetId(static_cast<std::uint32_t>(t));
+}
+
+VertexId to_vertex(const TetMesh& mesh, long long v) { return to_vertices(mesh, py::int_(v)).front(); }
+
+py::list origins(const std::vector<VertexOrigin>& list) {
+  py::list out;
+  for (const VertexOrigin& o : list) {
+    py::list parents, weights;
+    for (int k = 0; k < 4; ++k)
+      if (o.parents[k].is_valid()) {
+        parents.append(o.parents[k].idx());
+        weights.append(o.weights[k]);
+      }
+    out.append(py::make_tuple(o.vertex.idx(), parents, weights));
+  }
+  return out;
+}
+
 std::array<int, 3> to_cells(const py::handle& h) {
   if (py::isinstance<py::int_>(h)) {
     const int n = h.cast<int>();
@@ -113,6 +135,18 @@ std::array<int, 3> to_cells(const py::handle& h) {
 }  // namespace
 
 void bind_mesh(py::module_& m) {
+  py::class_<TopologyChange>(m, "TopologyChange",
+                             "One batch of mesh edits (mesh/topology_change.h); pass it to every simulation's apply()")
+      .def_property_readonly("removed_tets", [](const TopologyChange& c) { return id_array(c.removed_tets); })
+      .def_property_readonly("added_tets", [](const TopologyChange& c) { return id_array(c.added_tets); })
+      .def_property_readonly("added_vertices", [](const TopologyChange& c) { return origins(c.added_vertices); },
+                             "[(vertex, parents, weights)] in creation order")
+      .def_property_readonly("moved_vertices", [](const TopologyChange& c) { return origins(c.moved_vertices); },
+                             "[(vertex, parents, weights)] in move order")
+      .def_property_readonly("removed_vertices", [](const TopologyChange& c) { return id_array(c.removed_vertices); })
+      .def_property_readonly("touched_vertices", [](const TopologyChange& c) { return id_array(c.touched_vertices); })
+      .def("empty", &TopologyChange::empty);
+
   py::class_<TetMesh>(m, "TetMesh", "Tetrahedral mesh with stable ids (see docs/architecture.md)")
       .def(py::init<>())
       .def(py::init(&from_arrays), py::arg("points"), py::arg("tets"), py::arg("labels") = py::none(),
@@ -163,6 +197,19 @@ void bind_mesh(py::module_& m) {
           "validate",
           [](const TetMesh& mesh, bool manifold) { mesh.validate({true, manifold}); },
           py::arg("check_manifold_boundary") = false, "Checks every invariant; raises InvalidMesh")
+      .def(
+          "split_edge",
+          [](TetMesh& mesh, long long a, long long b, double s) {
+            return mesh.split_edge(to_vertex(mesh, a), to_vertex(mesh, b), s).idx();
+          },
+          py::arg("a"), py::arg("b"), py::arg("s") = 0.5, "New vertex at (1-s) a + s b splitting every tet around the edge")
+      .def(
+          "split_tet",
+          [](TetMesh& mesh, long long t, const std::array<double, 4>& w) { return mesh.split_tet(to_tet(mesh, t), w).idx(); },
+          py::arg("tet"), py::arg("weights") = std::array<double, 4>{0.25, 0.25, 0.25, 0.25},
+          "New vertex at barycentric weights (all > 0) in the tet, split 1 -> 4")
+      .def("take_change", &TetMesh::take_change, "The edits since the last call, as one TopologyChange")
+      .def_property_readonly("has_pending_change", &TetMesh::has_pending_change)
       .def(
           "compact",
           [](TetMesh& mesh) {

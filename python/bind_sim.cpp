@@ -119,10 +119,19 @@ std::unique_ptr<Fem> make_fem(const py::object& mesh_obj, const py::object& mate
   return std::unique_ptr<Fem>(new Fem{mesh_obj, mesh, FemSimulation(mesh, to_materials(materials), o)});
 }
 
-py::array_t<double> displacement_array(const Eigen::VectorXd& u) {
-  py::array_t<double> a({static_cast<py::ssize_t>(u.size() / 3), py::ssize_t(3)});
-  std::copy(u.data(), u.data() + u.size(), a.mutable_data());
+// The model's per-vertex vectors have spare slots beyond the mesh's capacity (they grow
+// geometrically); Python sees exactly vertex_capacity rows, like TetMesh.points.
+py::array_t<double> vertex_array(const Eigen::VectorXd& u, std::size_t capacity) {
+  py::array_t<double> a({static_cast<py::ssize_t>(capacity), py::ssize_t(3)});
+  std::copy(u.data(), u.data() + 3 * capacity, a.mutable_data());
   return a;
+}
+
+// Exactly vertex_capacity rows (the model may keep spare slots).
+std::vector<Vec3> per_vertex(const Springs& s, const std::vector<Vec3>& values) {
+  std::vector<Vec3> out(values.begin(), values.begin() + std::min(values.size(), s.mesh.vertex_capacity()));
+  out.resize(s.mesh.vertex_capacity(), Vec3::Zero());
+  return out;
 }
 
 TetMesh scene_mesh(const Scene& s) {
@@ -184,13 +193,15 @@ void bind_sim(py::module_& m) {
            "budget_exhausted, info, message)")
       .def_property_readonly("last_stats", [](const Fem& f) { return stats_dict(f.sim.last_stats()); })
       .def("reset_state", [](Fem& f) { f.sim.reset_state(); })
-      .def_property_readonly("displacement", [](const Fem& f) { return displacement_array(f.sim.displacement()); },
+      .def("apply", [](Fem& f, const TopologyChange& c) { f.sim.apply(c); }, py::arg("change"),
+           "Follows one edit batch of the mesh locally (new vertices get interpolated state)")
+      .def_property_readonly("displacement", [](const Fem& f) { return vertex_array(f.sim.displacement(), f.mesh.vertex_capacity()); },
                              "vertex_capacity by 3 (row = vertex id)")
-      .def_property_readonly("velocity", [](const Fem& f) { return displacement_array(f.sim.velocity()); })
+      .def_property_readonly("velocity", [](const Fem& f) { return vertex_array(f.sim.velocity(), f.mesh.vertex_capacity()); })
       .def_property_readonly("positions", [](const Fem& f) { return to_array(f.sim.positions()); })
       .def("von_mises", [](Fem& f) {
         const std::vector<double> s = f.sim.von_mises();
-        return py::array_t<double>(static_cast<py::ssize_t>(s.size()), s.data());
+        return py::array_t<double>(static_cast<py::ssize_t>(std::min(s.size(), f.mesh.tet_capacity())), s.data());
       }, "Von Mises stress per tet id (tet_capacity entries)");
 
   py::class_<Springs>(m, "SpringSimulation",
@@ -222,6 +233,7 @@ void bind_sim(py::module_& m) {
         for (VertexId x : to_vertices(s.mesh, v)) s.model.set_external_force(x, g);
       }, py::arg("vertices"), py::arg("force"))
       .def("set_gravity", [](Springs& s, const py::object& g) { s.model.set_gravity(to_vec3(g, "gravity")); })
+      .def("apply", [](Springs& s, const TopologyChange& c) { s.model.apply(s.mesh, c); }, py::arg("change"))
       .def("step", [](Springs& s, double dt, const std::string& integrator) {
         return step_dict(s.model.step(dt, parse_integrator(integrator)));
       }, py::arg("dt"), py::arg("integrator") = "symplectic-euler",
@@ -229,10 +241,10 @@ void bind_sim(py::module_& m) {
       .def("stable_time_step", [](const Springs& s, const std::string& integrator) {
         return s.model.stable_time_step(parse_integrator(integrator));
       }, py::arg("integrator") = "symplectic-euler")
-      .def_property_readonly("positions", [](const Springs& s) { return to_array(s.model.positions()); })
-      .def_property_readonly("velocities", [](const Springs& s) { return to_array(s.model.velocities()); })
+      .def_property_readonly("positions", [](const Springs& s) { return to_array(per_vertex(s, s.model.positions())); })
+      .def_property_readonly("velocities", [](const Springs& s) { return to_array(per_vertex(s, s.model.velocities())); })
       .def_property_readonly("displacement", [](const Springs& s) {
-        std::vector<Vec3> d = s.model.positions();
+        std::vector<Vec3> d = per_vertex(s, s.model.positions());
         for (std::uint32_t v = 0; v < d.size(); ++v) d[v] -= s.mesh.rest(VertexId(v));
         return to_array(d);
       })

@@ -100,3 +100,44 @@ def test_scene_file(source_dir, tmp_path):
     bad.write_text('{"mesh": "x.vtu", "solver": {"tolerance": -1}}')
     with pytest.raises(incise.IoError, match="bad.json"):
         incise.load_scene(str(bad))
+
+
+def test_fem_follows_mesh_edits_locally(box):
+    young, d = 2e5, 1e-3
+    sim = incise.FemSimulation(box, incise.Material(young=young, poisson=0.0), tolerance=1e-12)
+    clamp_and_pull(box, sim, d)
+    sim.step()
+    a, b = box.tets[0][:2]
+    v_edge = box.split_edge(a, b, 0.3)
+    v_tet = box.split_tet(box.tet_ids[-1])
+    assert box.has_pending_change
+    change = box.take_change()
+    assert [o[0] for o in change.added_vertices] == [v_edge, v_tet]
+    assert len(change.added_tets) > len(change.removed_tets) > 0
+    box.validate(check_manifold_boundary=True)
+    sim.apply(change)
+    x = box.points[:, 0]
+    # new vertices start from the interpolated displacement, which is exact for a linear field
+    assert np.allclose(sim.displacement[[v_edge, v_tet], 0], d * x[[v_edge, v_tet]], atol=1e-12)
+    s = sim.step()
+    assert s["info"] == "success"
+    assert np.allclose(sim.displacement[:, 0], d * x, atol=1e-12)
+    assert incise.TetMesh().num_tets == 0
+    with pytest.raises(incise.InvalidArgument, match="tet 99999 is not a live tet"):
+        box.split_tet(99999)
+
+
+def test_springs_follow_mesh_edits(box):
+    sim = incise.SpringSimulation(box, incise.Material(1e4, 0.3))
+    sim.fix(np.nonzero(box.points[:, 0] == 0)[0])
+    sim.set_gravity((0, 0, -9.81))
+    for _ in range(5):
+        sim.step(1e-4)
+    before = sim.positions
+    corners = box.tets[0]
+    v = box.split_tet(box.tet_ids[0])  # at the centroid
+    sim.apply(box.take_change())
+    after = sim.positions
+    assert after.shape == (box.vertex_capacity, 3)
+    assert np.array_equal(after[: len(before)], before)  # old particles untouched
+    assert np.allclose(after[v], before[corners].mean(axis=0), rtol=0, atol=1e-15)  # interpolated, deformed
