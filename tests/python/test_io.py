@@ -44,12 +44,14 @@ def test_missing_file_is_io_error(tmp_path):
         incise.read(str(tmp_path / "nope.vtu"))
 
 
-def test_failed_write_keeps_the_destination(tmp_path, box):
-    path = tmp_path / "keep.vtu"
+def test_refused_write_keeps_the_destination(tmp_path, box):
+    path = tmp_path / "keep.msh"
     path.write_text("precious")
-    with pytest.raises(incise.InvalidArgument):
-        incise.write(box, str(path), cell_data={"s": np.ones(2)})
+    with pytest.raises(incise.InvalidArgument, match="fields can only be written to .vtu or .vtk, not .*keep.msh"):
+        incise.write(box, str(path), point_data={"d": box.points})
     assert path.read_text() == "precious"
+    with pytest.raises(incise.IoError, match="unknown tet mesh format"):
+        incise.write(box, str(tmp_path / "m.xyz"))
 
 
 def test_boundary_surface_encloses_the_volume(box):
