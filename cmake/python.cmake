@@ -3,7 +3,12 @@
 # libraries become position independent so the extension module can link them.
 set(INCISE_PYTHON_EXECUTABLE /usr/bin/python3 CACHE FILEPATH "Interpreter the Python module is built for")
 set(PYTHON_EXECUTABLE ${INCISE_PYTHON_EXECUTABLE} CACHE FILEPATH "" FORCE)
-find_package(pybind11 CONFIG QUIET)
+# The headers first: pybind11's own search stops the configure when they are missing.
+set(Python3_EXECUTABLE ${INCISE_PYTHON_EXECUTABLE})
+find_package(Python3 QUIET COMPONENTS Interpreter Development.Module)
+if(Python3_Development.Module_FOUND)
+  find_package(pybind11 CONFIG QUIET)
+endif()
 if(pybind11_FOUND)
   set(INCISE_HAVE_PYTHON ON)
   set(CMAKE_POSITION_INDEPENDENT_CODE ON)
