@@ -1,0 +1,133 @@
+// incise cut: progressive, plane and surface cuts from the command line, the JSON report, the
+// tags in the written file, and one-line errors that leave nothing behind.
+#include <catch2/catch.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "cli_run.h"
+#include "mesh/io/tet_io.h"
+#include "quality/components.h"
+
+namespace fs = std::filesystem;
+using incise::test::Run;
+using incise::test::run_incise;
+using incise::test::scratch_dir;
+
+namespace {
+
+double tagged_area(const incise::TetMesh& m, std::uint16_t tag) {
+  double a = 0;
+  for (const auto& f : m.boundary_faces())
+    if (f.tag == tag)
+      a += 0.5 * (m.rest(f.vertices[1]) - m.rest(f.vertices[0])).cross(m.rest(f.vertices[2]) - m.rest(f.vertices[0])).norm();
+  return a;
+}
+
+double volume(const incise::TetMesh& m) {
+  double v = 0;
+  for (incise::TetId t : m.tets()) v += m.volume(t);
+  return v;
+}
+
+}  // namespace
+
+TEST_CASE("incise cut: a progressive through-cut of a box, JSON report and tagged faces", "[cli][cut]") {
+  const fs::path dir = scratch_dir("cli_cut");
+  const std::string box = (dir / "box.msh").string(), out = (dir / "cut.msh").string(), js = (dir / "cut.json").string();
+  REQUIRE(run_incise("generate box --size 2 1 1 --cells 8 4 4 -o '" + box + "'", dir).code == 0);
+  // An oblique blade (not on a vertex layer) spanning y, pushed down through z in 4 steps.
+  Run r = run_incise("cut '" + box + "' -o '" + out + "' --blade 1.03 -0.5 1.3 0.97 1.5 1.3 --sweep 0.02 0 -1.6 --steps 4 --json '" +
+                         js + "' --no-improve",
+                     dir);
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+  std::ifstream in(js);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  for (const char* k : {"tets_cut", "tets_added", "vertices_added", "vertices_duplicated", "min_dihedral_before",
+                        "min_dihedral_after", "ms_total", "ms_max_step"})
+    CHECK(j.contains(k));
+  CHECK(j["steps"].size() == 4);
+  CHECK(j["tets_cut"].get<int>() > 0);
+  CHECK(j["vertices_duplicated"].get<int>() > 0);
+  CHECK(j["min_dihedral_after"].get<double>() > 0);
+  CHECK(j["ms_max_step"].get<double>() <= j["ms_total"].get<double>());
+
+  const incise::TetMesh before = incise::read_tet_mesh(box);
+  const incise::TetMesh m = incise::read_tet_mesh(out);
+  REQUIRE_NOTHROW(m.validate({true, true}));
+  CHECK(m.num_tets() == j["tets_after"].get<std::size_t>());
+  CHECK(incise::tet_components(m).count == 2);  // a through-cut adds a component
+  CHECK(volume(m) == Approx(volume(before)).epsilon(1e-12));
+  // Both sides of the cut are tagged 2 in .msh: twice the section of the box (about 1 x 1).
+  const double area = tagged_area(m, incise::kTagCut);
+  CHECK(area == Approx(2 * j["cut_area"].get<double>()).epsilon(1e-9));
+  CHECK(area > 2.0);
+  CHECK(area < 2.1);
+}
+
+TEST_CASE("incise cut: partial, plane and removal cuts", "[cli][cut]") {
+  const fs::path dir = scratch_dir("cli_cut_modes");
+  const std::string box = (dir / "box.vtu").string();
+  REQUIRE(run_incise("generate box --size 1 1 1 --cells 5 5 5 -o '" + box + "'", dir).code == 0);
+  const std::string part = (dir / "partial.mesh").string();
+  Run r = run_incise("cut '" + box + "' -o '" + part + "' --blade 0.52 -0.2 1.2 0.52 1.2 1.2 --sweep 0 0 -0.6 --steps 3 -q", dir);
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+  const incise::TetMesh pm = incise::read_tet_mesh(part);
+  REQUIRE_NOTHROW(pm.validate({true, true}));
+  CHECK(incise::tet_components(pm).count == 1);  // the front stays attached
+  CHECK(tagged_area(pm, incise::kTagCut) > 0.5);
+
+  const std::string plane = (dir / "plane.vtu").string();
+  r = run_incise("cut '" + box + "' -o '" + plane + "' --plane 0.5 0.5 0.5 1 1 1", dir);
+  REQUIRE(r.code == 0);
+  const incise::TetMesh plm = incise::read_tet_mesh(plane);
+  REQUIRE_NOTHROW(plm.validate({true, true}));
+  CHECK(incise::tet_components(plm).count == 2);
+
+  const std::string carved = (dir / "carved.msh").string();
+  r = run_incise("cut '" + box + "' -o '" + carved + "' --mode remove --plane 0.5 0.5 0.5 0 0 1", dir);
+  REQUIRE(r.code == 0);
+  const incise::TetMesh cm = incise::read_tet_mesh(carved);
+  REQUIRE_NOTHROW(cm.validate({true, true}));
+  CHECK(cm.num_tets() < incise::read_tet_mesh(box).num_tets());
+  CHECK(tagged_area(cm, incise::kTagCut) > 1.9);
+}
+
+TEST_CASE("incise cut fails with one line naming the problem, and writes nothing", "[cli][cut]") {
+  const fs::path dir = scratch_dir("cli_cut_bad");
+  const std::string box = (dir / "box.vtu").string(), out = (dir / "out.vtu").string();
+  REQUIRE(run_incise("generate box --cells 2 2 2 -o '" + box + "'", dir).code == 0);
+  {
+    std::ofstream bad(dir / "bad.msh");
+    bad << "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\nnonsense\n";
+  }
+  struct Case {
+    std::string args, expect;
+  };
+  const Case cases[] = {
+      {"'" + (dir / "missing.vtu").string() + "' -o '" + out + "' --plane 0 0 0 1 0 0", "missing.vtu"},
+      {"'" + (dir / "bad.msh").string() + "' -o '" + out + "' --plane 0 0 0 1 0 0", "bad.msh:"},
+      {"'" + box + "' -o '" + out + "' --plane 0 0 0 0 0 0", "normal must be a nonzero"},
+      {"'" + box + "' -o '" + out + "' --blade 0 0 0 1 nan 0 --sweep 0 0 1", "finite"},
+      {"'" + box + "' -o '" + out + "' --blade 0 0 0 1 1 0", "--sweep"},
+      {"'" + box + "' -o '" + out + "' --plane 0 0 0 1 0 0 --blade 0 0 0 1 1 0 --sweep 0 0 1", "exactly one"},
+  };
+  for (const Case& c : cases) {
+    Run r = run_incise("cut " + c.args, dir);
+    INFO(c.args << "\n" << r.err);
+    CHECK(r.code == 1);
+    CHECK(r.err.find(c.expect) != std::string::npos);
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+    CHECK(!fs::exists(out));
+  }
+  // Option values out of range are caught by the option parser (its message, then a hint).
+  Run r = run_incise("cut '" + box + "' -o '" + out + "' --plane 0 0 0 1 0 0 --snap 0.7", dir);
+  CHECK(r.code != 0);
+  CHECK(r.err.find("--snap") == 0);
+  CHECK(!fs::exists(out));
+}
