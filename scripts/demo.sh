@@ -14,5 +14,7 @@ set -x
 "$INCISE" info "$OUT/liver.vtu"
 "$INCISE" convert "$OUT/liver.vtu" "$OUT/liver.msh"
 "$INCISE" simulate samples/scenes/beam.json -o "$OUT/beam"
+"$INCISE" cut "$OUT/liver.vtu" -o "$OUT/liver_cut.msh" --blade 140 60 205 140 160 205 --sweep 0 0 -90 --steps 10 --json "$OUT/liver_cut.json"
+"$INCISE" simulate samples/scenes/liver_cut.json -o "$OUT/liver_cut"
 { set +x; } 2>/dev/null
-echo "demo: outputs in $OUT/ (open $OUT/liver.vtu and $OUT/beam/frames.pvd in ParaView)"
+echo "demo: outputs in $OUT/ (open $OUT/liver.vtu, $OUT/beam/frames.pvd and $OUT/liver_cut/frames.pvd in ParaView; colour by cut_faces)"

@@ -637,6 +637,8 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
     throw;
   }
   finish();
+  sum.vertices = mesh.num_vertices();  // after the cuts
+  sum.tets = mesh.num_tets();
   return sum;
 }
 
