@@ -5,6 +5,7 @@
 
 #include <filesystem>
 
+#include "cut/scene_cuts.h"
 #include "mesh/errors.h"
 #include "mesh/generate.h"
 #include "mesh/io/tet_io.h"
@@ -288,7 +289,7 @@ void bind_sim(py::module_& m) {
         SceneRunOptions o;
         o.out_dir = out_dir;
         o.frames = frames;
-        const SceneRunSummary r = run_scene(load_scene(path), o);
+        const SceneRunSummary r = run_scene_with_cuts(load_scene(path), o);
         py::dict d;
         d["frames"] = r.frames;
         d["total_iterations"] = r.total_iterations;
@@ -298,6 +299,8 @@ void bind_sim(py::module_& m) {
         d["max_displacement"] = r.max_displacement;
         d["vertices"] = r.vertices;
         d["tets"] = r.tets;
+        d["total_cut_ms"] = r.total_cut_ms;
+        d["fragments_handled"] = r.fragments_handled;
         d["files"] = r.files;
         return d;
       },

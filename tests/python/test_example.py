@@ -12,9 +12,10 @@ def test_example_script_runs(tmp_path, source_dir):
     r = subprocess.run([sys.executable, str(source_dir / "samples" / "example.py"), mesh_path, "-o", str(out),
                         "--frames", "3"], capture_output=True, text=True, env=dict(os.environ))
     assert r.returncode == 0, r.stderr
-    assert "fem frame 2:" in r.stdout and "springs:" in r.stdout
+    assert "fem frame 2:" in r.stdout and "cut step 5:" in r.stdout and "springs:" in r.stdout
     back = incise.read(str(out / "fem.vtu"))
     assert back.num_tets == incise.read(mesh_path).num_tets
+    assert incise.read(str(out / "cut.vtu")).num_tets > back.num_tets
     bad = subprocess.run([sys.executable, str(source_dir / "samples" / "example.py"), str(tmp_path / "no.vtu"),
                           "-o", str(out)], capture_output=True, text=True)
     assert bad.returncode == 1 and bad.stderr.startswith("example: error: ") and "no.vtu" in bad.stderr

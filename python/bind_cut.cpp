@@ -1,0 +1,118 @@
+// Cutting: incise.Cutter (progressive blade, plane and surface cuts). Each call returns a dict
+// with the same figures as `incise cut --json` per step, the step's TopologyChange (hand it to
+// FemSimulation.apply / SpringSimulation.apply) and the detached fragments.
+#include "python/bindings.h"
+
+#include "cut/cutter.h"
+#include "mesh/errors.h"
+
+namespace incise::python {
+
+namespace {
+
+// The cutter edits the mesh in place: it keeps the Python mesh object alive.
+struct PyCutter {
+  py::object mesh_ref;
+  TetMesh& mesh;
+  Cutter cutter;
+};
+
+std::unique_ptr<PyCutter> make_cutter(const py::object& mesh_obj, const std::string& mode, double snap, bool improve,
+                                      double improve_budget_ms, const py::object& frozen,
+                                      std::size_t fragment_search_limit) {
+  TetMesh& mesh = mesh_obj.cast<TetMesh&>();
+  CutOptions o;
+  if (mode == "subdivide") o.mode = CutMode::Subdivide;
+  else if (mode == "remove") o.mode = CutMode::Remove;
+  else throw InvalidArgument("cut: mode: unknown value '" + mode + "' (expected subdivide, remove)");
+  o.snap = snap;
+  o.improve = improve;
+  o.improve_budget_ms = improve_budget_ms;
+  if (!frozen.is_none()) o.frozen = to_vertices(mesh, frozen);
+  o.fragment_search_limit = fragment_search_limit;
+  return std::unique_ptr<PyCutter>(new PyCutter{mesh_obj, mesh, Cutter(mesh, std::move(o))});
+}
+
+// Current positions (rows indexed by vertex id, e.g. FemSimulation.positions) or None.
+Cutter::PositionFn positions_of(const TetMesh& mesh, const py::object& positions, std::vector<Vec3>& storage) {
+  if (positions.is_none()) return {};
+  storage = to_points(positions, mesh.vertex_capacity(), "positions");
+  return [&storage](VertexId v) { return storage[v.idx()]; };
+}
+
+py::dict report(CutStepReport&& r) {
+  py::dict d;
+  d["tets_cut"] = r.tets_cut;
+  d["tets_added"] = r.tets_added;
+  d["vertices_added"] = r.vertices_added;
+  d["vertices_duplicated"] = r.vertices_duplicated;
+  d["cut_faces"] = r.cut_faces;
+  d["cut_area"] = r.cut_area;
+  d["ms"] = r.ms;
+  d["ms_improve"] = r.ms_improve;
+  py::list fragments;
+  for (const Fragment& f : r.fragments) {
+    py::array_t<long long> ids(static_cast<py::ssize_t>(f.tets.size()));
+    for (std::size_t i = 0; i < f.tets.size(); ++i) ids.mutable_data()[i] = f.tets[i].idx();
+    py::dict fd;
+    fd["tets"] = ids;
+    fd["volume"] = f.volume;
+    fragments.append(fd);
+  }
+  d["fragments"] = fragments;
+  d["change"] = py::cast(std::move(r.change));
+  return d;
+}
+
+}  // namespace
+
+void bind_cut(py::module_& m) {
+  py::class_<PyCutter>(m, "Cutter",
+                       "Cuts a TetMesh in place: a blade segment swept over calls (progressive cuts), a plane, "
+                       "or a triangulated surface (cut/cutter.h, docs/cut.md)")
+      .def(py::init(&make_cutter), py::arg("mesh"), py::kw_only(), py::arg("mode") = "subdivide",
+           py::arg("snap") = 0.05, py::arg("improve") = true, py::arg("improve_budget_ms") = 2.0,
+           py::arg("frozen") = py::none(), py::arg("fragment_search_limit") = std::size_t(20000))
+      .def(
+          "start", [](PyCutter& c, const py::object& a, const py::object& b) {
+            c.cutter.start({to_vec3(a, "blade a"), to_vec3(b, "blade b")});
+          },
+          py::arg("a"), py::arg("b"), "Places the blade (segment a-b) without cutting; forgets the previous front")
+      .def(
+          "advance",
+          [](PyCutter& c, const py::object& a, const py::object& b, const py::object& positions) {
+            std::vector<Vec3> storage;
+            const auto pos = positions_of(c.mesh, positions, storage);
+            return report(c.cutter.advance({to_vec3(a, "blade a"), to_vec3(b, "blade b")}, pos));
+          },
+          py::arg("a"), py::arg("b"), py::arg("positions") = py::none(),
+          "Moves the blade to a-b and cuts what it swept; positions: current positions by vertex id "
+          "(the cut is made in that configuration). Returns the step report with its 'change'.")
+      .def(
+          "cut_plane",
+          [](PyCutter& c, const py::object& point, const py::object& normal, const py::object& positions) {
+            std::vector<Vec3> storage;
+            const auto pos = positions_of(c.mesh, positions, storage);
+            return report(c.cutter.cut_plane(to_vec3(point, "point"), to_vec3(normal, "normal"), pos));
+          },
+          py::arg("point"), py::arg("normal"), py::arg("positions") = py::none())
+      .def(
+          "cut_surface",
+          [](PyCutter& c, const py::object& surface, const py::object& positions) {
+            const SurfaceMesh s = surface_from_python(surface);
+            std::vector<CutTriangle> tris;
+            for (const auto& t : s.triangles) tris.push_back({{s.vertices[t[0]], s.vertices[t[1]], s.vertices[t[2]]}});
+            std::vector<Vec3> storage;
+            const auto pos = positions_of(c.mesh, positions, storage);
+            return report(c.cutter.cut_surface(tris, pos));
+          },
+          py::arg("surface"), py::arg("positions") = py::none(), "surface: a (vertices, triangles) pair")
+      .def_property_readonly("blade", [](const PyCutter& c) {
+        const BladeSegment& b = c.cutter.blade();
+        return py::make_tuple(py::make_tuple(b.a.x(), b.a.y(), b.a.z()), py::make_tuple(b.b.x(), b.b.y(), b.b.z()));
+      });
+  m.attr("TAG_SURFACE") = int(kTagSurface);
+  m.attr("TAG_CUT") = int(kTagCut);
+}
+
+}  // namespace incise::python
