@@ -1,0 +1,65 @@
+#include "quality/dihedral_objective.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace incise {
+
+void AngleQuality::combine(const AngleQuality& o) {
+  q = std::min(q, o.q);
+  min_dihedral = std::min(min_dihedral, o.min_dihedral);
+  max_dihedral = std::max(max_dihedral, o.max_dihedral);
+}
+
+AngleQuality angle_quality(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3, const AngleTargets& t) {
+  const Vec3 p[4] = {p0, p1, p2, p3};
+  // Edges by direct differences, rescaled so the longest is about 1: scale-free from 1e-8 to 1e8.
+  const Vec3 e1 = p1 - p0, e2 = p2 - p0, e3 = p3 - p0;
+  const double vol = e1.dot(e2.cross(e3));
+  AngleQuality out;
+  if (!(vol > 0)) {
+    out.q = -1;
+    out.min_dihedral = 0;
+    out.max_dihedral = 180;
+    return out;
+  }
+  double lmax = std::max({e1.norm(), e2.norm(), e3.norm(), (p2 - p1).norm(), (p3 - p1).norm(), (p3 - p2).norm()});
+  const double s = 1.0 / lmax;
+  // Outward normals of the faces opposite each vertex.
+  Vec3 n[4];
+  for (int f = 0; f < 4; ++f) {
+    const Vec3& a = p[kFaceLocal[f][0]];
+    const Vec3 u = (p[kFaceLocal[f][1]] - a) * s, w = (p[kFaceLocal[f][2]] - a) * s;
+    n[f] = u.cross(w);
+  }
+  constexpr double kDeg = 180.0 / 3.14159265358979323846;
+  for (int i = 0; i < 4; ++i)
+    for (int j = i + 1; j < 4; ++j) {
+      // The dihedral angle at the edge shared by faces i and j (opposite vertices i and j).
+      const double th = std::atan2(n[i].cross(n[j]).norm(), -n[i].dot(n[j])) * kDeg;
+      out.min_dihedral = std::min(out.min_dihedral, th);
+      out.max_dihedral = std::max(out.max_dihedral, th);
+    }
+  out.q = std::min(out.min_dihedral / t.min_deg, (180 - out.max_dihedral) / (180 - t.max_deg));
+  return out;
+}
+
+AngleQuality angle_quality(const TetMesh& mesh, TetId t, const AngleTargets& targets) {
+  const auto& v = mesh.tet_vertices(t);
+  return angle_quality(mesh.rest(v[0]), mesh.rest(v[1]), mesh.rest(v[2]), mesh.rest(v[3]), targets);
+}
+
+AngleQuality angle_quality(const TetMesh& mesh, std::span<const std::array<VertexId, 4>> tets,
+                           const AngleTargets& targets) {
+  AngleQuality out;
+  for (const auto& v : tets)
+    out.combine(angle_quality(mesh.rest(v[0]), mesh.rest(v[1]), mesh.rest(v[2]), mesh.rest(v[3]), targets));
+  return out;
+}
+
+bool better(const AngleQuality& after, const AngleQuality& before) {
+  return after.q > before.q + 1e-6 && after.min_dihedral >= before.min_dihedral &&
+         after.max_dihedral <= before.max_dihedral;
+}
+
+}  // namespace incise

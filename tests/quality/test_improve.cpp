@@ -1,0 +1,283 @@
+// Invariants of the improvement pass on generated, jittered, sliver-laden, two-label,
+// stuffed and rescaled meshes: valid, never a worse worst element, labels, boundary faces and
+// their tags, interfaces and per-label volumes kept, boundary vertices on their planes.
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <random>
+#include <set>
+
+#include "mesh/generate.h"
+#include "mesh/isosurface_stuffing.h"
+#include "quality/dihedral_objective.h"
+#include "quality/improve.h"
+#include "quality/metrics.h"
+#include "tests/support/mesh_edits.h"
+
+using namespace incise;
+
+namespace {
+
+#if defined(__SANITIZE_ADDRESS__)
+constexpr int kCells = 3;
+#else
+constexpr int kCells = 5;
+#endif
+
+using FaceKey = std::array<std::uint32_t, 3>;
+
+FaceKey key(std::array<VertexId, 3> f) {
+  FaceKey k{f[0].idx(), f[1].idx(), f[2].idx()};
+  std::sort(k.begin(), k.end());
+  return k;
+}
+
+// Everything improvement must keep.
+struct Snapshot {
+  std::map<FaceKey, std::uint16_t> boundary;           // boundary faces and their tags
+  std::map<FaceKey, std::pair<int, int>> interfaces;   // faces between labels, label pair
+  std::map<int, double> volume;                        // per label
+  std::map<FaceKey, std::pair<Vec3, Vec3>> planes;     // boundary face: a point and unit normal
+  AngleQuality worst;
+  double min_dih = 180, max_dih = 0;
+};
+
+Snapshot snapshot(const TetMesh& m) {
+  Snapshot s;
+  for (TetId t : m.tets()) {
+    s.volume[m.label(t)] += m.volume(t);
+    s.worst.combine(angle_quality(m, t, AngleTargets{}));
+    const TetQuality q = tet_quality(m, t);
+    s.min_dih = std::min(s.min_dih, q.min_dihedral);
+    s.max_dih = std::max(s.max_dih, q.max_dihedral);
+    for (int f = 0; f < 4; ++f) {
+      const TetId u = m.neighbor(t, f);
+      const auto fv = m.face_vertices(t, f);
+      if (!u.is_valid()) {
+        s.boundary[key(fv)] = m.face_tag(t, f);
+        const Vec3 n = (m.rest(fv[1]) - m.rest(fv[0])).cross(m.rest(fv[2]) - m.rest(fv[0])).normalized();
+        s.planes[key(fv)] = {m.rest(fv[0]), n};
+      } else if (m.label(u) != m.label(t)) {
+        s.interfaces[key(fv)] = {std::min(m.label(t), m.label(u)), std::max(m.label(t), m.label(u))};
+      }
+    }
+  }
+  return s;
+}
+
+void check_kept(const TetMesh& m, const Snapshot& before, double scale) {
+  REQUIRE_NOTHROW(m.validate());
+  const Snapshot after = snapshot(m);
+  CHECK(after.boundary == before.boundary);
+  CHECK(after.interfaces == before.interfaces);
+  REQUIRE(after.volume.size() == before.volume.size());
+  for (const auto& [label, v] : before.volume) CHECK(std::abs(after.volume.at(label) - v) <= 1e-9 * std::abs(v));
+  CHECK(after.worst.q >= before.worst.q);
+  CHECK(after.min_dih >= before.min_dih - 1e-9);
+  CHECK(after.max_dih <= before.max_dih + 1e-9);
+  // Boundary vertices stayed on the planes of their faces (the surface did not change).
+  double off = 0;
+  for (const auto& [k, plane] : before.planes)
+    for (auto v : k) off = std::max(off, std::abs(plane.second.dot(m.rest(VertexId(v)) - plane.first)));
+  CHECK(off <= 1e-9 * scale);
+}
+
+TetMesh two_labels(TetMesh m) {
+  for (TetId t : m.tets()) {
+    Vec3 c = Vec3::Zero();
+    for (VertexId v : m.tet_vertices(t)) c += m.rest(v) / 4;
+    if (c.x() < 0.5 * kCells / 5.0) m.set_label(t, 2);
+  }
+  return m;
+}
+
+void scale_mesh(TetMesh& m, double s) {
+  for (VertexId v : m.vertices()) m.set_rest(v, m.rest(v) * s);
+}
+
+// Runs improve and checks the invariants and the reported figures.
+ImproveReport run_and_check(TetMesh& m, double scale, ImproveOptions opt = {}) {
+  m.discard_change();
+  const Snapshot before = snapshot(m);
+  opt.time_limit_s = 60;  // the checks, not the clock, decide
+  const ImproveReport rep = improve(m, opt);
+  UNSCOPED_INFO("dihedral " << rep.min_dihedral_before << ".." << rep.max_dihedral_before << " -> "
+                            << rep.min_dihedral_after << ".." << rep.max_dihedral_after << ", tets " << rep.tets_before
+                            << " -> " << rep.tets_after << ", flips " << rep.flips23 << "/" << rep.flips32 << "/"
+                            << rep.flips44 << "/" << rep.edge_removals << ", moves " << rep.smoothing_moves << ", "
+                            << rep.seconds << " s");
+  check_kept(m, before, scale);
+  CHECK(rep.min_dihedral_before == Approx(before.min_dih));
+  CHECK(rep.min_dihedral_after >= rep.min_dihedral_before);
+  CHECK(rep.max_dihedral_after <= rep.max_dihedral_before);
+  CHECK(rep.tets_after == m.num_tets());
+  // One TopologyChange for the pass, listing the moved vertices the report lists.
+  const TopologyChange ch = m.take_change();
+  std::set<std::uint32_t> moved;
+  for (const auto& o : ch.moved_vertices) moved.insert(o.vertex.idx());
+  std::set<std::uint32_t> reported;
+  for (VertexId v : rep.moved_vertices) reported.insert(v.idx());
+  CHECK(moved == reported);
+  CHECK(ch.added_vertices.empty());
+  return rep;
+}
+
+}  // namespace
+
+TEST_CASE("improve: jittered box, one and two labels, three scales", "[improve]") {
+  for (double scale : {1.0, 1e-6, 1e6})
+    for (bool labels : {false, true}) {
+      CAPTURE(scale, labels);
+      TetMesh m = make_box(Vec3(1, 1, 1) * kCells / 5.0, {kCells, kCells, kCells});
+      if (labels) m = two_labels(std::move(m));
+      testing::jitter(m, 0.35, 11);
+      scale_mesh(m, scale);
+      const ImproveReport rep = run_and_check(m, scale);
+      CHECK(rep.flips23 + rep.flips32 + rep.flips44 + rep.edge_removals > 0);
+      CHECK(rep.smoothing_moves > 0);
+      if (!labels) CHECK(rep.min_dihedral_after > rep.min_dihedral_before + 1);  // an interface vertex stays
+    }
+}
+
+TEST_CASE("improve: sliver-laden mesh from random splits and flips", "[improve]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {3, 3, 3});
+  std::mt19937 rng(5);
+  for (int i = 0; i < 300; ++i) testing::random_edit(m, rng);
+  testing::jitter(m, 0.2, 3);
+  const ImproveReport rep = run_and_check(m, 1.0);
+  CHECK(rep.min_dihedral_after > rep.min_dihedral_before);
+}
+
+TEST_CASE("improve: ellipsoid and stuffing output (curved surface stays put)", "[improve]") {
+  TetMesh e = make_ellipsoid(Vec3(1, 0.7, 0.5), kCells / 2 + 1);
+  testing::jitter(e, 0.3, 2);
+  run_and_check(e, 1.0);
+  StuffingOptions so;
+  so.cell_size = 0.25;
+  TetMesh s = isosurface_stuffing([](const Vec3& p) { return p.norm() - 1; }, Vec3(-1.2, -1.2, -1.2),
+                                  Vec3(1.2, 1.2, 1.2), so);
+  const ImproveReport rep = run_and_check(s, 1.0);
+  CHECK(rep.min_dihedral_after >= rep.min_dihedral_before);
+}
+
+TEST_CASE("improve: flips only, smoothing only, frozen vertices", "[improve]") {
+  TetMesh base = make_box(Vec3(1, 1, 1), {4, 4, 4});
+  testing::jitter(base, 0.35, 4);
+  {
+    TetMesh m = base;
+    ImproveOptions o;
+    o.smoothing = false;
+    const ImproveReport r = run_and_check(m, 1.0, o);
+    CHECK(r.smoothing_moves == 0);
+    CHECK(r.moved_vertices.empty());
+  }
+  {
+    TetMesh m = base;
+    ImproveOptions o;
+    o.flips = false;
+    const ImproveReport r = run_and_check(m, 1.0, o);
+    CHECK(r.flips23 + r.flips32 + r.flips44 + r.edge_removals == 0);
+    CHECK(r.tets_after == r.tets_before);
+  }
+  {
+    TetMesh m = base;
+    const std::vector<VertexId> frozen = m.vertices();
+    ImproveOptions o;
+    o.frozen = frozen;
+    std::vector<Vec3> pos;
+    for (VertexId v : frozen) pos.push_back(m.rest(v));
+    const ImproveReport r = run_and_check(m, 1.0, o);
+    CHECK(r.smoothing_moves == 0);
+    for (std::size_t i = 0; i < frozen.size(); ++i) CHECK(m.rest(frozen[i]) == pos[i]);
+  }
+  {
+    // Boundary sliding off: boundary vertices stay exactly where they were.
+    TetMesh m = base;
+    ImproveOptions o;
+    o.move_surface = false;
+    std::map<std::uint32_t, Vec3> pos;
+    for (const auto& f : m.boundary_faces())
+      for (VertexId v : f.vertices) pos[v.idx()] = m.rest(v);
+    run_and_check(m, 1.0, o);
+    for (const auto& [v, p] : pos) CHECK(m.rest(VertexId(v)) == p);
+  }
+}
+
+TEST_CASE("improve: flat boundary vertices slide within their face plane", "[improve]") {
+  // Jitter the boundary vertices inside their faces of the box, so sliding has work to do.
+  TetMesh m = make_box(Vec3(1, 1, 1), {4, 4, 4});
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-0.3, 0.3);
+  for (VertexId v : m.vertices()) {
+    Vec3 p = m.rest(v);
+    int on = 0;
+    for (int k = 0; k < 3; ++k) on += (p[k] == 0 || p[k] == 1);
+    if (on != 1) continue;  // face interiors only: edges and corners are features
+    for (int k = 0; k < 3; ++k)
+      if (p[k] != 0 && p[k] != 1) p[k] += 0.25 * u(rng);
+    m.set_rest(v, p);
+  }
+  REQUIRE_NOTHROW(m.validate());
+  const ImproveReport r = run_and_check(m, 1.0);
+  int boundary_moved = 0;
+  std::set<std::uint32_t> on_boundary;
+  for (const auto& f : m.boundary_faces())
+    for (VertexId v : f.vertices) on_boundary.insert(v.idx());
+  for (VertexId v : r.moved_vertices) boundary_moved += on_boundary.count(v.idx()) > 0;
+  CHECK(boundary_moved > 0);
+}
+
+TEST_CASE("improve_local: only the seeds' rings change, never for the worse", "[improve]") {
+  TetMesh m = make_box(Vec3(1, 1, 1) * 2, {2 * kCells, 2 * kCells, 2 * kCells});
+  testing::jitter(m, 0.35, 21);
+  m.discard_change();
+  const Snapshot before = snapshot(m);
+  // Seeds: the tets around one interior vertex.
+  VertexId centre;
+  double best = 1e300;
+  for (VertexId v : m.vertices())
+    if ((m.rest(v) - Vec3(1, 1, 1)).norm() < best) best = (m.rest(v) - Vec3(1, 1, 1)).norm(), centre = v;
+  const auto inc = m.incident_tets(centre);
+  const std::vector<TetId> seeds(inc.begin(), inc.end());
+  // The region as the contract defines it: seeds plus two vertex rings.
+  std::set<std::uint32_t> region;
+  std::vector<TetId> frontier = seeds;
+  for (TetId t : seeds) region.insert(t.idx());
+  for (int r = 0; r < 2; ++r) {
+    std::vector<TetId> next;
+    for (TetId t : frontier)
+      for (VertexId v : m.tet_vertices(t))
+        for (TetId u : m.incident_tets(v))
+          if (region.insert(u.idx()).second) next.push_back(u);
+    frontier = next;
+  }
+  std::map<std::uint32_t, std::array<VertexId, 4>> outside;
+  std::map<std::uint32_t, Vec3> outside_pos;
+  for (TetId t : m.tets())
+    if (!region.count(t.idx())) {
+      outside[t.idx()] = m.tet_vertices(t);
+      for (VertexId v : m.tet_vertices(t)) outside_pos[v.idx()] = m.rest(v);
+    }
+  ImproveOptions o;
+  o.max_work = 500;
+  const ImproveReport r = improve_local(m, seeds, o);
+  check_kept(m, before, 1.0);
+  CHECK(r.tets_before == region.size());
+  CHECK(r.min_dihedral_after >= r.min_dihedral_before);
+  CHECK(r.max_dihedral_after <= r.max_dihedral_before);
+  CHECK(r.flips23 + r.flips32 + r.flips44 + r.edge_removals + r.smoothing_moves > 0);
+  for (const auto& [t, v] : outside) {
+    REQUIRE(m.is_alive(TetId(t)));
+    CHECK(m.tet_vertices(TetId(t)) == v);
+  }
+  for (const auto& [v, p] : outside_pos) CHECK(m.rest(VertexId(v)) == p);
+  // A work cap of one operation stops early and says so.
+  TetMesh m2 = make_box(Vec3(1, 1, 1), {3, 3, 3});
+  testing::jitter(m2, 0.4, 1);
+  ImproveOptions one;
+  one.max_work = 1;
+  const std::vector<TetId> all = m2.tets();
+  CHECK(improve_local(m2, all, one).budget_exhausted);
+}
