@@ -1,0 +1,41 @@
+#pragma once
+// Runs the incise executable as a user would (shell, captured stdout/stderr, exit code) in
+// a fresh scratch directory under the build tree.
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <sys/wait.h>
+
+namespace incise::testing {
+
+struct Run {
+  int code;
+  std::string out, err;
+};
+
+inline std::string slurp(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+inline Run run_incise(const std::string& args, const std::filesystem::path& dir) {
+  const std::filesystem::path out = dir / "stdout.txt", err = dir / "stderr.txt";
+  const std::string cmd = std::string("'") + INCISE_EXE + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
+  int status = std::system(cmd.c_str());
+  int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return {code, slurp(out), slurp(err)};
+}
+
+inline std::filesystem::path scratch_dir(const std::string& name) {
+  std::filesystem::path d = std::filesystem::path(INCISE_BINARY_DIR) / "test-scratch" / name;
+  std::filesystem::remove_all(d);
+  std::filesystem::create_directories(d);
+  return d;
+}
+
+}  // namespace incise::testing
