@@ -1,6 +1,7 @@
 // incise improve IN -o OUT: flips and smoothing until the worst elements meet the targets or
-// the time limit; labels and boundary tags kept, the surface unchanged. Prints the
-// before/after summary; --json writes the report (schema incise.improve/1).
+// the time limit; labels and boundary tags kept, boundary vertices on the old surface (and
+// the surface exactly kept with --keep-surface). Prints the before/after summary; --json
+// writes the report (schema incise.improve/1).
 #include <iostream>
 
 #include "cli/commands.h"
@@ -16,7 +17,7 @@ void add_improve(CLI::App& app) {
   struct Opts {
     std::string in, out, json;
     ImproveOptions improve;
-    bool no_flips = false, no_smoothing = false, fixed_boundary = false;
+    bool no_flips = false, no_smoothing = false, fixed_boundary = false, keep_surface = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("improve", "Improve element quality by flips and smoothing (surface unchanged)");
@@ -32,7 +33,13 @@ void add_improve(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--no-flips", o->no_flips, "Smoothing only (connectivity unchanged)");
   cmd->add_flag("--no-smoothing", o->no_smoothing, "Flips only (vertices stay)");
-  cmd->add_flag("--fixed-boundary", o->fixed_boundary, "Boundary vertices never move (else they slide on flat faces)");
+  cmd->add_flag("--fixed-boundary", o->fixed_boundary, "Boundary vertices never move");
+  cmd->add_flag("--keep-surface", o->keep_surface,
+                "Boundary and interface vertices slide only where flat (surface and label volumes kept exactly); "
+                "by default they also slide on smooth curved parts, staying on the old surface");
+  cmd->add_option("--feature-angle", o->improve.feature_angle_deg,
+                  "Surface edges bent more than this (degrees) are features: their vertices stay")
+      ->capture_default_str();
   cmd->callback([o] {
     if (!(o->improve.target_dihedral_deg > 0 && o->improve.target_dihedral_deg < 70.5 &&
           o->improve.target_max_dihedral_deg > 70.6 && o->improve.target_max_dihedral_deg < 180))
@@ -41,6 +48,7 @@ void add_improve(CLI::App& app) {
     opt.flips = !o->no_flips;
     opt.smoothing = !o->no_smoothing;
     opt.move_surface = !o->fixed_boundary;
+    opt.slide_curved = !o->keep_surface;
     ReadReport read;
     TetMesh mesh = read_tet_mesh(o->in, &read);
     const ImproveReport r = improve(mesh, opt);

@@ -69,6 +69,7 @@ void add_prepare(CLI::App& app) {
         if (!*no_improve) {
           ImproveOptions io;
           io.time_limit_s = *improve_seconds;
+          io.slide_curved = true;  // the mesh approximates the input surface anyway
           imp = improve(mesh, io);
           mesh.discard_change();
           if (!quiet) std::cerr << format_improve_report(imp);

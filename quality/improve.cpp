@@ -46,8 +46,12 @@ public:
     for (VertexId v : opt.frozen) frozen_.insert(v.idx());
     smooth_.move_surface = opt.move_surface;
     smooth_.move_cut = opt.move_cut;
+    smooth_.move_interface = opt.move_interface;
+    smooth_.slide_curved = opt.slide_curved;
+    smooth_.feature_angle_deg = opt.feature_angle_deg;
     smooth_.iterations = opt.smoothing_iterations;
     smooth_.frozen = &frozen_;
+    smooth_.curved_slid = &curved_slid_;
   }
 
   // One sweep over `tets`; returns whether anything improved.
@@ -136,6 +140,7 @@ private:
   ImproveScope scope_;
   SmoothOptions smooth_;
   std::unordered_set<std::uint32_t> frozen_;
+  std::unordered_set<std::uint32_t> curved_slid_;
   std::unordered_map<std::uint32_t, std::uint32_t> version_;
   std::priority_queue<Entry> queue_;
   int work_ = 0;

@@ -9,65 +9,106 @@ namespace incise {
 
 namespace {
 
-// How v may move: not at all, anywhere (interior), or within the plane through it with normal n.
+// How v may move: not at all, anywhere (interior), within the plane through it with normal
+// n, or on the old curved disc `fan` (moving along n's tangent plane, projected back).
 struct Freedom {
-  enum Kind { Fixed, Free, Plane } kind = Fixed;
+  enum Kind { Fixed, Free, Plane, Surface } kind = Fixed;
   Vec3 n = Vec3::Zero();
-  std::vector<std::array<VertexId, 3>> fan;  // boundary faces around v, rotated so v is first
+  std::vector<std::array<VertexId, 3>> fan;  // disc faces around v, v first, consistently oriented
 };
+
+// The faces around v that constrain it: boundary faces (one tag) or, inside the mesh, the
+// faces between exactly two labels. Returns false when v is where constraints meet.
+bool constraint_faces(const TetMesh& mesh, VertexId v, const ImproveScope& scope, const SmoothOptions& opt,
+                      std::vector<std::array<VertexId, 3>>& fan, bool& cut) {
+  const auto tets = mesh.incident_tets(v);
+  const int la = mesh.label(tets.front());
+  int lb = la;
+  for (TetId t : tets) {
+    if (!scope.contains(t)) return false;
+    if (mesh.label(t) == la) continue;
+    if (lb != la && mesh.label(t) != lb) return false;  // three labels meet
+    lb = mesh.label(t);
+  }
+  std::vector<std::array<VertexId, 3>> boundary, interface;
+  bool first = true;
+  std::uint16_t tag = 0;
+  for (TetId t : tets) {
+    const int lv = mesh.local_index(t, v);
+    for (int f = 0; f < 4; ++f) {
+      if (f == lv) continue;
+      const TetId u = mesh.neighbor(t, f);
+      auto fv = mesh.face_vertices(t, f);
+      while (fv[0] != v) std::rotate(fv.begin(), fv.begin() + 1, fv.end());
+      if (!u.is_valid()) {
+        if (!first && mesh.face_tag(t, f) != tag) return false;  // two tags meet at v
+        tag = mesh.face_tag(t, f);
+        first = false;
+        boundary.push_back(fv);
+      } else if (mesh.label(t) == la && mesh.label(u) != la) {
+        interface.push_back(fv);  // oriented out of label la
+      }
+    }
+  }
+  if (!boundary.empty() && !interface.empty()) return false;  // boundary meets interface
+  cut = tag == kTagCut;
+  if (!boundary.empty() && (cut ? !opt.move_cut : !opt.move_surface)) return false;
+  if (!interface.empty() && !opt.move_interface) return false;
+  fan = boundary.empty() ? std::move(interface) : std::move(boundary);
+  return true;
+}
 
 Freedom freedom(const TetMesh& mesh, VertexId v, const ImproveScope& scope, const SmoothOptions& opt) {
   Freedom fr;
   if (opt.frozen && opt.frozen->count(v.idx())) return fr;
-  const auto tets = mesh.incident_tets(v);
-  if (tets.empty()) return fr;
-  std::uint16_t tag = 0;
-  bool first = true;
-  for (TetId t : tets) {
-    if (!scope.contains(t) || mesh.label(t) != mesh.label(tets.front())) return fr;
-    const int lv = mesh.local_index(t, v);
-    for (int f = 0; f < 4; ++f) {
-      if (f == lv || mesh.neighbor(t, f).is_valid()) continue;
-      if (!first && mesh.face_tag(t, f) != tag) return fr;  // v is where two tags meet
-      tag = mesh.face_tag(t, f);
-      first = false;
-      auto fv = mesh.face_vertices(t, f);
-      while (fv[0] != v) std::rotate(fv.begin(), fv.begin() + 1, fv.end());
-      fr.fan.push_back(fv);
-    }
-  }
+  if (mesh.incident_tets(v).empty()) return fr;
+  bool cut = false;
+  if (!constraint_faces(mesh, v, scope, opt, fr.fan, cut)) return fr;
   if (fr.fan.empty()) {
     fr.kind = Freedom::Free;
     return fr;
   }
-  if (tag == kTagCut ? !opt.move_cut : !opt.move_surface) return fr;
   // One disc: following x -> y around v visits every face once.
-  std::map<std::uint32_t, VertexId> next;
-  for (const auto& f : fr.fan)
-    if (!next.emplace(f[1].idx(), f[2]).second) return fr;
-  VertexId w = fr.fan.front()[1];
+  std::map<std::uint32_t, std::size_t> from;
+  for (std::size_t i = 0; i < fr.fan.size(); ++i)
+    if (!from.emplace(fr.fan[i][1].idx(), i).second) return fr;
+  std::size_t at = 0;
   for (std::size_t k = 0; k < fr.fan.size(); ++k) {
-    auto it = next.find(w.idx());
-    if (it == next.end()) return fr;
-    w = it->second;
+    auto it = from.find(fr.fan[at][2].idx());
+    if (it == from.end()) return fr;
+    at = it->second;
   }
-  if (w != fr.fan.front()[1]) return fr;
-  // Flat: every fan vertex within a tiny fraction of the fan's size from v's plane.
+  if (at != 0) return fr;
   const Vec3& pv = mesh.rest(v);
+  std::vector<Vec3> normals;
   Vec3 n = Vec3::Zero();
   double h = 0;
   for (const auto& f : fr.fan) {
-    n += (mesh.rest(f[1]) - pv).cross(mesh.rest(f[2]) - pv);
+    normals.push_back((mesh.rest(f[1]) - pv).cross(mesh.rest(f[2]) - pv));
+    n += normals.back();
     h = std::max(h, (mesh.rest(f[1]) - pv).norm());
   }
   if (!(n.norm() > 0)) return fr;
   n.normalize();
-  for (const auto& f : fr.fan) {
-    if (std::abs(n.dot(mesh.rest(f[1]) - pv)) > 1e-10 * h) return fr;
-    if (!(n.dot((mesh.rest(f[1]) - pv).cross(mesh.rest(f[2]) - pv)) > 0)) return fr;
-  }
-  fr.kind = Freedom::Plane;
   fr.n = n;
+  // Flat: every fan vertex within a tiny fraction of the fan's size from v's plane.
+  bool flat = true;
+  for (const auto& f : fr.fan) flat = flat && std::abs(n.dot(mesh.rest(f[1]) - pv)) <= 1e-10 * h;
+  // Every face must project onto the tangent plane with its orientation (a height field).
+  for (const Vec3& fn : normals)
+    if (!(n.dot(fn) > 0.2 * fn.norm())) return fr;
+  if (flat) {
+    fr.kind = Freedom::Plane;
+    return fr;
+  }
+  if (!opt.slide_curved || cut || (opt.curved_slid && opt.curved_slid->count(v.idx()))) return fr;
+  // Smooth: adjacent faces (sharing edge v-y) bend by at most the feature angle.
+  const double cos_feature = std::cos(opt.feature_angle_deg * 3.14159265358979323846 / 180);
+  for (std::size_t i = 0; i < fr.fan.size(); ++i) {
+    const std::size_t j = from.at(fr.fan[i][2].idx());
+    if (normals[i].normalized().dot(normals[j].normalized()) < cos_feature) return fr;
+  }
+  fr.kind = Freedom::Surface;
   return fr;
 }
 
@@ -107,7 +148,8 @@ bool locate(const TetMesh& mesh, VertexId v, const Vec3& p, const Freedom& fr, s
             std::vector<double>& weights) {
   double best = -1e300;
   const Vec3& pv = mesh.rest(v);
-  if (fr.kind == Freedom::Plane) {
+  if (fr.kind == Freedom::Plane || fr.kind == Freedom::Surface) {
+    // Barycentrics of p's projection along n onto each old disc face.
     for (const auto& f : fr.fan) {
       const Vec3 x = mesh.rest(f[1]) - pv, y = mesh.rest(f[2]) - pv, q = p - pv;
       const double area = fr.n.dot(x.cross(y));
@@ -138,6 +180,22 @@ bool locate(const TetMesh& mesh, VertexId v, const Vec3& p, const Freedom& fr, s
   double s = 0;
   for (double& w : weights) s += (w = std::max(w, 0.0));
   for (double& w : weights) w /= s;
+  return true;
+}
+
+// Exactly what move_vertex computes from parents and weights.
+Vec3 combine(const TetMesh& mesh, const std::vector<VertexId>& parents, const std::vector<double>& weights) {
+  Vec3 p = Vec3::Zero();
+  for (std::size_t k = 0; k < parents.size(); ++k) p += weights[k] * mesh.rest(parents[k]);
+  return p;
+}
+
+// The point a constrained vertex can take for the wanted p (on its plane or old disc).
+bool place(const TetMesh& mesh, VertexId v, const Vec3& p, const Freedom& fr, Vec3& out) {
+  std::vector<VertexId> parents;
+  std::vector<double> weights;
+  if (!locate(mesh, v, p, fr, parents, weights)) return false;
+  out = combine(mesh, parents, weights);
   return true;
 }
 
@@ -174,7 +232,7 @@ bool smooth_vertex(TetMesh& mesh, VertexId v, const ImproveScope& scope, const S
         e[k] = fd;
         g[k] = (star.one(i, p + e, tg).q - star.one(i, p - e, tg).q) / (2 * fd);
       }
-      if (fr.kind == Freedom::Plane) g -= fr.n * fr.n.dot(g);
+      if (fr.kind != Freedom::Free) g -= fr.n * fr.n.dot(g);
       grads.push_back(g);
     }
     const Vec3 d = min_norm_in_hull(grads);
@@ -182,7 +240,7 @@ bool smooth_vertex(TetMesh& mesh, VertexId v, const ImproveScope& scope, const S
     bool stepped = false;
     for (double len = 0.3 * hmin; len > 1e-6 * hmin; len *= 0.5) {
       Vec3 trial = p + len * d.normalized();
-      if (fr.kind == Freedom::Plane) trial -= fr.n * fr.n.dot(trial - p0);
+      if (fr.kind != Freedom::Free && !place(mesh, v, trial, fr, trial)) continue;
       const AngleQuality q = star.at(trial, tg);
       if (q.q > cur.q) {
         p = trial;
@@ -198,10 +256,10 @@ bool smooth_vertex(TetMesh& mesh, VertexId v, const ImproveScope& scope, const S
   std::vector<VertexId> parents;
   std::vector<double> weights;
   if (!locate(mesh, v, best_p, fr, parents, weights)) return false;
-  Vec3 actual = Vec3::Zero();  // exactly what move_vertex will compute
-  for (std::size_t k = 0; k < parents.size(); ++k) actual += weights[k] * mesh.rest(parents[k]);
+  const Vec3 actual = combine(mesh, parents, weights);
   if (!better(star.at(actual, tg), orig) || !mesh.is_move_ok(v, actual)) return false;
   mesh.move_vertex(v, parents, weights);
+  if (fr.kind == Freedom::Surface && opt.curved_slid) opt.curved_slid->insert(v.idx());
   return true;
 }
 

@@ -2,11 +2,15 @@
 // Optimization-based smoothing (Freitag and Ollivier-Gooch): move one vertex to raise the
 // worst angle_quality() of its incident tets by nonsmooth steepest ascent (the direction is
 // the smallest vector in the convex hull of the active tets' gradients; the step is halved
-// until the worst value rises). Interior vertices move freely; a boundary vertex moves only
-// within its plane when all its boundary faces are coplanar, carry one tag and form one
-// disc, so the surface (and each cut plane) stays where it was. Vertices whose tets carry
-// several labels (interfaces) stay. The move goes through TetMesh::move_vertex, recorded as
-// a point of the mesh before the move.
+// until the worst value rises). Interior vertices move freely. A vertex on the boundary (or
+// on the interface between two labels) moves within that surface when its faces there form
+// one disc with one tag (one label pair): within its plane when the disc is flat, so the
+// surface, each cut plane and each label's volume stay exactly; on a smooth curved disc (no
+// edge sharper than feature_angle_deg; only with slide_curved, never for cut faces) it moves
+// in the tangent plane and is projected back onto the old disc, so it stays on the old
+// surface (the surface then changes by at most the disc's sagitta). Other vertices (corners,
+// feature edges, where tags or three labels meet) stay. The move goes through
+// TetMesh::move_vertex, recorded as a point of the mesh before the move.
 #include <cstdint>
 #include <unordered_set>
 
@@ -18,8 +22,14 @@ namespace incise {
 struct SmoothOptions {
   bool move_surface = true;  // boundary (non-cut) vertices may slide in flat neighbourhoods
   bool move_cut = true;      // vertices on cut-tagged faces may slide in their plane
+  bool move_interface = true;  // vertices on a two-label interface may slide within it
+  bool slide_curved = false;   // also slide on smooth curved discs (surface changes slightly)
+  double feature_angle_deg = 30;  // adjacent disc faces bent more than this: a feature (fixed)
   int iterations = 8;        // ascent steps
   const std::unordered_set<std::uint32_t>* frozen = nullptr;  // vertex ids that never move
+  // Vertices that already slid on a curved disc in this pass: they slide there once, so the
+  // drift from the input surface stays within one disc's sagitta (nullptr: no limit).
+  std::unordered_set<std::uint32_t>* curved_slid = nullptr;
 };
 
 // Returns true when v moved (its tets strictly better by better()).

@@ -205,28 +205,81 @@ TEST_CASE("improve: flips only, smoothing only, frozen vertices", "[improve]") {
   }
 }
 
-TEST_CASE("improve: flat boundary vertices slide within their face plane", "[improve]") {
-  // Jitter the boundary vertices inside their faces of the box, so sliding has work to do.
+TEST_CASE("improve: flat boundary and interface vertices slide within their plane", "[improve]") {
+  // Two labels split at x = 0.5; boundary vertices jittered inside their box faces and
+  // interface vertices inside the plane x = 0.5, so sliding has work to do.
   TetMesh m = make_box(Vec3(1, 1, 1), {4, 4, 4});
+  for (TetId t : m.tets()) {
+    Vec3 c = Vec3::Zero();
+    for (VertexId v : m.tet_vertices(t)) c += m.rest(v) / 4;
+    if (c.x() < 0.5) m.set_label(t, 2);
+  }
   std::mt19937 rng(9);
   std::uniform_real_distribution<double> u(-0.3, 0.3);
+  auto on_plane = [](const Vec3& p, int k) { return p[k] == 0 || p[k] == 1 || (k == 0 && p[k] == 0.5); };
   for (VertexId v : m.vertices()) {
     Vec3 p = m.rest(v);
     int on = 0;
-    for (int k = 0; k < 3; ++k) on += (p[k] == 0 || p[k] == 1);
-    if (on != 1) continue;  // face interiors only: edges and corners are features
+    for (int k = 0; k < 3; ++k) on += on_plane(p, k);
+    if (on != 1) continue;  // plane interiors only: edges and corners are features
     for (int k = 0; k < 3; ++k)
-      if (p[k] != 0 && p[k] != 1) p[k] += 0.25 * u(rng);
+      if (!on_plane(p, k)) p[k] += 0.25 * u(rng);
     m.set_rest(v, p);
   }
   REQUIRE_NOTHROW(m.validate());
   const ImproveReport r = run_and_check(m, 1.0);
-  int boundary_moved = 0;
+  int boundary_moved = 0, interface_moved = 0;
   std::set<std::uint32_t> on_boundary;
   for (const auto& f : m.boundary_faces())
     for (VertexId v : f.vertices) on_boundary.insert(v.idx());
-  for (VertexId v : r.moved_vertices) boundary_moved += on_boundary.count(v.idx()) > 0;
+  for (VertexId v : r.moved_vertices) {
+    boundary_moved += on_boundary.count(v.idx()) > 0;
+    interface_moved += m.rest(v).x() == Approx(0.5).margin(1e-12) && !on_boundary.count(v.idx());
+  }
   CHECK(boundary_moved > 0);
+  CHECK(interface_moved > 0);
+  CHECK(r.min_dihedral_after > r.min_dihedral_before + 5);
+}
+
+TEST_CASE("improve: sliding on a curved surface stays on the old surface", "[improve]") {
+  StuffingOptions so;
+  so.cell_size = 0.25;
+  TetMesh m = isosurface_stuffing([](const Vec3& p) { return p.norm() - 1; }, Vec3(-1.2, -1.2, -1.2),
+                                  Vec3(1.2, 1.2, 1.2), so);
+  m.discard_change();
+  const Snapshot before = snapshot(m);
+  // Boundary vertices lie on the unit sphere up to the stuffing's own snapping.
+  double dev_before = 0;
+  std::set<std::uint32_t> on_boundary;
+  for (const auto& [k, tag] : before.boundary)
+    for (auto v : k) on_boundary.insert(v);
+  for (auto v : on_boundary) dev_before = std::max(dev_before, std::abs(m.rest(VertexId(v)).norm() - 1));
+  std::map<std::uint32_t, Vec3> old_pos;
+  for (VertexId v : m.vertices()) old_pos[v.idx()] = m.rest(v);
+  ImproveOptions o;
+  o.slide_curved = true;
+  const ImproveReport r = improve(m, o);
+  REQUIRE_NOTHROW(m.validate());
+  const Snapshot after = snapshot(m);
+  CHECK(after.boundary == before.boundary);
+  CHECK(after.worst.q >= before.worst.q);
+  CHECK(r.min_dihedral_after > r.min_dihedral_before);
+  // Volume within 1% (the chords move by at most the sagitta of a 0.25-cell disc on a unit sphere).
+  CHECK(std::abs(after.volume.at(1) - before.volume.at(1)) < 1e-2 * before.volume.at(1));
+  // A vertex slides once per pass, onto its old faces, so it leaves the unit sphere by at
+  // most the sagitta of its disc: (disc radius)^2 / 2 <= (longest boundary edge)^2 / 2.
+  double lmax = 0;
+  for (const auto& [k, tag] : before.boundary)
+    for (int i = 0; i < 3; ++i) lmax = std::max(lmax, (old_pos[k[i]] - old_pos[k[(i + 1) % 3]]).norm());
+  int slid = 0;
+  double dev_after = 0;
+  for (auto v : on_boundary) {
+    slid += m.rest(VertexId(v)) != old_pos[v];
+    dev_after = std::max(dev_after, std::abs(m.rest(VertexId(v)).norm() - 1));
+  }
+  UNSCOPED_INFO("sphere deviation " << dev_before << " -> " << dev_after << ", slid " << slid);
+  CHECK(dev_after <= dev_before + lmax * lmax / 2);
+  CHECK(slid > 0);
 }
 
 TEST_CASE("improve_local: only the seeds' rings change, never for the worse", "[improve]") {
