@@ -33,13 +33,21 @@ AngleQuality angle_quality(const Vec3& p0, const Vec3& p1, const Vec3& p2, const
     n[f] = u.cross(w);
   }
   constexpr double kDeg = 180.0 / 3.14159265358979323846;
+  // The extreme angles by their cosines (cheap), then atan2 on those two only (accurate near
+  // 0 and 180 degrees, where slivers live). The dihedral angle at the edge shared by faces i
+  // and j (opposite vertices i and j) is pi minus the angle between their outward normals.
+  double inv[4];
+  for (int f = 0; f < 4; ++f) inv[f] = 1.0 / n[f].norm();
+  double cmax = -2, cmin = 2;
+  int imax = 0, jmax = 1, imin = 0, jmin = 1;
   for (int i = 0; i < 4; ++i)
     for (int j = i + 1; j < 4; ++j) {
-      // The dihedral angle at the edge shared by faces i and j (opposite vertices i and j).
-      const double th = std::atan2(n[i].cross(n[j]).norm(), -n[i].dot(n[j])) * kDeg;
-      out.min_dihedral = std::min(out.min_dihedral, th);
-      out.max_dihedral = std::max(out.max_dihedral, th);
+      const double c = -n[i].dot(n[j]) * inv[i] * inv[j];
+      if (c > cmax) cmax = c, imax = i, jmax = j;  // smallest angle
+      if (c < cmin) cmin = c, imin = i, jmin = j;  // largest angle
     }
+  out.min_dihedral = std::atan2(n[imax].cross(n[jmax]).norm(), -n[imax].dot(n[jmax])) * kDeg;
+  out.max_dihedral = std::atan2(n[imin].cross(n[jmin]).norm(), -n[imin].dot(n[jmin])) * kDeg;
   out.q = std::min(out.min_dihedral / t.min_deg, (180 - out.max_dihedral) / (180 - t.max_deg));
   return out;
 }

@@ -96,9 +96,18 @@ private:
     if (q < 1) queue_.push({q, t, ver});
   }
 
+  // Tet a is new or changed shape: operations around it may work again.
+  void changed(TetId a) {
+    for (VertexId w : mesh_.tet_vertices(a)) {
+      stuck_.erase(w.idx());
+      for (TetId u : mesh_.incident_tets(w)) flip_stuck_.erase(u.idx());
+    }
+  }
+
   bool step(TetId t, ImproveReport& rep) {
-    if (opt_.flips) {
+    if (opt_.flips && !flip_stuck_.count(t.idx())) {
       FlipOutcome f = improve_by_flip(mesh_, t, scope_, opt_.max_ring);
+      if (f.kind == FlipOutcome::None) flip_stuck_.insert(t.idx());
       if (f.kind != FlipOutcome::None) {
         switch (f.kind) {
           case FlipOutcome::Flip23: ++rep.flips23; break;
@@ -110,7 +119,10 @@ private:
           for (TetId r : f.removed) region_->erase(r.idx());
           for (TetId a : f.added) region_->insert(a.idx());
         }
-        for (TetId a : f.added) push(a);
+        for (TetId a : f.added) {
+          push(a);
+          changed(a);
+        }
         return true;
       }
     }
@@ -118,14 +130,21 @@ private:
       bool any = false;
       const auto tv = mesh_.tet_vertices(t);
       for (VertexId v : tv) {
-        if (!mesh_.is_alive(t)) break;
-        if (!smooth_vertex(mesh_, v, scope_, smooth_)) continue;
+        if (stuck_.count(v.idx())) continue;
+        if (!smooth_vertex(mesh_, v, scope_, smooth_)) {
+          stuck_.insert(v.idx());  // until a tet around it changes
+          continue;
+        }
         ++rep.smoothing_moves;
         moved.insert(v.idx());
         any = true;
         const auto inc = mesh_.incident_tets(v);
         const std::vector<TetId> around(inc.begin(), inc.end());
-        for (TetId a : around) push(a);
+        for (TetId a : around) {
+          push(a);
+          changed(a);
+        }
+        stuck_.erase(v.idx());
       }
       return any;
     }
@@ -141,6 +160,8 @@ private:
   SmoothOptions smooth_;
   std::unordered_set<std::uint32_t> frozen_;
   std::unordered_set<std::uint32_t> curved_slid_;
+  // Smoothing (vertices) or flips (tets) failed and nothing around changed since.
+  std::unordered_set<std::uint32_t> stuck_, flip_stuck_;
   std::unordered_map<std::uint32_t, std::uint32_t> version_;
   std::priority_queue<Entry> queue_;
   int work_ = 0;

@@ -238,7 +238,7 @@ bool smooth_vertex(TetMesh& mesh, VertexId v, const ImproveScope& scope, const S
     const Vec3 d = min_norm_in_hull(grads);
     if (!(d.norm() * hmin > 1e-9)) break;  // a (nonsmooth) local maximum
     bool stepped = false;
-    for (double len = 0.3 * hmin; len > 1e-6 * hmin; len *= 0.5) {
+    for (double len = 0.3 * hmin; len > 1e-3 * hmin; len *= 0.5) {
       Vec3 trial = p + len * d.normalized();
       if (fr.kind != Freedom::Free && !place(mesh, v, trial, fr, trial)) continue;
       const AngleQuality q = star.at(trial, tg);
