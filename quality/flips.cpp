@@ -1,8 +1,10 @@
 #include "quality/flips.h"
 
 #include <algorithm>
+#include <optional>
 
 #include "mesh/errors.h"
+#include "quality/boundary_flips.h"
 #include "quality/edge_removal.h"
 
 namespace incise {
@@ -17,6 +19,7 @@ struct Candidate {
   VertexId a, b;  // edge removal
   std::vector<std::array<int, 3>> triangles;
   std::vector<TetId> removed;
+  std::optional<BoundaryEdgeRemoval> boundary;
 };
 
 AngleQuality worst_of(const TetMesh& mesh, std::span<const TetId> tets, const AngleTargets& targets) {
@@ -63,7 +66,18 @@ void consider_edge_removal(const TetMesh& mesh, VertexId a, VertexId b, const Im
     return;  // several fans: not an edge a flip can remove
   }
   const int n = static_cast<int>(star.tets.size());
-  if (!star.closed || n < 3 || n > max_ring || !same_label_in_scope(mesh, star.tets, scope)) return;
+  if (!star.closed) {
+    if (auto plan = plan_boundary_edge_removal(mesh, a, b, scope, max_ring)) {
+      Candidate c;
+      c.after = plan->after;
+      c.kind = FlipOutcome::BoundaryFlip;
+      c.removed = plan->removed;
+      c.boundary = std::move(plan);
+      out.push_back(std::move(c));
+    }
+    return;
+  }
+  if (n < 3 || n > max_ring || !same_label_in_scope(mesh, star.tets, scope)) return;
   std::vector<Vec3> ring;
   ring.reserve(n);
   for (VertexId c : star.ring) ring.push_back(mesh.rest(c));
@@ -92,7 +106,9 @@ FlipOutcome improve_by_flip(TetMesh& mesh, TetId t, const ImproveScope& scope, i
   std::sort(cands.begin(), cands.end(), [](const Candidate& x, const Candidate& y) { return x.after.q > y.after.q; });
   FlipOutcome out;
   for (auto& c : cands) {
-    if (c.kind == FlipOutcome::Flip23) {
+    if (c.kind == FlipOutcome::BoundaryFlip) {
+      out.added = remove_boundary_edge(mesh, *c.boundary);
+    } else if (c.kind == FlipOutcome::Flip23) {
       if (!mesh.is_flip23_ok(c.tet, c.face)) continue;
       auto added = mesh.flip23(c.tet, c.face);
       out.added.assign(added.begin(), added.end());

@@ -113,6 +113,7 @@ private:
           case FlipOutcome::Flip23: ++rep.flips23; break;
           case FlipOutcome::Flip32: ++rep.flips32; break;
           case FlipOutcome::Flip44: ++rep.flips44; break;
+          case FlipOutcome::BoundaryFlip: ++rep.boundary_flips; break;
           default: ++rep.edge_removals; break;
         }
         if (region_) {
