@@ -5,6 +5,8 @@
 #include <map>
 #include <vector>
 
+#include "quality/star_ascent.h"
+
 namespace incise {
 
 namespace {
@@ -112,37 +114,6 @@ Freedom freedom(const TetMesh& mesh, VertexId v, const ImproveScope& scope, cons
   return fr;
 }
 
-// The incident tets with v's slot open.
-struct Star {
-  std::vector<std::array<Vec3, 4>> tets;
-  std::vector<int> slot;
-  AngleQuality at(const Vec3& p, const AngleTargets& t) const {
-    AngleQuality w;
-    for (std::size_t i = 0; i < tets.size(); ++i) w.combine(one(i, p, t));
-    return w;
-  }
-  AngleQuality one(std::size_t i, const Vec3& p, const AngleTargets& t) const {
-    auto x = tets[i];
-    x[slot[i]] = p;
-    return angle_quality(x[0], x[1], x[2], x[3], t);
-  }
-};
-
-// Smallest vector in the convex hull of g (Frank-Wolfe; the hull is small).
-Vec3 min_norm_in_hull(const std::vector<Vec3>& g) {
-  Vec3 x = g.front();
-  for (int it = 0; it < 64; ++it) {
-    std::size_t best = 0;
-    for (std::size_t i = 1; i < g.size(); ++i)
-      if (g[i].dot(x) < g[best].dot(x)) best = i;
-    const Vec3 d = g[best] - x;
-    const double dd = d.squaredNorm();
-    if (dd == 0 || x.dot(x) - g[best].dot(x) <= 1e-12 * x.squaredNorm()) break;
-    x += std::clamp(-x.dot(d) / dd, 0.0, 1.0) * d;
-  }
-  return x;
-}
-
 // Barycentric parents of p (a point of v's star, or of its flat fan) for move_vertex.
 bool locate(const TetMesh& mesh, VertexId v, const Vec3& p, const Freedom& fr, std::vector<VertexId>& parents,
             std::vector<double>& weights) {
@@ -204,7 +175,7 @@ bool place(const TetMesh& mesh, VertexId v, const Vec3& p, const Freedom& fr, Ve
 bool smooth_vertex(TetMesh& mesh, VertexId v, const ImproveScope& scope, const SmoothOptions& opt) {
   const Freedom fr = freedom(mesh, v, scope, opt);
   if (fr.kind == Freedom::Fixed) return false;
-  Star star;
+  OpenStar star;
   double hmin = 1e300;
   for (TetId t : mesh.incident_tets(v)) {
     const auto& tv = mesh.tet_vertices(t);
@@ -219,39 +190,14 @@ bool smooth_vertex(TetMesh& mesh, VertexId v, const ImproveScope& scope, const S
   const AngleTargets& tg = scope.targets;
   const Vec3 p0 = mesh.rest(v);
   const AngleQuality orig = star.at(p0, tg);
-  Vec3 p = p0, best_p = p0;
-  AngleQuality cur = orig;
-  const double fd = 1e-6 * hmin;
-  for (int it = 0; it < opt.iterations; ++it) {
-    std::vector<Vec3> grads;
-    for (std::size_t i = 0; i < star.tets.size(); ++i) {
-      if (star.one(i, p, tg).q > cur.q + 1e-3) continue;  // not active
-      Vec3 g;
-      for (int k = 0; k < 3; ++k) {
-        Vec3 e = Vec3::Zero();
-        e[k] = fd;
-        g[k] = (star.one(i, p + e, tg).q - star.one(i, p - e, tg).q) / (2 * fd);
-      }
-      if (fr.kind != Freedom::Free) g -= fr.n * fr.n.dot(g);
-      grads.push_back(g);
-    }
-    const Vec3 d = min_norm_in_hull(grads);
-    if (!(d.norm() * hmin > 1e-9)) break;  // a (nonsmooth) local maximum
-    bool stepped = false;
-    for (double len = 0.3 * hmin; len > 1e-3 * hmin; len *= 0.5) {
-      Vec3 trial = p + len * d.normalized();
-      if (fr.kind != Freedom::Free && !place(mesh, v, trial, fr, trial)) continue;
-      const AngleQuality q = star.at(trial, tg);
-      if (q.q > cur.q) {
-        p = trial;
-        cur = q;
-        stepped = true;
-        break;
-      }
-    }
-    if (!stepped) break;
-    if (better(cur, orig)) best_p = p;
+  AscentOptions ao;
+  ao.iterations = opt.iterations;
+  ao.scale = hmin;
+  if (fr.kind != Freedom::Free) {
+    ao.normal = &fr.n;
+    ao.project = [&](Vec3& p) { return place(mesh, v, p, fr, p); };
   }
+  const Vec3 best_p = ascend(star, p0, tg, ao);
   if (best_p == p0) return false;
   std::vector<VertexId> parents;
   std::vector<double> weights;
