@@ -106,6 +106,11 @@ FlipOutcome improve_by_flip(TetMesh& mesh, TetId t, const ImproveScope& scope, i
   std::sort(cands.begin(), cands.end(), [](const Candidate& x, const Candidate& y) { return x.after.q > y.after.q; });
   FlipOutcome out;
   for (auto& c : cands) {
+    const long growth = c.kind == FlipOutcome::Flip23 ? 1
+                        : c.kind == FlipOutcome::BoundaryFlip
+                            ? static_cast<long>(c.boundary->triangles.size() * 2) - static_cast<long>(c.removed.size())
+                            : static_cast<long>(c.triangles.size() * 2) - static_cast<long>(c.removed.size());
+    if (growth > scope.growth_left) continue;
     if (c.kind == FlipOutcome::BoundaryFlip) {
       out.added = remove_boundary_edge(mesh, *c.boundary);
     } else if (c.kind == FlipOutcome::Flip23) {

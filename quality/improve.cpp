@@ -9,6 +9,7 @@
 #include <unordered_set>
 
 #include "quality/flips.h"
+#include "quality/insertion.h"
 #include "quality/improve.h"
 #include "quality/metrics.h"
 #include "quality/smoothing.h"
@@ -105,6 +106,7 @@ private:
   }
 
   bool step(TetId t, ImproveReport& rep) {
+    scope_.growth_left = static_cast<long>((opt_.max_growth - 1) * double(base_tets)) - grown_;
     if (opt_.flips && !flip_stuck_.count(t.idx())) {
       FlipOutcome f = improve_by_flip(mesh_, t, scope_, opt_.max_ring);
       if (f.kind == FlipOutcome::None) flip_stuck_.insert(t.idx());
@@ -116,6 +118,7 @@ private:
           case FlipOutcome::BoundaryFlip: ++rep.boundary_flips; break;
           default: ++rep.edge_removals; break;
         }
+        grown_ += static_cast<long>(f.added.size()) - static_cast<long>(f.removed.size());
         if (region_) {
           for (TetId r : f.removed) region_->erase(r.idx());
           for (TetId a : f.added) region_->insert(a.idx());
@@ -127,8 +130,8 @@ private:
         return true;
       }
     }
+    bool any = false;
     if (opt_.smoothing) {
-      bool any = false;
       const auto tv = mesh_.tet_vertices(t);
       for (VertexId v : tv) {
         if (stuck_.count(v.idx())) continue;
@@ -147,11 +150,31 @@ private:
         }
         stuck_.erase(v.idx());
       }
-      return any;
     }
-    return false;
+    // An insertion adds one tet per tet around the split edge (at most max_ring).
+    if (!any && opt_.insertion && mesh_.is_alive(t) && scope_.growth_left >= opt_.max_ring) {
+      if (auto ins = improve_by_insertion(mesh_, t, scope_, opt_.max_ring, 2 * opt_.smoothing_iterations)) {
+        ++rep.insertions;
+        grown_ += static_cast<long>(ins->added.size()) - static_cast<long>(ins->removed.size());
+        moved.insert(ins->vertex.idx());
+        if (region_) {
+          for (TetId r : ins->removed) region_->erase(r.idx());
+          for (TetId a : ins->added) region_->insert(a.idx());
+        }
+        for (TetId a : ins->added) {
+          push(a);
+          changed(a);
+        }
+        return true;
+      }
+    }
+    return any;
   }
 
+public:
+  std::size_t base_tets = 0;  // the input's tet count (global) or region size (local), for max_growth
+
+private:
   TetMesh& mesh_;
   const ImproveOptions& opt_;
   Clock::time_point deadline_;
@@ -166,6 +189,7 @@ private:
   std::unordered_map<std::uint32_t, std::uint32_t> version_;
   std::priority_queue<Entry> queue_;
   int work_ = 0;
+  long grown_ = 0;  // net tets added by all operations (bounded through max_growth)
 };
 
 void finish(ImproveReport& rep, const Driver& d, Clock::time_point start) {
@@ -188,6 +212,7 @@ ImproveReport improve(TetMesh& mesh, const ImproveOptions& opt) {
   rep.min_radius_ratio_before = before.min_rr;
   const auto deadline = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(opt.time_limit_s));
   Driver d(mesh, opt, deadline, opt.time_limit_s > 0, nullptr);
+  d.base_tets = all.size();
   // Sweeps until one makes no progress: a tet stuck in one sweep may become improvable once
   // its neighbours changed.
   for (int pass = 0; pass < 8 && !rep.budget_exhausted; ++pass)
@@ -227,6 +252,7 @@ ImproveReport improve_local(TetMesh& mesh, std::span<const TetId> seeds, const I
   const auto deadline =
       start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double, std::milli>(opt.time_budget_ms));
   Driver d(mesh, opt, deadline, timed, &region);
+  d.base_tets = region.size();
   for (int pass = 0; pass < 4 && !rep.budget_exhausted; ++pass) {
     const std::vector<std::uint32_t> ids(region.begin(), region.end());
     if (!d.sweep(ids, rep)) break;

@@ -11,6 +11,7 @@ namespace incise {
 struct ImproveScope {
   AngleTargets targets;
   const std::unordered_set<std::uint32_t>* region = nullptr;  // nullptr: the whole mesh
+  long growth_left = 1L << 60;  // how many more tets the pass may add (ImproveOptions::max_growth)
   bool contains(TetId t) const { return region == nullptr || region->count(t.idx()) > 0; }
 };
 
