@@ -17,7 +17,7 @@ void add_improve(CLI::App& app) {
   struct Opts {
     std::string in, out, json;
     ImproveOptions improve;
-    bool no_flips = false, no_smoothing = false, fixed_boundary = false, keep_surface = false;
+    bool no_flips = false, no_smoothing = false, fixed_boundary = false, keep_surface = false, insert = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("improve", "Improve element quality by flips and smoothing (surface unchanged)");
@@ -33,6 +33,9 @@ void add_improve(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--no-flips", o->no_flips, "Smoothing only (connectivity unchanged)");
   cmd->add_flag("--no-smoothing", o->no_smoothing, "Flips only (vertices stay)");
+  cmd->add_flag("--insert", o->insert, "Also insert vertices (edge splits) where flips and smoothing are stuck");
+  cmd->add_option("--max-growth", o->improve.max_growth, "The tet count stays within this factor of the input")
+      ->capture_default_str();
   cmd->add_flag("--fixed-boundary", o->fixed_boundary, "Boundary vertices never move");
   cmd->add_flag("--keep-surface", o->keep_surface,
                 "Boundary and interface vertices slide only where flat (surface and label volumes kept exactly); "
@@ -49,6 +52,8 @@ void add_improve(CLI::App& app) {
     opt.smoothing = !o->no_smoothing;
     opt.move_surface = !o->fixed_boundary;
     opt.slide_curved = !o->keep_surface;
+    opt.insertion = o->insert;
+    if (!(opt.max_growth >= 1)) throw InvalidArgument("improve: --max-growth must be at least 1");
     ReadReport read;
     TetMesh mesh = read_tet_mesh(o->in, &read);
     const ImproveReport r = improve(mesh, opt);
