@@ -1,7 +1,7 @@
 // Mesh improvement benchmark. Figures are relative to baselines measured in the same run:
 //  1. quality before -> after (min/max dihedral, min radius ratio, tet count, seconds) for
-//     each mesh, with the surface kept exactly (flat sliding only) and with sliding on smooth
-//     curved parts; the input mesh is the baseline;
+//     each mesh, with the surface kept exactly (flat sliding only), with sliding on smooth
+//     curved parts, and with that plus vertex insertion; the input mesh is the baseline;
 //  2. local mode: time per improve_local call against the number of seed tets, on a 10k-tet
 //     and (unless --quick) a ~1M-tet jittered box; equal ms per operation at both sizes shows
 //     that a call does no O(mesh) work (calls on the small mesh overlap and find less to do).
@@ -25,20 +25,21 @@ namespace {
 
 void row(const std::string& name, const char* mode, const ImproveReport& r) {
   std::printf("%-22s %-8s dihedral %6.2f..%6.2f -> %6.2f..%6.2f  rr %.3f -> %.3f  tets %7zu -> %7zu (x%.3f)  "
-              "%5.2f s  ops 23:%d 32:%d 44:%d er:%d sm:%d\n",
+              "%5.2f s  ops 23:%d 32:%d 44:%d er:%d bf:%d sm:%d ins:%d\n",
               name.c_str(), mode, r.min_dihedral_before, r.max_dihedral_before, r.min_dihedral_after,
               r.max_dihedral_after, r.min_radius_ratio_before, r.min_radius_ratio_after, r.tets_before, r.tets_after,
               double(r.tets_after) / double(r.tets_before), r.seconds, r.flips23, r.flips32, r.flips44,
-              r.edge_removals, r.smoothing_moves);
+              r.edge_removals, r.boundary_flips, r.smoothing_moves, r.insertions);
 }
 
 void global(const std::string& name, const TetMesh& input, double time_limit) {
-  for (bool curved : {false, true}) {
+  for (int mode = 0; mode < 3; ++mode) {
     TetMesh m = input;
     ImproveOptions o;
     o.time_limit_s = time_limit;
-    o.slide_curved = curved;
-    row(name, curved ? "curved" : "exact", improve(m, o));
+    o.slide_curved = mode >= 1;
+    o.insertion = mode == 2;
+    row(name, mode == 0 ? "exact" : mode == 1 ? "curved" : "insert", improve(m, o));
   }
 }
 
@@ -86,7 +87,7 @@ int main(int argc, char** argv) {
     }
     if (args.argv[i].rfind("--", 0) != 0) files.push_back(args.argv[i]);
   }
-  std::printf("# global improve: input (baseline) -> improved; exact = surface kept, curved = sliding on smooth parts\n");
+  std::printf("# global improve: input (baseline) -> improved; exact = surface kept, curved = sliding on smooth parts, insert = curved + insertion\n");
   global("box8-jitter0.4", jittered_box(8, 0.4), limit);
   StuffingOptions so;
   so.cell_size = quick ? 0.2 : 0.1;

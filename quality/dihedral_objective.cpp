@@ -9,6 +9,7 @@ void AngleQuality::combine(const AngleQuality& o) {
   q = std::min(q, o.q);
   min_dihedral = std::min(min_dihedral, o.min_dihedral);
   max_dihedral = std::max(max_dihedral, o.max_dihedral);
+  radius_ratio = std::min(radius_ratio, o.radius_ratio);
 }
 
 AngleQuality angle_quality(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3, const AngleTargets& t) {
@@ -21,6 +22,7 @@ AngleQuality angle_quality(const Vec3& p0, const Vec3& p1, const Vec3& p2, const
     out.q = -1;
     out.min_dihedral = 0;
     out.max_dihedral = 180;
+    out.radius_ratio = 0;
     return out;
   }
   double lmax = std::max({e1.norm(), e2.norm(), e3.norm(), (p2 - p1).norm(), (p3 - p1).norm(), (p3 - p2).norm()});
@@ -49,6 +51,15 @@ AngleQuality angle_quality(const Vec3& p0, const Vec3& p1, const Vec3& p2, const
   out.min_dihedral = std::atan2(n[imax].cross(n[jmax]).norm(), -n[imax].dot(n[jmax])) * kDeg;
   out.max_dihedral = std::atan2(n[imin].cross(n[jmin]).norm(), -n[imin].dot(n[jmin])) * kDeg;
   out.q = std::min(out.min_dihedral / t.min_deg, (180 - out.max_dihedral) / (180 - t.max_deg));
+  // Radius ratio 3 r_in / R_circ (scaled edges): r_in = 3V / area, R from the circumcentre
+  // offset (|a|^2 (b x c) + |b|^2 (c x a) + |c|^2 (a x b)) / (2 a.(b x c)).
+  const Vec3 a = e1 * s, b = e2 * s, c = e3 * s;
+  const double v6 = a.dot(b.cross(c));
+  const double area = 0.5 * (1 / inv[0] + 1 / inv[1] + 1 / inv[2] + 1 / inv[3]);
+  const double r_in = v6 / (2 * area);
+  const double r_circ =
+      (a.squaredNorm() * b.cross(c) + b.squaredNorm() * c.cross(a) + c.squaredNorm() * a.cross(b)).norm() / (2 * v6);
+  out.radius_ratio = r_circ > 0 ? std::min(1.0, 3 * r_in / r_circ) : 0;
   return out;
 }
 
@@ -67,7 +78,7 @@ AngleQuality angle_quality(const TetMesh& mesh, std::span<const std::array<Verte
 
 bool better(const AngleQuality& after, const AngleQuality& before) {
   return after.q > before.q + 1e-6 && after.min_dihedral >= before.min_dihedral &&
-         after.max_dihedral <= before.max_dihedral;
+         after.max_dihedral <= before.max_dihedral && after.radius_ratio >= before.radius_ratio;
 }
 
 }  // namespace incise

@@ -4,7 +4,7 @@
 // (180 - hi)) for targets lo (smallest wanted angle) and hi (largest). q >= 1 means the tet
 // meets both targets; q is continuous, scale-free, and -1 for an inverted or flat tet.
 // Operations compare configurations with better(): the worst q must rise, and neither the
-// minimum nor the maximum dihedral angle may get worse.
+// minimum nor the maximum dihedral angle nor the minimum radius ratio may get worse.
 #include <array>
 #include <span>
 
@@ -22,6 +22,7 @@ struct AngleQuality {
   double q = 1e300;         // worst measure (see above)
   double min_dihedral = 180;  // degrees
   double max_dihedral = 0;    // degrees
+  double radius_ratio = 1;    // 3 r_in / R_circ (1 regular; guards against needles and caps)
   void combine(const AngleQuality& o);
 };
 
@@ -33,7 +34,7 @@ AngleQuality angle_quality(const TetMesh& mesh, std::span<const std::array<Verte
 
 // True when `after` replaces `before` with a strictly higher worst q (by more than a small
 // margin, so repeated operations make real progress) without lowering the minimum dihedral
-// or raising the maximum.
+// or the minimum radius ratio, or raising the maximum dihedral.
 bool better(const AngleQuality& after, const AngleQuality& before);
 
 }  // namespace incise

@@ -147,6 +147,7 @@ ImproveReport run_and_check(TetMesh& m, double scale, ImproveOptions opt = {}) {
   CHECK(rep.min_dihedral_before == Approx(before.min_dih));
   CHECK(rep.min_dihedral_after >= rep.min_dihedral_before);
   CHECK(rep.max_dihedral_after <= rep.max_dihedral_before);
+  CHECK(rep.min_radius_ratio_after >= rep.min_radius_ratio_before - 1e-12);
   CHECK(rep.tets_after == m.num_tets());
   // One TopologyChange for the pass, listing the moved vertices the report lists.
   const TopologyChange ch = m.take_change();
