@@ -195,6 +195,31 @@ TEST_CASE("improve: sliver-laden mesh from random splits and flips", "[improve]"
   CHECK(ins.max_dihedral_after <= rep.max_dihedral_after + 10);  // loose: a different path, but no worse by much
 }
 
+TEST_CASE("improve: holes, pinched vertices and cut-tagged planes (what a cut leaves)", "[improve]") {
+  // Tets removed at the boundary leave non-manifold edges and vertices; a plane of faces tagged
+  // kTagCut (the box's x = 0 side) must stay on its plane with its tag.
+  TetMesh m = make_box(Vec3(1, 1, 1), {4, 4, 4});
+  for (TetId t : m.tets())
+    for (int f = 0; f < 4; ++f)
+      if (!m.neighbor(t, f).is_valid()) {
+        bool on_x0 = true;
+        for (VertexId v : m.face_vertices(t, f)) on_x0 = on_x0 && m.rest(v).x() == 0;
+        if (on_x0) m.set_face_tag(t, f, kTagCut);
+      }
+  std::mt19937 rng(13);
+  for (int i = 0; i < 200; ++i) testing::random_edit(m, rng, true);
+  testing::jitter(m, 0.3, 8);
+  const ImproveReport rep = run_and_check(m, 1.0);
+  CHECK(rep.min_dihedral_after > rep.min_dihedral_before);
+  std::mt19937 rng2(14);
+  std::vector<TetId> seeds;
+  for (int i = 0; i < 10; ++i) seeds.push_back(testing::random_tet(m, rng2));
+  m.discard_change();
+  const Snapshot before = snapshot(m);
+  improve_local(m, seeds);
+  check_kept(m, before, 1.0);
+}
+
 TEST_CASE("improve: ellipsoid and stuffing output (curved surface stays put)", "[improve]") {
   TetMesh e = make_ellipsoid(Vec3(1, 0.7, 0.5), kCells / 2 + 1);
   testing::jitter(e, 0.3, 2);
