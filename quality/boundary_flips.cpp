@@ -74,7 +74,7 @@ std::optional<BoundaryEdgeRemoval> plan_boundary_edge_removal(const TetMesh& mes
   RingTriangulation best = best_ring_triangulation(ring, pa, pb, scope.targets);
   AngleQuality before;
   for (TetId t : star.tets) before.combine(angle_quality(mesh, t, scope.targets));
-  if (!(best.worst.q > 0) || !better(best.worst, before)) return std::nullopt;
+  if (!(best.worst.q > 0) || !better(best.worst, before, scope.targets)) return std::nullopt;
   // Clearly positive, so no evaluation order can see a new tet flat or inverted.
   for (const auto& q : new_tets(star.ring, a, b, best.triangles)) {
     const Vec3 e1 = mesh.rest(q[1]) - mesh.rest(q[0]), e2 = mesh.rest(q[2]) - mesh.rest(q[0]),

@@ -76,9 +76,9 @@ AngleQuality angle_quality(const TetMesh& mesh, std::span<const std::array<Verte
   return out;
 }
 
-bool better(const AngleQuality& after, const AngleQuality& before) {
-  return after.q > before.q + 1e-6 && after.min_dihedral >= before.min_dihedral &&
-         after.max_dihedral <= before.max_dihedral && after.radius_ratio >= before.radius_ratio;
+bool better(const AngleQuality& after, const AngleQuality& before, const AngleTargets& t) {
+  return after.q > before.q + 1e-6 && after.min_dihedral >= std::min(before.min_dihedral, t.min_deg) &&
+         after.max_dihedral <= std::max(before.max_dihedral, t.max_deg) && after.radius_ratio >= before.radius_ratio;
 }
 
 }  // namespace incise

@@ -3,8 +3,9 @@
 // targets, q = min over its six dihedral angles theta of min(theta / lo, (180 - theta) /
 // (180 - hi)) for targets lo (smallest wanted angle) and hi (largest). q >= 1 means the tet
 // meets both targets; q is continuous, scale-free, and -1 for an inverted or flat tet.
-// Operations compare configurations with better(): the worst q must rise, and neither the
-// minimum nor the maximum dihedral angle nor the minimum radius ratio may get worse.
+// Operations compare configurations with better(): the worst q must rise, the minimum radius
+// ratio may not drop, and the minimum (maximum) dihedral angle may not drop (rise) except
+// within the targets.
 #include <array>
 #include <span>
 
@@ -33,8 +34,9 @@ AngleQuality angle_quality(const TetMesh& mesh, std::span<const std::array<Verte
                            const AngleTargets& targets);
 
 // True when `after` replaces `before` with a strictly higher worst q (by more than a small
-// margin, so repeated operations make real progress) without lowering the minimum dihedral
-// or the minimum radius ratio, or raising the maximum dihedral.
-bool better(const AngleQuality& after, const AngleQuality& before);
+// margin, so repeated operations make real progress), a minimum radius ratio at least as
+// high, a minimum dihedral at least min(before's, targets.min_deg) and a maximum at most
+// max(before's, targets.max_deg).
+bool better(const AngleQuality& after, const AngleQuality& before, const AngleTargets& targets);
 
 }  // namespace incise

@@ -47,7 +47,7 @@ void consider_flip23(const TetMesh& mesh, TetId t, int f, const ImproveScope& sc
   AngleQuality after;
   for (int k = 0; k < 3; ++k)
     after.combine(angle_quality(mesh.rest(x[k]), mesh.rest(x[(k + 1) % 3]), mesh.rest(a), mesh.rest(b), scope.targets));
-  if (!better(after, worst_of(mesh, pair, scope.targets))) return;
+  if (!better(after, worst_of(mesh, pair, scope.targets), scope.targets)) return;
   Candidate c;
   c.after = after;
   c.kind = FlipOutcome::Flip23;
@@ -82,7 +82,7 @@ void consider_edge_removal(const TetMesh& mesh, VertexId a, VertexId b, const Im
   ring.reserve(n);
   for (VertexId c : star.ring) ring.push_back(mesh.rest(c));
   RingTriangulation best = best_ring_triangulation(ring, mesh.rest(a), mesh.rest(b), scope.targets);
-  if (!better(best.worst, worst_of(mesh, star.tets, scope.targets))) return;
+  if (!better(best.worst, worst_of(mesh, star.tets, scope.targets), scope.targets)) return;
   Candidate c;
   c.after = best.worst;
   c.kind = n == 3 ? FlipOutcome::Flip32 : n == 4 ? FlipOutcome::Flip44 : FlipOutcome::EdgeRemoval;

@@ -82,7 +82,7 @@ std::optional<Plan> plan_split(const TetMesh& mesh, VertexId a, VertexId b, cons
     if (!clearly_positive(x)) return std::nullopt;
   }
   plan.after = children.at(actual, scope.targets);
-  if (!better(plan.after, before)) return std::nullopt;
+  if (!better(plan.after, before, scope.targets)) return std::nullopt;
   plan.a = a;
   plan.b = b;
   plan.removed = star.tets;

@@ -203,7 +203,7 @@ bool smooth_vertex(TetMesh& mesh, VertexId v, const ImproveScope& scope, const S
   std::vector<double> weights;
   if (!locate(mesh, v, best_p, fr, parents, weights)) return false;
   const Vec3 actual = combine(mesh, parents, weights);
-  if (!better(star.at(actual, tg), orig) || !mesh.is_move_ok(v, actual)) return false;
+  if (!better(star.at(actual, tg), orig, tg) || !mesh.is_move_ok(v, actual)) return false;
   mesh.move_vertex(v, parents, weights);
   if (fr.kind == Freedom::Surface && opt.curved_slid) opt.curved_slid->insert(v.idx());
   return true;

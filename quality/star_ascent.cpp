@@ -69,7 +69,7 @@ Vec3 ascend(const OpenStar& star, const Vec3& p0, const AngleTargets& tg, const 
       }
     }
     if (!stepped) break;
-    if (better(cur, orig)) best_p = p;
+    if (better(cur, orig, tg)) best_p = p;
   }
   return best_p;
 }
