@@ -18,10 +18,7 @@
 #include "mesh/tetrahedralize/pipeline.h"
 #include "quality/improve.h"
 #include "quality/report.h"
-#if __has_include("cli/quality_json.h")
-#include "cli/quality_json.h"
-#define INCISE_HAVE_QUALITY_JSON 1
-#endif
+#include "quality/report_json.h"
 #endif
 
 namespace incise::cli {
@@ -77,7 +74,6 @@ void add_prepare(CLI::App& app) {
         const QualityReport q = compute_quality_report(mesh);
         write_tet_mesh(mesh, out);
         const std::string json_path = report_file->empty() ? report_path(out) : *report_file;
-#ifdef INCISE_HAVE_QUALITY_JSON
         {
           nlohmann::json j = quality_report_json(q);
           nlohmann::json prep;
@@ -106,13 +102,10 @@ void add_prepare(CLI::App& app) {
           }
           std::filesystem::rename(tmp, json_path);
         }
-#endif
         std::cout << format_quality_report(q);
         for (const std::string& m : rep.messages) std::cout << "prepare: " << m << "\n";
         std::cerr << "prepare: " << rep.stats.summary() << " -> " << out
-#ifdef INCISE_HAVE_QUALITY_JSON
                   << " (report " << json_path << ")"
-#endif
                   << "\n";
       });
   c->add_option("--report", *report_file, "Quality report JSON path (default: OUT with .quality.json)");

@@ -3,9 +3,9 @@
 #include <iostream>
 
 #include "cli/commands.h"
-#include "cli/quality_json.h"
 #include "mesh/io/tet_io.h"
 #include "quality/report.h"
+#include "quality/report_json.h"
 
 namespace incise::cli {
 
@@ -52,12 +52,7 @@ void add_quality(CLI::App& app) {
     TetMesh mesh = read_tet_mesh(o->file, &read);
     QualityReport r = compute_quality_report(mesh, q);
     if (o->json) {
-      nlohmann::json j = quality_report_json(r);
-      j["file"] = o->file;
-      j["read"] = {{"format", read.format},
-                   {"reoriented_tets", read.reoriented_tets},
-                   {"skipped_cells", read.skipped_cells}};
-      std::cout << j.dump(2) << "\n";
+      std::cout << quality_report_json(r, o->file, read).dump(2) << "\n";
       return;
     }
     std::cout << o->file << " (" << read.format << ")";

@@ -1,5 +1,5 @@
 #pragma once
-// Per-tet quality metrics (DESIGN.md 2.4).
+// Per-tet quality metrics (definitions and golden values: docs/quality-report.md).
 //
 // Every shape metric is normalized so that the regular tetrahedron scores exactly 1.
 //  - Signed metrics (volume, radius_ratio, mean_ratio, volume_length, min_solid_angle)

@@ -11,6 +11,7 @@ PACKAGES=(
   catch2 libcli11-dev nlohmann-json3-dev libbenchmark-dev
   tetgen gmsh                            # peers: cross-format tests and benchmarks
   python3 python3-meshio python3-numpy   # meshio cross-check of every written format
+  pybind11-dev python3-dev python3-pytest # Python bindings and their tests
 )
 
 missing=()

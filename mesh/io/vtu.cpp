@@ -6,6 +6,7 @@
 #include <zlib.h>
 
 #include <cmath>
+#include <cstdio>
 #include <optional>
 
 #include "mesh/io/binary_util.h"
@@ -29,6 +30,13 @@ NumType vtu_type(std::string_view n) {
 }
 
 namespace {
+
+// A value read as a double, for an error message: it may be far outside any integer range.
+std::string number_text(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.15g", v);
+  return buf;
+}
 
 struct Tag {
   std::string_view name;
@@ -425,7 +433,7 @@ RawMesh Vtu::parse() {
           double v = conn[begin + k];
           if (!(v >= 0) || v >= static_cast<double>(pc.np) || v != std::floor(v))
             fail_at(pc.conn->tag.start, "connectivity: cell " + std::to_string(i) + " references point " +
-                                            std::to_string(static_cast<long long>(v)) + " out of range");
+                                            number_text(v) + " out of range");
           tet[k] = static_cast<std::uint32_t>(base + static_cast<std::size_t>(v));
         }
         double lab = labels.empty() ? 0 : labels[i];

@@ -114,6 +114,7 @@ std::vector<Bad> bad_files() {
   b.push_back({"nan.vtu", kVtuHead + vtu_body("0 0 0 1 0 0 0 1 0 0 0 nan", "0 1 2 3"), "non-finite", 7});
   b.push_back({"count.vtu", kVtuHead + vtu_body("0 0 0 1 0 0 0 1 0 0 0", "0 1 2 3"), "11 values, expected 12", 6});
   b.push_back({"range.vtu", kVtuHead + vtu_body("0 0 0 1 0 0 0 1 0 0 0 1", "0 1 2 4"), "references point 4", 11});
+  b.push_back({"huge_index.vtu", kVtuHead + vtu_body("0 0 0 1 0 0 0 1 0 0 0 1", "0 1 2 6.6e26"), "references point 6.6e+26", 11});
   b.push_back({"bad_number.vtu", kVtuHead + vtu_body("0 0 0 1 0 0 0 1 0 0 0 x", "0 1 2 3"), "got 'x'", 7});
   b.push_back({"base64.vtu",
                kVtuHead0 + "<Points>\n<DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"binary\">\n!!!!\n"

@@ -1,8 +1,8 @@
-#include "cli/quality_json.h"
+#include "quality/report_json.h"
 
 #include <cmath>
 
-namespace incise::cli {
+namespace incise {
 
 namespace {
 
@@ -106,4 +106,11 @@ json quality_report_json(const QualityReport& r) {
   return j;
 }
 
-}  // namespace incise::cli
+json quality_report_json(const QualityReport& report, const std::string& file, const ReadReport& read) {
+  json j = quality_report_json(report);
+  j["file"] = file;
+  j["read"] = {{"format", read.format}, {"reoriented_tets", read.reoriented_tets}, {"skipped_cells", read.skipped_cells}};
+  return j;
+}
+
+}  // namespace incise

@@ -1,0 +1,308 @@
+// Simulation: Material(s), FemSimulation (static / dynamic FEM, CG statistics per step),
+// SpringSimulation (spring-mass), scenes (load_scene, run_scene). A simulation keeps its
+// mesh alive and reads it; vertex arguments are ids, one or many.
+#include "python/bindings.h"
+
+#include <filesystem>
+
+#include "mesh/errors.h"
+#include "mesh/generate.h"
+#include "mesh/io/tet_io.h"
+#include "sim/fem_simulation.h"
+#include "sim/scene.h"
+#include "sim/spring_model.h"
+
+namespace incise::python {
+
+namespace {
+
+template <class E>
+E parse_choice(const std::string& what, const std::string& s, std::initializer_list<std::pair<const char*, E>> choices) {
+  std::string names;
+  for (const auto& [n, e] : choices) {
+    if (s == n) return e;
+    names += std::string(names.empty() ? "" : ", ") + n;
+  }
+  throw InvalidArgument(what + ": unknown value '" + s + "' (expected " + names + ")");
+}
+
+// A Material (every label), a {label: Material} dict (other labels: Material()), or a table.
+MaterialTable to_materials(const py::object& o) {
+  if (o.is_none()) return MaterialTable();
+  if (py::isinstance<MaterialTable>(o)) return o.cast<MaterialTable>();
+  if (py::isinstance<Material>(o)) {
+    const Material m = o.cast<Material>();
+    check_material(m, "materials");
+    return MaterialTable(m);
+  }
+  if (py::isinstance<py::dict>(o)) {
+    MaterialTable t;
+    for (auto [k, v] : o.cast<py::dict>()) {
+      const Material m = v.cast<Material>();
+      check_material(m, "materials[" + py::str(k).cast<std::string>() + "]");
+      t.set(k.cast<int>(), m);
+    }
+    return t;
+  }
+  throw InvalidArgument("materials: expected a Material, a {label: Material} dict or a MaterialTable");
+}
+
+// Snake-case names for programs (to_string() is the text for people, kept in "message").
+const char* info_name(SolveInfo info) {
+  switch (info) {
+    case SolveInfo::Success: return "success";
+    case SolveInfo::NoConvergence: return "no_convergence";
+    case SolveInfo::BudgetExhausted: return "budget_exhausted";
+    case SolveInfo::NotPositiveDefinite: return "not_positive_definite";
+    case SolveInfo::NumericalIssue: return "numerical_issue";
+  }
+  return "unknown";
+}
+
+py::dict stats_dict(const FrameStats& s) {
+  py::dict d;
+  d["iterations"] = s.iterations;
+  d["relative_residual"] = s.relative_residual;
+  d["solve_ms"] = s.solve_ms;
+  d["budget_exhausted"] = s.budget_exhausted;
+  d["info"] = info_name(s.info);
+  d["message"] = s.message.empty() ? std::string(to_string(s.info)) : s.message;
+  return d;
+}
+
+py::dict step_dict(const StepStats& s) {
+  py::dict d;
+  d["dt"] = s.dt;
+  d["stable_step_exceeded"] = s.stable_step_exceeded;
+  d["cg_iterations"] = s.cg_iterations;
+  d["cg_relative_residual"] = s.cg_relative_residual;
+  d["kinetic_energy"] = s.kinetic_energy;
+  d["potential_energy"] = s.potential_energy;
+  return d;
+}
+
+// The simulation and the mesh it reads; the py::object keeps the mesh alive.
+struct Fem {
+  py::object mesh_ref;
+  const TetMesh& mesh;
+  FemSimulation sim;
+};
+struct Springs {
+  py::object mesh_ref;
+  const TetMesh& mesh;
+  SpringModel model;
+};
+
+std::unique_ptr<Fem> make_fem(const py::object& mesh_obj, const py::object& materials, const std::string& kind,
+                              const std::string& method, const std::string& backend, double tolerance,
+                              int max_iterations, double budget_ms, const std::string& preconditioner,
+                              bool warm_start, bool dynamic, double dt, double damping, int nonlinear_iterations,
+                              const py::object& gravity, bool check_rigid_modes) {
+  FemSimulationOptions o;
+  o.kind = parse_choice<FemKind>("kind", kind, {{"linear", FemKind::Linear}, {"corotational", FemKind::Corotational}});
+  o.method = parse_choice<SolverMethod>("method", method, {{"cg", SolverMethod::Cg}, {"direct", SolverMethod::Direct}});
+  o.backend = parse_choice<StiffnessBackend>(
+      "backend", backend, {{"matrix-free", StiffnessBackend::MatrixFree}, {"assembled", StiffnessBackend::Assembled}});
+  o.cg.tolerance = tolerance;
+  o.cg.max_iterations = max_iterations;
+  o.cg.budget_ms = budget_ms;
+  o.cg.preconditioner = parse_choice<Preconditioner>(
+      "preconditioner", preconditioner, {{"jacobi", Preconditioner::Jacobi}, {"none", Preconditioner::None}});
+  o.warm_start = warm_start;
+  o.dynamic = dynamic;
+  o.dt = dt;
+  o.damping = damping;
+  o.nonlinear_iterations = nonlinear_iterations;
+  o.gravity = to_vec3(gravity, "gravity");
+  o.check_rigid_modes = check_rigid_modes;
+  const TetMesh& mesh = mesh_obj.cast<const TetMesh&>();
+  return std::unique_ptr<Fem>(new Fem{mesh_obj, mesh, FemSimulation(mesh, to_materials(materials), o)});
+}
+
+// The model's per-vertex vectors have spare slots beyond the mesh's capacity (they grow
+// geometrically); Python sees exactly vertex_capacity rows, like TetMesh.points.
+py::array_t<double> vertex_array(const Eigen::VectorXd& u, std::size_t capacity) {
+  py::array_t<double> a({static_cast<py::ssize_t>(capacity), py::ssize_t(3)});
+  std::copy(u.data(), u.data() + 3 * capacity, a.mutable_data());
+  return a;
+}
+
+// Exactly vertex_capacity rows (the model may keep spare slots).
+std::vector<Vec3> per_vertex(const Springs& s, const std::vector<Vec3>& values) {
+  std::vector<Vec3> out(values.begin(), values.begin() + std::min(values.size(), s.mesh.vertex_capacity()));
+  out.resize(s.mesh.vertex_capacity(), Vec3::Zero());
+  return out;
+}
+
+TetMesh scene_mesh(const Scene& s) {
+  if (!s.generator.empty())
+    return s.generator == "box" ? make_box(s.gen_size, s.gen_cells) : make_ellipsoid(s.gen_size, s.gen_resolution);
+  std::filesystem::path p(s.mesh_file);
+  if (p.is_relative()) p = std::filesystem::path(s.path).parent_path() / p;
+  return read_tet_mesh(p.string());
+}
+
+}  // namespace
+
+void bind_sim(py::module_& m) {
+  py::class_<Material>(m, "Material", "Young's modulus [Pa], Poisson's ratio, density [kg/m^3]")
+      .def(py::init([](double young, double poisson, double density) { return Material{young, poisson, density}; }),
+           py::arg("young") = 1e6, py::arg("poisson") = 0.3, py::arg("density") = 1000)
+      .def_readwrite("young", &Material::young)
+      .def_readwrite("poisson", &Material::poisson)
+      .def_readwrite("density", &Material::density)
+      .def("__repr__", [](const Material& x) {
+        return "Material(young=" + std::to_string(x.young) + ", poisson=" + std::to_string(x.poisson) +
+               ", density=" + std::to_string(x.density) + ")";
+      });
+  py::class_<MaterialTable>(m, "MaterialTable", "Material per region label, with a default")
+      .def(py::init<>())
+      .def("set", &MaterialTable::set, py::arg("label"), py::arg("material"))
+      .def("set_default", &MaterialTable::set_default)
+      .def("get", &MaterialTable::get, py::arg("label"));
+
+  py::class_<Fem>(m, "FemSimulation",
+                  "Linear / corotational FEM, static (K u = f per step) or dynamic (backward Euler); "
+                  "CG warm-started across steps (sim/fem_simulation.h)")
+      .def(py::init(&make_fem), py::arg("mesh"), py::arg("materials") = py::none(), py::kw_only(),
+           py::arg("kind") = "linear", py::arg("method") = "cg", py::arg("backend") = "matrix-free",
+           py::arg("tolerance") = 1e-8, py::arg("max_iterations") = 10000, py::arg("budget_ms") = 0.0,
+           py::arg("preconditioner") = "jacobi", py::arg("warm_start") = true, py::arg("dynamic") = false,
+           py::arg("dt") = 0.01, py::arg("damping") = 0.0, py::arg("nonlinear_iterations") = 1,
+           py::arg("gravity") = py::make_tuple(0.0, 0.0, 0.0), py::arg("check_rigid_modes") = true)
+      .def("fix", [](Fem& f, const py::object& v) { for (VertexId x : to_vertices(f.mesh, v)) f.sim.fix(x); })
+      .def("prescribe", [](Fem& f, const py::object& v, const py::object& d) {
+        const Vec3 u = to_vec3(d, "displacement");
+        for (VertexId x : to_vertices(f.mesh, v)) f.sim.prescribe(x, u);
+      }, py::arg("vertices"), py::arg("displacement"))
+      .def("release", [](Fem& f, const py::object& v) { for (VertexId x : to_vertices(f.mesh, v)) f.sim.release(x); })
+      .def("set_force", [](Fem& f, const py::object& v, const py::object& force) {
+        const Vec3 g = to_vec3(force, "force");
+        for (VertexId x : to_vertices(f.mesh, v)) f.sim.set_force(x, g);
+      }, py::arg("vertices"), py::arg("force"), "Force [N] on each given vertex")
+      .def("add_force", [](Fem& f, const py::object& v, const py::object& force) {
+        const Vec3 g = to_vec3(force, "force");
+        for (VertexId x : to_vertices(f.mesh, v)) f.sim.add_force(x, g);
+      }, py::arg("vertices"), py::arg("force"))
+      .def("clear_forces", [](Fem& f) { f.sim.clear_forces(); })
+      .def("set_gravity", [](Fem& f, const py::object& g) { f.sim.set_gravity(to_vec3(g, "gravity")); })
+      .def("check_constraints", [](const Fem& f) { f.sim.check_constraints(); },
+           "Raises InvalidArgument when a part of the mesh has a rigid mode left")
+      .def("step", [](Fem& f) { return stats_dict(f.sim.step()); },
+           "One frame; returns the CG statistics (iterations, relative_residual, solve_ms, "
+           "budget_exhausted, info, message)")
+      .def_property_readonly("last_stats", [](const Fem& f) { return stats_dict(f.sim.last_stats()); })
+      .def("reset_state", [](Fem& f) { f.sim.reset_state(); })
+      .def("apply", [](Fem& f, const TopologyChange& c) { f.sim.apply(c); }, py::arg("change"),
+           "Follows one edit batch of the mesh locally (new vertices get interpolated state)")
+      .def_property_readonly("displacement", [](const Fem& f) { return vertex_array(f.sim.displacement(), f.mesh.vertex_capacity()); },
+                             "vertex_capacity by 3 (row = vertex id)")
+      .def_property_readonly("velocity", [](const Fem& f) { return vertex_array(f.sim.velocity(), f.mesh.vertex_capacity()); })
+      .def_property_readonly("positions", [](const Fem& f) { return to_array(f.sim.positions()); })
+      .def("von_mises", [](Fem& f) {
+        const std::vector<double> s = f.sim.von_mises();
+        return py::array_t<double>(static_cast<py::ssize_t>(std::min(s.size(), f.mesh.tet_capacity())), s.data());
+      }, "Von Mises stress per tet id (tet_capacity entries)");
+
+  py::class_<Springs>(m, "SpringSimulation",
+                      "Spring-mass model on the mesh edges with per-tet volume terms (sim/spring_model.h)")
+      .def(py::init([](const py::object& mesh_obj, const py::object& materials, double damping, bool volume_term,
+                       bool compute_energy) {
+             SpringOptions o;
+             o.damping = damping;
+             o.volume_term = volume_term;
+             o.compute_energy = compute_energy;
+             const TetMesh& mesh = mesh_obj.cast<const TetMesh&>();
+             return std::unique_ptr<Springs>(new Springs{mesh_obj, mesh, SpringModel(mesh, to_materials(materials), o)});
+           }),
+           py::arg("mesh"), py::arg("materials") = py::none(), py::kw_only(), py::arg("damping") = 0.0,
+           py::arg("volume_term") = true, py::arg("compute_energy") = true)
+      .def("fix", [](Springs& s, const py::object& v) { for (VertexId x : to_vertices(s.mesh, v)) s.model.set_fixed(x, true); })
+      .def("release", [](Springs& s, const py::object& v) {
+        for (VertexId x : to_vertices(s.mesh, v)) {
+          s.model.set_fixed(x, false);
+          s.model.clear_prescribed(x);
+        }
+      })
+      .def("prescribe", [](Springs& s, const py::object& v, const py::object& p) {
+        const Vec3 x = to_vec3(p, "position");
+        for (VertexId id : to_vertices(s.mesh, v)) s.model.set_prescribed(id, x);
+      }, py::arg("vertices"), py::arg("position"), "Target position reached at the next step")
+      .def("set_force", [](Springs& s, const py::object& v, const py::object& force) {
+        const Vec3 g = to_vec3(force, "force");
+        for (VertexId x : to_vertices(s.mesh, v)) s.model.set_external_force(x, g);
+      }, py::arg("vertices"), py::arg("force"))
+      .def("set_gravity", [](Springs& s, const py::object& g) { s.model.set_gravity(to_vec3(g, "gravity")); })
+      .def("apply", [](Springs& s, const TopologyChange& c) { s.model.apply(s.mesh, c); }, py::arg("change"))
+      .def("step", [](Springs& s, double dt, const std::string& integrator) {
+        return step_dict(s.model.step(dt, parse_integrator(integrator)));
+      }, py::arg("dt"), py::arg("integrator") = "symplectic-euler",
+         "explicit-euler, symplectic-euler, verlet or implicit-euler")
+      .def("stable_time_step", [](const Springs& s, const std::string& integrator) {
+        return s.model.stable_time_step(parse_integrator(integrator));
+      }, py::arg("integrator") = "symplectic-euler")
+      .def_property_readonly("positions", [](const Springs& s) { return to_array(per_vertex(s, s.model.positions())); })
+      .def_property_readonly("velocities", [](const Springs& s) { return to_array(per_vertex(s, s.model.velocities())); })
+      .def_property_readonly("displacement", [](const Springs& s) {
+        std::vector<Vec3> d = per_vertex(s, s.model.positions());
+        for (std::uint32_t v = 0; v < d.size(); ++v) d[v] -= s.mesh.rest(VertexId(v));
+        return to_array(d);
+      })
+      .def_property_readonly("num_springs", [](const Springs& s) { return s.model.num_springs(); })
+      .def_property_readonly("kinetic_energy", [](const Springs& s) { return s.model.kinetic_energy(); })
+      .def_property_readonly("potential_energy", [](const Springs& s) { return s.model.potential_energy(); });
+
+  py::class_<Scene>(m, "Scene", "A scene file (docs/scene.md), checked on load")
+      .def_readonly("path", &Scene::path)
+      .def_property_readonly("model", [](const Scene& s) {
+        return s.model == SceneModel::Springs ? "springs" : s.model == SceneModel::FemCorotational ? "fem-corotational" : "fem-linear";
+      })
+      .def_readonly("materials", &Scene::materials)
+      .def_property_readonly("fixed", [](const Scene& s) {
+        py::list l;
+        for (const SceneBox& b : s.fixed)
+          l.append(py::make_tuple(py::make_tuple(b.lo.x(), b.lo.y(), b.lo.z()), py::make_tuple(b.hi.x(), b.hi.y(), b.hi.z())));
+        return l;
+      }, "Fixed boxes as (lo, hi) pairs")
+      .def_property_readonly("solver", [](const Scene& s) {
+        py::dict d;
+        d["method"] = s.method == SolverMethod::Direct ? "direct" : "cg";
+        d["backend"] = s.backend == StiffnessBackend::Assembled ? "assembled" : "matrix-free";
+        d["tolerance"] = s.cg.tolerance;
+        d["max_iterations"] = s.cg.max_iterations;
+        d["budget_ms"] = s.cg.budget_ms;
+        d["preconditioner"] = s.cg.preconditioner == Preconditioner::None ? "none" : "jacobi";
+        d["warm_start"] = s.warm_start;
+        d["nonlinear_iterations"] = s.nonlinear_iterations;
+        return d;
+      }, "Keyword arguments of FemSimulation")
+      .def_readonly("frames", &Scene::frames)
+      .def_readonly("dt", &Scene::dt)
+      .def_readonly("integrator", &Scene::integrator)
+      .def_readonly("damping", &Scene::damping)
+      .def("mesh", &scene_mesh, "The scene's mesh: its file (relative to the scene) or its generator");
+  m.def("load_scene", &load_scene, py::arg("path"), "Reads and checks a scene; raises IoError naming the key");
+  m.def(
+      "run_scene",
+      [](const std::string& path, const std::string& out_dir, int frames) {
+        SceneRunOptions o;
+        o.out_dir = out_dir;
+        o.frames = frames;
+        const SceneRunSummary r = run_scene(load_scene(path), o);
+        py::dict d;
+        d["frames"] = r.frames;
+        d["total_iterations"] = r.total_iterations;
+        d["total_solve_ms"] = r.total_solve_ms;
+        d["frames_budget_exhausted"] = r.frames_budget_exhausted;
+        d["frames_not_converged"] = r.frames_not_converged;
+        d["max_displacement"] = r.max_displacement;
+        d["vertices"] = r.vertices;
+        d["tets"] = r.tets;
+        d["files"] = r.files;
+        return d;
+      },
+      py::arg("path"), py::arg("out_dir") = "", py::arg("frames") = -1,
+      "Plays a scene as `incise simulate` does (VTU frames, .pvd, stats.csv into out_dir when given)");
+}
+
+}  // namespace incise::python

@@ -1,0 +1,82 @@
+import numpy as np
+import pytest
+
+import incise
+from conftest import signed_volumes
+
+
+@pytest.mark.parametrize("cells", [(1, 1, 1), (3, 2, 5)])
+@pytest.mark.parametrize("scale", [1e-8, 1.0, 1e8])
+def test_box_arrays_agree_with_the_mesh(cells, scale):
+    size = np.array([1.0, 2.0, 0.5]) * scale
+    m = incise.generate_box(size, cells)
+    n = int(np.prod(cells))
+    assert m.num_tets == 6 * n
+    assert m.num_vertices == int(np.prod(np.array(cells) + 1))
+    assert m.points.shape == (m.num_vertices, 3) and m.points.dtype == np.float64
+    assert m.tets.shape == (m.num_tets, 4)
+    assert m.labels.shape == (m.num_tets,) and set(m.labels) == {1}
+    vol = signed_volumes(m.points, m.tets)
+    assert (vol > 0).all()  # positive orientation convention
+    assert vol.sum() == pytest.approx(np.prod(size), rel=1e-12)
+    assert m.volume() == pytest.approx(np.prod(size), rel=1e-12)
+    m.validate(check_manifold_boundary=True)
+
+
+def test_boundary_faces_are_closed_and_outward(box):
+    faces, tags = box.boundary_faces()
+    assert (tags == 1).all()  # surface tag
+    edges = {}
+    for f in faces:
+        for k in range(3):
+            e = (int(f[k]), int(f[(k + 1) % 3]))
+            edges[e] = edges.get(e, 0) + 1
+    # closed and consistently oriented: every directed edge has its reverse exactly once
+    assert all(edges.get((b, a)) == 1 for (a, b) in edges)
+    p = box.points
+    centroid = p.mean(axis=0)
+    a, b, c = p[faces[:, 0]], p[faces[:, 1]], p[faces[:, 2]]
+    n = np.cross(b - a, c - a)
+    assert (np.einsum("ij,ij->i", n, (a + b + c) / 3 - centroid) > 0).all()
+
+
+def test_from_arrays_round_trip_and_reorientation(box):
+    copy = incise.TetMesh(box.points, box.tets, box.labels + 1)
+    assert np.array_equal(copy.points, box.points)
+    assert np.array_equal(copy.tets, box.tets)
+    assert (copy.labels == 2).all()
+    inverted = incise.TetMesh([[0, 0, 0], [1, 0, 0], [0, 0, 1], [0, 1, 0]], [[0, 1, 2, 3]])
+    assert inverted.volume() == pytest.approx(1 / 6)
+    inverted.validate()
+
+
+def test_from_arrays_errors():
+    pts = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
+    with pytest.raises(incise.InvalidArgument, match="tet #0 references vertex 7 out of range"):
+        incise.TetMesh(pts, [[0, 1, 2, 7]])
+    with pytest.raises(incise.InvalidArgument, match="tets must be #T by 4"):
+        incise.TetMesh(pts, [[0, 1, 2]])
+    with pytest.raises(incise.InvalidArgument, match="one entry per tet"):
+        incise.TetMesh(pts, [[0, 1, 2, 3]], labels=[1, 2])
+    with pytest.raises(incise.Error, match="repeated|same four vertices"):
+        incise.TetMesh(pts, [[0, 1, 2, 3], [0, 1, 3, 2]])
+
+
+def test_generator_errors_are_invalid_argument():
+    with pytest.raises(incise.InvalidArgument):
+        incise.generate_box((1, 1, 1), (0, 1, 1))
+    assert issubclass(incise.InvalidArgument, incise.Error)
+    assert issubclass(incise.Error, RuntimeError)
+
+
+def test_ellipsoid_volume_converges():
+    exact = 4 / 3 * np.pi * 1.0 * 0.5 * 0.25
+    errors = [abs(incise.generate_ellipsoid((1.0, 0.5, 0.25), n).volume() - exact) for n in (2, 4, 8)]
+    assert errors[0] > errors[1] > errors[2]
+    assert errors[2] < 0.02 * exact
+
+
+def test_compact_maps_are_identity_on_a_fresh_mesh(box):
+    vmap, tmap = box.compact()
+    assert np.array_equal(vmap, np.arange(box.num_vertices))
+    assert np.array_equal(tmap, np.arange(box.num_tets))

@@ -1,0 +1,143 @@
+import gc
+
+import numpy as np
+import pytest
+
+import incise
+
+
+def clamp_and_pull(mesh, sim, stretch):
+    x = mesh.points[:, 0]
+    sim.fix(np.nonzero(x == 0)[0])
+    sim.prescribe(np.nonzero(x == x.max())[0], (stretch, 0, 0))
+
+
+@pytest.mark.parametrize("backend", ["matrix-free", "assembled"])
+def test_fem_reproduces_uniaxial_stretch(box, backend):
+    # nu = 0: clamping the ends adds no lateral stress, so u = (d x / L, 0, 0) exactly and
+    # sigma_xx = E d / L; linear tets represent the linear field exactly.
+    young, d = 2e5, 1e-3
+    sim = incise.FemSimulation(box, incise.Material(young=young, poisson=0.0), backend=backend, tolerance=1e-12)
+    clamp_and_pull(box, sim, d)
+    stats = sim.step()
+    assert stats["info"] == "success" and stats["relative_residual"] <= 1e-12
+    assert stats["iterations"] > 0
+    u = sim.displacement
+    assert u.shape == (box.vertex_capacity, 3)
+    assert np.allclose(u[:, 0], d * box.points[:, 0], atol=1e-12)
+    assert np.allclose(u[:, 1:], 0, atol=1e-12)
+    assert np.allclose(sim.von_mises(), young * d, rtol=1e-8)
+    assert np.allclose(sim.positions, box.points + u)
+    again = sim.step()  # nothing changed: warm start resumes at the solution
+    assert again["iterations"] <= 1
+
+
+def test_fem_statistics_budget_and_errors(box):
+    sim = incise.FemSimulation(box, {1: incise.Material(1e5, 0.45)}, kind="corotational",
+                               tolerance=1e-14, max_iterations=3)
+    with pytest.raises(incise.InvalidArgument):
+        sim.step()  # nothing fixed: rigid modes
+    clamp_and_pull(box, sim, 1e-2)
+    s = sim.step()
+    assert s["info"] == "no_convergence" and s["iterations"] == 3
+    assert sim.last_stats == s
+    with pytest.raises(incise.InvalidArgument, match="vertex 100000 is not a live vertex"):
+        sim.fix(100000)
+    with pytest.raises(incise.InvalidArgument, match="kind: unknown value 'quadratic'"):
+        incise.FemSimulation(box, kind="quadratic")
+    with pytest.raises(incise.InvalidArgument, match="poisson"):
+        incise.FemSimulation(box, incise.Material(1e5, 0.5))
+
+
+def test_fem_keeps_its_mesh_alive():
+    sim = incise.FemSimulation(incise.generate_box(1.0, 2), incise.Material(1e5, 0.0), tolerance=1e-12)
+    gc.collect()  # the temporary mesh must survive: the simulation reads it every step
+    sim.fix(range(27))
+    assert sim.step()["info"] == "success"
+    assert sim.displacement.shape == (27, 3) and not sim.displacement.any()
+
+
+def test_springs_fall_freely_under_gravity(box):
+    # No constraints: internal forces vanish for a rigid translation, so every particle follows
+    # symplectic Euler exactly: x_n = g dt^2 n (n + 1) / 2.
+    sim = incise.SpringSimulation(box, incise.Material(1e4, 0.3, 1000))
+    g, dt, n = np.array([0, 0, -9.81]), 1e-4, 20
+    sim.set_gravity(g)
+    for _ in range(n):
+        st = sim.step(dt)
+        assert not st["stable_step_exceeded"]
+    assert np.allclose(sim.displacement, g * dt * dt * n * (n + 1) / 2, rtol=1e-9, atol=1e-15)
+    assert sim.num_springs > 0
+    assert 0 < sim.stable_time_step() < 1
+    with pytest.raises(incise.InvalidArgument, match="integrator"):
+        sim.step(dt, "leapfrog")
+
+
+def test_springs_fixed_vertices_stay(box):
+    sim = incise.SpringSimulation(box, incise.Material(1e4, 0.3), damping=5.0)
+    fixed = np.nonzero(box.points[:, 0] == 0)[0]
+    sim.fix(fixed)
+    sim.set_gravity((0, 0, -9.81))
+    for _ in range(50):
+        sim.step(sim.stable_time_step() * 0.5)
+    assert np.array_equal(sim.positions[fixed], box.points[fixed])
+    assert sim.displacement[:, 2].min() < 0
+
+
+def test_scene_file(source_dir, tmp_path):
+    beam = str(source_dir / "samples" / "scenes" / "beam.json")
+    summary = incise.run_scene(beam, str(tmp_path / "out"), frames=2)
+    assert summary["frames"] == 2 and summary["max_displacement"] > 0
+    assert (tmp_path / "out" / summary["files"][0]).exists()
+    mesh, sim = incise.simulation_from_scene(beam)
+    assert isinstance(sim, incise.FemSimulation)
+    tip = incise.vertices_in_box(mesh, (0.1199, -1, -1), (1, 1, 1))
+    sim.set_force(tip, (0, 0, -0.2 / len(tip)))
+    s = sim.step()
+    assert s["info"] == "success"
+    assert sim.displacement[tip, 2].max() < 0
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"mesh": "x.vtu", "solver": {"tolerance": -1}}')
+    with pytest.raises(incise.IoError, match="bad.json"):
+        incise.load_scene(str(bad))
+
+
+def test_fem_follows_mesh_edits_locally(box):
+    young, d = 2e5, 1e-3
+    sim = incise.FemSimulation(box, incise.Material(young=young, poisson=0.0), tolerance=1e-12)
+    clamp_and_pull(box, sim, d)
+    sim.step()
+    a, b = box.tets[0][:2]
+    v_edge = box.split_edge(a, b, 0.3)
+    v_tet = box.split_tet(box.tet_ids[-1])
+    assert box.has_pending_change
+    change = box.take_change()
+    assert [o[0] for o in change.added_vertices] == [v_edge, v_tet]
+    assert len(change.added_tets) > len(change.removed_tets) > 0
+    box.validate(check_manifold_boundary=True)
+    sim.apply(change)
+    x = box.points[:, 0]
+    # new vertices start from the interpolated displacement, which is exact for a linear field
+    assert np.allclose(sim.displacement[[v_edge, v_tet], 0], d * x[[v_edge, v_tet]], atol=1e-12)
+    s = sim.step()
+    assert s["info"] == "success"
+    assert np.allclose(sim.displacement[:, 0], d * x, atol=1e-12)
+    assert incise.TetMesh().num_tets == 0
+    with pytest.raises(incise.InvalidArgument, match="tet 99999 is not a live tet"):
+        box.split_tet(99999)
+
+
+def test_springs_follow_mesh_edits(box):
+    sim = incise.SpringSimulation(box, incise.Material(1e4, 0.3))
+    sim.fix(np.nonzero(box.points[:, 0] == 0)[0])
+    sim.set_gravity((0, 0, -9.81))
+    for _ in range(5):
+        sim.step(1e-4)
+    before = sim.positions
+    corners = box.tets[0]
+    v = box.split_tet(box.tet_ids[0])  # at the centroid
+    sim.apply(box.take_change())
+    after = sim.positions
+    assert after.shape == (box.vertex_capacity, 3)
+    assert np.array_equal(after[: len(before)], before)  # old particles untouched
+    assert np.allclose(after[v], before[corners].mean(axis=0), rtol=0, atol=1e-15)  # interpolated, deformed
