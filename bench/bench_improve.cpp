@@ -18,6 +18,7 @@
 #include "mesh/generate.h"
 #include "mesh/io/tet_io.h"
 #include "mesh/isosurface_stuffing.h"
+#include "quality/components.h"
 #include "quality/improve.h"
 #include "sim/fem_simulation.h"
 #include "sim/spring_model.h"
@@ -37,7 +38,7 @@ void row(const std::string& name, const char* mode, const ImproveReport& r) {
 }
 
 // What the solvers see: static CG iterations under gravity with the input's lowest 10% of
-// the vertices (by z) fixed (the same vertex ids before and after: improvement keeps ids and
+// each part's vertices (by z, at least 4) fixed (the same vertex ids before and after: improvement keeps ids and
 // appends inserted vertices), without and with the Jacobi preconditioner, and the stable
 // explicit time step of the spring model.
 struct SolverFigures {
@@ -45,12 +46,20 @@ struct SolverFigures {
   double spring_dt = 0;
 };
 
+// The lowest 10% (by z, at least 4) of each connected part's vertices, so every part is held.
 std::vector<VertexId> bottom(const TetMesh& m) {
-  double zlo = 1e300, zhi = -1e300;
-  for (VertexId v : m.vertices()) zlo = std::min(zlo, m.rest(v).z()), zhi = std::max(zhi, m.rest(v).z());
+  const TetComponents parts = tet_components(m);
+  std::vector<std::vector<VertexId>> by_part(parts.count);
+  std::vector<int> part(m.vertex_capacity(), -1);
+  for (TetId t : m.tets())
+    for (VertexId v : m.tet_vertices(t))
+      if (part[v.idx()] < 0) by_part[part[v.idx()] = parts.of_tet[t.idx()]].push_back(v);
   std::vector<VertexId> out;
-  for (VertexId v : m.vertices())
-    if (m.rest(v).z() <= zlo + 0.1 * (zhi - zlo)) out.push_back(v);
+  for (auto& vs : by_part) {
+    std::sort(vs.begin(), vs.end(), [&](VertexId a, VertexId b) { return m.rest(a).z() < m.rest(b).z(); });
+    const double zcut = m.rest(vs.front()).z() + 0.1 * (m.rest(vs.back()).z() - m.rest(vs.front()).z());
+    for (std::size_t i = 0; i < vs.size() && (i < 4 || m.rest(vs[i]).z() <= zcut); ++i) out.push_back(vs[i]);
+  }
   return out;
 }
 
