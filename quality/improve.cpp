@@ -39,9 +39,15 @@ Stats stats_of(const TetMesh& mesh, const Tets& tets) {
 
 class Driver {
 public:
+  // base_tets: the input's tet count (global) or the region's size (local), for max_growth.
   Driver(TetMesh& mesh, const ImproveOptions& opt, Clock::time_point deadline, bool has_deadline,
-         std::unordered_set<std::uint32_t>* region)
-      : mesh_(mesh), opt_(opt), deadline_(deadline), has_deadline_(has_deadline), region_(region) {
+         std::unordered_set<std::uint32_t>* region, std::size_t base_tets)
+      : mesh_(mesh),
+        opt_(opt),
+        deadline_(deadline),
+        has_deadline_(has_deadline),
+        region_(region),
+        growth_cap_(static_cast<long>((opt.max_growth - 1) * double(base_tets))) {
     scope_.targets = {opt.target_dihedral_deg, opt.target_max_dihedral_deg};
     scope_.region = region;
     for (VertexId v : opt.frozen) frozen_.insert(v.idx());
@@ -97,6 +103,19 @@ private:
     if (q < 1) queue_.push({q, t, ver});
   }
 
+  // Tets `removed` were replaced by `added`: region, growth, queue and retry marks follow.
+  void replaced(const std::vector<TetId>& removed, const std::vector<TetId>& added) {
+    grown_ += static_cast<long>(added.size()) - static_cast<long>(removed.size());
+    if (region_) {
+      for (TetId r : removed) region_->erase(r.idx());
+      for (TetId a : added) region_->insert(a.idx());
+    }
+    for (TetId a : added) {
+      push(a);
+      changed(a);
+    }
+  }
+
   // Tet a is new or changed shape: operations around it may work again.
   void changed(TetId a) {
     for (VertexId w : mesh_.tet_vertices(a)) {
@@ -106,7 +125,7 @@ private:
   }
 
   bool step(TetId t, ImproveReport& rep) {
-    scope_.growth_left = static_cast<long>((opt_.max_growth - 1) * double(base_tets)) - grown_;
+    scope_.growth_left = growth_cap_ - grown_;
     if (opt_.flips && !flip_stuck_.count(t.idx())) {
       FlipOutcome f = improve_by_flip(mesh_, t, scope_, opt_.max_ring);
       if (f.kind == FlipOutcome::None) flip_stuck_.insert(t.idx());
@@ -118,15 +137,7 @@ private:
           case FlipOutcome::BoundaryFlip: ++rep.boundary_flips; break;
           default: ++rep.edge_removals; break;
         }
-        grown_ += static_cast<long>(f.added.size()) - static_cast<long>(f.removed.size());
-        if (region_) {
-          for (TetId r : f.removed) region_->erase(r.idx());
-          for (TetId a : f.added) region_->insert(a.idx());
-        }
-        for (TetId a : f.added) {
-          push(a);
-          changed(a);
-        }
+        replaced(f.removed, f.added);
         return true;
       }
     }
@@ -155,26 +166,14 @@ private:
     if (!any && opt_.insertion && mesh_.is_alive(t) && scope_.growth_left >= opt_.max_ring) {
       if (auto ins = improve_by_insertion(mesh_, t, scope_, opt_.max_ring, 2 * opt_.smoothing_iterations)) {
         ++rep.insertions;
-        grown_ += static_cast<long>(ins->added.size()) - static_cast<long>(ins->removed.size());
         moved.insert(ins->vertex.idx());
-        if (region_) {
-          for (TetId r : ins->removed) region_->erase(r.idx());
-          for (TetId a : ins->added) region_->insert(a.idx());
-        }
-        for (TetId a : ins->added) {
-          push(a);
-          changed(a);
-        }
+        replaced(ins->removed, ins->added);
         return true;
       }
     }
     return any;
   }
 
-public:
-  std::size_t base_tets = 0;  // the input's tet count (global) or region size (local), for max_growth
-
-private:
   TetMesh& mesh_;
   const ImproveOptions& opt_;
   Clock::time_point deadline_;
@@ -189,7 +188,8 @@ private:
   std::unordered_map<std::uint32_t, std::uint32_t> version_;
   std::priority_queue<Entry> queue_;
   int work_ = 0;
-  long grown_ = 0;  // net tets added by all operations (bounded through max_growth)
+  long growth_cap_;  // how many tets the pass may add in all
+  long grown_ = 0;  // net tets added by all operations
 };
 
 void finish(ImproveReport& rep, const Driver& d, Clock::time_point start) {
@@ -211,8 +211,7 @@ ImproveReport improve(TetMesh& mesh, const ImproveOptions& opt) {
   rep.max_dihedral_before = before.max_dih;
   rep.min_radius_ratio_before = before.min_rr;
   const auto deadline = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(opt.time_limit_s));
-  Driver d(mesh, opt, deadline, opt.time_limit_s > 0, nullptr);
-  d.base_tets = all.size();
+  Driver d(mesh, opt, deadline, opt.time_limit_s > 0, nullptr, all.size());
   // Sweeps until one makes no progress: a tet stuck in one sweep may become improvable once
   // its neighbours changed.
   for (int pass = 0; pass < 8 && !rep.budget_exhausted; ++pass)
@@ -251,8 +250,7 @@ ImproveReport improve_local(TetMesh& mesh, std::span<const TetId> seeds, const I
   const bool timed = opt.time_budget_ms > 0;
   const auto deadline =
       start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double, std::milli>(opt.time_budget_ms));
-  Driver d(mesh, opt, deadline, timed, &region);
-  d.base_tets = region.size();
+  Driver d(mesh, opt, deadline, timed, &region, region.size());
   for (int pass = 0; pass < 4 && !rep.budget_exhausted; ++pass) {
     const std::vector<std::uint32_t> ids(region.begin(), region.end());
     if (!d.sweep(ids, rep)) break;
