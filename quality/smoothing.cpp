@@ -12,17 +12,46 @@ namespace incise {
 namespace {
 
 // How v may move: not at all, anywhere (interior), within the plane through it with normal
-// n, or on the old curved disc `fan` (moving along n's tangent plane, projected back).
+// n, on the old curved disc `fan` (moving along n's tangent plane, projected back), or along
+// a straight crease of the boundary (direction n) between its crease neighbours a and b.
 struct Freedom {
-  enum Kind { Fixed, Free, Plane, Surface } kind = Fixed;
+  enum Kind { Fixed, Free, Plane, Surface, Line } kind = Fixed;
   Vec3 n = Vec3::Zero();
   std::vector<std::array<VertexId, 3>> fan;  // disc faces around v, v first, consistently oriented
+  std::vector<std::uint16_t> tags;           // per fan face (boundary fans)
+  VertexId a, b;                             // Line: the crease neighbours (a - v opposite to n)
 };
+
+// A straight crease through v: exactly two of v's boundary edges (v,a), (v,b) separate faces
+// that differ in tag or plane, a and b lie on opposite sides of v on one line, and the faces
+// between them are coplanar on each side. Sliding along it keeps both sides' planes.
+bool crease_line(const TetMesh& mesh, VertexId v, Freedom& fr) {
+  std::map<std::uint32_t, std::vector<std::size_t>> at_edge;  // neighbour w -> fan faces with edge (v,w)
+  for (std::size_t i = 0; i < fr.fan.size(); ++i)
+    for (int k = 1; k < 3; ++k) at_edge[fr.fan[i][k].idx()].push_back(i);
+  const Vec3& pv = mesh.rest(v);
+  auto normal = [&](std::size_t i) { return (mesh.rest(fr.fan[i][1]) - pv).cross(mesh.rest(fr.fan[i][2]) - pv); };
+  std::vector<VertexId> crease;
+  for (const auto& [w, faces] : at_edge) {
+    if (faces.size() != 2) return false;  // not one disc around v
+    const Vec3 n0 = normal(faces[0]), n1 = normal(faces[1]);
+    const bool coplanar = n0.dot(n1) > 0 && n0.cross(n1).norm() <= 1e-10 * n0.norm() * n1.norm();
+    if (fr.tags[faces[0]] != fr.tags[faces[1]] || !coplanar) crease.push_back(VertexId(w));
+  }
+  if (crease.size() != 2) return false;
+  const Vec3 ea = mesh.rest(crease[0]) - pv, eb = mesh.rest(crease[1]) - pv;
+  if (!(ea.dot(eb) < 0) || ea.cross(eb).norm() > 1e-10 * ea.norm() * eb.norm()) return false;
+  fr.kind = Freedom::Line;
+  fr.a = crease[0];
+  fr.b = crease[1];
+  fr.n = eb.normalized();
+  return true;
+}
 
 // The faces around v that constrain it: boundary faces (one tag) or, inside the mesh, the
 // faces between exactly two labels. Returns false when v is where constraints meet.
 bool constraint_faces(const TetMesh& mesh, VertexId v, const ImproveScope& scope, const SmoothOptions& opt,
-                      std::vector<std::array<VertexId, 3>>& fan, bool& cut) {
+                      Freedom& fr, bool& cut, bool& mixed) {
   const auto tets = mesh.incident_tets(v);
   const int la = mesh.label(tets.front());
   int lb = la;
@@ -33,8 +62,7 @@ bool constraint_faces(const TetMesh& mesh, VertexId v, const ImproveScope& scope
     lb = mesh.label(t);
   }
   std::vector<std::array<VertexId, 3>> boundary, interface;
-  bool first = true;
-  std::uint16_t tag = 0;
+  std::vector<std::uint16_t> tags;
   for (TetId t : tets) {
     const int lv = mesh.local_index(t, v);
     for (int f = 0; f < 4; ++f) {
@@ -43,9 +71,7 @@ bool constraint_faces(const TetMesh& mesh, VertexId v, const ImproveScope& scope
       auto fv = mesh.face_vertices(t, f);
       while (fv[0] != v) std::rotate(fv.begin(), fv.begin() + 1, fv.end());
       if (!u.is_valid()) {
-        if (!first && mesh.face_tag(t, f) != tag) return false;  // two tags meet at v
-        tag = mesh.face_tag(t, f);
-        first = false;
+        tags.push_back(mesh.face_tag(t, f));
         boundary.push_back(fv);
       } else if (mesh.label(t) == la && mesh.label(u) != la) {
         interface.push_back(fv);  // oriented out of label la
@@ -53,10 +79,13 @@ bool constraint_faces(const TetMesh& mesh, VertexId v, const ImproveScope& scope
     }
   }
   if (!boundary.empty() && !interface.empty()) return false;  // boundary meets interface
-  cut = tag == kTagCut;
-  if (!boundary.empty() && (cut ? !opt.move_cut : !opt.move_surface)) return false;
+  cut = std::count(tags.begin(), tags.end(), kTagCut) > 0;
+  mixed = !tags.empty() && std::count(tags.begin(), tags.end(), tags.front()) != static_cast<long>(tags.size());
+  if (cut && !opt.move_cut) return false;
+  if (std::count(tags.begin(), tags.end(), kTagCut) != static_cast<long>(tags.size()) && !opt.move_surface) return false;
   if (!interface.empty() && !opt.move_interface) return false;
-  fan = boundary.empty() ? std::move(interface) : std::move(boundary);
+  fr.fan = boundary.empty() ? std::move(interface) : std::move(boundary);
+  fr.tags = std::move(tags);
   return true;
 }
 
@@ -64,12 +93,17 @@ Freedom freedom(const TetMesh& mesh, VertexId v, const ImproveScope& scope, cons
   Freedom fr;
   if (opt.frozen && opt.frozen->count(v.idx())) return fr;
   if (mesh.incident_tets(v).empty()) return fr;
-  bool cut = false;
-  if (!constraint_faces(mesh, v, scope, opt, fr.fan, cut)) return fr;
+  bool cut = false, mixed = false;
+  if (!constraint_faces(mesh, v, scope, opt, fr, cut, mixed)) return fr;
   if (fr.fan.empty()) {
     fr.kind = Freedom::Free;
     return fr;
   }
+  // Where tags meet or the surface bends (boundary only): perhaps a straight crease.
+  auto crease_or_fixed = [&]() {
+    if (!fr.tags.empty()) crease_line(mesh, v, fr);
+    return fr;
+  };
   // One disc: following x -> y around v visits every face once.
   std::map<std::uint32_t, std::size_t> from;
   for (std::size_t i = 0; i < fr.fan.size(); ++i)
@@ -81,6 +115,7 @@ Freedom freedom(const TetMesh& mesh, VertexId v, const ImproveScope& scope, cons
     at = it->second;
   }
   if (at != 0) return fr;
+  if (mixed) return crease_or_fixed();
   const Vec3& pv = mesh.rest(v);
   std::vector<Vec3> normals;
   Vec3 n = Vec3::Zero();
@@ -97,12 +132,13 @@ Freedom freedom(const TetMesh& mesh, VertexId v, const ImproveScope& scope, cons
   bool flat = true;
   for (const auto& f : fr.fan) flat = flat && std::abs(n.dot(mesh.rest(f[1]) - pv)) <= 1e-10 * h;
   // Every face must project onto the tangent plane with its orientation (a height field).
-  for (const Vec3& fn : normals)
-    if (!(n.dot(fn) > 0.2 * fn.norm())) return fr;
-  if (flat) {
+  bool height_field = true;
+  for (const Vec3& fn : normals) height_field = height_field && n.dot(fn) > 0.2 * fn.norm();
+  if (flat && height_field) {
     fr.kind = Freedom::Plane;
     return fr;
   }
+  if (crease_or_fixed().kind == Freedom::Line || !height_field) return fr;
   if (!opt.slide_curved || cut || (opt.curved_slid && opt.curved_slid->count(v.idx()))) return fr;
   // Smooth: adjacent faces (sharing edge v-y) bend by at most the feature angle.
   const double cos_feature = std::cos(opt.feature_angle_deg * 3.14159265358979323846 / 180);
@@ -119,6 +155,16 @@ bool locate(const TetMesh& mesh, VertexId v, const Vec3& p, const Freedom& fr, s
             std::vector<double>& weights) {
   double best = -1e300;
   const Vec3& pv = mesh.rest(v);
+  if (fr.kind == Freedom::Line) {
+    // On the segment from v towards a or b, strictly before it.
+    const double t = fr.n.dot(p - pv);
+    const VertexId w = t >= 0 ? fr.b : fr.a;
+    const double s = std::abs(t) / (mesh.rest(w) - pv).norm();
+    if (!(s < 1 - 1e-9)) return false;
+    parents = {v, w};
+    weights = {1 - s, s};
+    return true;
+  }
   if (fr.kind == Freedom::Plane || fr.kind == Freedom::Surface) {
     // Barycentrics of p's projection along n onto each old disc face.
     for (const auto& f : fr.fan) {
@@ -194,7 +240,7 @@ bool smooth_vertex(TetMesh& mesh, VertexId v, const ImproveScope& scope, const S
   ao.iterations = opt.iterations;
   ao.scale = hmin;
   if (fr.kind != Freedom::Free) {
-    ao.normal = &fr.n;
+    (fr.kind == Freedom::Line ? ao.line : ao.normal) = &fr.n;
     ao.project = [&](Vec3& p) { return place(mesh, v, p, fr, p); };
   }
   const Vec3 best_p = ascend(star, p0, tg, ao);

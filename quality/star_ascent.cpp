@@ -51,6 +51,7 @@ Vec3 ascend(const OpenStar& star, const Vec3& p0, const AngleTargets& tg, const 
         g[k] = (star.one(i, p + e, tg).q - star.one(i, p - e, tg).q) / (2 * fd);
       }
       if (opt.normal) g -= *opt.normal * opt.normal->dot(g);
+      if (opt.line) g = *opt.line * opt.line->dot(g);
       grads.push_back(g);
     }
     if (grads.empty()) break;

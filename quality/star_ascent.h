@@ -22,6 +22,7 @@ struct AscentOptions {
   int iterations = 8;     // ascent steps
   double scale = 1;       // local length (shortest edge at the vertex): steps and differences scale with it
   const Vec3* normal = nullptr;  // move only perpendicular to this (a plane or a tangent plane)
+  const Vec3* line = nullptr;    // move only along this (a crease)
   // Maps a wanted position to one the vertex can take (e.g. back onto a surface); false: none.
   std::function<bool(Vec3&)> project;
 };

@@ -276,9 +276,9 @@ TEST_CASE("improve: flips only, smoothing only, frozen vertices", "[improve]") {
   }
 }
 
-TEST_CASE("improve: flat boundary and interface vertices slide within their plane", "[improve]") {
-  // Two labels split at x = 0.5; boundary vertices jittered inside their box faces and
-  // interface vertices inside the plane x = 0.5, so sliding has work to do.
+TEST_CASE("improve: flat boundary and interface vertices slide in their plane, crease vertices on their line", "[improve]") {
+  // Two labels split at x = 0.5; boundary vertices jittered inside their box faces, vertices on
+  // box edges along the edge, interface vertices inside the plane x = 0.5: sliding has work.
   TetMesh m = make_box(Vec3(1, 1, 1), {4, 4, 4});
   for (TetId t : m.tets()) {
     Vec3 c = Vec3::Zero();
@@ -292,22 +292,26 @@ TEST_CASE("improve: flat boundary and interface vertices slide within their plan
     Vec3 p = m.rest(v);
     int on = 0;
     for (int k = 0; k < 3; ++k) on += on_plane(p, k);
-    if (on != 1) continue;  // plane interiors only: edges and corners are features
+    if (on != 1 && on != 2) continue;  // corners stay; edges slide along their line
     for (int k = 0; k < 3; ++k)
       if (!on_plane(p, k)) p[k] += 0.25 * u(rng);
     m.set_rest(v, p);
   }
   REQUIRE_NOTHROW(m.validate());
   const ImproveReport r = run_and_check(m, 1.0);
-  int boundary_moved = 0, interface_moved = 0;
+  int boundary_moved = 0, interface_moved = 0, crease_moved = 0;
   std::set<std::uint32_t> on_boundary;
   for (const auto& f : m.boundary_faces())
     for (VertexId v : f.vertices) on_boundary.insert(v.idx());
+  auto outer = [](double x) { return std::abs(x) < 1e-12 || std::abs(x - 1) < 1e-12; };
   for (VertexId v : r.moved_vertices) {
+    const Vec3 p = m.rest(v);
     boundary_moved += on_boundary.count(v.idx()) > 0;
-    interface_moved += m.rest(v).x() == Approx(0.5).margin(1e-12) && !on_boundary.count(v.idx());
+    interface_moved += p.x() == Approx(0.5).margin(1e-12) && !on_boundary.count(v.idx());
+    crease_moved += (outer(p.x()) + outer(p.y()) + outer(p.z())) == 2;  // on a box edge
   }
   CHECK(boundary_moved > 0);
+  CHECK(crease_moved > 0);
   CHECK(interface_moved > 0);
   CHECK(r.boundary_flips > 0);
   CHECK(r.min_dihedral_after > r.min_dihedral_before + 5);
