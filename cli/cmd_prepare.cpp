@@ -1,5 +1,6 @@
 // incise prepare IN -o OUT: the whole preparation pipeline in one command:
-// check -> repair (when asked) -> tetrahedralize -> quality report (text on stdout, JSON
+// check -> repair (when asked) -> tetrahedralize -> improve (flips and smoothing, unless
+// --no-improve) -> quality report (text on stdout, JSON
 // beside the mesh as <OUT without extension>.quality.json) -> simulation-ready mesh with
 // region labels and boundary tags.
 #include <cstring>
@@ -13,7 +14,9 @@
 #include "mesh/io/tet_io.h"
 
 #ifdef INCISE_HAVE_TETRA
+#include "cli/improve_summary.h"
 #include "mesh/tetrahedralize/pipeline.h"
+#include "quality/improve.h"
 #include "quality/report.h"
 #include "quality/report_json.h"
 #endif
@@ -47,9 +50,11 @@ std::string report_path(const std::string& out) {
 
 void add_prepare(CLI::App& app) {
   auto report_file = std::make_shared<std::string>();
+  auto no_improve = std::make_shared<bool>(false);
+  auto improve_seconds = std::make_shared<double>(10);
   auto* c = add_pipeline_command(
       app, "prepare", "Surface or labeled image -> checked, simulation-ready tet mesh and quality report",
-      [report_file](const PipelineCli& cli, const PipelineOptions& opt) {
+      [report_file, no_improve, improve_seconds](const PipelineCli& cli, const PipelineOptions& opt) {
         const bool quiet = pipeline_quiet(cli);
         const std::string& out = pipeline_output(cli);
         auto log = [&](const std::string& m) {
@@ -57,6 +62,15 @@ void add_prepare(CLI::App& app) {
         };
         PipelineReport rep;
         TetMesh mesh = mesh_file(pipeline_input(cli), opt, &rep, log);
+        ImproveReport imp;
+        if (!*no_improve) {
+          ImproveOptions io;
+          io.time_limit_s = *improve_seconds;
+          io.slide_curved = true;  // the mesh approximates the input surface anyway
+          imp = improve(mesh, io);
+          mesh.discard_change();
+          if (!quiet) std::cerr << format_improve_report(imp);
+        }
         const QualityReport q = compute_quality_report(mesh);
         write_tet_mesh(mesh, out);
         const std::string json_path = report_file->empty() ? report_path(out) : *report_file;
@@ -78,6 +92,7 @@ void add_prepare(CLI::App& app) {
           prep["seconds"] = rep.stats.seconds;
           prep["input_volume"] = rep.stats.input_volume;
           prep["messages"] = rep.messages;
+          if (!*no_improve) prep["improve"] = improve_report_json(imp);
           j["prepare"] = prep;
           const std::string tmp = json_path + ".tmp";
           {
@@ -94,6 +109,9 @@ void add_prepare(CLI::App& app) {
                   << "\n";
       });
   c->add_option("--report", *report_file, "Quality report JSON path (default: OUT with .quality.json)");
+  c->add_flag("--no-improve", *no_improve, "Skip the quality improvement (flips and smoothing) after meshing");
+  c->add_option("--improve-time-limit", *improve_seconds, "Wall-clock limit of the improvement, seconds")
+      ->capture_default_str();
 }
 
 #else  // built without CGAL / OpenVDB

@@ -14,5 +14,6 @@ void add_simulate(CLI::App& app);
 void add_tetra(CLI::App& app);
 void add_prepare(CLI::App& app);
 void add_cut(CLI::App& app);
+void add_improve(CLI::App& app);
 
 }  // namespace incise::cli

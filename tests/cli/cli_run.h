@@ -8,7 +8,7 @@
 #include <sstream>
 #include <string>
 
-namespace incise::test {
+namespace incise::testing {
 
 struct Run {
   int code;
@@ -39,4 +39,4 @@ inline std::filesystem::path scratch_dir(const std::string& name) {
   return d;
 }
 
-}  // namespace incise::test
+}  // namespace incise::testing

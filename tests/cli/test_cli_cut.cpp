@@ -13,9 +13,9 @@
 #include "quality/components.h"
 
 namespace fs = std::filesystem;
-using incise::test::Run;
-using incise::test::run_incise;
-using incise::test::scratch_dir;
+using incise::testing::Run;
+using incise::testing::run_incise;
+using incise::testing::scratch_dir;
 
 namespace {
 

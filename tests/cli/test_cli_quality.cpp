@@ -14,10 +14,10 @@
 
 namespace fs = std::filesystem;
 
-using incise::test::Run;
-using incise::test::run_incise;
-using incise::test::scratch_dir;
-using incise::test::slurp;
+using incise::testing::Run;
+using incise::testing::run_incise;
+using incise::testing::scratch_dir;
+using incise::testing::slurp;
 
 TEST_CASE("incise quality --json on a generated box", "[cli][quality]") {
   const fs::path dir = scratch_dir("cli_quality");

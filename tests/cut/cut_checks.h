@@ -10,7 +10,7 @@
 #include "mesh/tet_mesh.h"
 #include "quality/components.h"
 
-namespace incise::test {
+namespace incise::testing {
 
 inline std::map<int, double> label_volumes(const TetMesh& m) {
   std::map<int, double> v;
@@ -37,4 +37,4 @@ inline void check_cut_invariants(const TetMesh& m, const std::map<int, double>& 
   for (const auto& [l, v] : vol0) REQUIRE(std::abs(vol.at(l) - v) <= rel * total);
 }
 
-}  // namespace incise::test
+}  // namespace incise::testing

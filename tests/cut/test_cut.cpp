@@ -12,7 +12,7 @@
 #include "tests/support/mesh_edits.h"
 
 using namespace incise;
-using namespace incise::test;
+using namespace incise::testing;
 
 namespace {
 CutOptions plain(double snap = 0) {

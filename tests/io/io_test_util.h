@@ -12,7 +12,7 @@
 #include "mesh/generate.h"
 #include "mesh/io/tet_io.h"
 
-namespace incise::test {
+namespace incise::testing {
 
 namespace fs = std::filesystem;
 
@@ -107,4 +107,4 @@ inline bool have_meshio() { return std::system("/usr/bin/python3 -c 'import mesh
 
 inline std::string meshio_tool() { return std::string(INCISE_SOURCE_DIR) + "/tests/io/meshio_tool.py"; }
 
-}  // namespace incise::test
+}  // namespace incise::testing

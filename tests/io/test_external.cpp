@@ -5,7 +5,7 @@
 #include "mesh/errors.h"
 
 using namespace incise;
-using namespace incise::test;
+using namespace incise::testing;
 
 namespace {
 bool have_program(const char* name) {

@@ -6,7 +6,7 @@
 #include "mesh/errors.h"
 
 using namespace incise;
-using namespace incise::test;
+using namespace incise::testing;
 
 namespace {
 

@@ -7,7 +7,7 @@
 #include "mesh/io/surface.h"
 
 using namespace incise;
-using namespace incise::test;
+using namespace incise::testing;
 
 namespace {
 

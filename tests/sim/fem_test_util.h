@@ -10,7 +10,7 @@
 #include "sim/fem_simulation.h"
 #include "tests/support/mesh_edits.h"
 
-namespace incise::test {
+namespace incise::testing {
 
 using incise::testing::boundary_vertices;
 using incise::testing::jitter;
@@ -33,4 +33,4 @@ inline void add_face_traction(const TetMesh& m, FemSimulation& sim, int axis, do
 
 inline double max_abs(const Eigen::VectorXd& v) { return v.size() ? v.cwiseAbs().maxCoeff() : 0.0; }
 
-}  // namespace incise::test
+}  // namespace incise::testing

@@ -15,7 +15,7 @@
 #include "tests/sim/fem_test_util.h"
 
 using namespace incise;
-using namespace incise::test;
+using namespace incise::testing;
 
 namespace {
 

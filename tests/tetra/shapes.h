@@ -8,7 +8,7 @@
 #include "mesh/io/surface.h"
 #include "mesh/tetrahedralize/tetrahedralize.h"
 
-namespace incise::test {
+namespace incise::testing {
 
 // Axis-aligned box [lo, lo + size], outward triangles.
 inline SurfaceMesh box_surface(const Vec3& size, const Vec3& lo = Vec3::Zero()) {
@@ -89,4 +89,4 @@ inline void check_output(const TetMesh& m, double input_volume, double volume_to
   CHECK(m.total_volume() == Approx(input_volume).epsilon(volume_tol));
 }
 
-}  // namespace incise::test
+}  // namespace incise::testing

@@ -7,7 +7,7 @@
 #include "tests/tetra/shapes.h"
 
 using namespace incise;
-using namespace incise::test;
+using namespace incise::testing;
 
 TEST_CASE("Length and optimizer parsing", "[tetra]") {
   CHECK(Length::parse("0.05").value == Approx(0.05));

@@ -11,7 +11,7 @@
 #include "tests/tetra/shapes.h"
 
 using namespace incise;
-using namespace incise::test;
+using namespace incise::testing;
 
 namespace {
 

@@ -10,7 +10,7 @@
 #include "tests/tetra/shapes.h"
 
 using namespace incise;
-using namespace incise::test;
+using namespace incise::testing;
 
 namespace {
 

@@ -1,0 +1,47 @@
+#include "cli/improve_summary.h"
+
+#include <cstdio>
+
+namespace incise::cli {
+
+std::string format_improve_report(const ImproveReport& r) {
+  char buf[640];
+  std::snprintf(buf, sizeof buf,
+                "improve: min dihedral %.2f -> %.2f deg, max dihedral %.2f -> %.2f deg, min radius ratio %.4f -> %.4f\n"
+                "improve: %zu -> %zu tets; flips 2-3 %d, 3-2 %d, 4-4 %d, edge removals %d, boundary %d; %d smoothing "
+                "moves (%zu vertices); %d insertions; %.2f s%s\n",
+                r.min_dihedral_before, r.min_dihedral_after, r.max_dihedral_before, r.max_dihedral_after,
+                r.min_radius_ratio_before, r.min_radius_ratio_after, r.tets_before, r.tets_after, r.flips23, r.flips32,
+                r.flips44, r.edge_removals, r.boundary_flips, r.smoothing_moves, r.moved_vertices.size(), r.insertions,
+                r.seconds,
+                r.budget_exhausted ? " (time limit reached)" : "");
+  return buf;
+}
+
+nlohmann::json improve_report_json(const ImproveReport& r) {
+  nlohmann::json j;
+  j["schema"] = "incise.improve/1";
+  j["before"] = {{"min_dihedral", r.min_dihedral_before},
+                 {"max_dihedral", r.max_dihedral_before},
+                 {"min_radius_ratio", r.min_radius_ratio_before},
+                 {"tets", r.tets_before}};
+  j["after"] = {{"min_dihedral", r.min_dihedral_after},
+                {"max_dihedral", r.max_dihedral_after},
+                {"min_radius_ratio", r.min_radius_ratio_after},
+                {"tets", r.tets_after}};
+  j["operations"] = {{"flips23", r.flips23},
+                     {"flips32", r.flips32},
+                     {"flips44", r.flips44},
+                     {"edge_removals", r.edge_removals},
+                     {"boundary_flips", r.boundary_flips},
+                     {"multi_face_removals", r.multi_face_removals},
+                     {"smoothing_moves", r.smoothing_moves},
+                     {"insertions", r.insertions},
+                     {"contractions", r.contractions}};
+  j["moved_vertices"] = r.moved_vertices.size();
+  j["seconds"] = r.seconds;
+  j["budget_exhausted"] = r.budget_exhausted;
+  return j;
+}
+
+}  // namespace incise::cli

@@ -1,0 +1,125 @@
+#include "quality/boundary_flips.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "mesh/errors.h"
+#include "quality/edge_removal.h"
+
+namespace incise {
+
+namespace {
+
+bool has_edge(const TetMesh& mesh, VertexId x, VertexId y) {
+  for (TetId t : mesh.incident_tets(x))
+    if (mesh.local_index(t, y) >= 0) return true;
+  return false;
+}
+
+// Local face of t holding vertices x, y, z (the one opposite its fourth vertex).
+int face_of(const TetMesh& mesh, TetId t, VertexId x, VertexId y, VertexId z) {
+  for (int f = 0; f < 4; ++f) {
+    const VertexId o = mesh.tet_vertices(t)[f];
+    if (o != x && o != y && o != z) return f;
+  }
+  return -1;
+}
+
+using FaceKey = std::array<std::uint32_t, 3>;
+FaceKey key(VertexId x, VertexId y, VertexId z) {
+  FaceKey k{x.idx(), y.idx(), z.idx()};
+  std::sort(k.begin(), k.end());
+  return k;
+}
+
+// The new tets of a triangulation of the open ring, as TetMesh::remove_edge builds them.
+std::vector<std::array<VertexId, 4>> new_tets(const std::vector<VertexId>& ring, VertexId a, VertexId b,
+                                              const std::vector<std::array<int, 3>>& tris) {
+  std::vector<std::array<VertexId, 4>> out;
+  for (const auto& t : tris) {
+    out.push_back({ring[t[0]], ring[t[1]], ring[t[2]], b});
+    out.push_back({ring[t[0]], ring[t[2]], ring[t[1]], a});
+  }
+  return out;
+}
+
+}  // namespace
+
+std::optional<BoundaryEdgeRemoval> plan_boundary_edge_removal(const TetMesh& mesh, VertexId a, VertexId b,
+                                                              const ImproveScope& scope, int max_ring) {
+  TetMesh::EdgeStar star;
+  try {
+    star = mesh.edge_star(a, b);
+  } catch (const InvalidMesh&) {
+    return std::nullopt;
+  }
+  const int m = static_cast<int>(star.tets.size());
+  if (star.closed || m < 2 || m + 1 > max_ring) return std::nullopt;
+  for (TetId t : star.tets)
+    if (!scope.contains(t) || mesh.label(t) != mesh.label(star.tets.front())) return std::nullopt;
+  const VertexId c0 = star.ring.front(), cm = star.ring.back();
+  const TetId t0 = star.tets.front(), tm = star.tets.back();
+  const int f0 = face_of(mesh, t0, a, b, c0), fm = face_of(mesh, tm, a, b, cm);
+  if (mesh.neighbor(t0, f0).is_valid() || mesh.neighbor(tm, fm).is_valid()) return std::nullopt;
+  if (mesh.face_tag(t0, f0) != mesh.face_tag(tm, fm)) return std::nullopt;
+  // Coplanar: c_m on the plane of (a, b, c_0), to a tiny fraction of the quad's size.
+  const Vec3 pa = mesh.rest(a), pb = mesh.rest(b), p0 = mesh.rest(c0), pm = mesh.rest(cm);
+  const Vec3 n = (pb - pa).cross(p0 - pa);
+  const double h = std::max({(pb - pa).norm(), (p0 - pa).norm(), (pm - pa).norm()});
+  if (!(n.norm() > 0) || std::abs(n.normalized().dot(pm - pa)) > 1e-10 * h) return std::nullopt;
+  if (has_edge(mesh, c0, cm)) return std::nullopt;
+  std::vector<Vec3> ring;
+  for (VertexId c : star.ring) ring.push_back(mesh.rest(c));
+  RingTriangulation best = best_ring_triangulation(ring, pa, pb, scope.targets);
+  AngleQuality before;
+  for (TetId t : star.tets) before.combine(angle_quality(mesh, t, scope.targets));
+  if (!(best.worst.q > 0) || !better(best.worst, before, scope.targets)) return std::nullopt;
+  // Clearly positive, so no evaluation order can see a new tet flat or inverted.
+  for (const auto& q : new_tets(star.ring, a, b, best.triangles)) {
+    const Vec3 e1 = mesh.rest(q[1]) - mesh.rest(q[0]), e2 = mesh.rest(q[2]) - mesh.rest(q[0]),
+               e3 = mesh.rest(q[3]) - mesh.rest(q[0]);
+    const double l = std::max({e1.norm(), e2.norm(), e3.norm()});
+    if (!(e1.dot(e2.cross(e3)) > 1e-12 * l * l * l)) return std::nullopt;
+  }
+  // Interior diagonals of the triangulation must be new edges.
+  for (const auto& t : best.triangles)
+    for (int k = 0; k < 3; ++k) {
+      const int i = std::min(t[k], t[(k + 1) % 3]), j = std::max(t[k], t[(k + 1) % 3]);
+      if (j - i > 1 && !(i == 0 && j == m) && has_edge(mesh, star.ring[i], star.ring[j])) return std::nullopt;
+    }
+  return BoundaryEdgeRemoval{a, b, std::move(best.triangles), best.worst, star.tets};
+}
+
+std::vector<TetId> remove_boundary_edge(TetMesh& mesh, const BoundaryEdgeRemoval& plan) {
+  const TetMesh::EdgeStar star = mesh.edge_star(plan.a, plan.b);
+  if (star.tets != plan.removed) throw InvalidArgument("remove_boundary_edge: the plan is stale");
+  const VertexId c0 = star.ring.front(), cm = star.ring.back();
+  // Boundary tags of the old tets, by vertex set; the quad's two new faces take its tag.
+  std::map<FaceKey, std::uint16_t> tags;
+  std::uint16_t quad_tag = kTagNone;
+  for (TetId t : star.tets)
+    for (int f = 0; f < 4; ++f)
+      if (!mesh.neighbor(t, f).is_valid()) {
+        const auto fv = mesh.face_vertices(t, f);
+        tags[key(fv[0], fv[1], fv[2])] = mesh.face_tag(t, f);
+        if (mesh.local_index(t, plan.a) >= 0 && mesh.local_index(t, plan.b) >= 0) quad_tag = mesh.face_tag(t, f);
+      }
+  tags[key(plan.a, c0, cm)] = quad_tag;
+  tags[key(plan.b, c0, cm)] = quad_tag;
+  const int label = mesh.label(star.tets.front());
+  for (TetId t : star.tets) mesh.remove_tet(t);
+  std::vector<TetId> out;
+  for (const auto& q : new_tets(star.ring, plan.a, plan.b, plan.triangles))
+    out.push_back(mesh.add_tet(q[0], q[1], q[2], q[3], label));
+  for (TetId t : out)
+    for (int f = 0; f < 4; ++f)
+      if (!mesh.neighbor(t, f).is_valid()) {
+        const auto fv = mesh.face_vertices(t, f);
+        auto it = tags.find(key(fv[0], fv[1], fv[2]));
+        if (it != tags.end()) mesh.set_face_tag(t, f, it->second);
+      }
+  return out;
+}
+
+}  // namespace incise

@@ -1,0 +1,42 @@
+#pragma once
+// The measure mesh improvement maximizes: a tet's worst dihedral angle relative to the
+// targets, q = min over its six dihedral angles theta of min(theta / lo, (180 - theta) /
+// (180 - hi)) for targets lo (smallest wanted angle) and hi (largest). q >= 1 means the tet
+// meets both targets; q is continuous, scale-free, and -1 for an inverted or flat tet.
+// Operations compare configurations with better(): the worst q must rise, the minimum radius
+// ratio may not drop, and the minimum (maximum) dihedral angle may not drop (rise) except
+// within the targets.
+#include <array>
+#include <span>
+
+#include "mesh/tet_mesh.h"
+
+namespace incise {
+
+struct AngleTargets {
+  double min_deg = 35;   // smallest dihedral angle wanted
+  double max_deg = 135;  // largest dihedral angle wanted
+};
+
+// Worst values over a set of tets (or one tet).
+struct AngleQuality {
+  double q = 1e300;         // worst measure (see above)
+  double min_dihedral = 180;  // degrees
+  double max_dihedral = 0;    // degrees
+  double radius_ratio = 1;    // 3 r_in / R_circ (1 regular; guards against needles and caps)
+  void combine(const AngleQuality& o);
+};
+
+AngleQuality angle_quality(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3, const AngleTargets& t);
+AngleQuality angle_quality(const TetMesh& mesh, TetId t, const AngleTargets& targets);
+// Worst over tets given as vertex quadruples of `mesh`.
+AngleQuality angle_quality(const TetMesh& mesh, std::span<const std::array<VertexId, 4>> tets,
+                           const AngleTargets& targets);
+
+// True when `after` replaces `before` with a strictly higher worst q (by more than a small
+// margin, so repeated operations make real progress), a minimum radius ratio at least as
+// high, a minimum dihedral at least min(before's, targets.min_deg) and a maximum at most
+// max(before's, targets.max_deg).
+bool better(const AngleQuality& after, const AngleQuality& before, const AngleTargets& targets);
+
+}  // namespace incise

@@ -1,0 +1,131 @@
+#include "quality/flips.h"
+
+#include <algorithm>
+#include <optional>
+
+#include "mesh/errors.h"
+#include "quality/boundary_flips.h"
+#include "quality/edge_removal.h"
+
+namespace incise {
+
+namespace {
+
+struct Candidate {
+  AngleQuality after;
+  FlipOutcome::Kind kind = FlipOutcome::None;
+  TetId tet;  // 2-3: the tet and face
+  int face = -1;
+  VertexId a, b;  // edge removal
+  std::vector<std::array<int, 3>> triangles;
+  std::vector<TetId> removed;
+  std::optional<BoundaryEdgeRemoval> boundary;
+};
+
+AngleQuality worst_of(const TetMesh& mesh, std::span<const TetId> tets, const AngleTargets& targets) {
+  AngleQuality w;
+  for (TetId t : tets) w.combine(angle_quality(mesh, t, targets));
+  return w;
+}
+
+bool same_label_in_scope(const TetMesh& mesh, std::span<const TetId> tets, const ImproveScope& scope) {
+  for (TetId t : tets)
+    if (!scope.contains(t) || mesh.label(t) != mesh.label(tets.front())) return false;
+  return true;
+}
+
+void consider_flip23(const TetMesh& mesh, TetId t, int f, const ImproveScope& scope, std::vector<Candidate>& out) {
+  const TetId u = mesh.neighbor(t, f);
+  if (!u.is_valid()) return;
+  const TetId pair[2] = {t, u};
+  if (!same_label_in_scope(mesh, pair, scope)) return;
+  const VertexId a = mesh.tet_vertices(t)[f];
+  VertexId b;
+  for (int k = 0; k < 4; ++k)
+    if (mesh.neighbor(u, k) == t) b = mesh.tet_vertices(u)[k];
+  const auto x = mesh.face_vertices(t, f);
+  AngleQuality after;
+  for (int k = 0; k < 3; ++k)
+    after.combine(angle_quality(mesh.rest(x[k]), mesh.rest(x[(k + 1) % 3]), mesh.rest(a), mesh.rest(b), scope.targets));
+  if (!better(after, worst_of(mesh, pair, scope.targets), scope.targets)) return;
+  Candidate c;
+  c.after = after;
+  c.kind = FlipOutcome::Flip23;
+  c.tet = t;
+  c.face = f;
+  c.removed = {t, u};
+  out.push_back(std::move(c));
+}
+
+void consider_edge_removal(const TetMesh& mesh, VertexId a, VertexId b, const ImproveScope& scope, int max_ring,
+                           std::vector<Candidate>& out) {
+  TetMesh::EdgeStar star;
+  try {
+    star = mesh.edge_star(a, b);
+  } catch (const InvalidMesh&) {
+    return;  // several fans: not an edge a flip can remove
+  }
+  const int n = static_cast<int>(star.tets.size());
+  if (!star.closed) {
+    if (auto plan = plan_boundary_edge_removal(mesh, a, b, scope, max_ring)) {
+      Candidate c;
+      c.after = plan->after;
+      c.kind = FlipOutcome::BoundaryFlip;
+      c.removed = plan->removed;
+      c.boundary = std::move(plan);
+      out.push_back(std::move(c));
+    }
+    return;
+  }
+  if (n < 3 || n > max_ring || !same_label_in_scope(mesh, star.tets, scope)) return;
+  std::vector<Vec3> ring;
+  ring.reserve(n);
+  for (VertexId c : star.ring) ring.push_back(mesh.rest(c));
+  RingTriangulation best = best_ring_triangulation(ring, mesh.rest(a), mesh.rest(b), scope.targets);
+  if (!better(best.worst, worst_of(mesh, star.tets, scope.targets), scope.targets)) return;
+  Candidate c;
+  c.after = best.worst;
+  c.kind = n == 3 ? FlipOutcome::Flip32 : n == 4 ? FlipOutcome::Flip44 : FlipOutcome::EdgeRemoval;
+  c.a = a;
+  c.b = b;
+  c.triangles = std::move(best.triangles);
+  c.removed = star.tets;
+  out.push_back(std::move(c));
+}
+
+}  // namespace
+
+FlipOutcome improve_by_flip(TetMesh& mesh, TetId t, const ImproveScope& scope, int max_ring) {
+  std::vector<Candidate> cands;
+  const auto v = mesh.tet_vertices(t);
+  for (int f = 0; f < 4; ++f) consider_flip23(mesh, t, f, scope, cands);
+  for (int i = 0; i < 4; ++i)
+    for (int j = i + 1; j < 4; ++j) consider_edge_removal(mesh, v[i], v[j], scope, max_ring, cands);
+  // Best result first; the mesh's own check may still refuse one (an edge the flip would
+  // create exists elsewhere, or a new tet is too flat to trust its orientation).
+  std::sort(cands.begin(), cands.end(), [](const Candidate& x, const Candidate& y) { return x.after.q > y.after.q; });
+  FlipOutcome out;
+  for (auto& c : cands) {
+    const long growth = c.kind == FlipOutcome::Flip23 ? 1
+                        : c.kind == FlipOutcome::BoundaryFlip
+                            ? static_cast<long>(c.boundary->triangles.size() * 2) - static_cast<long>(c.removed.size())
+                            : static_cast<long>(c.triangles.size() * 2) - static_cast<long>(c.removed.size());
+    if (growth > scope.growth_left) continue;
+    if (c.kind == FlipOutcome::BoundaryFlip) {
+      out.added = remove_boundary_edge(mesh, *c.boundary);
+    } else if (c.kind == FlipOutcome::Flip23) {
+      if (!mesh.is_flip23_ok(c.tet, c.face)) continue;
+      auto added = mesh.flip23(c.tet, c.face);
+      out.added.assign(added.begin(), added.end());
+    } else {
+      if (!mesh.is_edge_removal_ok(c.a, c.b, c.triangles)) continue;
+      out.added = mesh.remove_edge(c.a, c.b, c.triangles);
+    }
+    out.kind = c.kind;
+    out.removed = std::move(c.removed);
+    return out;
+  }
+  return out;
+}
+
+}  // namespace incise

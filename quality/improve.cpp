@@ -1,0 +1,267 @@
+// The improvement drivers: a queue of tets below the targets, worst first; each popped tet
+// gets the best improving flip, else smoothing of its vertices. New and changed tets go back
+// on the queue. Global mode sweeps the whole mesh again while a sweep made progress; local
+// mode works in the seeds' neighbourhood only and never touches O(mesh) data.
+#include <algorithm>
+#include <chrono>
+#include <queue>
+#include <unordered_map>
+#include <unordered_set>
+
+#include "quality/flips.h"
+#include "quality/insertion.h"
+#include "quality/improve.h"
+#include "quality/metrics.h"
+#include "quality/smoothing.h"
+
+namespace incise {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct Stats {
+  double min_dih = 180, max_dih = 0, min_rr = 1;
+  void add(const TetQuality& q) {
+    min_dih = std::min(min_dih, q.min_dihedral);
+    max_dih = std::max(max_dih, q.max_dihedral);
+    min_rr = std::min(min_rr, q.radius_ratio);
+  }
+};
+
+template <class Tets>
+Stats stats_of(const TetMesh& mesh, const Tets& tets) {
+  Stats s;
+  for (auto t : tets)
+    if (mesh.is_alive(TetId(t))) s.add(tet_quality(mesh, TetId(t)));
+  return s;
+}
+
+class Driver {
+public:
+  // base_tets: the input's tet count (global) or the region's size (local), for max_growth.
+  Driver(TetMesh& mesh, const ImproveOptions& opt, Clock::time_point deadline, bool has_deadline,
+         std::unordered_set<std::uint32_t>* region, std::size_t base_tets)
+      : mesh_(mesh),
+        opt_(opt),
+        deadline_(deadline),
+        has_deadline_(has_deadline),
+        region_(region),
+        growth_cap_(static_cast<long>((opt.max_growth - 1) * double(base_tets))) {
+    scope_.targets = {opt.target_dihedral_deg, opt.target_max_dihedral_deg};
+    scope_.region = region;
+    for (VertexId v : opt.frozen) frozen_.insert(v.idx());
+    smooth_.move_surface = opt.move_surface;
+    smooth_.move_cut = opt.move_cut;
+    smooth_.move_interface = opt.move_interface;
+    smooth_.slide_curved = opt.slide_curved;
+    smooth_.feature_angle_deg = opt.feature_angle_deg;
+    smooth_.iterations = opt.smoothing_iterations;
+    smooth_.frozen = &frozen_;
+    smooth_.curved_slid = &curved_slid_;
+  }
+
+  // One sweep over `tets`; returns whether anything improved.
+  template <class Tets>
+  bool sweep(const Tets& tets, ImproveReport& rep) {
+    for (auto t : tets) push(TetId(t));
+    bool progress = false;
+    while (!queue_.empty()) {
+      if (out_of_budget()) {
+        rep.budget_exhausted = true;
+        break;
+      }
+      const Entry e = queue_.top();
+      queue_.pop();
+      if (!mesh_.is_alive(e.tet) || version_[e.tet.idx()] != e.version) continue;
+      ++work_;
+      if (step(e.tet, rep)) progress = true;
+    }
+    while (!queue_.empty()) queue_.pop();
+    return progress;
+  }
+
+  std::unordered_set<std::uint32_t> moved;
+
+private:
+  struct Entry {
+    double q;
+    TetId tet;
+    std::uint32_t version;
+    bool operator<(const Entry& o) const { return q > o.q; }  // worst on top
+  };
+
+  bool out_of_budget() const {
+    if (opt_.max_work > 0 && work_ >= opt_.max_work) return true;
+    return has_deadline_ && Clock::now() >= deadline_;
+  }
+
+  void push(TetId t) {
+    const double q = angle_quality(mesh_, t, scope_.targets).q;
+    std::uint32_t& ver = version_[t.idx()];
+    ++ver;
+    if (q < 1) queue_.push({q, t, ver});
+  }
+
+  // Tets `removed` were replaced by `added`: region, growth, queue and retry marks follow.
+  void replaced(const std::vector<TetId>& removed, const std::vector<TetId>& added) {
+    grown_ += static_cast<long>(added.size()) - static_cast<long>(removed.size());
+    if (region_) {
+      for (TetId r : removed) region_->erase(r.idx());
+      for (TetId a : added) region_->insert(a.idx());
+    }
+    for (TetId a : added) {
+      push(a);
+      changed(a);
+    }
+  }
+
+  // Tet a is new or changed shape: operations around it may work again.
+  void changed(TetId a) {
+    for (VertexId w : mesh_.tet_vertices(a)) {
+      stuck_.erase(w.idx());
+      for (TetId u : mesh_.incident_tets(w)) flip_stuck_.erase(u.idx());
+    }
+  }
+
+  bool step(TetId t, ImproveReport& rep) {
+    scope_.growth_left = growth_cap_ - grown_;
+    if (opt_.flips && !flip_stuck_.count(t.idx())) {
+      FlipOutcome f = improve_by_flip(mesh_, t, scope_, opt_.max_ring);
+      if (f.kind == FlipOutcome::None) flip_stuck_.insert(t.idx());
+      if (f.kind != FlipOutcome::None) {
+        switch (f.kind) {
+          case FlipOutcome::Flip23: ++rep.flips23; break;
+          case FlipOutcome::Flip32: ++rep.flips32; break;
+          case FlipOutcome::Flip44: ++rep.flips44; break;
+          case FlipOutcome::BoundaryFlip: ++rep.boundary_flips; break;
+          default: ++rep.edge_removals; break;
+        }
+        replaced(f.removed, f.added);
+        return true;
+      }
+    }
+    bool any = false;
+    if (opt_.smoothing) {
+      const auto tv = mesh_.tet_vertices(t);
+      for (VertexId v : tv) {
+        if (stuck_.count(v.idx())) continue;
+        if (!smooth_vertex(mesh_, v, scope_, smooth_)) {
+          stuck_.insert(v.idx());  // until a tet around it changes
+          continue;
+        }
+        ++rep.smoothing_moves;
+        moved.insert(v.idx());
+        any = true;
+        const auto inc = mesh_.incident_tets(v);
+        const std::vector<TetId> around(inc.begin(), inc.end());
+        for (TetId a : around) {
+          push(a);
+          changed(a);
+        }
+        stuck_.erase(v.idx());
+      }
+    }
+    // An insertion adds one tet per tet around the split edge (at most max_ring).
+    if (!any && opt_.insertion && mesh_.is_alive(t) && scope_.growth_left >= opt_.max_ring) {
+      if (auto ins = improve_by_insertion(mesh_, t, scope_, opt_.max_ring, 2 * opt_.smoothing_iterations)) {
+        ++rep.insertions;
+        moved.insert(ins->vertex.idx());
+        replaced(ins->removed, ins->added);
+        return true;
+      }
+    }
+    return any;
+  }
+
+  TetMesh& mesh_;
+  const ImproveOptions& opt_;
+  Clock::time_point deadline_;
+  bool has_deadline_;
+  std::unordered_set<std::uint32_t>* region_;
+  ImproveScope scope_;
+  SmoothOptions smooth_;
+  std::unordered_set<std::uint32_t> frozen_;
+  std::unordered_set<std::uint32_t> curved_slid_;
+  // Smoothing (vertices) or flips (tets) failed and nothing around changed since.
+  std::unordered_set<std::uint32_t> stuck_, flip_stuck_;
+  std::unordered_map<std::uint32_t, std::uint32_t> version_;
+  std::priority_queue<Entry> queue_;
+  int work_ = 0;
+  long growth_cap_;  // how many tets the pass may add in all
+  long grown_ = 0;  // net tets added by all operations
+};
+
+void finish(ImproveReport& rep, const Driver& d, Clock::time_point start) {
+  rep.moved_vertices.reserve(d.moved.size());
+  for (auto v : d.moved) rep.moved_vertices.emplace_back(v);
+  std::sort(rep.moved_vertices.begin(), rep.moved_vertices.end());
+  rep.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+}  // namespace
+
+ImproveReport improve(TetMesh& mesh, const ImproveOptions& opt) {
+  const auto start = Clock::now();
+  ImproveReport rep;
+  const std::vector<TetId> all = mesh.tets();
+  Stats before = stats_of(mesh, all);
+  rep.tets_before = all.size();
+  rep.min_dihedral_before = before.min_dih;
+  rep.max_dihedral_before = before.max_dih;
+  rep.min_radius_ratio_before = before.min_rr;
+  const auto deadline = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(opt.time_limit_s));
+  Driver d(mesh, opt, deadline, opt.time_limit_s > 0, nullptr, all.size());
+  // Sweeps until one makes no progress: a tet stuck in one sweep may become improvable once
+  // its neighbours changed.
+  for (int pass = 0; pass < 8 && !rep.budget_exhausted; ++pass)
+    if (!d.sweep(pass == 0 ? all : mesh.tets(), rep)) break;
+  const std::vector<TetId> after_tets = mesh.tets();
+  Stats after = stats_of(mesh, after_tets);
+  rep.tets_after = after_tets.size();
+  rep.min_dihedral_after = after.min_dih;
+  rep.max_dihedral_after = after.max_dih;
+  rep.min_radius_ratio_after = after.min_rr;
+  finish(rep, d, start);
+  return rep;
+}
+
+ImproveReport improve_local(TetMesh& mesh, std::span<const TetId> seeds, const ImproveOptions& opt) {
+  const auto start = Clock::now();
+  ImproveReport rep;
+  // Region: the live seeds plus opt.rings rings of tets sharing a vertex.
+  std::unordered_set<std::uint32_t> region;
+  std::vector<TetId> frontier;
+  for (TetId t : seeds)
+    if (mesh.is_alive(t) && region.insert(t.idx()).second) frontier.push_back(t);
+  for (int r = 0; r < opt.rings; ++r) {
+    std::vector<TetId> next;
+    for (TetId t : frontier)
+      for (VertexId v : mesh.tet_vertices(t))
+        for (TetId u : mesh.incident_tets(v))
+          if (region.insert(u.idx()).second) next.push_back(u);
+    frontier = std::move(next);
+  }
+  Stats before = stats_of(mesh, region);
+  rep.tets_before = region.size();
+  rep.min_dihedral_before = before.min_dih;
+  rep.max_dihedral_before = before.max_dih;
+  rep.min_radius_ratio_before = before.min_rr;
+  const bool timed = opt.time_budget_ms > 0;
+  const auto deadline =
+      start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double, std::milli>(opt.time_budget_ms));
+  Driver d(mesh, opt, deadline, timed, &region, region.size());
+  for (int pass = 0; pass < 4 && !rep.budget_exhausted; ++pass) {
+    const std::vector<std::uint32_t> ids(region.begin(), region.end());
+    if (!d.sweep(ids, rep)) break;
+  }
+  Stats after = stats_of(mesh, region);
+  rep.tets_after = region.size();
+  rep.min_dihedral_after = after.min_dih;
+  rep.max_dihedral_after = after.max_dih;
+  rep.min_radius_ratio_after = after.min_rr;
+  finish(rep, d, start);
+  return rep;
+}
+
+}  // namespace incise

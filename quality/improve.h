@@ -1,0 +1,61 @@
+#pragma once
+// Mesh improvement: topological flips (2-3, 3-2, 4-4, edge removal with the optimal ring
+// triangulation, boundary edge removal between coplanar faces of one tag), optimization-based
+// vertex smoothing and optional vertex insertion, worst element first. The measure is
+// angle_quality() (quality/dihedral_objective.h): the worst dihedral angle relative to the
+// targets, so small and large angles both count. An operation is applied only when it raises
+// the worst measure of the tets it replaces, keeps their minimum radius ratio, and lowers
+// their minimum dihedral (raises their maximum) at most to the target: the worst element never
+// gets worse and no tet inverts. Labels, boundary tags and the surface are kept (flips stay in
+// one label; boundary and interface vertices slide only within flat, single-tag neighbourhoods
+// unless slide_curved), so each label's volume is kept up to rounding.
+#include <span>
+#include <vector>
+
+#include "mesh/tet_mesh.h"
+
+namespace incise {
+
+struct ImproveOptions {
+  double time_limit_s = 10;          // global mode wall-clock limit
+  double time_budget_ms = 0;         // local mode budget (0 = unlimited apart from max_work)
+  int max_work = 0;                  // cap on attempted operations (0 = none)
+  double target_dihedral_deg = 35;   // stop improving a tet once its min dihedral reaches this
+  double target_max_dihedral_deg = 135;  // ... and its max dihedral is at most this
+  bool flips = true;                 // 2-3, 3-2, 4-4 and edge removal
+  bool smoothing = true;             // optimization-based vertex smoothing
+  bool insertion = false;            // vertex insertion (edge split + placement) where flips and smoothing fail
+  double max_growth = 1.5;           // tet count stays <= max_growth x input (region in local mode)
+  bool move_surface = true;          // boundary vertices may slide within the (flat part of the) surface
+  bool move_cut = true;              // vertices on cut-tagged faces may slide within their plane
+  bool move_interface = true;        // vertices on a flat two-label interface may slide within it
+  bool slide_curved = false;         // boundary/interface vertices also slide on smooth curved parts (no edge
+                                     // sharper than feature_angle_deg), staying on the old surface; the
+                                     // surface and per-label volumes then change slightly (never cut faces)
+  double feature_angle_deg = 30;     // dihedral between boundary faces above which an edge is a feature (fixed)
+  std::span<const VertexId> frozen;  // vertices that must not move or be removed
+  int rings = 2;                     // local mode: rings grown around the seeds
+  int max_ring = 7;                  // edge removal: largest ring (tets around the edge) tried
+  int smoothing_iterations = 8;      // ascent steps per vertex smoothing attempt
+};
+
+struct ImproveReport {
+  double min_dihedral_before = 0, max_dihedral_before = 0, min_dihedral_after = 0, max_dihedral_after = 0;
+  double min_radius_ratio_before = 0, min_radius_ratio_after = 0;
+  std::size_t tets_before = 0, tets_after = 0;
+  int flips23 = 0, flips32 = 0, flips44 = 0, edge_removals = 0, multi_face_removals = 0, smoothing_moves = 0,
+      insertions = 0, contractions = 0;
+  int boundary_flips = 0;  // boundary edge removals between coplanar faces (2-2 and larger)
+  double seconds = 0;
+  std::vector<VertexId> moved_vertices;  // vertices whose position changed (for local backend refresh)
+  bool budget_exhausted = false;
+};
+
+// Whole mesh, worst elements first, within opt.time_limit_s. All edits go through the mesh's
+// check-then-act API and accumulate in the mesh's pending TopologyChange (one change per pass).
+ImproveReport improve(TetMesh& mesh, const ImproveOptions& opt = {});
+// Seeds plus opt.rings rings around them only; bounded by opt.time_budget_ms / opt.max_work.
+// Never does O(mesh) work. In local mode the min/max "before/after" figures are over the region.
+ImproveReport improve_local(TetMesh& mesh, std::span<const TetId> seeds, const ImproveOptions& opt = {});
+
+}  // namespace incise

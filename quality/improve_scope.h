@@ -1,0 +1,18 @@
+#pragma once
+// What one improvement operation may touch: the targets it measures against and, in local
+// mode, the region (tet ids) it must stay inside. Shared by flips, smoothing and the drivers.
+#include <cstdint>
+#include <unordered_set>
+
+#include "quality/dihedral_objective.h"
+
+namespace incise {
+
+struct ImproveScope {
+  AngleTargets targets;
+  const std::unordered_set<std::uint32_t>* region = nullptr;  // nullptr: the whole mesh
+  long growth_left = 1L << 60;  // how many more tets the pass may add (ImproveOptions::max_growth)
+  bool contains(TetId t) const { return region == nullptr || region->count(t.idx()) > 0; }
+};
+
+}  // namespace incise

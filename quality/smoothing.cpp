@@ -1,0 +1,258 @@
+#include "quality/smoothing.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <vector>
+
+#include "quality/star_ascent.h"
+
+namespace incise {
+
+namespace {
+
+// How v may move: not at all, anywhere (interior), within the plane through it with normal
+// n, on the old curved disc `fan` (moving along n's tangent plane, projected back), or along
+// a straight crease of the boundary (direction n) between its crease neighbours a and b.
+struct Freedom {
+  enum Kind { Fixed, Free, Plane, Surface, Line } kind = Fixed;
+  Vec3 n = Vec3::Zero();
+  std::vector<std::array<VertexId, 3>> fan;  // disc faces around v, v first, consistently oriented
+  std::vector<std::uint16_t> tags;           // per fan face (boundary fans)
+  VertexId a, b;                             // Line: the crease neighbours (a - v opposite to n)
+};
+
+// A straight crease through v: exactly two of v's boundary edges (v,a), (v,b) separate faces
+// that differ in tag or plane, a and b lie on opposite sides of v on one line, and the faces
+// between them are coplanar on each side. Sliding along it keeps both sides' planes.
+bool crease_line(const TetMesh& mesh, VertexId v, Freedom& fr) {
+  std::map<std::uint32_t, std::vector<std::size_t>> at_edge;  // neighbour w -> fan faces with edge (v,w)
+  for (std::size_t i = 0; i < fr.fan.size(); ++i)
+    for (int k = 1; k < 3; ++k) at_edge[fr.fan[i][k].idx()].push_back(i);
+  const Vec3& pv = mesh.rest(v);
+  auto normal = [&](std::size_t i) { return (mesh.rest(fr.fan[i][1]) - pv).cross(mesh.rest(fr.fan[i][2]) - pv); };
+  std::vector<VertexId> crease;
+  for (const auto& [w, faces] : at_edge) {
+    if (faces.size() != 2) return false;  // not one disc around v
+    const Vec3 n0 = normal(faces[0]), n1 = normal(faces[1]);
+    const bool coplanar = n0.dot(n1) > 0 && n0.cross(n1).norm() <= 1e-10 * n0.norm() * n1.norm();
+    if (fr.tags[faces[0]] != fr.tags[faces[1]] || !coplanar) crease.push_back(VertexId(w));
+  }
+  if (crease.size() != 2) return false;
+  const Vec3 ea = mesh.rest(crease[0]) - pv, eb = mesh.rest(crease[1]) - pv;
+  if (!(ea.dot(eb) < 0) || ea.cross(eb).norm() > 1e-10 * ea.norm() * eb.norm()) return false;
+  fr.kind = Freedom::Line;
+  fr.a = crease[0];
+  fr.b = crease[1];
+  fr.n = eb.normalized();
+  return true;
+}
+
+// The faces around v that constrain it: boundary faces (one tag) or, inside the mesh, the
+// faces between exactly two labels. Returns false when v is where constraints meet.
+bool constraint_faces(const TetMesh& mesh, VertexId v, const ImproveScope& scope, const SmoothOptions& opt,
+                      Freedom& fr, bool& cut, bool& mixed) {
+  const auto tets = mesh.incident_tets(v);
+  const int la = mesh.label(tets.front());
+  int lb = la;
+  for (TetId t : tets) {
+    if (!scope.contains(t)) return false;
+    if (mesh.label(t) == la) continue;
+    if (lb != la && mesh.label(t) != lb) return false;  // three labels meet
+    lb = mesh.label(t);
+  }
+  std::vector<std::array<VertexId, 3>> boundary, interface;
+  std::vector<std::uint16_t> tags;
+  for (TetId t : tets) {
+    const int lv = mesh.local_index(t, v);
+    for (int f = 0; f < 4; ++f) {
+      if (f == lv) continue;
+      const TetId u = mesh.neighbor(t, f);
+      auto fv = mesh.face_vertices(t, f);
+      while (fv[0] != v) std::rotate(fv.begin(), fv.begin() + 1, fv.end());
+      if (!u.is_valid()) {
+        tags.push_back(mesh.face_tag(t, f));
+        boundary.push_back(fv);
+      } else if (mesh.label(t) == la && mesh.label(u) != la) {
+        interface.push_back(fv);  // oriented out of label la
+      }
+    }
+  }
+  if (!boundary.empty() && !interface.empty()) return false;  // boundary meets interface
+  cut = std::count(tags.begin(), tags.end(), kTagCut) > 0;
+  mixed = !tags.empty() && std::count(tags.begin(), tags.end(), tags.front()) != static_cast<long>(tags.size());
+  if (cut && !opt.move_cut) return false;
+  if (std::count(tags.begin(), tags.end(), kTagCut) != static_cast<long>(tags.size()) && !opt.move_surface) return false;
+  if (!interface.empty() && !opt.move_interface) return false;
+  fr.fan = boundary.empty() ? std::move(interface) : std::move(boundary);
+  fr.tags = std::move(tags);
+  return true;
+}
+
+Freedom freedom(const TetMesh& mesh, VertexId v, const ImproveScope& scope, const SmoothOptions& opt) {
+  Freedom fr;
+  if (opt.frozen && opt.frozen->count(v.idx())) return fr;
+  if (mesh.incident_tets(v).empty()) return fr;
+  bool cut = false, mixed = false;
+  if (!constraint_faces(mesh, v, scope, opt, fr, cut, mixed)) return fr;
+  if (fr.fan.empty()) {
+    fr.kind = Freedom::Free;
+    return fr;
+  }
+  // Where tags meet or the surface bends (boundary only): perhaps a straight crease.
+  auto crease_or_fixed = [&]() {
+    if (!fr.tags.empty()) crease_line(mesh, v, fr);
+    return fr;
+  };
+  // One disc: following x -> y around v visits every face once.
+  std::map<std::uint32_t, std::size_t> from;
+  for (std::size_t i = 0; i < fr.fan.size(); ++i)
+    if (!from.emplace(fr.fan[i][1].idx(), i).second) return fr;
+  std::size_t at = 0;
+  for (std::size_t k = 0; k < fr.fan.size(); ++k) {
+    auto it = from.find(fr.fan[at][2].idx());
+    if (it == from.end()) return fr;
+    at = it->second;
+  }
+  if (at != 0) return fr;
+  if (mixed) return crease_or_fixed();
+  const Vec3& pv = mesh.rest(v);
+  std::vector<Vec3> normals;
+  Vec3 n = Vec3::Zero();
+  double h = 0;
+  for (const auto& f : fr.fan) {
+    normals.push_back((mesh.rest(f[1]) - pv).cross(mesh.rest(f[2]) - pv));
+    n += normals.back();
+    h = std::max(h, (mesh.rest(f[1]) - pv).norm());
+  }
+  if (!(n.norm() > 0)) return fr;
+  n.normalize();
+  fr.n = n;
+  // Flat: every fan vertex within a tiny fraction of the fan's size from v's plane.
+  bool flat = true;
+  for (const auto& f : fr.fan) flat = flat && std::abs(n.dot(mesh.rest(f[1]) - pv)) <= 1e-10 * h;
+  // Every face must project onto the tangent plane with its orientation (a height field).
+  bool height_field = true;
+  for (const Vec3& fn : normals) height_field = height_field && n.dot(fn) > 0.2 * fn.norm();
+  if (flat && height_field) {
+    fr.kind = Freedom::Plane;
+    return fr;
+  }
+  if (crease_or_fixed().kind == Freedom::Line || !height_field) return fr;
+  if (!opt.slide_curved || cut || (opt.curved_slid && opt.curved_slid->count(v.idx()))) return fr;
+  // Smooth: adjacent faces (sharing edge v-y) bend by at most the feature angle.
+  const double cos_feature = std::cos(opt.feature_angle_deg * 3.14159265358979323846 / 180);
+  for (std::size_t i = 0; i < fr.fan.size(); ++i) {
+    const std::size_t j = from.at(fr.fan[i][2].idx());
+    if (normals[i].normalized().dot(normals[j].normalized()) < cos_feature) return fr;
+  }
+  fr.kind = Freedom::Surface;
+  return fr;
+}
+
+// Barycentric parents of p (a point of v's star, or of its flat fan) for move_vertex.
+bool locate(const TetMesh& mesh, VertexId v, const Vec3& p, const Freedom& fr, std::vector<VertexId>& parents,
+            std::vector<double>& weights) {
+  double best = -1e300;
+  const Vec3& pv = mesh.rest(v);
+  if (fr.kind == Freedom::Line) {
+    // On the segment from v towards a or b, strictly before it.
+    const double t = fr.n.dot(p - pv);
+    const VertexId w = t >= 0 ? fr.b : fr.a;
+    const double s = std::abs(t) / (mesh.rest(w) - pv).norm();
+    if (!(s < 1 - 1e-9)) return false;
+    parents = {v, w};
+    weights = {1 - s, s};
+    return true;
+  }
+  if (fr.kind == Freedom::Plane || fr.kind == Freedom::Surface) {
+    // Barycentrics of p's projection along n onto each old disc face.
+    for (const auto& f : fr.fan) {
+      const Vec3 x = mesh.rest(f[1]) - pv, y = mesh.rest(f[2]) - pv, q = p - pv;
+      const double area = fr.n.dot(x.cross(y));
+      const double lx = fr.n.dot(q.cross(y)) / area, ly = fr.n.dot(x.cross(q)) / area;
+      const double m = std::min({1 - lx - ly, lx, ly});
+      if (m > best) {
+        best = m;
+        parents.assign(f.begin(), f.end());
+        weights = {1 - lx - ly, lx, ly};
+      }
+    }
+  } else {
+    for (TetId t : mesh.incident_tets(v)) {
+      const auto& tv = mesh.tet_vertices(t);
+      Eigen::Matrix3d a;
+      for (int k = 0; k < 3; ++k) a.col(k) = mesh.rest(tv[k + 1]) - mesh.rest(tv[0]);
+      const Vec3 l = a.partialPivLu().solve(p - mesh.rest(tv[0]));
+      const double w[4] = {1 - l.sum(), l[0], l[1], l[2]};
+      const double m = std::min({w[0], w[1], w[2], w[3]});
+      if (m > best) {
+        best = m;
+        parents.assign(tv.begin(), tv.end());
+        weights.assign(w, w + 4);
+      }
+    }
+  }
+  if (!(best > -1e-9)) return false;
+  double s = 0;
+  for (double& w : weights) s += (w = std::max(w, 0.0));
+  for (double& w : weights) w /= s;
+  return true;
+}
+
+// Exactly what move_vertex computes from parents and weights.
+Vec3 combine(const TetMesh& mesh, const std::vector<VertexId>& parents, const std::vector<double>& weights) {
+  Vec3 p = Vec3::Zero();
+  for (std::size_t k = 0; k < parents.size(); ++k) p += weights[k] * mesh.rest(parents[k]);
+  return p;
+}
+
+// The point a constrained vertex can take for the wanted p (on its plane or old disc).
+bool place(const TetMesh& mesh, VertexId v, const Vec3& p, const Freedom& fr, Vec3& out) {
+  std::vector<VertexId> parents;
+  std::vector<double> weights;
+  if (!locate(mesh, v, p, fr, parents, weights)) return false;
+  out = combine(mesh, parents, weights);
+  return true;
+}
+
+}  // namespace
+
+bool smooth_vertex(TetMesh& mesh, VertexId v, const ImproveScope& scope, const SmoothOptions& opt) {
+  const Freedom fr = freedom(mesh, v, scope, opt);
+  if (fr.kind == Freedom::Fixed) return false;
+  OpenStar star;
+  double hmin = 1e300;
+  for (TetId t : mesh.incident_tets(v)) {
+    const auto& tv = mesh.tet_vertices(t);
+    std::array<Vec3, 4> x;
+    for (int k = 0; k < 4; ++k) {
+      x[k] = mesh.rest(tv[k]);
+      if (tv[k] != v) hmin = std::min(hmin, (x[k] - mesh.rest(v)).norm());
+    }
+    star.tets.push_back(x);
+    star.slot.push_back(mesh.local_index(t, v));
+  }
+  const AngleTargets& tg = scope.targets;
+  const Vec3 p0 = mesh.rest(v);
+  const AngleQuality orig = star.at(p0, tg);
+  AscentOptions ao;
+  ao.iterations = opt.iterations;
+  ao.scale = hmin;
+  if (fr.kind != Freedom::Free) {
+    (fr.kind == Freedom::Line ? ao.line : ao.normal) = &fr.n;
+    ao.project = [&](Vec3& p) { return place(mesh, v, p, fr, p); };
+  }
+  const Vec3 best_p = ascend(star, p0, tg, ao);
+  if (best_p == p0) return false;
+  std::vector<VertexId> parents;
+  std::vector<double> weights;
+  if (!locate(mesh, v, best_p, fr, parents, weights)) return false;
+  const Vec3 actual = combine(mesh, parents, weights);
+  if (!better(star.at(actual, tg), orig, tg) || !mesh.is_move_ok(v, actual)) return false;
+  mesh.move_vertex(v, parents, weights);
+  if (fr.kind == Freedom::Surface && opt.curved_slid) opt.curved_slid->insert(v.idx());
+  return true;
+}
+
+}  // namespace incise

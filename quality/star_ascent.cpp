@@ -1,0 +1,78 @@
+#include "quality/star_ascent.h"
+
+#include <algorithm>
+
+namespace incise {
+
+AngleQuality OpenStar::at(const Vec3& p, const AngleTargets& t) const {
+  AngleQuality w;
+  for (std::size_t i = 0; i < tets.size(); ++i) w.combine(one(i, p, t));
+  return w;
+}
+
+AngleQuality OpenStar::one(std::size_t i, const Vec3& p, const AngleTargets& t) const {
+  auto x = tets[i];
+  x[slot[i]] = p;
+  return angle_quality(x[0], x[1], x[2], x[3], t);
+}
+
+namespace {
+
+// Smallest vector in the convex hull of g (Frank-Wolfe; the hull is small).
+Vec3 min_norm_in_hull(const std::vector<Vec3>& g) {
+  Vec3 x = g.front();
+  for (int it = 0; it < 64; ++it) {
+    std::size_t best = 0;
+    for (std::size_t i = 1; i < g.size(); ++i)
+      if (g[i].dot(x) < g[best].dot(x)) best = i;
+    const Vec3 d = g[best] - x;
+    const double dd = d.squaredNorm();
+    if (dd == 0 || x.dot(x) - g[best].dot(x) <= 1e-12 * x.squaredNorm()) break;
+    x += std::clamp(-x.dot(d) / dd, 0.0, 1.0) * d;
+  }
+  return x;
+}
+
+}  // namespace
+
+Vec3 ascend(const OpenStar& star, const Vec3& p0, const AngleTargets& tg, const AscentOptions& opt) {
+  const AngleQuality orig = star.at(p0, tg);
+  Vec3 p = p0, best_p = p0;
+  AngleQuality cur = orig;
+  const double h = opt.scale, fd = 1e-6 * h;
+  for (int it = 0; it < opt.iterations; ++it) {
+    std::vector<Vec3> grads;
+    for (std::size_t i = 0; i < star.tets.size(); ++i) {
+      if (star.one(i, p, tg).q > cur.q + 1e-3) continue;  // not active
+      Vec3 g;
+      for (int k = 0; k < 3; ++k) {
+        Vec3 e = Vec3::Zero();
+        e[k] = fd;
+        g[k] = (star.one(i, p + e, tg).q - star.one(i, p - e, tg).q) / (2 * fd);
+      }
+      if (opt.normal) g -= *opt.normal * opt.normal->dot(g);
+      if (opt.line) g = *opt.line * opt.line->dot(g);
+      grads.push_back(g);
+    }
+    if (grads.empty()) break;
+    const Vec3 d = min_norm_in_hull(grads);
+    if (!(d.norm() * h > 1e-9)) break;  // a (nonsmooth) local maximum
+    bool stepped = false;
+    for (double len = 0.3 * h; len > 1e-3 * h; len *= 0.5) {
+      Vec3 trial = p + len * d.normalized();
+      if (opt.project && !opt.project(trial)) continue;
+      const AngleQuality q = star.at(trial, tg);
+      if (q.q > cur.q) {
+        p = trial;
+        cur = q;
+        stepped = true;
+        break;
+      }
+    }
+    if (!stepped) break;
+    if (better(cur, orig, tg)) best_p = p;
+  }
+  return best_p;
+}
+
+}  // namespace incise
