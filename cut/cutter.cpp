@@ -131,8 +131,11 @@ CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const Position
     if (opt_.improve && !front_.empty()) {
       const auto ti = std::chrono::steady_clock::now();
       ImproveOptions io = opt_.improve_options;
+      // Only the front must stay exactly where it is (the next step continues from that
+      // line). The rest of the cut surface is boundary the pass treats like any other: cut
+      // faces stay in their plane, rims (straight creases) slide along their line.
       std::vector<VertexId> frozen = opt_.frozen;
-      frozen.insert(frozen.end(), step.boundary_vertices().begin(), step.boundary_vertices().end());
+      frozen.insert(frozen.end(), front_vertices_.begin(), front_vertices_.end());
       io.frozen = frozen;
       io.time_budget_ms = opt_.improve_budget_ms;
       rep.improve = improve_local(*mesh_, front_, io);
