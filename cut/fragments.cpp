@@ -1,44 +1,109 @@
 #include "cut/fragments.h"
 
 #include <algorithm>
-#include <unordered_set>
+#include <unordered_map>
 
 namespace incise::cut_detail {
 
+namespace {
+
+// One flood fill per start, grown in turns. Fills that meet merge (union-find); a fill that
+// runs out of tets without meeting another has found a whole connected part. The search ends
+// as soon as one fill is left (every start is connected: nothing detached), so a partial cut
+// costs about the walk around its front and a through-cut about twice the smaller side.
+struct Fill {
+  std::vector<TetId> tets;  // visited, in order; tets[head..] are still to expand
+  std::size_t head = 0;
+  int parent = -1;          // merged into this fill (-1: a root)
+  bool closed = false, open = false;
+  double volume = 0;
+};
+
+int root(std::vector<Fill>& fills, int i) {
+  while (fills[i].parent >= 0) i = fills[i].parent;
+  return i;
+}
+
+}  // namespace
+
 std::vector<Fragment> find_fragments(const TetMesh& mesh, std::span<const TetId> starts, std::size_t limit) {
   if (limit == 0) return {};
-  std::vector<Fragment> closed;
-  bool open_part = false;
-  std::unordered_set<std::uint32_t> seen;
-  std::size_t work = 0;
+  std::vector<Fill> fills;
+  std::unordered_map<std::uint32_t, int> owner;
   for (TetId s : starts) {
-    // Breadth first, so a fill covers the starts near it; total work stays O(limit).
-    if (work > 2 * limit) break;
-    if (!mesh.is_alive(s) || seen.count(s.idx())) continue;
-    Fragment part;
-    std::vector<TetId> queue{s};
-    seen.insert(s.idx());
-    bool open = false;
-    for (std::size_t i = 0; i < queue.size(); ++i) {
-      const TetId t = queue[i];
-      ++work;
-      part.tets.push_back(t);
-      part.volume += mesh.volume(t);
-      if (part.tets.size() > limit) {
-        open = true;
-        break;
-      }
-      for (int f = 0; f < 4; ++f) {
-        const TetId n = mesh.neighbor(t, f);
-        if (n.is_valid() && seen.insert(n.idx()).second) queue.push_back(n);
+    if (!mesh.is_alive(s) || owner.count(s.idx())) continue;
+    owner[s.idx()] = int(fills.size());
+    fills.emplace_back();
+    fills.back().tets.push_back(s);
+    fills.back().volume = mesh.volume(s);
+  }
+  std::size_t active = fills.size();  // roots neither closed nor open
+  std::size_t roots = fills.size();
+  constexpr std::size_t kTurn = 32;   // tets a fill expands per turn
+  while (roots > 1 && active > 0) {
+    for (std::size_t i = 0; i < fills.size() && roots > 1; ++i) {
+      if (fills[i].parent >= 0 || fills[i].closed || fills[i].open) continue;
+      for (std::size_t k = 0; k < kTurn && fills[i].parent < 0; ++k) {
+        Fill& f = fills[i];
+        if (f.head == f.tets.size()) {
+          f.closed = true;
+          --active;
+          break;
+        }
+        if (f.tets.size() > limit) {
+          f.open = true;
+          --active;
+          break;
+        }
+        const TetId t = f.tets[f.head++];
+        for (int j = 0; j < 4; ++j) {
+          const TetId n = mesh.neighbor(t, j);
+          if (!n.is_valid()) continue;
+          auto [it, fresh] = owner.emplace(n.idx(), int(i));
+          if (fresh) {
+            fills[i].tets.push_back(n);
+            fills[i].volume += mesh.volume(n);
+            continue;
+          }
+          const int other = root(fills, it->second);
+          if (other == int(i)) continue;
+          // Two fills met: the smaller joins the larger's queue (its unexpanded tets too).
+          int keep = int(i), gone = other;
+          if (fills[gone].tets.size() > fills[keep].tets.size()) std::swap(keep, gone);
+          // If this fill is the one that goes, t has neighbours left to look at: expand it again.
+          if (gone == int(i)) --fills[i].head;
+          Fill& a = fills[keep];
+          Fill& b = fills[gone];
+          const bool b_active = !b.closed && !b.open;
+          const bool a_active = !a.closed && !a.open;
+          a.tets.insert(a.tets.end(), b.tets.begin() + std::ptrdiff_t(b.head), b.tets.end());
+          a.tets.insert(a.tets.begin() + std::ptrdiff_t(a.head), b.tets.begin(), b.tets.begin() + std::ptrdiff_t(b.head));
+          a.head += b.head;
+          a.volume += b.volume;
+          a.open = a.open || b.open;
+          if (a.open && a_active) --active;
+          if (b_active) --active;
+          b.parent = keep;
+          b.tets.clear();
+          b.tets.shrink_to_fit();
+          --roots;
+          if (keep != int(i)) break;  // this fill is gone; its turn ends
+        }
       }
     }
-    if (open) {
+  }
+  if (roots <= 1) return {};  // every start is connected to every other: nothing detached
+  std::vector<Fragment> closed;
+  bool open_part = false;
+  for (Fill& f : fills) {
+    if (f.parent >= 0) continue;
+    if (!f.closed) {
       open_part = true;
       continue;
     }
-    closed.push_back(std::move(part));
+    closed.push_back({std::move(f.tets), f.volume});
   }
+  // Every part closed (a small body cut through): the largest is the body.
   if (!open_part && !closed.empty()) {
     auto big = std::max_element(closed.begin(), closed.end(),
                                 [](const Fragment& a, const Fragment& b) { return a.tets.size() < b.tets.size(); });

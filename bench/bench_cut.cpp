@@ -1,0 +1,280 @@
+// Cutting, measured (issue figures; README "Cutting"). Four CSV blocks:
+//  1. step_to_solver_ready: a progressive cut on boxes of ~10k, ~100k and ~1M tets, the blade
+//     sized in cells so each step cuts about the same number of tets; per step: cut (with the
+//     local improvement), FEM apply, spring apply, against rebuilding both backends on the cut
+//     mesh. The first step of a cut (first contact: a scan of the tets' boxes) is reported apart.
+//  2. quality_after_cuts: 100 random blade steps (20 cuts of 5 steps, fixed seed) on the liver:
+//     subdivision with and without the local improvement, and removal.
+//  3. snap_trade: plane cuts of the liver for several snap thresholds: quality of the result,
+//     new tets, and the largest distance of a cut-face vertex from the plane (in mean edge
+//     lengths).
+//  4. beam_ratio: a beam clamped at both ends under gravity, cut through at midspan: midspan
+//     sag after / before, against beam theory's 3 (two cantilevers of half the length).
+// Usage: bench_cut [--quick] [--no-1m] [LIVER.msh]   (default samples/liver.msh)
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "cut/cutter.h"
+#include "mesh/generate.h"
+#include "mesh/io/tet_io.h"
+#include "quality/metrics.h"
+#include "sim/fem_simulation.h"
+#include "sim/spring_model.h"
+
+using namespace incise;
+
+namespace {
+
+double now_ms() {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+struct Range {
+  double min_dih = 180, max_dih = 0, min_rr = 1;
+  std::size_t below5 = 0;
+};
+Range quality_range(const TetMesh& m) {
+  Range r;
+  for (TetId t : m.tets()) {
+    const TetQuality q = tet_quality(m, t);
+    r.min_dih = std::min(r.min_dih, q.min_dihedral);
+    r.max_dih = std::max(r.max_dih, q.max_dihedral);
+    r.min_rr = std::min(r.min_rr, q.radius_ratio);
+    r.below5 += q.min_dihedral < 5;
+  }
+  return r;
+}
+
+// ---- 1 -------------------------------------------------------------------------------------
+void step_to_solver_ready(bool quick, bool with_1m) {
+  std::printf("# step_to_solver_ready\n");
+  std::printf("tets,cells,first_step_ms,steps,tets_cut_per_step,ms_cut,ms_improve,ms_apply_fem,ms_apply_springs,"
+              "ms_step_total,us_per_cut_tet,ms_rebuild_fem,ms_rebuild_springs,ratio_rebuild_over_step\n");
+  std::vector<int> sizes = {12, 26};
+  if (with_1m && !quick) sizes.push_back(55);
+  for (int n : sizes) {
+    TetMesh mesh = make_box(Vec3(n, n, n), {n, n, n});  // unit cells
+    mesh.discard_change();
+    const MaterialTable mat(Material{1e4, 0.3, 1});
+    FemSimulation fem(mesh, mat);
+    SpringModel springs(mesh, mat);
+    CutOptions opt;
+    opt.improve_budget_ms = 2.0;
+    Cutter cutter(mesh, opt);
+    // A 6-cell blade across y at x = n/2 + 0.37, entering from the top, one cell per step.
+    const double x = 0.5 * n + 0.37, y0 = 0.5 * n - 3.1, y1 = 0.5 * n + 2.9;
+    const int steps = quick ? 4 : 8;
+    cutter.start({Vec3(x, y0, n + 0.5), Vec3(x + 0.05, y1, n + 0.5)});
+    double first = 0, cut = 0, imp = 0, afem = 0, aspr = 0;
+    std::size_t cut_tets = 0;
+    for (int s = 1; s <= steps + 1; ++s) {
+      const double z = n + 0.5 - 1.03 * s;
+      const double t0 = now_ms();
+      CutStepReport r = cutter.advance({Vec3(x, y0, z), Vec3(x + 0.05, y1, z)});
+      const double t1 = now_ms();
+      fem.apply(r.change);
+      const double t2 = now_ms();
+      springs.apply(mesh, r.change);
+      const double t3 = now_ms();
+      if (s == 1) {
+        first = t3 - t0;  // first contact: includes the scan for the first tets
+        continue;
+      }
+      cut += t1 - t0;
+      imp += r.ms_improve;
+      afem += t2 - t1;
+      aspr += t3 - t2;
+      cut_tets += r.tets_cut;
+    }
+    const double t4 = now_ms();
+    { FemSimulation fresh(mesh, mat); }
+    const double t5 = now_ms();
+    { SpringModel fresh(mesh, mat); }
+    const double t6 = now_ms();
+    const double per_step = (cut + afem + aspr) / steps;
+    std::printf("%zu,%d,%.3f,%d,%.1f,%.3f,%.3f,%.3f,%.3f,%.3f,%.2f,%.2f,%.2f,%.1f\n", mesh.num_tets(), n, first, steps,
+                double(cut_tets) / steps, cut / steps, imp / steps, afem / steps, aspr / steps, per_step,
+                1e3 * (cut + afem + aspr) / std::max<std::size_t>(cut_tets, 1), t5 - t4, t6 - t5,
+                (t6 - t4) / per_step);
+    std::fflush(stdout);
+  }
+}
+
+// ---- 2 -------------------------------------------------------------------------------------
+struct Blade {
+  Vec3 a, b, sweep;
+};
+std::vector<Blade> random_blades(const TetMesh& m, int count, unsigned seed) {
+  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+  for (VertexId v : m.vertices()) {
+    lo = lo.cwiseMin(m.rest(v));
+    hi = hi.cwiseMax(m.rest(v));
+  }
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::normal_distribution<double> nd;
+  std::vector<Blade> out;
+  const double diag = (hi - lo).norm();
+  for (int i = 0; i < count; ++i) {
+    const Vec3 c = lo + Vec3(u(rng), u(rng), u(rng)).cwiseProduct(hi - lo);
+    Vec3 dir = Vec3(nd(rng), nd(rng), nd(rng)).normalized();
+    Vec3 sweep = Vec3(nd(rng), nd(rng), nd(rng));
+    sweep = (sweep - sweep.dot(dir) * dir).normalized() * diag * (0.15 + 0.3 * u(rng));
+    const double len = diag * (0.15 + 0.3 * u(rng));
+    out.push_back({c - 0.5 * len * dir - 0.5 * sweep, c + 0.5 * len * dir - 0.5 * sweep, sweep});
+  }
+  return out;
+}
+
+void quality_after_cuts(const TetMesh& organ, const std::string& name, bool quick) {
+  std::printf("# quality_after_cuts (%s, %d cuts x 5 steps)\n", name.c_str(), quick ? 6 : 20);
+  std::printf("variant,tets,min_dihedral,max_dihedral,min_radius_ratio,tets_below_5deg,ms_total,ms_max_step\n");
+  const Range r0 = quality_range(organ);
+  std::printf("uncut,%zu,%.3f,%.3f,%.4f,%zu,0,0\n", organ.num_tets(), r0.min_dih, r0.max_dih, r0.min_rr, r0.below5);
+  const auto blades = random_blades(organ, quick ? 6 : 20, 2026);
+  struct Variant {
+    const char* name;
+    CutMode mode;
+    bool improve;
+    double budget;
+  };
+  for (const Variant& v : {Variant{"subdivide+improve(2ms)", CutMode::Subdivide, true, 2.0},
+                           Variant{"subdivide+improve(10ms)", CutMode::Subdivide, true, 10.0},
+                           Variant{"subdivide", CutMode::Subdivide, false, 0}, Variant{"remove", CutMode::Remove, false, 0}}) {
+    TetMesh m = organ;
+    CutOptions opt;
+    opt.mode = v.mode;
+    opt.improve = v.improve;
+    opt.improve_budget_ms = v.budget;
+    Cutter cutter(m, opt);
+    double total = 0, worst = 0;
+    for (const Blade& b : blades) {
+      cutter.start({b.a, b.b});
+      for (int s = 1; s <= 5; ++s) {
+        const Vec3 off = b.sweep * (s / 5.0);
+        const CutStepReport r = cutter.advance({b.a + off, b.b + off});
+        total += r.ms;
+        worst = std::max(worst, r.ms);
+      }
+    }
+    const Range q = quality_range(m);
+    std::printf("%s,%zu,%.3f,%.3f,%.4f,%zu,%.1f,%.2f\n", v.name, m.num_tets(), q.min_dih, q.max_dih, q.min_rr, q.below5,
+                total, worst);
+    std::fflush(stdout);
+  }
+}
+
+// ---- 3 -------------------------------------------------------------------------------------
+void snap_trade(const TetMesh& organ) {
+  std::printf("# snap_trade (3 plane cuts of the organ, one at a time on a fresh copy; worst over the three)\n");
+  std::printf("snap,min_dihedral,min_radius_ratio,tets_below_5deg,new_tets,max_distance_over_mean_edge\n");
+  double edge = 0;
+  std::size_t ne = 0;
+  for (TetId t : organ.tets()) {
+    const auto& tv = organ.tet_vertices(t);
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j, ++ne) edge += (organ.rest(tv[i]) - organ.rest(tv[j])).norm();
+  }
+  edge /= double(ne);
+  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+  for (VertexId v : organ.vertices()) {
+    lo = lo.cwiseMin(organ.rest(v));
+    hi = hi.cwiseMax(organ.rest(v));
+  }
+  const Vec3 c = 0.5 * (lo + hi);
+  const std::pair<Vec3, Vec3> planes[] = {{c + 0.013 * (hi - lo), Vec3(1, 0.1, 0.05)},
+                                          {c - 0.11 * (hi - lo), Vec3(0.2, 1, -0.3)},
+                                          {c + 0.07 * (hi - lo), Vec3(-0.4, 0.3, 1)}};
+  for (double snap : {0.0, 0.02, 0.05, 0.1, 0.2, 0.3, 0.45}) {
+    Range worst;
+    std::size_t added = 0;
+    double dist = 0;
+    for (const auto& [p, n] : planes) {
+      TetMesh m = organ;
+      CutOptions opt;
+      opt.snap = snap;
+      opt.improve = false;  // the trade of snapping alone
+      Cutter cutter(m, opt);
+      const CutStepReport r = cutter.cut_plane(p, n);
+      added += r.tets_added;
+      const Range q = quality_range(m);
+      worst.min_dih = std::min(worst.min_dih, q.min_dih);
+      worst.min_rr = std::min(worst.min_rr, q.min_rr);
+      worst.below5 += q.below5;
+      const Vec3 un = n.normalized();
+      for (const auto& f : m.boundary_faces())
+        if (f.tag == kTagCut)
+          for (VertexId v : f.vertices) dist = std::max(dist, std::abs(un.dot(m.rest(v) - p)));
+    }
+    std::printf("%.2f,%.3f,%.4f,%zu,%zu,%.4f\n", snap, worst.min_dih, worst.min_rr, worst.below5, added, dist / edge);
+    std::fflush(stdout);
+  }
+}
+
+// ---- 4 -------------------------------------------------------------------------------------
+// Mean z displacement of the vertices within half a cell of x = xm.
+double sag_at(const TetMesh& m, const FemSimulation& fem, double xm, double h) {
+  double s = 0;
+  int n = 0;
+  for (VertexId v : m.vertices())
+    if (std::abs(m.rest(v).x() - xm) <= 0.5 * h) {
+      s += fem.displacement()[3 * v.idx() + 2];
+      ++n;
+    }
+  return n ? s / n : 0;
+}
+
+void beam_ratio(bool quick) {
+  std::printf("# beam_ratio (L = 10, square section 1, clamped at both ends, gravity; cut through at x = 5.03)\n");
+  std::printf("cells_along,tets,sag_uncut,sag_cut,ratio,beam_theory\n");
+  std::vector<int> res = {20, 40, 80};
+  if (quick) res = {10, 20, 40};
+  for (int nx : res) {
+    const int ny = nx / 10;
+    const double L = 10, h = L / nx;
+    TetMesh mesh = make_box(Vec3(L, 1, 1), {nx, ny, ny});
+    mesh.discard_change();
+    FemSimulationOptions o;
+    o.gravity = Vec3(0, 0, -1);
+    o.cg.tolerance = 1e-10;
+    o.cg.max_iterations = 200000;
+    FemSimulation fem(mesh, MaterialTable(Material{1e4, 0.3, 1}), o);
+    for (VertexId v : mesh.vertices())
+      if (mesh.rest(v).x() == 0 || mesh.rest(v).x() == L) fem.fix(v);
+    fem.step();
+    const double before = sag_at(mesh, fem, 0.5 * L, h);
+    Cutter cutter(mesh, CutOptions{});
+    const CutStepReport r = cutter.cut_plane(Vec3(0.5 * L + 0.03 * h, 0, 0), Vec3(1, 0, 0));
+    fem.apply(r.change);
+    fem.step();
+    const double after = sag_at(mesh, fem, 0.5 * L, h);
+    std::printf("%d,%zu,%.6g,%.6g,%.3f,3\n", nx, mesh.num_tets(), before, after, after / before);
+    std::fflush(stdout);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  bool quick = false, with_1m = true;
+  std::string organ_path = std::string(INCISE_SOURCE_DIR) + "/samples/liver.msh";
+  for (int i = 1; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--quick")) quick = true;
+    else if (!std::strcmp(argv[i], "--no-1m")) with_1m = false;
+    else organ_path = argv[i];
+  }
+  step_to_solver_ready(quick, with_1m);
+  TetMesh organ = read_tet_mesh(organ_path);
+  organ.discard_change();
+  const std::string name = std::filesystem::path(organ_path).filename().string();
+  quality_after_cuts(organ, name, quick);
+  snap_trade(organ);
+  beam_ratio(quick);
+  return 0;
+}
