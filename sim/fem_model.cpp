@@ -73,6 +73,7 @@ void FemModel::grow() {
     diag_.tail(diag_.size() - old).setZero();
     mass_.tail(mass_.size() - old).setZero();
     corner_slots_.resize(cap);
+    blocks_.resize(cap, Eigen::Matrix3d::Zero());
     vertex_capacity_ = cap;
   }
 }
@@ -105,7 +106,7 @@ void FemModel::compute_tet(std::uint32_t ti) {
 }
 
 void FemModel::compute_vertex(std::uint32_t vi) {
-  Eigen::Vector3d d = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d blk = Eigen::Matrix3d::Zero();
   double m = 0;
   const VertexId v(vi);
   auto& slots = corner_slots_[vi];
@@ -118,11 +119,13 @@ void FemModel::compute_vertex(std::uint32_t vi) {
       slots.push_back(4 * ti + std::uint32_t(j));
       const Eigen::Vector3d g = shape_gradient(bm_[ti], j);
       const Eigen::Vector3d rg = rot_[ti] * g;
-      d += vol_[ti] * (mu_[ti] * g.squaredNorm() * Eigen::Vector3d::Ones() + (mu_[ti] + lambda_[ti]) * rg.cwiseAbs2());
+      // Block (i, i) of the element matrix: V (mu |g|^2 I + (mu + lambda) (R g)(R g)^T).
+      blk += vol_[ti] * (mu_[ti] * g.squaredNorm() * Eigen::Matrix3d::Identity() + (mu_[ti] + lambda_[ti]) * rg * rg.transpose());
       m += rho_[ti] * vol_[ti] / 4;
     }
   }
-  diag_.segment<3>(3 * vi) = d;
+  blocks_[vi] = blk;
+  diag_.segment<3>(3 * vi) = blk.diagonal();
   mass_.segment<3>(3 * vi).setConstant(m);
 }
 
@@ -137,6 +140,7 @@ void FemModel::apply(const TopologyChange& change) {
   }
   for (VertexId v : change.removed_vertices) {
     corner_slots_[v.idx()].clear();
+    blocks_[v.idx()].setZero();
     diag_.segment<3>(3 * v.idx()).setZero();
     mass_.segment<3>(3 * v.idx()).setZero();
     ++work_.vertices_updated;

@@ -60,6 +60,8 @@ public:
   Eigen::Index rows() const override { return Eigen::Index(num_dofs()); }
   void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const override;
   const Eigen::VectorXd& diagonal() const override { return diag_; }
+  // Per vertex: the 3x3 diagonal block of K (K_R), kept current with the diagonal.
+  const std::vector<Eigen::Matrix3d>& diagonal_blocks() const override { return blocks_; }
 
   // Lumped mass per unknown (density * V / 4 per tet corner, repeated on x,y,z).
   const Eigen::VectorXd& lumped_mass() const { return mass_; }
@@ -110,6 +112,7 @@ private:
 
   // Per unknown.
   Eigen::VectorXd diag_, mass_;
+  std::vector<Eigen::Matrix3d> blocks_;  // per vertex
   FemWork work_;
 };
 

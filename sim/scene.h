@@ -58,6 +58,7 @@ struct Scene {
   StiffnessBackend backend = StiffnessBackend::MatrixFree;
   CgOptions cg;
   bool warm_start = true;
+  bool predict = true;              // warm start extrapolates the last frames ("predict")
   int nonlinear_iterations = 1;
   // time
   int frames = 100;
