@@ -34,6 +34,14 @@ void parallel_range(std::size_t n, F&& f) {
 
 }  // namespace
 
+Eigen::Matrix3d element_block(const Eigen::Matrix3d& bm, double vol, double mu, double lambda, const Eigen::Matrix3d& r,
+                              int i, int j) {
+  const Eigen::Vector3d gi = shape_gradient(bm, i), gj = shape_gradient(bm, j);
+  const Eigen::Matrix3d blk =
+      vol * (mu * gi.dot(gj) * Eigen::Matrix3d::Identity() + mu * gj * gi.transpose() + lambda * gi * gj.transpose());
+  return r * blk * r.transpose();
+}
+
 double von_mises_of(const Eigen::Matrix3d& s) {
   const double a = s(0, 0) - s(1, 1), b = s(1, 1) - s(2, 2), c = s(2, 2) - s(0, 0);
   const double sh = s(0, 1) * s(0, 1) + s(1, 2) * s(1, 2) + s(0, 2) * s(0, 2);
@@ -296,13 +304,8 @@ Eigen::SparseMatrix<double> FemModel::assemble() const {
       const auto& tv = verts_[ti];
       int i = 0;
       while (tv[i] != vi) ++i;
-      const Eigen::Matrix3d& r = rot_[ti];
-      const Eigen::Vector3d gi = shape_gradient(bm_[ti], i);
       for (int j = 0; j < 4; ++j) {
-        const Eigen::Vector3d gj = shape_gradient(bm_[ti], j);
-        Eigen::Matrix3d blk = vol_[ti] * (mu_[ti] * gi.dot(gj) * Eigen::Matrix3d::Identity() +
-                                          mu_[ti] * gj * gi.transpose() + lambda_[ti] * gi * gj.transpose());
-        blk = r * blk * r.transpose();
+        const Eigen::Matrix3d blk = element_block(bm_[ti], vol_[ti], mu_[ti], lambda_[ti], rot_[ti], i, j);
         const std::size_t c = std::size_t(std::lower_bound(nb.begin(), nb.end(), tv[j]) - nb.begin());
         for (int a = 0; a < 3; ++a)
           for (int b = 0; b < 3; ++b) val[start[vi] + a * per_row + std::int64_t(3 * c + b)] += blk(a, b);

@@ -33,6 +33,23 @@ namespace incise {
 
 enum class FemKind { Linear, Corotational };
 
+// Block (i, j) (3x3) of a constant-strain tet's stiffness matrix: rest inverse edge matrix bm,
+// volume, Lame parameters, rotation r (identity for linear).
+Eigen::Matrix3d element_block(const Eigen::Matrix3d& bm, double vol, double mu, double lambda, const Eigen::Matrix3d& r,
+                              int i, int j);
+
+// A copy of the per-tet data K depends on (by TetId, dead slots flagged), for work done off
+// the frame thread, such as a background factorization. Taking it is a memcpy of the arrays.
+struct FemElements {
+  std::vector<std::uint8_t> alive;
+  std::vector<std::array<std::uint32_t, 4>> verts;
+  std::vector<Eigen::Matrix3d> bm, rot;
+  std::vector<double> vol, mu, lambda;
+  Eigen::Matrix3d block(std::size_t t, int i, int j) const {
+    return element_block(bm[t], vol[t], mu[t], lambda[t], rot[t], i, j);
+  }
+};
+
 // Work done by local updates (counted, not timed, so tests can check locality).
 struct FemWork {
   std::uint64_t updates = 0;           // apply() calls
@@ -80,6 +97,7 @@ public:
   // The assembled K (K_R) as a sparse matrix of num_dofs() rows; O(mesh). The assembled
   // backend and the direct solver use it.
   Eigen::SparseMatrix<double> assemble() const;
+  FemElements elements() const { return {alive_, verts_, bm_, rot_, vol_, mu_, lambda_}; }
 
   // Per-tet access (tests, benchmarks).
   bool tet_alive(TetId t) const { return t.idx() < alive_.size() && alive_[t.idx()]; }

@@ -89,6 +89,7 @@ void FemSimulation::prescribe(VertexId v, const Vec3& d) {
   if (!constrained_[v.idx()]) {
     constrained_[v.idx()] = 1;
     rigid_dirty_ = direct_dirty_ = system_dirty_ = true;
+    if (cholesky_) cholesky_->mark_stale();
     update_free(v.idx());
   }
   target_.segment<3>(3 * v.idx()) = d;
@@ -98,6 +99,7 @@ void FemSimulation::release(VertexId v) {
   if (!constrained_[v.idx()]) return;
   constrained_[v.idx()] = 0;
   rigid_dirty_ = direct_dirty_ = system_dirty_ = true;
+  if (cholesky_) cholesky_->mark_stale();
   update_free(v.idx());
 }
 
@@ -145,6 +147,7 @@ void FemSimulation::apply(const TopologyChange& change) {
   // path stays local. A cut that frees a part shows up as a CG breakdown or non-convergence;
   // callers that want the precise diagnosis call check_constraints().
   predictor_.apply(change, model_.vertex_slots());
+  if (cholesky_) cholesky_->apply(change);
   if (!change.empty()) assembled_dirty_ = direct_dirty_ = system_dirty_ = true;
 }
 
@@ -300,8 +303,22 @@ void FemSimulation::static_rhs_and_guess() {
 
 const FrameStats& FemSimulation::step() {
   const auto t0 = std::chrono::steady_clock::now();
+  const int last_iterations = stats_.iterations;
   stats_ = FrameStats{};
   grow();
+  // The asynchronous factor: adopt a finished one, start a fresh one if due, before anything
+  // below decides whether CG resumes (a new factor means a restart).
+  if (opt_.method == SolverMethod::Cg && cg_.options().preconditioner == Preconditioner::Cholesky) {
+    if (!cholesky_) {
+      cholesky_ = std::make_unique<AsyncCholesky>(model_, opt_.cholesky);
+      cg_.set_preconditioner(cholesky_.get());
+    }
+    if (opt_.dynamic) cholesky_->frame(free_, 1 + opt_.dt * opt_.damping, opt_.dt * opt_.dt, last_iterations);
+    else cholesky_->frame(free_, 0.0, 1.0, last_iterations);
+  } else if (cholesky_) {
+    cg_.set_preconditioner(nullptr);
+    cholesky_.reset();
+  }
   const LinearOperator* k = &model_;
   auto refresh_operator = [&] {
     if (opt_.backend == StiffnessBackend::Assembled && opt_.method == SolverMethod::Cg) {

@@ -31,6 +31,7 @@
 #include <Eigen/Core>
 
 #include "mesh/tet_mesh.h"
+#include "sim/async_cholesky.h"
 #include "sim/cg_solver.h"
 #include "sim/fem_model.h"
 #include "sim/material.h"
@@ -39,6 +40,7 @@
 namespace incise {
 
 class AssembledStiffness;
+class AsyncCholesky;
 class DirectSolver;
 
 enum class SolverMethod { Cg, Direct };
@@ -49,6 +51,7 @@ struct FemSimulationOptions {
   SolverMethod method = SolverMethod::Cg;               // Direct: SimplicialLDLT reference
   StiffnessBackend backend = StiffnessBackend::MatrixFree;  // operator CG multiplies with
   CgOptions cg;                                         // tolerance, cap, budget, preconditioner
+  AsyncCholeskyOptions cholesky;                        // for cg.preconditioner == Cholesky
   bool warm_start = true;                               // start CG from the previous frame
   bool predict = true;                                  // static warm start extrapolates the last two frames
   bool dynamic = false;                                 // backward Euler instead of static
@@ -107,6 +110,8 @@ public:
   std::vector<double> von_mises();                      // per TetId, current state
   const std::vector<std::uint8_t>& free_mask() const { return free_; }
 
+  // The asynchronous factorization behind Preconditioner::Cholesky (nullptr until used).
+  const AsyncCholesky* cholesky() const { return cholesky_.get(); }
   FemModel& model() { return model_; }
   const FemModel& model() const { return model_; }
   FemSimulationOptions& options() { return opt_; }
@@ -136,6 +141,7 @@ private:
   double system_a_ = -1, system_c_ = -1;
   bool system_dirty_ = true;
   WarmStartPredictor predictor_;
+  std::unique_ptr<AsyncCholesky> cholesky_;  // Preconditioner::Cholesky: built on first use
   Eigen::VectorXd b_rot_, d_;  // corotational right-hand side term; prediction direction
 
   Eigen::VectorXd u_, v_, f_ext_, target_;  // target_: prescribed displacement per unknown
