@@ -13,5 +13,6 @@ void add_generate(CLI::App& app);
 void add_simulate(CLI::App& app);
 void add_tetra(CLI::App& app);
 void add_prepare(CLI::App& app);
+void add_trade(CLI::App& app);
 
 }  // namespace incise::cli

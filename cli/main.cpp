@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
   incise::cli::add_simulate(app);
   incise::cli::add_tetra(app);
   incise::cli::add_prepare(app);
+  incise::cli::add_trade(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -152,6 +152,10 @@ bool ConjugateGradient::start(const Eigen::VectorXd& b, Eigen::VectorXd& x, cons
     }
   }
   stats_.initial_relative_residual = r_.norm() / bnorm_;
+  if (stats_.initial_relative_residual <= opt_.tolerance) {  // converged at the start point
+    stats_.relative_residual = stats_.initial_relative_residual;
+    return false;
+  }
   pc_->setup(*A_, free_);
   pc_version_ = pc_->version();
   pc_->apply(r_, z_);

@@ -367,8 +367,10 @@ const FrameStats& FemSimulation::step() {
       u_ = x_;
       if (stats_.budget_exhausted) break;
     }
-    if (stats_.info == SolveInfo::Success) predictor_.record(u_);
-    else predictor_.clear();
+    // Unconverged frames are recorded too: the initial-residual line search in CG discards a
+    // prediction that would start worse than the last solution.
+    if (stats_.info == SolveInfo::NotPositiveDefinite || stats_.info == SolveInfo::NumericalIssue) predictor_.clear();
+    else predictor_.record(u_);
   } else {
     const double dt = opt_.dt;
     relinearize();
@@ -386,6 +388,7 @@ const FrameStats& FemSimulation::step() {
       u_ += dt * v_;
     }
   }
+  stats_.frame_ms = ms_since(t0);
   return stats_;
 }
 

@@ -70,6 +70,7 @@ struct FrameStats {
   double guess_relative_residual = 0;    // same, before the prediction (at the last solution)
   bool resumed = false;                  // CG continued the previous frame's interrupted solve
   double solve_ms = 0;
+  double frame_ms = 0;                   // the whole step(): rotations, right-hand side, solves
   bool budget_exhausted = false;
   SolveInfo info = SolveInfo::Success;
   std::string message;

@@ -490,7 +490,7 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
           st.iterations += ss.cg_iterations;
           st.relative_residual = ss.cg_relative_residual;
         }
-        st.solve_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+        st.solve_ms = st.frame_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
         disp = Eigen::VectorXd::Zero(Eigen::Index(3 * mesh.vertex_capacity()));
         const auto& x = springs->positions();
         for (VertexId v : mesh.vertices()) disp.segment<3>(3 * v.idx()) = x[v.idx()] - mesh.rest(v);
@@ -498,6 +498,7 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
           throw Error(s.path + ": frame " + std::to_string(frame) +
                       ": spring model produced NaN/Inf (time step above the stable limit?)");
       }
+      if (opt.on_frame) opt.on_frame(frame, disp, st);
       double maxd = 0;
       for (Eigen::Index i = 0; i < disp.size(); i += 3) maxd = std::max(maxd, disp.segment<3>(i).norm());
       const double time = dynamic ? (frame + 1) * s.dt * (s.model == SceneModel::Springs ? s.substeps : 1) : frame;

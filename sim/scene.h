@@ -9,6 +9,7 @@
 // output is written. A scene builds only what it uses (no assembled matrix, factorization or
 // spring network unless asked for).
 #include <array>
+#include <functional>
 #include <iosfwd>
 #include <optional>
 #include <string>
@@ -56,7 +57,7 @@ struct Scene {
   // solver
   SolverMethod method = SolverMethod::Cg;
   StiffnessBackend backend = StiffnessBackend::MatrixFree;
-  CgOptions cg;
+  CgOptions cg{.preconditioner = Preconditioner::Cholesky};  // the fastest measured (docs/solver.md)
   bool warm_start = true;
   bool predict = true;              // warm start extrapolates the last frames ("predict")
   int nonlinear_iterations = 1;
@@ -80,6 +81,8 @@ struct SceneRunOptions {
   std::string out_dir;                // created if missing; empty: write nothing
   int frames = -1;                    // override scene frames when >= 0
   std::ostream* progress = nullptr;   // one line per frame (stderr in the CLI)
+  // Called after each frame with its displacement (3 per vertex slot) and stats (incise trade).
+  std::function<void(int frame, const Eigen::VectorXd& displacement, const FrameStats& stats)> on_frame;
 };
 
 struct SceneRunSummary {

@@ -17,8 +17,7 @@ namespace incise {
 class WarmStartPredictor {
 public:
   void clear() { count_ = 0; }
-  // The solution of a converged frame; an unconverged frame should clear() instead, since
-  // extrapolating a half-solved state amplifies its error.
+  // A frame's solution (converged or not: a poor direction is what the line search rejects).
   void record(const Eigen::VectorXd& u);
   // d = u_1 - u_2 on free unknowns (0 on kept); false (d untouched) with fewer than two frames.
   bool direction(const std::vector<std::uint8_t>& free, Eigen::VectorXd& d) const;

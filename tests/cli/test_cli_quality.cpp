@@ -12,39 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
-namespace fs = std::filesystem;
-
-namespace {
-
-struct Run {
-  int code;
-  std::string out, err;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-// Runs `incise ARGS` in a shell, capturing stdout, stderr and the exit code.
-Run run_incise(const std::string& args, const fs::path& dir) {
-  const fs::path out = dir / "stdout.txt", err = dir / "stderr.txt";
-  const std::string cmd = std::string("'") + INCISE_EXE + "' " + args + " >'" + out.string() + "' 2>'" + err.string() + "'";
-  int status = std::system(cmd.c_str());
-  int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return {code, slurp(out), slurp(err)};
-}
-
-fs::path scratch_dir(const std::string& name) {
-  fs::path d = fs::path(INCISE_BINARY_DIR) / "test-scratch" / name;
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
-
-}  // namespace
+#include "tests/cli/cli_run.h"
 
 TEST_CASE("incise quality --json on a generated box", "[cli][quality]") {
   const fs::path dir = scratch_dir("cli_quality");

@@ -153,7 +153,7 @@ TEST_CASE("dynamic FEM, springs and budgeted scenes run", "[scene]") {
   CHECK(sum.frames == 3);
   CHECK(std::isfinite(sum.max_displacement));
 
-  s = parse_scene(with("solver", R"({"budget_ms": 0.001, "tolerance": 1e-12})"), "scene.json");
+  s = parse_scene(with("solver", R"({"budget_ms": 0.001, "tolerance": 1e-12, "preconditioner": "jacobi"})"), "scene.json");
   s.frames = 3;
   sum = run_scene(s, SceneRunOptions{});
   CHECK(sum.frames_budget_exhausted == 3);
