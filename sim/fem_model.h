@@ -10,9 +10,10 @@
 // by TetId that grow with tet_capacity(); dead slots are skipped. apply(change) recomputes only
 // what a TopologyChange names (the added tets, the touched vertices' diagonal and mass).
 //
-// K x is computed in two conflict-free parallel passes: per tet P_t = V R sigma(R^T H_t(x)),
-// then per vertex (K x)_v = sum over incident tets of P_t g_{t,v}. The mesh must outlive the
-// model and every edit batch must be fed to apply() before the next product.
+// K x: per tet P_t = V R sigma(R^T H_t(x)) and corner forces P_t g_{t,v}, scattered colour by
+// colour (sim/stiffness_kernel.h). The other per-tet passes (right-hand side, internal forces)
+// use two conflict-free passes: per-corner forces, then a per-vertex gather. The mesh must
+// outlive the model and every edit batch must be fed to apply() before the next product.
 //
 // Corotational: R_t is the rotation of the polar decomposition of the deformation gradient
 // F = I + H_t(u), refreshed by update_rotations(u); with R fixed, K_R = R K R^T and the
@@ -28,6 +29,7 @@
 #include "mesh/tet_mesh.h"
 #include "sim/linear_operator.h"
 #include "sim/material.h"
+#include "sim/stiffness_kernel.h"
 
 namespace incise {
 
@@ -123,6 +125,9 @@ private:
   std::vector<double> vol_, mu_, lambda_, rho_;
   std::vector<Eigen::Matrix3d> rot_;  // identity for Linear
   mutable std::vector<Eigen::Matrix<double, 3, 4>> force_;  // pass-1 scratch: per-corner force
+
+  // The product's own copy of the per-tet data, coloured for a conflict-free scatter.
+  StiffnessKernel kernel_;
 
   // Per vertex: its incident corners as slots 4 * tet + local, so the gather pass reads only
   // the per-corner forces (one indirection, no local-index search). Rebuilt with the vertex.
