@@ -95,6 +95,7 @@ void AsyncCholesky::start(const std::vector<std::uint8_t>& free, double a, doubl
     return;
   }
   changed_since_snapshot_.clear();
+  added_since_snapshot_.clear();
   // The snapshot is taken here, on the frame thread (a copy of the per-tet arrays); the job
   // owns it, so later edits and rotations never race with the factorization.
   auto task = [e = model_->elements(), mass = a != 0 ? model_->lumped_mass() : Eigen::VectorXd(), fr = free, a, c] {
@@ -120,6 +121,9 @@ void AsyncCholesky::adopt() {
   for (std::uint32_t v : changed_since_snapshot_)
     if (v < nv) uncovered_[v] = 1;
   changed_since_snapshot_.clear();
+  mapped_.clear();
+  for (const VertexOrigin& o : added_since_snapshot_) map_added(o);
+  added_since_snapshot_.clear();
   ++version_;
   ++factorizations_;
 }
@@ -142,16 +146,38 @@ bool AsyncCholesky::frame(const std::vector<std::uint8_t>& free, double a, doubl
   return adopted;
 }
 
+void AsyncCholesky::map_added(const VertexOrigin& o) {
+  const std::uint32_t v = o.vertex.idx();
+  mapped_.erase(v);
+  std::vector<std::pair<std::uint32_t, double>> row;
+  for (int k = 0; k < 4; ++k) {
+    if (!o.parents[std::size_t(k)].is_valid() || o.weights[std::size_t(k)] == 0) continue;
+    const std::uint32_t p = o.parents[std::size_t(k)].idx();
+    const double w = o.weights[std::size_t(k)];
+    if (p < uncovered_.size() && !uncovered_[p]) {
+      row.emplace_back(p, w);
+    } else if (auto it = mapped_.find(p); it != mapped_.end()) {  // parents precede children
+      for (const auto& [q, wq] : it->second) row.emplace_back(q, w * wq);
+    }
+  }
+  if (!row.empty()) mapped_.emplace(v, std::move(row));
+}
+
 void AsyncCholesky::apply(const TopologyChange& change) {
   if (change.empty()) return;
   stale_ = true;
   failed_ = false;
   auto uncover = [&](VertexId v) {
     if (v.idx() < uncovered_.size()) uncovered_[v.idx()] = 1;
+    mapped_.erase(v.idx());
     if (job_.valid()) changed_since_snapshot_.push_back(v.idx());
   };
-  for (const VertexOrigin& o : change.added_vertices) uncover(o.vertex);
   for (VertexId v : change.removed_vertices) uncover(v);
+  for (const VertexOrigin& o : change.added_vertices) {
+    uncover(o.vertex);
+    map_added(o);
+    if (job_.valid()) added_since_snapshot_.push_back(o);
+  }
 }
 
 void AsyncCholesky::setup(const LinearOperator& a, const std::vector<std::uint8_t>* free) {
@@ -172,6 +198,11 @@ void AsyncCholesky::apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
     if (!uncovered_[v])
       for (std::size_t i = 3 * v; i < 3 * v + 3; ++i)
         if (is_free(i)) rf_[idx[i]] = r[Eigen::Index(i)];
+  for (const auto& [v, row] : mapped_)  // P^T r: added vertices onto their parents' rows
+    if (v < nv)
+      for (int c = 0; c < 3; ++c)
+        if (is_free(3 * v + std::size_t(c)))
+          for (const auto& [p, w] : row) rf_[idx[3 * p + std::size_t(c)]] += w * r[Eigen::Index(3 * v + std::size_t(c))];
   zf_ = factor_->llt.solve(rf_);
   z.resize(r.size());
   for (std::size_t v = 0; v < nv; ++v) {
@@ -181,6 +212,13 @@ void AsyncCholesky::apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
       fallback_.apply_vertex(v, r, z);
     }
   }
+  for (const auto& [v, row] : mapped_)  // + P F^-1 P^T r
+    if (v < nv)
+      for (int c = 0; c < 3; ++c) {
+        const std::size_t i = 3 * v + std::size_t(c);
+        if (!is_free(i)) continue;
+        for (const auto& [p, w] : row) z[Eigen::Index(i)] += w * zf_[idx[3 * p + std::size_t(c)]];
+      }
 }
 
 }  // namespace incise

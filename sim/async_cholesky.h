@@ -5,17 +5,20 @@
 // asynchronous preconditioner in SOFA). A frame never waits for a factorization, except the
 // very first one when `wait_for_first` is set.
 //
-// After a topology change the stale factor keeps preconditioning on the unknowns it covers:
-// vertex ids are stable across edits, so an unknown maps to itself; vertices the change added,
-// removed or recycled, and unknowns that were not free at the snapshot, get block-Jacobi
-// instead. The result, M^-1 = S F^-1 S^T (+) block-Jacobi on the rest, is symmetric positive
-// definite however stale F is, so plain CG stays correct; only the iteration count degrades
-// until the fresh factor is adopted (at the start of a frame, then CG restarts).
+// After a topology change the stale factor keeps preconditioning, mapped onto the new
+// unknowns: vertex ids are stable across edits, so a surviving unknown maps to itself, and a
+// vertex an edit added maps to its parents with the edit's interpolation weights (a cut's
+// duplicate to the vertex it was split from), through a prolongation P. Added vertices also
+// get block-Jacobi, and so do unknowns the factor does not reach (not free at the snapshot).
+// M^-1 = P F^-1 P^T + block-Jacobi on the new vertices is symmetric positive definite however
+// stale F is, so plain CG stays correct; only the iteration count degrades until the fresh
+// factor is adopted (at the start of a frame, then CG restarts).
 //
 // Factorization: CHOLMOD's supernodal LL^T when built with it, else Eigen's SimplicialLDLT.
 #include <cstdint>
 #include <future>
 #include <memory>
+#include <unordered_map>
 #include <vector>
 
 #include "mesh/topology_change.h"
@@ -65,7 +68,12 @@ private:
   AsyncCholeskyOptions opt_;
   std::shared_ptr<Factor> factor_;
   std::future<std::shared_ptr<Factor>> job_;
+  void map_added(const VertexOrigin& o);  // P's row of an added vertex, from its parents
+
   std::vector<std::uint32_t> changed_since_snapshot_;  // vertices to uncover when the job lands
+  std::vector<VertexOrigin> added_since_snapshot_;     // replayed onto the fresh factor's P
+  // P: added vertex -> (covered vertex, weight) pairs.
+  std::unordered_map<std::uint32_t, std::vector<std::pair<std::uint32_t, double>>> mapped_;
   std::vector<std::uint8_t> uncovered_;                // per vertex, for the current factor
   bool too_large_ = false, stale_ = false, failed_ = false;
   double snapshot_a_ = -1, snapshot_c_ = -1;

@@ -5,6 +5,8 @@
 #include <limits>
 #include <sstream>
 
+#include <Eigen/Cholesky>
+
 #include "mesh/errors.h"
 
 namespace incise {
@@ -92,7 +94,45 @@ bool ConjugateGradient::can_resume(const Eigen::VectorXd& b, const Eigen::Vector
 }
 
 // Sets r_, bnorm_ and the start point; returns false when the solve is already finished.
-bool ConjugateGradient::start(const Eigen::VectorXd& b, Eigen::VectorXd& x, const Eigen::VectorXd* d) {
+// x += sum alpha_i d_i, r -= sum alpha_i P A d_i with the alphas of least ||r||.
+void ConjugateGradient::predict(Eigen::VectorXd& x, std::span<const Eigen::VectorXd> d) {
+  const Eigen::Index n = A_->rows();
+  pd_.clear();
+  qd_.clear();
+  for (const Eigen::VectorXd& di : d) {
+    if (di.size() != n) continue;
+    pd_.push_back(di);
+    project(pd_.back());
+    if (pd_.back().isZero(0)) {
+      pd_.pop_back();
+      continue;
+    }
+    qd_.emplace_back();
+    A_->multiply(pd_.back(), qd_.back());
+    project(qd_.back());
+  }
+  const Eigen::Index k = Eigen::Index(qd_.size());
+  if (k == 0) return;
+  Eigen::MatrixXd g(k, k);
+  Eigen::VectorXd h(k);
+  for (Eigen::Index i = 0; i < k; ++i) {
+    h[i] = qd_[std::size_t(i)].dot(r_);
+    for (Eigen::Index j = 0; j < k; ++j) g(i, j) = qd_[std::size_t(i)].dot(qd_[std::size_t(j)]);
+  }
+  // Near-parallel directions make g singular: a tiny ridge keeps the solve finite; the check
+  // below keeps the start point when the result is no better.
+  g.diagonal() *= 1 + 1e-12;
+  const Eigen::VectorXd alpha = g.ldlt().solve(h);
+  if (!alpha.allFinite()) return;
+  z_ = r_;
+  for (Eigen::Index i = 0; i < k; ++i) z_.noalias() -= alpha[i] * qd_[std::size_t(i)];
+  if (!(z_.squaredNorm() < r_.squaredNorm())) return;
+  r_.swap(z_);
+  for (Eigen::Index i = 0; i < k; ++i) x.noalias() += alpha[i] * pd_[std::size_t(i)];
+  stats_.prediction_weight = alpha[0];
+}
+
+bool ConjugateGradient::start(const Eigen::VectorXd& b, Eigen::VectorXd& x, std::span<const Eigen::VectorXd> d) {
   const Eigen::Index n = A_->rows();
   // Split the guess: z_ = kept part, p_ = free part.
   z_ = x;
@@ -137,20 +177,7 @@ bool ConjugateGradient::start(const Eigen::VectorXd& b, Eigen::VectorXd& x, cons
     return false;
   }
   stats_.guess_relative_residual = r_.norm() / bnorm_;
-  // Prediction: x + alpha d with alpha = argmin ||r - alpha P A d|| (alpha = 0 keeps x).
-  if (d && d->size() == n && !d->isZero(0)) {
-    p_ = *d;
-    project(p_);
-    A_->multiply(p_, q_);
-    project(q_);
-    const double qq = q_.squaredNorm();
-    const double alpha = qq > 0 ? r_.dot(q_) / qq : 0.0;
-    if (std::isfinite(alpha) && alpha != 0) {
-      x.noalias() += alpha * p_;
-      r_.noalias() -= alpha * q_;
-      stats_.prediction_weight = alpha;
-    }
-  }
+  predict(x, d);
   stats_.initial_relative_residual = r_.norm() / bnorm_;
   if (stats_.initial_relative_residual <= opt_.tolerance) {  // converged at the start point
     stats_.relative_residual = stats_.initial_relative_residual;
@@ -165,7 +192,8 @@ bool ConjugateGradient::start(const Eigen::VectorXd& b, Eigen::VectorXd& x, cons
   return true;
 }
 
-void ConjugateGradient::solve_with_guess(const Eigen::VectorXd& b, Eigen::VectorXd& x, const Eigen::VectorXd* d) {
+void ConjugateGradient::solve_with_guess(const Eigen::VectorXd& b, Eigen::VectorXd& x,
+                                         std::span<const Eigen::VectorXd> d) {
   const double t0 = now_ms();
   if (!A_) throw Error("cg: solve before compute()");
   if (!pc_) set_preconditioner(opt_.preconditioner);

@@ -13,12 +13,13 @@
 //
 // Cost of a fresh start: one product A x_free (none when the guess is zero on free unknowns),
 // plus A x_kept only when the kept values changed since the last solve on this operator, plus
-// A d when a prediction direction d is given. Resume: a solve stopped by the budget or the
+// A d_i per prediction direction d_i given. Resume: a solve stopped by the budget or the
 // iteration cap continues its own iteration (no product, same iterates as one uninterrupted
 // solve) when called again with the same right-hand side and the x it returned, on the same
 // operator (no compute()/invalidate() since) and the same preconditioner version.
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -43,7 +44,7 @@ struct SolveStats {
   double relative_residual = 0;    // ||r|| / ||b_eff|| at exit
   double initial_relative_residual = 0;  // at the start point actually used (after prediction)
   double guess_relative_residual = 0;    // at the guess as given (before prediction)
-  double prediction_weight = 0;    // alpha of x = guess + alpha d (0: prediction not used)
+  double prediction_weight = 0;    // alpha_1 of x = guess + sum alpha_i d_i (0: prediction not used)
   double solve_ms = 0;             // wall time of the solve
   bool budget_exhausted = false;   // the budget stopped it
   bool resumed = false;            // continued the previous interrupted solve
@@ -83,10 +84,11 @@ public:
 
   // x = 0 on free unknowns (kept unknowns are 0 too).
   Eigen::VectorXd solve(const Eigen::VectorXd& b);
-  // Starts from x (kept unknowns hold their prescribed values) and overwrites it. With a
-  // direction d (zero on kept unknowns), starts from x + alpha d with the alpha minimizing the
-  // initial residual, so a prediction never starts worse than x itself.
-  void solve_with_guess(const Eigen::VectorXd& b, Eigen::VectorXd& x, const Eigen::VectorXd* d = nullptr);
+  // Starts from x (kept unknowns hold their prescribed values) and overwrites it. With
+  // prediction directions d_i (their kept entries are ignored), starts from x + sum alpha_i d_i
+  // with the alphas minimizing the initial residual (least squares over their span, 0 included),
+  // so a prediction never starts worse than x itself.
+  void solve_with_guess(const Eigen::VectorXd& b, Eigen::VectorXd& x, std::span<const Eigen::VectorXd> d = {});
   // Whether solve_with_guess(b, x) would resume the previous solve.
   bool can_resume(const Eigen::VectorXd& b, const Eigen::VectorXd& x) const;
 
@@ -97,7 +99,8 @@ public:
 
 private:
   void project(Eigen::VectorXd& v) const;
-  bool start(const Eigen::VectorXd& b, Eigen::VectorXd& x, const Eigen::VectorXd* d);  // false: done
+  bool start(const Eigen::VectorXd& b, Eigen::VectorXd& x, std::span<const Eigen::VectorXd> d);  // false: done
+  void predict(Eigen::VectorXd& x, std::span<const Eigen::VectorXd> d);
   void iterate(Eigen::VectorXd& x, double t0_ms);
 
   CgOptions opt_;
@@ -107,6 +110,7 @@ private:
   CgPreconditioner* pc_ = nullptr;  // builtin_ or the attached one
   SolveStats stats_;
   Eigen::VectorXd r_, z_, p_, q_;  // kept between solves: resume state and no reallocation
+  std::vector<Eigen::VectorXd> pd_, qd_;  // projected prediction directions and A times them
   double rz_ = 0, bnorm_ = 0;
   // Resume: the problem the interrupted solve was on.
   bool resumable_ = false;

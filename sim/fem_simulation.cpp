@@ -220,7 +220,8 @@ void FemSimulation::body_and_external_forces(Eigen::VectorXd& b) const {
 }
 
 void FemSimulation::solve_system(const LinearOperator& k, double a, double c, const Eigen::VectorXd& b,
-                                 Eigen::VectorXd& x, double budget_ms, FrameStats& st, const Eigen::VectorXd* prediction) {
+                                 Eigen::VectorXd& x, double budget_ms, FrameStats& st,
+                                 std::span<const Eigen::VectorXd> prediction) {
   if (opt_.method == SolverMethod::Direct) {
     const auto t0 = std::chrono::steady_clock::now();
     if (direct_dirty_ || model_.kind() == FemKind::Corotational || a != direct_mass_coeff_ || c != direct_stiffness_coeff_) {
@@ -358,10 +359,9 @@ const FrameStats& FemSimulation::step() {
       if (fresh_rotations) relinearize();
       refresh_operator();
       static_rhs_and_guess();
-      const Eigen::VectorXd* prediction = nullptr;
-      if (opt_.warm_start && opt_.predict && it == 0 && opt_.method == SolverMethod::Cg && !resumable() &&
-          predictor_.direction(free_, d_))
-        prediction = &d_;
+      std::span<const Eigen::VectorXd> prediction;
+      if (opt_.warm_start && opt_.predict && it == 0 && opt_.method == SolverMethod::Cg && !resumable())
+        prediction = std::span<const Eigen::VectorXd>(d_.data(), std::size_t(predictor_.directions(free_, d_)));
       solve_system(*k, 0.0, 1.0, b_, x_, remaining(), stats_, prediction);
       if (stats_.info == SolveInfo::NotPositiveDefinite || stats_.info == SolveInfo::NumericalIssue) break;
       u_ = x_;
@@ -382,7 +382,7 @@ const FrameStats& FemSimulation::step() {
     x_ = opt_.warm_start ? v_ : Eigen::VectorXd::Zero(v_.size());
     for (std::size_t i = 0; i < free_.size(); ++i)
       if (!free_[i]) x_[Eigen::Index(i)] = (target_[Eigen::Index(i)] - u_[Eigen::Index(i)]) / dt;
-    solve_system(*k, 1 + dt * opt_.damping, dt * dt, b_, x_, remaining(), stats_, nullptr);
+    solve_system(*k, 1 + dt * opt_.damping, dt * dt, b_, x_, remaining(), stats_, {});
     if (stats_.info != SolveInfo::NotPositiveDefinite && stats_.info != SolveInfo::NumericalIssue) {
       v_ = x_;
       u_ += dt * v_;

@@ -9,7 +9,7 @@
 //
 // Solvers: CG on the matrix-free model or on the assembled matrix (same CG, same stats), or
 // the direct LDL^T reference. CG is warm-started from the previous frame (static frames: with
-// a prediction extrapolated from the last two, see sim/warm_start.h) and may stop on a
+// a prediction extrapolated from the last three, see sim/warm_start.h) and may stop on a
 // wall-clock budget; the approximate solution is kept, and when nothing changed by the next
 // frame (loads, constraints, topology; corotational rotations are not refreshed while such a
 // solve is pending) CG resumes it, so budgeted frames add up to one uninterrupted solve.
@@ -124,7 +124,7 @@ private:
   void check_rigid_modes() const;
   void body_and_external_forces(Eigen::VectorXd& b) const;
   void solve_system(const LinearOperator& op, double mass_coeff, double stiffness_coeff, const Eigen::VectorXd& b,
-                    Eigen::VectorXd& x, double budget_ms, FrameStats& st, const Eigen::VectorXd* prediction);
+                    Eigen::VectorXd& x, double budget_ms, FrameStats& st, std::span<const Eigen::VectorXd> prediction);
   void relinearize();
   void static_rhs_and_guess();
 
@@ -143,7 +143,8 @@ private:
   bool system_dirty_ = true;
   WarmStartPredictor predictor_;
   std::unique_ptr<AsyncCholesky> cholesky_;  // Preconditioner::Cholesky: built on first use
-  Eigen::VectorXd b_rot_, d_;  // corotational right-hand side term; prediction direction
+  Eigen::VectorXd b_rot_;              // corotational right-hand side term
+  std::vector<Eigen::VectorXd> d_;     // prediction directions
 
   Eigen::VectorXd u_, v_, f_ext_, target_;  // target_: prescribed displacement per unknown
   std::vector<std::uint8_t> constrained_;   // per vertex

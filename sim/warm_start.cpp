@@ -7,23 +7,30 @@
 namespace incise {
 
 void WarmStartPredictor::record(const Eigen::VectorXd& u) {
-  before_.swap(last_);
-  last_ = u;
-  count_ = std::min(count_ + 1, 2);
+  u_[2].swap(u_[1]);
+  u_[1].swap(u_[0]);
+  u_[0] = u;
+  count_ = std::min(count_ + 1, 3);
 }
 
-bool WarmStartPredictor::direction(const std::vector<std::uint8_t>& free, Eigen::VectorXd& d) const {
-  if (count_ < 2 || last_.size() != before_.size() || std::size_t(last_.size()) > free.size()) return false;
-  d.setZero(Eigen::Index(free.size()));
-  for (Eigen::Index i = 0; i < last_.size(); ++i)
-    if (free[std::size_t(i)]) d[i] = last_[i] - before_[i];
-  return true;
+int WarmStartPredictor::directions(const std::vector<std::uint8_t>& free, std::vector<Eigen::VectorXd>& d) const {
+  const int k = std::min(count_ - 1, 2);
+  if (k <= 0) return 0;
+  const Eigen::Index n = u_[0].size();
+  for (int i = 1; i <= k; ++i)
+    if (u_[i].size() != n || std::size_t(n) > free.size()) return 0;
+  d.resize(std::size_t(k));
+  for (int j = 0; j < k; ++j) d[std::size_t(j)].setZero(Eigen::Index(free.size()));
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (!free[std::size_t(i)]) continue;
+    d[0][i] = u_[0][i] - u_[1][i];
+    if (k == 2) d[1][i] = u_[0][i] - 2 * u_[1][i] + u_[2][i];
+  }
+  return k;
 }
 
 void WarmStartPredictor::apply(const TopologyChange& change, std::size_t vertex_slots) {
-  if (count_ == 0) return;
-  interpolate_added_vertices(change, vertex_slots, last_);
-  if (count_ == 2) interpolate_added_vertices(change, vertex_slots, before_);
+  for (int i = 0; i < count_; ++i) interpolate_added_vertices(change, vertex_slots, u_[i]);
 }
 
 }  // namespace incise

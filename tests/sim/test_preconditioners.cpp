@@ -12,6 +12,7 @@
 
 using namespace incise;
 using namespace incise::test;
+using incise::testing::crack;
 
 namespace {
 
@@ -24,33 +25,6 @@ MaterialTable table(double e, double nu) {
 
 const Preconditioner kAll[] = {Preconditioner::None, Preconditioner::Jacobi, Preconditioner::BlockJacobi,
                                Preconditioner::Cholesky};
-
-// A crack from the top (z = h) down to depth z0 in the plane x = x0: vertices of the plane
-// above z0 are duplicated and the tets on the +x side moved onto the duplicates.
-void cut_slit(TetMesh& m, double x0, double z0, double tol) {
-  std::vector<VertexId> plane;
-  for (VertexId v : m.vertices())
-    if (std::abs(m.rest(v).x() - x0) < tol && m.rest(v).z() > z0 + tol) plane.push_back(v);
-  for (VertexId v : plane) {
-    std::vector<TetId> plus;
-    for (TetId t : m.incident_tets(v)) {
-      Vec3 c = Vec3::Zero();
-      for (VertexId w : m.tet_vertices(t)) c += m.rest(w) / 4;
-      if (c.x() > x0) plus.push_back(t);
-    }
-    bool already = true;  // already separated when no -x tet is left
-    for (TetId t : m.incident_tets(v)) {
-      Vec3 c = Vec3::Zero();
-      for (VertexId w : m.tet_vertices(t)) c += m.rest(w) / 4;
-      already = already && c.x() > x0;
-    }
-    if (plus.empty() || already) continue;
-    const VertexId parents[1] = {v};
-    const double weights[1] = {1.0};
-    const VertexId d = m.add_vertex_interpolated(parents, weights);
-    for (TetId t : plus) m.replace_vertex(t, v, d);
-  }
-}
 
 void fix_ends(const TetMesh& m, FemSimulation& sim) {
   for (VertexId v : m.vertices())
@@ -132,7 +106,7 @@ TEST_CASE("after cuts every frame converges while the stale factor preconditions
     // Deepen the cut by one cell per frame, feeding each change to the simulation; frames
     // never wait for the refactorization.
     for (int depth = 1; depth <= 3; ++depth) {
-      cut_slit(m, 2.0, 1.0 - 0.25 * depth - 1e-3, 1e-9);
+      crack(m, 0, 2.0, 2, 1.0 - 0.25 * depth - 1e-3);
       const TopologyChange change = m.take_change();
       REQUIRE(!change.added_vertices.empty());
       sim.apply(change);
