@@ -25,6 +25,35 @@ inline Eigen::Matrix3d stress_of(const Eigen::Matrix3d& h, double mu, double lam
   return 2 * mu * eps + lambda * eps.trace() * Eigen::Matrix3d::Identity();
 }
 
+// The rotation of the polar decomposition F = R S. Well-shaped, uninverted F (the common case
+// every frame): scaled Newton iteration R <- (g R + R^-T / g) / 2 (Higham), a few 3x3
+// inverses, many times cheaper than an SVD. Inverted or nearly degenerate F: the SVD, with the
+// column of the smallest singular value flipped to get the closest proper rotation.
+Eigen::Matrix3d rotation_of(const Eigen::Matrix3d& f) {
+  const double det = f.determinant(), fn = f.norm();
+  if (det > 1e-3 * fn * fn * fn) {
+    Eigen::Matrix3d r = f;
+    for (int it = 0; it < 20; ++it) {
+      const Eigen::Matrix3d rit = r.inverse().transpose();
+      const double g = std::sqrt(std::sqrt(rit.squaredNorm() / r.squaredNorm()));
+      const Eigen::Matrix3d next = 0.5 * (g * r + rit / g);
+      const double change = (next - r).squaredNorm();
+      r = next;
+      if (change < 1e-28) break;
+    }
+    if ((r.transpose() * r - Eigen::Matrix3d::Identity()).squaredNorm() < 1e-24 && r.determinant() > 0) return r;
+  }
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(f, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d uu = svd.matrixU();
+  const Eigen::Matrix3d& vv = svd.matrixV();
+  Eigen::Matrix3d r = uu * vv.transpose();
+  if (r.determinant() < 0) {  // inverted (or reflected) element: nearest proper rotation
+    uu.col(2) = -uu.col(2);
+    r = uu * vv.transpose();
+  }
+  return r;
+}
+
 template <class F>
 void parallel_range(std::size_t n, F&& f) {
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 512), [&](const tbb::blocked_range<std::size_t>& r) {
@@ -243,14 +272,7 @@ void FemModel::update_rotations(const Eigen::VectorXd& u) {
       kernel_.set_rotation(std::uint32_t(ti), rot_[ti]);
       return;
     }
-    Eigen::JacobiSVD<Eigen::Matrix3d> svd(f, Eigen::ComputeFullU | Eigen::ComputeFullV);
-    Eigen::Matrix3d uu = svd.matrixU();
-    const Eigen::Matrix3d& vv = svd.matrixV();
-    Eigen::Matrix3d r = uu * vv.transpose();
-    if (r.determinant() < 0) {  // inverted (or reflected) element: nearest proper rotation
-      uu.col(2) = -uu.col(2);
-      r = uu * vv.transpose();
-    }
+    const Eigen::Matrix3d r = rotation_of(f);
     rot_[ti] = r;
     kernel_.set_rotation(std::uint32_t(ti), r);  // no two threads write the same slot
   });
