@@ -217,8 +217,10 @@ void StiffnessKernel::multiply_block(const Block& blk, std::size_t begin, std::s
       for (int i = 0; i < 9; ++i) sc.d[i][k] = 0;
     if (corot_) packet_forces<true>(p, &blk.rotations[pi], sc);
     else packet_forces<false>(p, nullptr, sc);
-    for (std::size_t k = 0; k < n; ++k)  // scatter (one thread per block)
-      for (int j = 0; j < 4; ++j) {
+    // Scatter (one thread per block), corner by corner: consecutive tets share vertices, and
+    // read-modify-writes of one address back to back would wait on each other.
+    for (int j = 0; j < 4; ++j)
+      for (std::size_t k = 0; k < n; ++k) {
         double* yj = y + 3 * std::size_t(p.v[j][k]);
         for (int c = 0; c < 3; ++c) yj[c] += sc.f[3 * j + c][k];
       }
