@@ -122,6 +122,7 @@ void AsyncCholesky::adopt() {
     if (v < nv) uncovered_[v] = 1;
   changed_since_snapshot_.clear();
   mapped_.clear();
+  touched_.clear();
   for (const VertexOrigin& o : added_since_snapshot_) map_added(o);
   added_since_snapshot_.clear();
   ++version_;
@@ -173,6 +174,8 @@ void AsyncCholesky::apply(const TopologyChange& change) {
     if (job_.valid()) changed_since_snapshot_.push_back(v.idx());
   };
   for (VertexId v : change.removed_vertices) uncover(v);
+  for (VertexId v : change.touched_vertices)
+    if (v.idx() < uncovered_.size() && !uncovered_[v.idx()]) touched_.push_back(v.idx());
   for (const VertexOrigin& o : change.added_vertices) {
     uncover(o.vertex);
     map_added(o);
@@ -212,6 +215,12 @@ void AsyncCholesky::apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
       fallback_.apply_vertex(v, r, z);
     }
   }
+  for (std::uint32_t v : touched_)  // + block-Jacobi where the factor's rows are stale
+    if (v < nv && v < uncovered_.size() && !uncovered_[v]) {
+      const Eigen::Vector3d keep = z.segment<3>(3 * Eigen::Index(v));
+      fallback_.apply_vertex(v, r, z);
+      z.segment<3>(3 * Eigen::Index(v)) += keep;
+    }
   for (const auto& [v, row] : mapped_)  // + P F^-1 P^T r
     if (v < nv)
       for (int c = 0; c < 3; ++c) {
