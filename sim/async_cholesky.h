@@ -8,9 +8,10 @@
 // After a topology change the stale factor keeps preconditioning, mapped onto the new
 // unknowns: vertex ids are stable across edits, so a surviving unknown maps to itself, and a
 // vertex an edit added maps to its parents with the edit's interpolation weights (a cut's
-// duplicate to the vertex it was split from), through a prolongation P. Added vertices also
-// get block-Jacobi, and so do unknowns the factor does not reach (not free at the snapshot).
-// M^-1 = P F^-1 P^T + block-Jacobi on the new vertices is symmetric positive definite however
+// duplicate to the vertex it was split from), through a prolongation P. Added vertices, and
+// those whose incident tets changed (stale factor rows), also get block-Jacobi, and so do
+// unknowns the factor does not reach (not free at the snapshot).
+// M^-1 = P F^-1 P^T + block-Jacobi on those is symmetric positive definite however
 // stale F is, so plain CG stays correct; only the iteration count degrades until the fresh
 // factor is adopted (at the start of a frame, then CG restarts).
 //
