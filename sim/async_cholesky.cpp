@@ -136,7 +136,8 @@ bool AsyncCholesky::frame(const std::vector<std::uint8_t>& free, double a, doubl
     adopted = true;
   }
   if (a != snapshot_a_ || c != snapshot_c_) stale_ = true;
-  const bool want = stale_ || (!factor_ && !failed_) || (factor_ && last_iterations > opt_.refactor_iterations);
+  const bool want = stale_ || (!factor_ && !failed_ && !too_large_) ||
+                    (factor_ && last_iterations > opt_.refactor_iterations);
   if (want && !job_.valid()) {
     start(free, a, c);
     if (job_.valid() && (!opt_.background || (!factor_ && opt_.wait_for_first))) {
