@@ -1,8 +1,8 @@
-// K*x: matrix-free (two passes over incident tets) vs the assembled sparse matrix (our TBB CSR
-// product and Eigen's serial SpMV), on box meshes from 10k to 1M tets, with 1 and 2 threads,
-// next to a STREAM-triad bandwidth measurement in the same run: ratio and percent of the
-// memory-bandwidth bound.
-//   bench_fem_kx [--sizes 10000,100000,1000000] [--reps 7] [--out DIR]
+// K*x: matrix-free (slab-coloured packets, sim/stiffness_kernel.h) vs the assembled sparse
+// matrix (our TBB CSR product and Eigen's serial SpMV), linear and corotational, on box meshes
+// from 10k to 1M tets, with 1 and 2 threads, next to a STREAM-triad bandwidth measurement in
+// the same run: ratio and percent of the memory-bandwidth bound.
+//   bench_fem_kx [--sizes 10000,100000,1000000] [--reps 7] [--linear-only] [--out DIR]
 #include <cmath>
 #include <random>
 
@@ -41,16 +41,20 @@ int main(int argc, char** argv) {
   const auto sizes = args.list("--sizes", "10000,100000,1000000");
   const int reps = int(args.num("--reps", 7));
   Csv csv(args.get("--out", "."), "fem_kx.csv",
-          "tets,vertices,threads,matrix_free_ms,assembled_ms,eigen_spmv_ms,ratio_assembled_over_mf,mf_gbs,"
+          "kind,tets,vertices,threads,matrix_free_ms,assembled_ms,eigen_spmv_ms,ratio_assembled_over_mf,mf_gbs,"
           "assembled_gbs,stream_gbs,mf_pct_bound,assembled_pct_bound,assembly_ms,model_build_ms,nnz");
   std::printf("K*x, median of %d; bandwidth bound from a STREAM triad measured in the same run\n", reps);
-  std::printf("%9s %3s %10s %10s %10s %8s %8s %8s %8s\n", "tets", "thr", "mf ms", "csr ms", "eigen ms", "csr/mf",
+  std::printf("%6s %9s %3s %10s %10s %10s %8s %8s %8s %8s\n", "kind", "tets", "thr", "mf ms", "csr ms", "eigen ms", "csr/mf",
               "mf %bw", "csr %bw", "GB/s");
-  for (double target : sizes) {
+  std::vector<FemKind> kinds{FemKind::Linear};
+  if (!args.flag("--linear-only")) kinds.push_back(FemKind::Corotational);
+  for (double target : sizes)
+    for (FemKind kind : kinds) {
+    const bool corot = kind == FemKind::Corotational;
     const int n = std::max(1, int(std::lround(std::cbrt(target / 6))));
     TetMesh m = make_box(Vec3(1, 1, 1), {n, n, n});
     const double t_build0 = now_ms();
-    FemModel model(m, MaterialTable(Material{}));
+    FemModel model(m, MaterialTable(Material{}), kind);
     const double build_ms = now_ms() - t_build0;
     const double t_as0 = now_ms();
     AssembledStiffness as(model);
@@ -59,12 +63,17 @@ int main(int argc, char** argv) {
     std::normal_distribution<double> nd;
     Eigen::VectorXd x(model.rows()), y(model.rows()), y2(model.rows());
     for (Eigen::Index i = 0; i < x.size(); ++i) x[i] = nd(rng);
-    // Minimal traffic per product. Matrix-free: per tet the precomputed data (B 72, V/mu/lambda 24,
-    // R 72, vertex ids 16), the 4 corner forces written and read back (2 x 96), the incidence
-    // entry per corner (4 x 4); x read and y written once. Assembled: values + column indices
-    // (12 per nonzero), row pointers, x and y.
+    if (corot) {  // rotations from a random displacement, so K_R is not K
+      Eigen::VectorXd u(model.rows());
+      for (Eigen::Index i = 0; i < u.size(); ++i) u[i] = 0.01 * nd(rng);
+      model.update_rotations(u);
+      as.rebuild();
+    }
+    // Minimal traffic per product. Matrix-free: per tet the packet data (B 72, V mu and V lambda
+    // 16, vertex ids 16; R 72 for corotational); x read and y read and written once per vertex.
+    // Assembled: values + column indices (12 per nonzero), row pointers, x and y.
     const double nt = double(m.num_tets()), nv = double(m.num_vertices());
-    const double mf_bytes = nt * (72 + 24 + 72 + 16 + 2 * 96 + 16) + nv * 2 * 24;
+    const double mf_bytes = nt * (72 + 16 + 16 + (corot ? 72 : 0)) + nv * 3 * 24;
     const double nnz = double(as.matrix().nonZeros());
     const double as_bytes = nnz * 12 + nv * 3 * 4 + nv * 2 * 24;
     for (int threads : {1, 2}) {
@@ -74,9 +83,9 @@ int main(int argc, char** argv) {
       const double csr = time_ms(reps, [&] { as.multiply(x, y2); });
       const double eig = time_ms(reps, [&] { y2.noalias() = as.matrix() * x; });
       const double mf_gbs = mf_bytes / (mf * 1e6), as_gbs = as_bytes / (csr * 1e6);
-      std::printf("%9.0f %3d %10.3f %10.3f %10.3f %8.2f %7.1f%% %7.1f%% %8.1f\n", nt, threads, mf, csr, eig, csr / mf,
+      std::printf("%6s %9.0f %3d %10.3f %10.3f %10.3f %8.2f %7.1f%% %7.1f%% %8.1f\n", corot ? "corot" : "linear", nt, threads, mf, csr, eig, csr / mf,
                   100 * mf_gbs / bw, 100 * as_gbs / bw, bw);
-      csv.row(nt, nv, threads, mf, csr, eig, csr / mf, mf_gbs, as_gbs, bw, 100 * mf_gbs / bw, 100 * as_gbs / bw,
+      csv.row(corot ? "corotational" : "linear", nt, nv, threads, mf, csr, eig, csr / mf, mf_gbs, as_gbs, bw, 100 * mf_gbs / bw, 100 * as_gbs / bw,
               assembly_ms, build_ms, nnz);
     }
     std::printf("          (model build %.0f ms, assembly %.0f ms, %.1fM nonzeros = %.0f MB)\n", build_ms, assembly_ms,

@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   incise::cli::add_prepare(app);
   incise::cli::add_cut(app);
   incise::cli::add_improve(app);
+  incise::cli::add_trade(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

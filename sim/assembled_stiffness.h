@@ -24,6 +24,7 @@ public:
   // Parallel CSR product (K is symmetric, so its column-major storage reads as CSR).
   void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const override;
   const Eigen::VectorXd& diagonal() const override { return diag_; }
+  const std::vector<Eigen::Matrix3d>& diagonal_blocks() const override { return model_->diagonal_blocks(); }
 
 private:
   const FemModel* model_;

@@ -2,11 +2,22 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <sstream>
+
+#include <Eigen/Cholesky>
 
 #include "mesh/errors.h"
 
 namespace incise {
+
+namespace {
+
+double now_ms() {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+}  // namespace
 
 const char* to_string(SolveInfo info) {
   switch (info) {
@@ -17,6 +28,13 @@ const char* to_string(SolveInfo info) {
     case SolveInfo::NumericalIssue: return "numerical issue (NaN/Inf)";
   }
   return "?";
+}
+
+ConjugateGradient::ConjugateGradient(const CgOptions& o) : opt_(o) {
+  set_tolerance(o.tolerance);
+  set_max_iterations(o.max_iterations);
+  set_budget_ms(o.budget_ms);
+  set_preconditioner(o.preconditioner);
 }
 
 void ConjugateGradient::set_tolerance(double t) {
@@ -31,6 +49,17 @@ void ConjugateGradient::set_budget_ms(double ms) {
   if (!(ms >= 0) || !std::isfinite(ms)) throw InvalidArgument("cg budget_ms: expected a number >= 0");
   opt_.budget_ms = ms;
 }
+void ConjugateGradient::set_preconditioner(Preconditioner p) {
+  const bool attached = pc_ && pc_ != builtin_.get();
+  if (!builtin_ || p != opt_.preconditioner) builtin_ = make_preconditioner(p);
+  opt_.preconditioner = p;
+  if (!attached) pc_ = builtin_.get();
+  resumable_ = false;
+}
+void ConjugateGradient::set_preconditioner(CgPreconditioner* pc) {
+  pc_ = pc ? pc : builtin_.get();
+  resumable_ = false;
+}
 
 void ConjugateGradient::compute(const LinearOperator& A, const std::vector<std::uint8_t>* free) {
   A_ = &A;
@@ -38,13 +67,19 @@ void ConjugateGradient::compute(const LinearOperator& A, const std::vector<std::
   if (free_ && Eigen::Index(free_->size()) != A.rows())
     throw InvalidArgument("cg: free mask has " + std::to_string(free_->size()) + " entries, operator " +
                           std::to_string(A.rows()) + " rows");
+  invalidate();
+}
+
+void ConjugateGradient::invalidate() {
+  resumable_ = false;
+  akept_valid_ = false;
 }
 
 void ConjugateGradient::project(Eigen::VectorXd& v) const {
   if (!free_) return;
   const auto& f = *free_;
   for (Eigen::Index i = 0; i < v.size(); ++i)
-    if (!f[i]) v[i] = 0;
+    if (!f[std::size_t(i)]) v[i] = 0;
 }
 
 Eigen::VectorXd ConjugateGradient::solve(const Eigen::VectorXd& b) {
@@ -53,84 +88,144 @@ Eigen::VectorXd ConjugateGradient::solve(const Eigen::VectorXd& b) {
   return x;
 }
 
-void ConjugateGradient::solve_with_guess(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
-  using clock = std::chrono::steady_clock;
-  const auto t0 = clock::now();
-  auto elapsed_ms = [&] { return std::chrono::duration<double, std::milli>(clock::now() - t0).count(); };
-  if (!A_) throw Error("cg: solve before compute()");
-  const Eigen::Index n = A_->rows();
-  if (b.size() != n || x.size() != n)
-    throw InvalidArgument("cg: right-hand side / guess size does not match the operator");
-  stats_ = SolveStats{};
+bool ConjugateGradient::can_resume(const Eigen::VectorXd& b, const Eigen::VectorXd& x) const {
+  return resumable_ && A_ && pc_ && pc_->version() == pc_version_ && b.size() == b_last_.size() &&
+         x.size() == x_last_.size() && b == b_last_ && x == x_last_;
+}
 
-  // Effective right-hand side norm: P (b - A x_kept). When the guess is zero on free unknowns
-  // it equals the initial residual and costs nothing extra.
-  bool guess_free_zero = true;
-  if (free_) {
-    for (Eigen::Index i = 0; i < n && guess_free_zero; ++i)
-      if ((*free_)[i] && x[i] != 0) guess_free_zero = false;
-  } else {
-    guess_free_zero = x.isZero(0);
-  }
-  A_->multiply(x, q_);
-  r_ = b - q_;
-  project(r_);
-  double bnorm;
-  if (guess_free_zero) {
-    bnorm = r_.norm();
-  } else {
-    z_ = x;
-    if (free_) {
-      for (Eigen::Index i = 0; i < n; ++i)
-        if ((*free_)[i]) z_[i] = 0;
-    } else {
-      z_.setZero();
+// Sets r_, bnorm_ and the start point; returns false when the solve is already finished.
+// x += sum alpha_i d_i, r -= sum alpha_i P A d_i with the alphas of least ||r||.
+void ConjugateGradient::predict(Eigen::VectorXd& x, std::span<const Eigen::VectorXd> d) {
+  const Eigen::Index n = A_->rows();
+  pd_.clear();
+  qd_.clear();
+  for (const Eigen::VectorXd& di : d) {
+    if (di.size() != n) continue;
+    pd_.push_back(di);
+    project(pd_.back());
+    if (pd_.back().isZero(0)) {
+      pd_.pop_back();
+      continue;
     }
-    A_->multiply(z_, q_);
-    q_ = b - q_;
-    project(q_);
-    bnorm = q_.norm();
+    qd_.emplace_back();
+    A_->multiply(pd_.back(), qd_.back());
+    project(qd_.back());
   }
-  if (!std::isfinite(bnorm) || !std::isfinite(r_.squaredNorm())) {
+  const Eigen::Index k = Eigen::Index(qd_.size());
+  if (k == 0) return;
+  Eigen::MatrixXd g(k, k);
+  Eigen::VectorXd h(k);
+  for (Eigen::Index i = 0; i < k; ++i) {
+    h[i] = qd_[std::size_t(i)].dot(r_);
+    for (Eigen::Index j = 0; j < k; ++j) g(i, j) = qd_[std::size_t(i)].dot(qd_[std::size_t(j)]);
+  }
+  // Near-parallel directions make g singular: a tiny ridge keeps the solve finite; the check
+  // below keeps the start point when the result is no better.
+  g.diagonal() *= 1 + 1e-12;
+  const Eigen::VectorXd alpha = g.ldlt().solve(h);
+  if (!alpha.allFinite()) return;
+  z_ = r_;
+  for (Eigen::Index i = 0; i < k; ++i) z_.noalias() -= alpha[i] * qd_[std::size_t(i)];
+  if (!(z_.squaredNorm() < r_.squaredNorm())) return;
+  r_.swap(z_);
+  for (Eigen::Index i = 0; i < k; ++i) x.noalias() += alpha[i] * pd_[std::size_t(i)];
+  stats_.prediction_weight = alpha[0];
+}
+
+bool ConjugateGradient::start(const Eigen::VectorXd& b, Eigen::VectorXd& x, std::span<const Eigen::VectorXd> d) {
+  const Eigen::Index n = A_->rows();
+  // Split the guess: z_ = kept part, p_ = free part.
+  z_ = x;
+  p_ = x;
+  project(p_);
+  z_ -= p_;
+  // Effective right-hand side P (b - A x_kept); A x_kept is cached while the kept values and
+  // the operator stay the same (the common frame: fixed nodes, or a probe that stopped).
+  if (z_.isZero(0)) {
+    akept_.setZero(n);
+    kept_last_.setZero(n);
+    akept_valid_ = true;
+  } else if (!(akept_valid_ && kept_last_.size() == n && z_ == kept_last_)) {
+    A_->multiply(z_, akept_);
+    project(akept_);
+    kept_last_ = z_;
+    akept_valid_ = true;
+  }
+  r_ = b;
+  project(r_);
+  r_ -= akept_;
+  bnorm_ = r_.norm();
+  if (!std::isfinite(bnorm_)) {
     stats_.info = SolveInfo::NumericalIssue;
     stats_.relative_residual = std::numeric_limits<double>::quiet_NaN();
     stats_.message = "cg: the right-hand side or the initial guess contains NaN/Inf";
-    stats_.solve_ms = elapsed_ms();
-    return;
+    return false;
   }
-  if (bnorm == 0) {  // the solution is zero on free unknowns
-    if (free_) {
-      for (Eigen::Index i = 0; i < n; ++i)
-        if ((*free_)[i]) x[i] = 0;
-    } else {
-      x.setZero();
-    }
-    stats_.solve_ms = elapsed_ms();
-    return;
+  if (bnorm_ == 0) {  // the solution is zero on free unknowns
+    x -= p_;
+    return false;
   }
-
-  const bool jacobi = opt_.preconditioner == Preconditioner::Jacobi;
-  if (jacobi) {
-    const Eigen::VectorXd& d = A_->diagonal();
-    inv_diag_.resize(n);
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const bool f = !free_ || (*free_)[i];
-      inv_diag_[i] = (f && d[i] > 0) ? 1.0 / d[i] : (f ? 1.0 : 0.0);
-    }
+  if (!p_.isZero(0)) {
+    A_->multiply(p_, q_);
+    project(q_);
+    r_ -= q_;
   }
-  auto precondition = [&] {
-    if (jacobi) z_ = inv_diag_.cwiseProduct(r_);
-    else z_ = r_;
-  };
-
-  const double target = opt_.tolerance * bnorm;
-  double rnorm = r_.norm();
-  precondition();
+  if (!std::isfinite(r_.squaredNorm())) {
+    stats_.info = SolveInfo::NumericalIssue;
+    stats_.relative_residual = std::numeric_limits<double>::quiet_NaN();
+    stats_.message = "cg: the right-hand side or the initial guess contains NaN/Inf";
+    return false;
+  }
+  stats_.guess_relative_residual = r_.norm() / bnorm_;
+  predict(x, d);
+  stats_.initial_relative_residual = r_.norm() / bnorm_;
+  if (stats_.initial_relative_residual <= opt_.tolerance) {  // converged at the start point
+    stats_.relative_residual = stats_.initial_relative_residual;
+    return false;
+  }
+  pc_->setup(*A_, free_);
+  pc_version_ = pc_->version();
+  pc_->apply(r_, z_);
+  project(z_);
   p_ = z_;
-  double rz = r_.dot(z_);
+  rz_ = r_.dot(z_);
+  return true;
+}
+
+void ConjugateGradient::solve_with_guess(const Eigen::VectorXd& b, Eigen::VectorXd& x,
+                                         std::span<const Eigen::VectorXd> d) {
+  const double t0 = now_ms();
+  if (!A_) throw Error("cg: solve before compute()");
+  if (!pc_) set_preconditioner(opt_.preconditioner);
+  const Eigen::Index n = A_->rows();
+  if (b.size() != n || x.size() != n)
+    throw InvalidArgument("cg: right-hand side / guess size does not match the operator");
+  const bool resume = can_resume(b, x);
+  stats_ = SolveStats{};
+  stats_.resumed = resume;
+  if (resume) {
+    stats_.guess_relative_residual = stats_.initial_relative_residual = r_.norm() / bnorm_;
+  } else if (!start(b, x, d)) {
+    resumable_ = false;
+    stats_.solve_ms = now_ms() - t0;
+    return;
+  }
+  iterate(x, t0);
+  // Keep what a resume needs only when there is something to resume.
+  resumable_ = stats_.info == SolveInfo::BudgetExhausted || stats_.info == SolveInfo::NoConvergence;
+  if (resumable_) {
+    b_last_ = b;
+    x_last_ = x;
+  }
+  stats_.solve_ms = now_ms() - t0;
+}
+
+void ConjugateGradient::iterate(Eigen::VectorXd& x, double t0) {
+  const double target = opt_.tolerance * bnorm_;
+  double rnorm = r_.norm();
   int k = 0;
   for (;;) {
-    stats_.relative_residual = rnorm / bnorm;
+    stats_.relative_residual = rnorm / bnorm_;
     if (rnorm <= target) {
       stats_.info = SolveInfo::Success;
       break;
@@ -143,7 +238,7 @@ void ConjugateGradient::solve_with_guess(const Eigen::VectorXd& b, Eigen::Vector
       stats_.message = m.str();
       break;
     }
-    if (k > 0 && opt_.budget_ms > 0 && elapsed_ms() >= opt_.budget_ms) {
+    if (k > 0 && opt_.budget_ms > 0 && now_ms() - t0 >= opt_.budget_ms) {
       stats_.info = SolveInfo::BudgetExhausted;
       stats_.budget_exhausted = true;
       break;
@@ -165,7 +260,7 @@ void ConjugateGradient::solve_with_guess(const Eigen::VectorXd& b, Eigen::Vector
       stats_.message = m.str();
       break;
     }
-    const double alpha = rz / pq;
+    const double alpha = rz_ / pq;
     x.noalias() += alpha * p_;
     r_.noalias() -= alpha * q_;
     ++k;
@@ -175,13 +270,13 @@ void ConjugateGradient::solve_with_guess(const Eigen::VectorXd& b, Eigen::Vector
       stats_.message = "cg: residual became NaN/Inf at iteration " + std::to_string(k);
       break;
     }
-    precondition();
+    pc_->apply(r_, z_);
+    project(z_);
     const double rz_new = r_.dot(z_);
-    p_ = z_ + (rz_new / rz) * p_;
-    rz = rz_new;
+    p_ = z_ + (rz_new / rz_) * p_;
+    rz_ = rz_new;
   }
   stats_.iterations = k;
-  stats_.solve_ms = elapsed_ms();
 }
 
 }  // namespace incise

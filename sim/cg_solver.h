@@ -10,13 +10,23 @@
 // right-hand side, so it does not depend on the guess).
 // Breakdown: p^T A p <= 0 (not positive definite) and NaN/Inf stop the loop with a message.
 // Vocabulary after Eigen: compute, solve, solve_with_guess, info, iterations, error.
+//
+// Cost of a fresh start: one product A x_free (none when the guess is zero on free unknowns),
+// plus A x_kept only when the kept values changed since the last solve on this operator, plus
+// A d_i per prediction direction d_i given. Resume: a solve stopped by the budget or the
+// iteration cap continues its own iteration (no product, same iterates as one uninterrupted
+// solve) when called again with the same right-hand side and the x it returned, on the same
+// operator (no compute()/invalidate() since) and the same preconditioner version.
 #include <cstdint>
+#include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
 #include "sim/linear_operator.h"
+#include "sim/preconditioner.h"
 
 namespace incise {
 
@@ -32,42 +42,55 @@ const char* to_string(SolveInfo info);
 struct SolveStats {
   int iterations = 0;              // CG iterations (one K x each)
   double relative_residual = 0;    // ||r|| / ||b_eff|| at exit
+  double initial_relative_residual = 0;  // at the start point actually used (after prediction)
+  double guess_relative_residual = 0;    // at the guess as given (before prediction)
+  double prediction_weight = 0;    // alpha_1 of x = guess + sum alpha_i d_i (0: prediction not used)
   double solve_ms = 0;             // wall time of the solve
   bool budget_exhausted = false;   // the budget stopped it
+  bool resumed = false;            // continued the previous interrupted solve
   SolveInfo info = SolveInfo::Success;
   std::string message;             // empty on success; one line otherwise
   bool converged() const { return info == SolveInfo::Success; }
 };
 
-enum class Preconditioner { None, Jacobi };
-
 struct CgOptions {
   double tolerance = 1e-8;                          // relative residual target
   int max_iterations = 10000;                       // cap per solve
   double budget_ms = 0;                             // wall-clock budget per solve; 0 = none
-  Preconditioner preconditioner = Preconditioner::Jacobi;  // Jacobi: diag(A) of free unknowns
+  Preconditioner preconditioner = Preconditioner::Jacobi;  // see sim/preconditioner.h
 };
 
 class ConjugateGradient {
 public:
-  ConjugateGradient() = default;
-  explicit ConjugateGradient(const CgOptions& o) : opt_(o) {}
+  ConjugateGradient() : ConjugateGradient(CgOptions{}) {}
+  explicit ConjugateGradient(const CgOptions& o);
 
   void set_tolerance(double t);
   void set_max_iterations(int n);
   void set_budget_ms(double ms);
-  void set_preconditioner(Preconditioner p) { opt_.preconditioner = p; }
+  void set_preconditioner(Preconditioner p);
+  // Uses `pc` (not owned, must outlive the solves) instead of the built-in one; nullptr
+  // returns to the built-in one.
+  void set_preconditioner(CgPreconditioner* pc);
   const CgOptions& options() const { return opt_; }
 
   // Binds the operator and the free mask (3 * vertex entries, 1 = free). Both must outlive
-  // the solves; the operator's diagonal is read at each solve, so local updates of the
-  // operator need no new compute(). An empty mask means every unknown is free.
+  // the solves. The preconditioner reads the operator at each fresh start, so local updates of
+  // the operator need no new compute(), but they need invalidate() (or compute()) to stop a
+  // resume. An empty mask means every unknown is free.
   void compute(const LinearOperator& A, const std::vector<std::uint8_t>* free = nullptr);
+  // The operator or the mask changed in place: no resume, no cached A x_kept.
+  void invalidate();
 
   // x = 0 on free unknowns (kept unknowns are 0 too).
   Eigen::VectorXd solve(const Eigen::VectorXd& b);
-  // Starts from x (kept unknowns hold their prescribed values) and overwrites it.
-  void solve_with_guess(const Eigen::VectorXd& b, Eigen::VectorXd& x);
+  // Starts from x (kept unknowns hold their prescribed values) and overwrites it. With
+  // prediction directions d_i (their kept entries are ignored), starts from x + sum alpha_i d_i
+  // with the alphas minimizing the initial residual (least squares over their span, 0 included),
+  // so a prediction never starts worse than x itself.
+  void solve_with_guess(const Eigen::VectorXd& b, Eigen::VectorXd& x, std::span<const Eigen::VectorXd> d = {});
+  // Whether solve_with_guess(b, x) would resume the previous solve.
+  bool can_resume(const Eigen::VectorXd& b, const Eigen::VectorXd& x) const;
 
   SolveInfo info() const { return stats_.info; }
   int iterations() const { return stats_.iterations; }
@@ -76,12 +99,26 @@ public:
 
 private:
   void project(Eigen::VectorXd& v) const;
+  bool start(const Eigen::VectorXd& b, Eigen::VectorXd& x, std::span<const Eigen::VectorXd> d);  // false: done
+  void predict(Eigen::VectorXd& x, std::span<const Eigen::VectorXd> d);
+  void iterate(Eigen::VectorXd& x, double t0_ms);
 
   CgOptions opt_;
   const LinearOperator* A_ = nullptr;
   const std::vector<std::uint8_t>* free_ = nullptr;
+  std::unique_ptr<CgPreconditioner> builtin_;
+  CgPreconditioner* pc_ = nullptr;  // builtin_ or the attached one
   SolveStats stats_;
-  Eigen::VectorXd r_, z_, p_, q_, inv_diag_;  // kept between solves to avoid reallocation
+  Eigen::VectorXd r_, z_, p_, q_;  // kept between solves: resume state and no reallocation
+  std::vector<Eigen::VectorXd> pd_, qd_;  // projected prediction directions and A times them
+  double rz_ = 0, bnorm_ = 0;
+  // Resume: the problem the interrupted solve was on.
+  bool resumable_ = false;
+  std::uint64_t pc_version_ = 0;
+  Eigen::VectorXd b_last_, x_last_;
+  // P A x_kept for the kept values of the last fresh start on this operator.
+  bool akept_valid_ = false;
+  Eigen::VectorXd kept_last_, akept_;
 };
 
 }  // namespace incise

@@ -25,6 +25,35 @@ inline Eigen::Matrix3d stress_of(const Eigen::Matrix3d& h, double mu, double lam
   return 2 * mu * eps + lambda * eps.trace() * Eigen::Matrix3d::Identity();
 }
 
+// The rotation of the polar decomposition F = R S. Well-shaped, uninverted F (the common case
+// every frame): scaled Newton iteration R <- (g R + R^-T / g) / 2 (Higham), a few 3x3
+// inverses, many times cheaper than an SVD. Inverted or nearly degenerate F: the SVD, with the
+// column of the smallest singular value flipped to get the closest proper rotation.
+Eigen::Matrix3d rotation_of(const Eigen::Matrix3d& f) {
+  const double det = f.determinant(), fn = f.norm();
+  if (det > 1e-3 * fn * fn * fn) {
+    Eigen::Matrix3d r = f;
+    for (int it = 0; it < 20; ++it) {
+      const Eigen::Matrix3d rit = r.inverse().transpose();
+      const double g = std::sqrt(std::sqrt(rit.squaredNorm() / r.squaredNorm()));
+      const Eigen::Matrix3d next = 0.5 * (g * r + rit / g);
+      const double change = (next - r).squaredNorm();
+      r = next;
+      if (change < 1e-28) break;
+    }
+    if ((r.transpose() * r - Eigen::Matrix3d::Identity()).squaredNorm() < 1e-24 && r.determinant() > 0) return r;
+  }
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(f, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d uu = svd.matrixU();
+  const Eigen::Matrix3d& vv = svd.matrixV();
+  Eigen::Matrix3d r = uu * vv.transpose();
+  if (r.determinant() < 0) {  // inverted (or reflected) element: nearest proper rotation
+    uu.col(2) = -uu.col(2);
+    r = uu * vv.transpose();
+  }
+  return r;
+}
+
 template <class F>
 void parallel_range(std::size_t n, F&& f) {
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 512), [&](const tbb::blocked_range<std::size_t>& r) {
@@ -34,6 +63,14 @@ void parallel_range(std::size_t n, F&& f) {
 
 }  // namespace
 
+Eigen::Matrix3d element_block(const Eigen::Matrix3d& bm, double vol, double mu, double lambda, const Eigen::Matrix3d& r,
+                              int i, int j) {
+  const Eigen::Vector3d gi = shape_gradient(bm, i), gj = shape_gradient(bm, j);
+  const Eigen::Matrix3d blk =
+      vol * (mu * gi.dot(gj) * Eigen::Matrix3d::Identity() + mu * gj * gi.transpose() + lambda * gi * gj.transpose());
+  return r * blk * r.transpose();
+}
+
 double von_mises_of(const Eigen::Matrix3d& s) {
   const double a = s(0, 0) - s(1, 1), b = s(1, 1) - s(2, 2), c = s(2, 2) - s(0, 0);
   const double sh = s(0, 1) * s(0, 1) + s(1, 2) * s(1, 2) + s(0, 2) * s(0, 2);
@@ -41,11 +78,20 @@ double von_mises_of(const Eigen::Matrix3d& s) {
 }
 
 FemModel::FemModel(const TetMesh& mesh, const MaterialTable& materials, FemKind kind)
-    : mesh_(&mesh), materials_(materials), kind_(kind) {
+    : mesh_(&mesh), materials_(materials), kind_(kind), kernel_(kind == FemKind::Corotational) {
   check_material(materials_.fallback(), "materials.*");
   for (const auto& [label, m] : materials_.by_label()) check_material(m, "materials." + std::to_string(label));
   grow();
   parallel_range(tet_capacity_, [&](std::size_t t) { compute_tet(std::uint32_t(t)); });
+  // Tets enter the kernel by their smallest vertex id, so each slab sweeps x and y in order
+  // (hardware prefetch instead of a cache miss per corner on large meshes).
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> order;
+  order.reserve(tet_capacity_);
+  for (std::size_t t = 0; t < tet_capacity_; ++t)
+    if (alive_[t]) order.emplace_back(*std::min_element(verts_[t].begin(), verts_[t].end()), std::uint32_t(t));
+  std::sort(order.begin(), order.end());
+  kernel_.configure(*mesh_);
+  for (const auto& [v, t] : order) kernel_.add(*mesh_, t, verts_[t], bm_[t], vol_[t] * mu_[t], vol_[t] * lambda_[t]);
   parallel_range(vertex_capacity_, [&](std::size_t v) { compute_vertex(std::uint32_t(v)); });
 }
 
@@ -73,6 +119,7 @@ void FemModel::grow() {
     diag_.tail(diag_.size() - old).setZero();
     mass_.tail(mass_.size() - old).setZero();
     corner_slots_.resize(cap);
+    blocks_.resize(cap, Eigen::Matrix3d::Zero());
     vertex_capacity_ = cap;
   }
 }
@@ -105,7 +152,7 @@ void FemModel::compute_tet(std::uint32_t ti) {
 }
 
 void FemModel::compute_vertex(std::uint32_t vi) {
-  Eigen::Vector3d d = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d blk = Eigen::Matrix3d::Zero();
   double m = 0;
   const VertexId v(vi);
   auto& slots = corner_slots_[vi];
@@ -118,25 +165,32 @@ void FemModel::compute_vertex(std::uint32_t vi) {
       slots.push_back(4 * ti + std::uint32_t(j));
       const Eigen::Vector3d g = shape_gradient(bm_[ti], j);
       const Eigen::Vector3d rg = rot_[ti] * g;
-      d += vol_[ti] * (mu_[ti] * g.squaredNorm() * Eigen::Vector3d::Ones() + (mu_[ti] + lambda_[ti]) * rg.cwiseAbs2());
+      // Block (i, i) of the element matrix: V (mu |g|^2 I + (mu + lambda) (R g)(R g)^T).
+      blk += vol_[ti] * (mu_[ti] * g.squaredNorm() * Eigen::Matrix3d::Identity() + (mu_[ti] + lambda_[ti]) * rg * rg.transpose());
       m += rho_[ti] * vol_[ti] / 4;
     }
   }
-  diag_.segment<3>(3 * vi) = d;
+  blocks_[vi] = blk;
+  diag_.segment<3>(3 * vi) = blk.diagonal();
   mass_.segment<3>(3 * vi).setConstant(m);
 }
 
 void FemModel::apply(const TopologyChange& change) {
   grow();
   ++work_.updates;
-  for (TetId t : change.removed_tets)
+  for (TetId t : change.removed_tets) {
     if (t.idx() < tet_capacity_) alive_[t.idx()] = 0;
+    kernel_.remove(t.idx());
+  }
   for (TetId t : change.added_tets) {
-    compute_tet(t.idx());
+    const std::uint32_t ti = t.idx();
+    compute_tet(ti);
+    if (alive_[ti]) kernel_.add(*mesh_, ti, verts_[ti], bm_[ti], vol_[ti] * mu_[ti], vol_[ti] * lambda_[ti]);
     ++work_.tets_recomputed;
   }
   for (VertexId v : change.removed_vertices) {
     corner_slots_[v.idx()].clear();
+    blocks_[v.idx()].setZero();
     diag_.segment<3>(3 * v.idx()).setZero();
     mass_.segment<3>(3 * v.idx()).setZero();
     ++work_.vertices_updated;
@@ -172,18 +226,7 @@ void FemModel::gather(Eigen::VectorXd& y, bool accumulate) const {
 
 void FemModel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
   if (x.size() != rows()) throw InvalidArgument("fem: K*x with a vector of the wrong size (apply() the last change?)");
-  const bool corot = kind_ == FemKind::Corotational;
-  parallel_range(tet_capacity_, [&](std::size_t ti) {
-    if (!alive_[ti]) return;
-    Eigen::Matrix3d p = vol_[ti] * tet_stress(std::uint32_t(ti), x, false);
-    if (corot) p = rot_[ti] * p;  // linear: R = I, skip the product
-    const Eigen::Matrix3d f = p * bm_[ti].transpose();  // columns: forces on corners 1..3
-    auto& out = force_[ti];
-    out.rightCols<3>() = f;
-    out.col(0) = -f.rowwise().sum();
-  });
-  y.resize(rows());
-  gather(y, false);
+  kernel_.multiply(x, y, rows());
 }
 
 void FemModel::add_rotation_rhs(Eigen::VectorXd& b) const {
@@ -226,17 +269,12 @@ void FemModel::update_rotations(const Eigen::VectorXd& u) {
     const Eigen::Matrix3d f = Eigen::Matrix3d::Identity() + d * bm_[ti];
     if (!f.allFinite()) {
       rot_[ti].setIdentity();
+      kernel_.set_rotation(std::uint32_t(ti), rot_[ti]);
       return;
     }
-    Eigen::JacobiSVD<Eigen::Matrix3d> svd(f, Eigen::ComputeFullU | Eigen::ComputeFullV);
-    Eigen::Matrix3d uu = svd.matrixU();
-    const Eigen::Matrix3d& vv = svd.matrixV();
-    Eigen::Matrix3d r = uu * vv.transpose();
-    if (r.determinant() < 0) {  // inverted (or reflected) element: nearest proper rotation
-      uu.col(2) = -uu.col(2);
-      r = uu * vv.transpose();
-    }
+    const Eigen::Matrix3d r = rotation_of(f);
     rot_[ti] = r;
+    kernel_.set_rotation(std::uint32_t(ti), r);  // no two threads write the same slot
   });
   parallel_range(vertex_capacity_, [&](std::size_t v) { compute_vertex(std::uint32_t(v)); });
 }
@@ -292,13 +330,8 @@ Eigen::SparseMatrix<double> FemModel::assemble() const {
       const auto& tv = verts_[ti];
       int i = 0;
       while (tv[i] != vi) ++i;
-      const Eigen::Matrix3d& r = rot_[ti];
-      const Eigen::Vector3d gi = shape_gradient(bm_[ti], i);
       for (int j = 0; j < 4; ++j) {
-        const Eigen::Vector3d gj = shape_gradient(bm_[ti], j);
-        Eigen::Matrix3d blk = vol_[ti] * (mu_[ti] * gi.dot(gj) * Eigen::Matrix3d::Identity() +
-                                          mu_[ti] * gj * gi.transpose() + lambda_[ti] * gi * gj.transpose());
-        blk = r * blk * r.transpose();
+        const Eigen::Matrix3d blk = element_block(bm_[ti], vol_[ti], mu_[ti], lambda_[ti], rot_[ti], i, j);
         const std::size_t c = std::size_t(std::lower_bound(nb.begin(), nb.end(), tv[j]) - nb.begin());
         for (int a = 0; a < 3; ++a)
           for (int b = 0; b < 3; ++b) val[start[vi] + a * per_row + std::int64_t(3 * c + b)] += blk(a, b);

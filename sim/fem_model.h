@@ -10,9 +10,10 @@
 // by TetId that grow with tet_capacity(); dead slots are skipped. apply(change) recomputes only
 // what a TopologyChange names (the added tets, the touched vertices' diagonal and mass).
 //
-// K x is computed in two conflict-free parallel passes: per tet P_t = V R sigma(R^T H_t(x)),
-// then per vertex (K x)_v = sum over incident tets of P_t g_{t,v}. The mesh must outlive the
-// model and every edit batch must be fed to apply() before the next product.
+// K x: per tet P_t = V R sigma(R^T H_t(x)) and corner forces P_t g_{t,v}, scattered colour by
+// colour (sim/stiffness_kernel.h). The other per-tet passes (right-hand side, internal forces)
+// use two conflict-free passes: per-corner forces, then a per-vertex gather. The mesh must
+// outlive the model and every edit batch must be fed to apply() before the next product.
 //
 // Corotational: R_t is the rotation of the polar decomposition of the deformation gradient
 // F = I + H_t(u), refreshed by update_rotations(u); with R fixed, K_R = R K R^T and the
@@ -28,10 +29,28 @@
 #include "mesh/tet_mesh.h"
 #include "sim/linear_operator.h"
 #include "sim/material.h"
+#include "sim/stiffness_kernel.h"
 
 namespace incise {
 
 enum class FemKind { Linear, Corotational };
+
+// Block (i, j) (3x3) of a constant-strain tet's stiffness matrix: rest inverse edge matrix bm,
+// volume, Lame parameters, rotation r (identity for linear).
+Eigen::Matrix3d element_block(const Eigen::Matrix3d& bm, double vol, double mu, double lambda, const Eigen::Matrix3d& r,
+                              int i, int j);
+
+// A copy of the per-tet data K depends on (by TetId, dead slots flagged), for work done off
+// the frame thread, such as a background factorization. Taking it is a memcpy of the arrays.
+struct FemElements {
+  std::vector<std::uint8_t> alive;
+  std::vector<std::array<std::uint32_t, 4>> verts;
+  std::vector<Eigen::Matrix3d> bm, rot;
+  std::vector<double> vol, mu, lambda;
+  Eigen::Matrix3d block(std::size_t t, int i, int j) const {
+    return element_block(bm[t], vol[t], mu[t], lambda[t], rot[t], i, j);
+  }
+};
 
 // Work done by local updates (counted, not timed, so tests can check locality).
 struct FemWork {
@@ -60,6 +79,8 @@ public:
   Eigen::Index rows() const override { return Eigen::Index(num_dofs()); }
   void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const override;
   const Eigen::VectorXd& diagonal() const override { return diag_; }
+  // Per vertex: the 3x3 diagonal block of K (K_R), kept current with the diagonal.
+  const std::vector<Eigen::Matrix3d>& diagonal_blocks() const override { return blocks_; }
 
   // Lumped mass per unknown (density * V / 4 per tet corner, repeated on x,y,z).
   const Eigen::VectorXd& lumped_mass() const { return mass_; }
@@ -78,6 +99,7 @@ public:
   // The assembled K (K_R) as a sparse matrix of num_dofs() rows; O(mesh). The assembled
   // backend and the direct solver use it.
   Eigen::SparseMatrix<double> assemble() const;
+  FemElements elements() const { return {alive_, verts_, bm_, rot_, vol_, mu_, lambda_}; }
 
   // Per-tet access (tests, benchmarks).
   bool tet_alive(TetId t) const { return t.idx() < alive_.size() && alive_[t.idx()]; }
@@ -104,12 +126,16 @@ private:
   std::vector<Eigen::Matrix3d> rot_;  // identity for Linear
   mutable std::vector<Eigen::Matrix<double, 3, 4>> force_;  // pass-1 scratch: per-corner force
 
+  // The product's own copy of the per-tet data, coloured for a conflict-free scatter.
+  StiffnessKernel kernel_;
+
   // Per vertex: its incident corners as slots 4 * tet + local, so the gather pass reads only
   // the per-corner forces (one indirection, no local-index search). Rebuilt with the vertex.
   std::vector<std::vector<std::uint32_t>> corner_slots_;
 
   // Per unknown.
   Eigen::VectorXd diag_, mass_;
+  std::vector<Eigen::Matrix3d> blocks_;  // per vertex
   FemWork work_;
 };
 

@@ -11,27 +11,37 @@ namespace incise {
 
 namespace {
 
-// a * diag(m) + c * K: the backward-Euler system (a = 1 + dt*damping, c = dt^2) or K itself.
+// a * diag(m) + c * K: the backward-Euler system (a = 1 + dt*damping, c = dt^2) or K itself
+// (a = 0, c = 1: every call forwards to K, nothing copied).
 class ScaledSystem : public LinearOperator {
 public:
   ScaledSystem(const LinearOperator& k, const Eigen::VectorXd& mass, double a, double c)
       : k_(k), mass_(mass), a_(a), c_(c) {
-    if (a_ == 0 && c_ == 1) diag_ = k_.diagonal();
-    else diag_ = c_ * k_.diagonal() + a_ * mass_;
+    if (is_k()) return;
+    diag_ = c_ * k_.diagonal() + a_ * mass_;
+    const auto& kb = k_.diagonal_blocks();
+    blocks_.resize(kb.size());
+    for (std::size_t v = 0; v < kb.size(); ++v)
+      blocks_[v] = c_ * kb[v] + a_ * mass_[Eigen::Index(3 * v)] * Eigen::Matrix3d::Identity();
   }
   Eigen::Index rows() const override { return k_.rows(); }
   void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const override {
     k_.multiply(x, y);
-    if (a_ == 0 && c_ == 1) return;  // static: K itself
+    if (is_k()) return;
     y = c_ * y + a_ * mass_.cwiseProduct(x);
   }
-  const Eigen::VectorXd& diagonal() const override { return diag_; }
+  const Eigen::VectorXd& diagonal() const override { return is_k() ? k_.diagonal() : diag_; }
+  const std::vector<Eigen::Matrix3d>& diagonal_blocks() const override {
+    return is_k() ? k_.diagonal_blocks() : blocks_;
+  }
 
 private:
+  bool is_k() const { return a_ == 0 && c_ == 1; }
   const LinearOperator& k_;
   const Eigen::VectorXd& mass_;
   double a_, c_;
   Eigen::VectorXd diag_;
+  std::vector<Eigen::Matrix3d> blocks_;
 };
 
 double ms_since(std::chrono::steady_clock::time_point t0) {
@@ -78,7 +88,8 @@ void FemSimulation::prescribe(VertexId v, const Vec3& d) {
   if (!mesh_->is_alive(v)) throw InvalidArgument("fem: prescribe: vertex " + std::to_string(v.idx()) + " is not alive");
   if (!constrained_[v.idx()]) {
     constrained_[v.idx()] = 1;
-    rigid_dirty_ = direct_dirty_ = true;
+    rigid_dirty_ = direct_dirty_ = system_dirty_ = true;
+    if (cholesky_) cholesky_->mark_stale();
     update_free(v.idx());
   }
   target_.segment<3>(3 * v.idx()) = d;
@@ -87,7 +98,8 @@ void FemSimulation::prescribe(VertexId v, const Vec3& d) {
 void FemSimulation::release(VertexId v) {
   if (!constrained_[v.idx()]) return;
   constrained_[v.idx()] = 0;
-  rigid_dirty_ = direct_dirty_ = true;
+  rigid_dirty_ = direct_dirty_ = system_dirty_ = true;
+  if (cholesky_) cholesky_->mark_stale();
   update_free(v.idx());
 }
 
@@ -134,7 +146,9 @@ void FemSimulation::apply(const TopologyChange& change) {
   // The rigid-mode check is O(mesh), so a topology change does not re-arm it: the per-cut
   // path stays local. A cut that frees a part shows up as a CG breakdown or non-convergence;
   // callers that want the precise diagnosis call check_constraints().
-  if (!change.empty()) assembled_dirty_ = direct_dirty_ = true;
+  predictor_.apply(change, model_.vertex_slots());
+  if (cholesky_) cholesky_->apply(change);
+  if (!change.empty()) assembled_dirty_ = direct_dirty_ = system_dirty_ = true;
 }
 
 void FemSimulation::check_rigid_modes() const {
@@ -206,7 +220,8 @@ void FemSimulation::body_and_external_forces(Eigen::VectorXd& b) const {
 }
 
 void FemSimulation::solve_system(const LinearOperator& k, double a, double c, const Eigen::VectorXd& b,
-                                 Eigen::VectorXd& x, double budget_ms, FrameStats& st) {
+                                 Eigen::VectorXd& x, double budget_ms, FrameStats& st,
+                                 std::span<const Eigen::VectorXd> prediction) {
   if (opt_.method == SolverMethod::Direct) {
     const auto t0 = std::chrono::steady_clock::now();
     if (direct_dirty_ || model_.kind() == FemKind::Corotational || a != direct_mass_coeff_ || c != direct_stiffness_coeff_) {
@@ -245,11 +260,23 @@ void FemSimulation::solve_system(const LinearOperator& k, double a, double c, co
     }
     return;
   }
-  ScaledSystem op(k, model_.lumped_mass(), a, c);
-  cg_.compute(op, &free_);
+  if (system_dirty_ || &k != system_k_ || a != system_a_ || c != system_c_) {
+    system_ = std::make_unique<ScaledSystem>(k, model_.lumped_mass(), a, c);
+    system_k_ = &k;
+    system_a_ = a;
+    system_c_ = c;
+    system_dirty_ = false;
+    cg_.compute(*system_, &free_);
+  }
   cg_.set_budget_ms(budget_ms);
-  cg_.solve_with_guess(b, x);
+  const bool first = st.iterations == 0 && !st.resumed && st.initial_relative_residual == 0;
+  cg_.solve_with_guess(b, x, prediction);
   const SolveStats& s = cg_.stats();
+  if (first) {
+    st.initial_relative_residual = s.initial_relative_residual;
+    st.guess_relative_residual = s.guess_relative_residual;
+    st.resumed = s.resumed;
+  }
   st.iterations += s.iterations;
   st.relative_residual = s.relative_residual;
   st.solve_ms += s.solve_ms;
@@ -258,15 +285,51 @@ void FemSimulation::solve_system(const LinearOperator& k, double a, double c, co
   st.message = s.message;
 }
 
+void FemSimulation::relinearize() {
+  if (model_.kind() != FemKind::Corotational) return;
+  model_.update_rotations(u_);
+  b_rot_.setZero(model_.rows());
+  model_.add_rotation_rhs(b_rot_);
+  assembled_dirty_ = system_dirty_ = true;
+}
+
+// b_ = external + body (+ corotational term), x_ = u_ with the prescribed values on kept unknowns.
+void FemSimulation::static_rhs_and_guess() {
+  body_and_external_forces(b_);
+  if (model_.kind() == FemKind::Corotational) b_ += b_rot_;
+  x_ = opt_.warm_start ? u_ : Eigen::VectorXd::Zero(u_.size());
+  for (std::size_t i = 0; i < free_.size(); ++i)
+    if (!free_[i]) x_[Eigen::Index(i)] = target_[Eigen::Index(i)];
+}
+
 const FrameStats& FemSimulation::step() {
   const auto t0 = std::chrono::steady_clock::now();
+  const int last_iterations = stats_.iterations;
   stats_ = FrameStats{};
   grow();
+  // The asynchronous factor: adopt a finished one, start a fresh one if due, before anything
+  // below decides whether CG resumes (a new factor means a restart).
+  if (opt_.method == SolverMethod::Cg && cg_.options().preconditioner == Preconditioner::Cholesky) {
+    if (!cholesky_) {
+      cholesky_ = std::make_unique<AsyncCholesky>(model_, opt_.cholesky);
+      cg_.set_preconditioner(cholesky_.get());
+    }
+    if (opt_.dynamic) cholesky_->frame(free_, 1 + opt_.dt * opt_.damping, opt_.dt * opt_.dt, last_iterations);
+    else cholesky_->frame(free_, 0.0, 1.0, last_iterations);
+  } else if (cholesky_) {
+    cg_.set_preconditioner(nullptr);
+    cholesky_.reset();
+  }
   const LinearOperator* k = &model_;
   auto refresh_operator = [&] {
     if (opt_.backend == StiffnessBackend::Assembled && opt_.method == SolverMethod::Cg) {
-      if (!assembled_) assembled_ = std::make_unique<AssembledStiffness>(model_);
-      else if (assembled_dirty_ || model_.kind() == FemKind::Corotational) assembled_->rebuild();
+      if (!assembled_) {
+        assembled_ = std::make_unique<AssembledStiffness>(model_);
+        system_dirty_ = true;
+      } else if (assembled_dirty_) {
+        assembled_->rebuild();
+        system_dirty_ = true;
+      }
       assembled_dirty_ = false;
       k = assembled_.get();
     }
@@ -276,29 +339,41 @@ const FrameStats& FemSimulation::step() {
     if (budget <= 0) return 0.0;
     return std::max(1e-6, budget - ms_since(t0));
   };
+  auto resumable = [&] { return opt_.method == SolverMethod::Cg && !system_dirty_ && cg_.can_resume(b_, x_); };
 
   if (!opt_.dynamic) {
     if (opt_.check_rigid_modes && rigid_dirty_) {
       check_rigid_modes();
       rigid_dirty_ = false;
     }
-    const int rounds = model_.kind() == FemKind::Corotational ? opt_.nonlinear_iterations : 1;
+    const bool corot = model_.kind() == FemKind::Corotational;
+    const int rounds = corot ? opt_.nonlinear_iterations : 1;
     for (int it = 0; it < rounds; ++it) {
-      model_.update_rotations(u_);
+      // A solve the budget interrupted continues on its own linearization when nothing else
+      // changed: new rotations would change the operator and force a restart every frame.
+      bool fresh_rotations = corot;
+      if (corot && it == 0 && b_rot_.size() == model_.rows()) {
+        static_rhs_and_guess();
+        fresh_rotations = !resumable();
+      }
+      if (fresh_rotations) relinearize();
       refresh_operator();
-      body_and_external_forces(b_);
-      model_.add_rotation_rhs(b_);
-      x_ = opt_.warm_start ? u_ : Eigen::VectorXd::Zero(u_.size());
-      for (std::size_t i = 0; i < free_.size(); ++i)
-        if (!free_[i]) x_[Eigen::Index(i)] = target_[Eigen::Index(i)];
-      solve_system(*k, 0.0, 1.0, b_, x_, remaining(), stats_);
+      static_rhs_and_guess();
+      std::span<const Eigen::VectorXd> prediction;
+      if (opt_.warm_start && opt_.predict && it == 0 && opt_.method == SolverMethod::Cg && !resumable())
+        prediction = std::span<const Eigen::VectorXd>(d_.data(), std::size_t(predictor_.directions(free_, d_)));
+      solve_system(*k, 0.0, 1.0, b_, x_, remaining(), stats_, prediction);
       if (stats_.info == SolveInfo::NotPositiveDefinite || stats_.info == SolveInfo::NumericalIssue) break;
       u_ = x_;
       if (stats_.budget_exhausted) break;
     }
+    // Unconverged frames are recorded too: the initial-residual line search in CG discards a
+    // prediction that would start worse than the last solution.
+    if (stats_.info == SolveInfo::NotPositiveDefinite || stats_.info == SolveInfo::NumericalIssue) predictor_.clear();
+    else predictor_.record(u_);
   } else {
     const double dt = opt_.dt;
-    model_.update_rotations(u_);
+    relinearize();
     refresh_operator();
     // b = M v + dt (f_ext + f_int(u))
     body_and_external_forces(b_);
@@ -307,12 +382,13 @@ const FrameStats& FemSimulation::step() {
     x_ = opt_.warm_start ? v_ : Eigen::VectorXd::Zero(v_.size());
     for (std::size_t i = 0; i < free_.size(); ++i)
       if (!free_[i]) x_[Eigen::Index(i)] = (target_[Eigen::Index(i)] - u_[Eigen::Index(i)]) / dt;
-    solve_system(*k, 1 + dt * opt_.damping, dt * dt, b_, x_, remaining(), stats_);
+    solve_system(*k, 1 + dt * opt_.damping, dt * dt, b_, x_, remaining(), stats_, {});
     if (stats_.info != SolveInfo::NotPositiveDefinite && stats_.info != SolveInfo::NumericalIssue) {
       v_ = x_;
       u_ += dt * v_;
     }
   }
+  stats_.frame_ms = ms_since(t0);
   return stats_;
 }
 

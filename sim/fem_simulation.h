@@ -8,8 +8,11 @@
 // corotational equilibrium.
 //
 // Solvers: CG on the matrix-free model or on the assembled matrix (same CG, same stats), or
-// the direct LDL^T reference. CG is warm-started from the previous frame and may stop on a
-// wall-clock budget; the approximate solution is kept and the next frame continues from it.
+// the direct LDL^T reference. CG is warm-started from the previous frame (static frames: with
+// a prediction extrapolated from the last three, see sim/warm_start.h) and may stop on a
+// wall-clock budget; the approximate solution is kept, and when nothing changed by the next
+// frame (loads, constraints, topology; corotational rotations are not refreshed while such a
+// solve is pending) CG resumes it, so budgeted frames add up to one uninterrupted solve.
 //
 // Constraints are per vertex: fix() (zero displacement) or prescribe() (a displacement);
 // they enter CG by projection and the right-hand side. A static solve first checks, per
@@ -28,13 +31,16 @@
 #include <Eigen/Core>
 
 #include "mesh/tet_mesh.h"
+#include "sim/async_cholesky.h"
 #include "sim/cg_solver.h"
 #include "sim/fem_model.h"
 #include "sim/material.h"
+#include "sim/warm_start.h"
 
 namespace incise {
 
 class AssembledStiffness;
+class AsyncCholesky;
 class DirectSolver;
 
 enum class SolverMethod { Cg, Direct };
@@ -45,7 +51,9 @@ struct FemSimulationOptions {
   SolverMethod method = SolverMethod::Cg;               // Direct: SimplicialLDLT reference
   StiffnessBackend backend = StiffnessBackend::MatrixFree;  // operator CG multiplies with
   CgOptions cg;                                         // tolerance, cap, budget, preconditioner
+  AsyncCholeskyOptions cholesky;                        // for cg.preconditioner == Cholesky
   bool warm_start = true;                               // start CG from the previous frame
+  bool predict = true;                                  // static warm start extrapolates the last two frames
   bool dynamic = false;                                 // backward Euler instead of static
   double dt = 0.01;                                     // dynamic time step [s]
   double damping = 0;                                   // mass-proportional damping [1/s]
@@ -58,7 +66,11 @@ struct FemSimulationOptions {
 struct FrameStats {
   int iterations = 0;
   double relative_residual = 0;
+  double initial_relative_residual = 0;  // first solve of the frame, at its start point
+  double guess_relative_residual = 0;    // same, before the prediction (at the last solution)
+  bool resumed = false;                  // CG continued the previous frame's interrupted solve
   double solve_ms = 0;
+  double frame_ms = 0;                   // the whole step(): rotations, right-hand side, solves
   bool budget_exhausted = false;
   SolveInfo info = SolveInfo::Success;
   std::string message;
@@ -99,6 +111,8 @@ public:
   std::vector<double> von_mises();                      // per TetId, current state
   const std::vector<std::uint8_t>& free_mask() const { return free_; }
 
+  // The asynchronous factorization behind Preconditioner::Cholesky (nullptr until used).
+  const AsyncCholesky* cholesky() const { return cholesky_.get(); }
   FemModel& model() { return model_; }
   const FemModel& model() const { return model_; }
   FemSimulationOptions& options() { return opt_; }
@@ -110,7 +124,9 @@ private:
   void check_rigid_modes() const;
   void body_and_external_forces(Eigen::VectorXd& b) const;
   void solve_system(const LinearOperator& op, double mass_coeff, double stiffness_coeff, const Eigen::VectorXd& b,
-                    Eigen::VectorXd& x, double budget_ms, FrameStats& st);
+                    Eigen::VectorXd& x, double budget_ms, FrameStats& st, std::span<const Eigen::VectorXd> prediction);
+  void relinearize();
+  void static_rhs_and_guess();
 
   const TetMesh* mesh_;
   FemSimulationOptions opt_;
@@ -120,6 +136,15 @@ private:
   bool assembled_dirty_ = true, direct_dirty_ = true, rigid_dirty_ = true;
   double direct_mass_coeff_ = -1, direct_stiffness_coeff_ = -1;
   ConjugateGradient cg_;
+  // The system CG runs on (K, or a M + c K); rebuilt, and CG re-bound, when system_dirty_.
+  std::unique_ptr<LinearOperator> system_;
+  const LinearOperator* system_k_ = nullptr;
+  double system_a_ = -1, system_c_ = -1;
+  bool system_dirty_ = true;
+  WarmStartPredictor predictor_;
+  std::unique_ptr<AsyncCholesky> cholesky_;  // Preconditioner::Cholesky: built on first use
+  Eigen::VectorXd b_rot_;              // corotational right-hand side term
+  std::vector<Eigen::VectorXd> d_;     // prediction directions
 
   Eigen::VectorXd u_, v_, f_ext_, target_;  // target_: prescribed displacement per unknown
   std::vector<std::uint8_t> constrained_;   // per vertex

@@ -270,12 +270,23 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     if (js.contains("tolerance")) s.cg.tolerance = rd.positive(js["tolerance"], "solver.tolerance");
     if (js.contains("max_iterations")) s.cg.max_iterations = rd.integer(js["max_iterations"], "solver.max_iterations", 1);
     if (js.contains("budget_ms")) s.cg.budget_ms = rd.non_negative(js["budget_ms"], "solver.budget_ms");
-    if (js.contains("warm_start")) s.warm_start = rd.boolean(js["warm_start"], "solver.warm_start");
+    if (js.contains("warm_start")) {  // true = "predict", "last" (previous frame only), false = cold
+      const json& w = js["warm_start"];
+      if (w.is_string() && (w.get<std::string>() == "predict" || w.get<std::string>() == "last")) {
+        s.warm_start = true;
+        s.predict = w.get<std::string>() == "predict";
+      } else if (w.is_boolean()) {
+        s.warm_start = w.get<bool>();
+      } else {
+        rd.fail("solver.warm_start", "expected true, false, \"predict\" or \"last\"");
+      }
+    }
     if (js.contains("preconditioner")) {
-      const std::string p = rd.string(js["preconditioner"], "solver.preconditioner");
-      if (p == "jacobi") s.cg.preconditioner = Preconditioner::Jacobi;
-      else if (p == "none") s.cg.preconditioner = Preconditioner::None;
-      else rd.fail("solver.preconditioner", "expected \"jacobi\" or \"none\", got \"" + p + "\"");
+      try {
+        s.cg.preconditioner = parse_preconditioner(rd.string(js["preconditioner"], "solver.preconditioner"));
+      } catch (const InvalidArgument& e) {
+        rd.fail("solver.preconditioner", e.what());
+      }
     }
     if (js.contains("operator")) {
       const std::string o = rd.string(js["operator"], "solver.operator");
@@ -440,6 +451,7 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
     fo.backend = s.backend;
     fo.cg = s.cg;
     fo.warm_start = s.warm_start;
+    fo.predict = s.predict;
     fo.dynamic = s.integrator == "implicit-euler";
     fo.dt = s.dt;
     fo.damping = s.damping;
@@ -579,7 +591,7 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
           st.iterations += ss.cg_iterations;
           st.relative_residual = ss.cg_relative_residual;
         }
-        st.solve_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+        st.solve_ms = st.frame_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
         disp = Eigen::VectorXd::Zero(Eigen::Index(3 * mesh.vertex_capacity()));
         const auto& x = springs->positions();
         for (VertexId v : mesh.vertices()) disp.segment<3>(3 * v.idx()) = x[v.idx()] - mesh.rest(v);
@@ -587,6 +599,7 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
           throw Error(s.path + ": frame " + std::to_string(frame) +
                       ": spring model produced NaN/Inf (time step above the stable limit?)");
       }
+      if (opt.on_frame) opt.on_frame(frame, disp, st);
       double maxd = 0;
       for (Eigen::Index i = 0; i < disp.size(); i += 3) maxd = std::max(maxd, disp.segment<3>(i).norm());
       const double time = dynamic ? (frame + 1) * s.dt * (s.model == SceneModel::Springs ? s.substeps : 1) : frame;

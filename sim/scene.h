@@ -83,8 +83,9 @@ struct Scene {
   // solver
   SolverMethod method = SolverMethod::Cg;
   StiffnessBackend backend = StiffnessBackend::MatrixFree;
-  CgOptions cg;
+  CgOptions cg{.preconditioner = Preconditioner::Cholesky};  // the fastest measured (docs/solver.md)
   bool warm_start = true;
+  bool predict = true;              // warm start extrapolates the last frames ("predict")
   int nonlinear_iterations = 1;
   // time
   int frames = 100;
@@ -110,6 +111,8 @@ struct SceneRunOptions {
   int frames = -1;                    // override scene frames when >= 0
   std::ostream* progress = nullptr;   // one line per frame (stderr in the CLI)
   SceneCutHook cut_hook;              // required when the scene has cuts (cut/scene_cuts.h)
+  // Called after each frame with its displacement (3 per vertex slot) and stats (incise trade).
+  std::function<void(int frame, const Eigen::VectorXd& displacement, const FrameStats& stats)> on_frame;
 };
 
 struct SceneRunSummary {

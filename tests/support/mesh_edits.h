@@ -98,4 +98,36 @@ inline void jitter(TetMesh& m, double amount, std::uint32_t seed) {
   }
 }
 
+// A crack along the faces between the tets whose centroid lies below `at` on `axis` and those
+// above it, where those faces lie above `from` on axis `up`: the crack's vertices are
+// duplicated (recorded as added vertices with one parent) and the upper-side tets moved onto
+// the duplicates. A stand-in for a scalpel cut in sim tests and benchmarks (cut/ has the real
+// one); crack deeper by calling again with a lower `from`. Returns the vertices duplicated.
+inline std::size_t crack(TetMesh& m, int axis, double at, int up, double from) {
+  auto centre = [&](TetId t) {
+    Vec3 c = Vec3::Zero();
+    for (VertexId w : m.tet_vertices(t)) c += m.rest(w) / 4;
+    return c;
+  };
+  std::vector<VertexId> on;
+  for (VertexId v : m.vertices()) {
+    if (m.rest(v)[up] <= from) continue;
+    bool below = false, above = false;
+    for (TetId t : m.incident_tets(v)) (centre(t)[axis] < at ? below : above) = true;
+    if (below && above) on.push_back(v);
+  }
+  std::size_t n = 0;
+  for (VertexId v : on) {
+    std::vector<TetId> upper;
+    for (TetId t : m.incident_tets(v))
+      if (centre(t)[axis] >= at) upper.push_back(t);
+    const VertexId parents[1] = {v};
+    const double weights[1] = {1.0};
+    const VertexId d = m.add_vertex_interpolated(parents, weights);
+    for (TetId t : upper) m.replace_vertex(t, v, d);
+    ++n;
+  }
+  return n;
+}
+
 }  // namespace incise::testing

@@ -1,0 +1,272 @@
+// Preconditioners, budgets and warm start, each against a baseline measured in the same run:
+//  1. iterations and time per frame on the sample beam scene, an organ and the organ cut
+//     mid-run, for Jacobi (baseline), block-Jacobi and Cholesky (the scene default);
+//  2. budgeted convergence on a cantilever: relative residual against frames at several
+//     budgets, resuming CG (now) against restarting it every frame (before);
+//  3. warm start on a probe moving steadily over 40 frames: iterations of the last solution
+//     and of the prediction against a cold start;
+//  4. iterations against Poisson's ratio up to 0.4999 for each preconditioner.
+//   bench_fem_precond [--organ MESH] [--beam SCENE] [--budget-tets 30000] [--out DIR]
+#include <cmath>
+
+#include "bench/bench_common.h"
+#include "mesh/generate.h"
+#include "mesh/io/tet_io.h"
+#include "sim/async_cholesky.h"
+#include "sim/fem_simulation.h"
+#include "sim/scene.h"
+#include "tests/support/mesh_edits.h"
+
+using namespace incise;
+using namespace incise::bench;
+
+namespace {
+
+const Preconditioner kPcs[] = {Preconditioner::Jacobi, Preconditioner::BlockJacobi, Preconditioner::Cholesky};
+
+MaterialTable material(double e, double nu) {
+  Material m;
+  m.young = e;
+  m.poisson = nu;
+  return MaterialTable(m);
+}
+
+struct Box {
+  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+  explicit Box(const TetMesh& m) {
+    for (VertexId v : m.vertices()) lo = lo.cwiseMin(m.rest(v)), hi = hi.cwiseMax(m.rest(v));
+  }
+  Vec3 size() const { return hi - lo; }
+};
+
+// An organ scenario: bottom 15% (z) fixed, a probe on the top 5% near the centre pushes down
+// 5% of the height over 30 frames, then holds; corotational, soft tissue. Optionally a crack
+// through the middle at `cut_frame`, deepened at the next two frames.
+struct OrganRun {
+  double iterations_per_frame = 0, ms_per_frame = 0;
+  int not_converged = 0, after_cut_max_iterations = 0;
+  Eigen::VectorXd u;
+};
+OrganRun run_organ(const TetMesh& organ, Preconditioner pc, int frames, int cut_frame) {
+  TetMesh m = organ;
+  m.discard_change();
+  const Box b(m);
+  const Vec3 c = 0.5 * (b.lo + b.hi), s = b.size();
+  FemSimulationOptions opt;
+  opt.kind = FemKind::Corotational;
+  opt.cg.tolerance = 1e-6;
+  opt.cg.max_iterations = 20000;
+  opt.cg.preconditioner = pc;
+  FemSimulation sim(m, material(1e4, 0.45), opt);
+  std::vector<VertexId> probe;
+  for (VertexId v : m.vertices()) {
+    const Vec3 p = m.rest(v);
+    if (p.z() < b.lo.z() + 0.15 * s.z()) sim.fix(v);
+    else if (p.z() > b.hi.z() - 0.25 * s.z() && std::abs(p.x() - c.x()) < 0.12 * s.x() && std::abs(p.y() - c.y()) < 0.12 * s.y())
+      probe.push_back(v);
+  }
+  // The probe: the highest vertices of that column.
+  std::sort(probe.begin(), probe.end(), [&](VertexId a, VertexId d) { return m.rest(a).z() > m.rest(d).z(); });
+  probe.resize(std::max<std::size_t>(3, probe.size() / 4));
+  OrganRun r;
+  for (int f = 0; f < frames; ++f) {
+    if (cut_frame >= 0 && f >= cut_frame && f < cut_frame + 3) {
+      incise::testing::crack(m, 0, c.x(), 2, b.hi.z() - (0.2 + 0.15 * (f - cut_frame)) * s.z());
+      sim.apply(m.take_change());
+    }
+    const double k = std::min(1.0, double(f + 1) / 30);
+    for (VertexId v : probe) sim.prescribe(v, Vec3(0, 0, -0.05 * s.z() * k));
+    const FrameStats& st = sim.step();
+    r.iterations_per_frame += st.iterations;
+    r.ms_per_frame += st.frame_ms;
+    r.not_converged += st.info != SolveInfo::Success;
+    if (cut_frame >= 0 && f >= cut_frame) r.after_cut_max_iterations = std::max(r.after_cut_max_iterations, st.iterations);
+  }
+  r.iterations_per_frame /= frames;
+  r.ms_per_frame /= frames;
+  r.u = sim.displacement();
+  return r;
+}
+
+void section_organ(const std::string& name, const TetMesh& m, int cut_frame, Csv& csv) {
+  std::printf("\n%s: %zu tets, corotational, nu 0.45, tolerance 1e-6, 40 frames%s\n", name.c_str(), m.num_tets(),
+              cut_frame >= 0 ? ", cut at frames 10-12" : "");
+  std::printf("  %-13s %10s %10s %10s %10s %12s %14s\n", "preconditioner", "it/frame", "ms/frame", "it ratio", "ms ratio",
+              "unconverged", "max it after cut");
+  OrganRun base;
+  for (Preconditioner pc : kPcs) {
+    const OrganRun r = run_organ(m, pc, 40, cut_frame);
+    if (pc == Preconditioner::Jacobi) base = r;
+    const double diff = (r.u - base.u).norm() / std::max(1e-300, base.u.norm());
+    std::printf("  %-13s %10.1f %10.2f %10.3f %10.3f %12d %14d   (answer vs Jacobi: %.1e)\n", to_string(pc),
+                r.iterations_per_frame, r.ms_per_frame, r.iterations_per_frame / base.iterations_per_frame,
+                r.ms_per_frame / base.ms_per_frame, r.not_converged, r.after_cut_max_iterations, diff);
+    csv.row(name, to_string(pc), m.num_tets(), r.iterations_per_frame, r.ms_per_frame,
+            r.iterations_per_frame / base.iterations_per_frame, r.ms_per_frame / base.ms_per_frame, r.not_converged,
+            r.after_cut_max_iterations, diff);
+  }
+}
+
+void section_beam_scene(const std::string& path, Csv& csv) {
+  Scene scene = load_scene(path);
+  std::printf("\nsample scene %s (its own settings but the preconditioner)\n", path.c_str());
+  std::printf("  %-13s %10s %10s %10s %10s\n", "preconditioner", "it/frame", "ms/frame", "it ratio", "ms ratio");
+  double base_it = 0, base_ms = 0;
+  for (Preconditioner pc : kPcs) {
+    scene.cg.preconditioner = pc;
+    double it = 0, ms = 0;
+    int frames = 0;
+    SceneRunOptions ro;
+    ro.on_frame = [&](int, const Eigen::VectorXd&, const FrameStats& st) {
+      it += st.iterations;
+      ms += st.frame_ms;
+      ++frames;
+    };
+    run_scene(scene, ro);
+    it /= frames;
+    ms /= frames;
+    if (pc == Preconditioner::Jacobi) base_it = it, base_ms = ms;
+    std::printf("  %-13s %10.1f %10.2f %10.3f %10.3f\n", to_string(pc), it, ms, it / base_it, ms / base_ms);
+    csv.row("beam-scene", to_string(pc), 0, it, ms, it / base_it, ms / base_ms, 0, 0, 0);
+  }
+}
+
+// A cantilever of about `tets` tets, fixed at x = 0, a traction on its top.
+struct Cantilever {
+  TetMesh mesh;
+  explicit Cantilever(double tets) {
+    const int n = std::max(2, int(std::lround(std::cbrt(tets / (6.0 * 8)))));
+    mesh = make_box(Vec3(8, 1, 1), {8 * n, n, n});
+  }
+  void setup(FemSimulation& sim) const {
+    for (VertexId v : mesh.vertices()) {
+      if (mesh.rest(v).x() < 1e-9) sim.fix(v);
+      if (mesh.rest(v).z() > 1 - 1e-9) sim.set_force(v, Vec3(0, 0, -1));
+    }
+  }
+};
+
+void section_budget(double tets, Csv& csv) {
+  Cantilever c(tets);
+  FemSimulationOptions dopt;
+  dopt.method = SolverMethod::Direct;
+  FemSimulation direct(c.mesh, material(1e5, 0.3), dopt);
+  c.setup(direct);
+  direct.step();
+  const Eigen::VectorXd ref = direct.displacement();
+  std::printf("\nbudgeted frames on an unchanged problem: cantilever %zu tets, linear, tolerance 1e-8; error "
+              "||u - u*|| / ||u*|| (u*: direct) and relative residual after N frames\n",
+              c.mesh.num_tets());
+  std::printf("  %-13s %6s %8s %18s %18s %18s %18s %10s\n", "preconditioner", "budget", "mode", "frame 1 err/res",
+              "frame 10", "frame 30", "frame 100", "converged@");
+  for (Preconditioner pc : {Preconditioner::Jacobi, Preconditioner::BlockJacobi, Preconditioner::Cholesky})
+    for (double budget : {2.0, 10.0})
+      for (bool resume : {false, true}) {
+        FemSimulationOptions opt;
+        opt.cg.tolerance = 1e-8;
+        opt.cg.budget_ms = budget;
+        opt.cg.preconditioner = pc;
+        opt.cg.max_iterations = 100000;
+        FemSimulation sim(c.mesh, material(1e5, 0.3), opt);
+        c.setup(sim);
+        double err[4] = {0, 0, 0, 0}, res[4] = {0, 0, 0, 0};
+        int converged = -1;
+        for (int f = 1; f <= 100; ++f) {
+          if (!resume) sim.cg().invalidate();  // the old behaviour: every frame restarts
+          const FrameStats& st = sim.step();
+          if (converged < 0 && st.info == SolveInfo::Success) converged = f;
+          const int slot = f == 1 ? 0 : f == 10 ? 1 : f == 30 ? 2 : f == 100 ? 3 : -1;
+          if (slot >= 0) {
+            err[slot] = (sim.displacement() - ref).norm() / ref.norm();
+            res[slot] = st.relative_residual;
+          }
+        }
+        std::printf("  %-13s %6.0f %8s", to_string(pc), budget, resume ? "resume" : "restart");
+        for (int k = 0; k < 4; ++k) std::printf("  %8.1e/%8.1e", err[k], res[k]);
+        std::printf(" %10d\n", converged);
+        csv.row("budget", to_string(pc), c.mesh.num_tets(), budget, resume ? "resume" : "restart", err[1], err[2], err[3],
+                res[3], converged);
+      }
+}
+
+void section_warm_start(Csv& csv) {
+  Cantilever c(5000);
+  std::printf("\nwarm start: probe at the tip moving steadily over 40 frames, cantilever %zu tets, corotational, "
+              "tolerance 1e-8\n",
+              c.mesh.num_tets());
+  std::printf("  %-13s %10s %10s %10s %12s %12s\n", "preconditioner", "cold", "last", "predicted", "last/cold",
+              "predict/cold");
+  for (Preconditioner pc : kPcs) {
+    int total[3] = {0, 0, 0};
+    for (int mode = 0; mode < 3; ++mode) {
+      FemSimulationOptions opt;
+      opt.kind = FemKind::Corotational;
+      opt.cg.tolerance = 1e-8;
+      opt.cg.preconditioner = pc;
+      opt.cg.max_iterations = 100000;
+      opt.warm_start = mode > 0;
+      opt.predict = mode == 2;
+      opt.cholesky.background = false;  // same factors in every mode: a fair count
+      FemSimulation sim(c.mesh, material(1e5, 0.45), opt);
+      std::vector<VertexId> tip;
+      for (VertexId v : c.mesh.vertices()) {
+        if (c.mesh.rest(v).x() < 1e-9) sim.fix(v);
+        if (c.mesh.rest(v).x() > 8 - 1e-9) tip.push_back(v);
+      }
+      for (int f = 0; f < 40; ++f) {
+        for (VertexId v : tip) sim.prescribe(v, Vec3(0, 0.002 * f, -0.01 * f));
+        total[mode] += sim.step().iterations;
+      }
+    }
+    std::printf("  %-13s %10d %10d %10d %12.3f %12.3f\n", to_string(pc), total[0], total[1], total[2],
+                double(total[1]) / total[0], double(total[2]) / total[0]);
+    csv.row("warm-start", to_string(pc), c.mesh.num_tets(), total[0], total[1], total[2], double(total[1]) / total[0],
+            double(total[2]) / total[0], 0, 0);
+  }
+}
+
+void section_poisson(Csv& csv) {
+  Cantilever c(5000);
+  std::printf("\niterations against Poisson's ratio: cantilever %zu tets, linear, cold start, tolerance 1e-8\n",
+              c.mesh.num_tets());
+  std::printf("  %8s %10s %12s %10s %12s %12s\n", "nu", "jacobi", "block-jacobi", "cholesky", "bj/jacobi", "chol/jacobi");
+  for (double nu : {0.3, 0.45, 0.49, 0.499, 0.4999}) {
+    int it[3] = {0, 0, 0};
+    for (int i = 0; i < 3; ++i) {
+      FemSimulationOptions opt;
+      opt.cg.tolerance = 1e-8;
+      opt.cg.preconditioner = kPcs[i];
+      opt.cg.max_iterations = 200000;
+      FemSimulation sim(c.mesh, material(1e5, nu), opt);
+      c.setup(sim);
+      it[i] = sim.step().iterations;
+    }
+    std::printf("  %8.4f %10d %12d %10d %12.3f %12.3f\n", nu, it[0], it[1], it[2], double(it[1]) / it[0],
+                double(it[2]) / it[0]);
+    csv.row("poisson", nu, c.mesh.num_tets(), it[0], it[1], it[2], double(it[1]) / it[0], double(it[2]) / it[0], 0, 0);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Args args(argc, argv);
+  const std::string out = args.get("--out", ".");
+  Csv csv(out, "fem_precond.csv", "section,setting,tets,a,b,c,d,e,f,g");
+  const std::string beam = args.get("--beam", std::string(INCISE_SOURCE_DIR) + "/samples/scenes/beam.json");
+  section_beam_scene(beam, csv);
+  const std::string organ = args.get("--organ", "");
+  if (!organ.empty()) {
+    const TetMesh m = read_tet_mesh(organ);
+    section_organ("organ", m, -1, csv);
+    section_organ("cut organ", m, 10, csv);
+  } else {
+    std::printf("\n(no --organ MESH: organ sections skipped; make one with `incise prepare samples/liver.inr.gz -o "
+                "liver.vtu`)\n");
+  }
+  section_budget(args.num("--budget-tets", 30000), csv);
+  section_warm_start(csv);
+  section_poisson(csv);
+  std::printf("\nCSV: %s\n", csv.path().c_str());
+  return 0;
+}

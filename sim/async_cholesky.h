@@ -1,0 +1,90 @@
+#pragma once
+// The strong preconditioner that survives cuts: a sparse Cholesky factorization of the system
+// (K, or a M + c K) on its free unknowns, computed on a background thread from a snapshot of
+// the model, and used by CG until a fresher one is ready (after Courtecuisse et al.'s
+// asynchronous preconditioner in SOFA). A frame never waits for a factorization, except the
+// very first one when `wait_for_first` is set.
+//
+// After a topology change the stale factor keeps preconditioning, mapped onto the new
+// unknowns: vertex ids are stable across edits, so a surviving unknown maps to itself, and a
+// vertex an edit added maps to its parents with the edit's interpolation weights (a cut's
+// duplicate to the vertex it was split from), through a prolongation P. Added vertices, and
+// those whose incident tets changed (stale factor rows), also get block-Jacobi, and so do
+// unknowns the factor does not reach (not free at the snapshot).
+// M^-1 = P F^-1 P^T + block-Jacobi on those is symmetric positive definite however
+// stale F is, so plain CG stays correct; only the iteration count degrades until the fresh
+// factor is adopted (at the start of a frame, then CG restarts).
+//
+// Factorization: CHOLMOD's supernodal LL^T when built with it, else Eigen's SimplicialLDLT.
+#include <cstdint>
+#include <future>
+#include <memory>
+#include <unordered_map>
+#include <vector>
+
+#include "mesh/topology_change.h"
+#include "sim/fem_model.h"
+#include "sim/preconditioner.h"
+
+namespace incise {
+
+struct AsyncCholeskyOptions {
+  bool background = true;          // factorize on a thread (false: in frame(), for tests/benchmarks)
+  bool wait_for_first = true;      // the first factor is waited for (no factor to fall back on yet)
+  int refactor_iterations = 10;    // a frame needing more CG iterations asks for a fresh factor
+  std::size_t max_unknowns = 150000;  // above this many free unknowns no factor is built (block-Jacobi)
+};
+
+class AsyncCholesky : public CgPreconditioner {
+public:
+  explicit AsyncCholesky(const FemModel& model, const AsyncCholeskyOptions& options = {});
+  ~AsyncCholesky() override;  // waits for a running factorization
+
+  // Between frames, before the solve: adopts a finished factor, and starts a new one when stale
+  // (see mark_stale, apply) or the last frame needed more than refactor_iterations. The system
+  // is a M + c K on the `free` unknowns. Returns true when a new factor was adopted.
+  bool frame(const std::vector<std::uint8_t>& free, double mass_coeff, double stiffness_coeff, int last_iterations);
+  // The constraint set changed: the next frame starts a fresh factorization.
+  void mark_stale();
+  // Marks the vertices an edit batch added or removed as not covered (O(size of the change))
+  // and asks for a fresh factor.
+  void apply(const TopologyChange& change);
+
+  void setup(const LinearOperator& a, const std::vector<std::uint8_t>* free) override;
+  void apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const override;
+  std::uint64_t version() const override { return version_; }
+
+  bool has_factor() const;
+  bool factorizing() const { return job_.valid(); }
+  int factorizations() const { return factorizations_; }  // adopted so far
+  double last_factorize_ms() const { return last_ms_; }    // snapshot-to-factor time of the last adopted one
+
+  struct Factor;  // the factorization and its unknown map (in the .cpp)
+
+private:
+  void start(const std::vector<std::uint8_t>& free, double a, double c);
+  void adopt();
+
+  const FemModel* model_;
+  AsyncCholeskyOptions opt_;
+  std::shared_ptr<Factor> factor_;
+  std::future<std::shared_ptr<Factor>> job_;
+  void map_added(const VertexOrigin& o);  // P's row of an added vertex, from its parents
+
+  std::vector<std::uint32_t> changed_since_snapshot_;  // vertices to uncover when the job lands
+  std::vector<VertexOrigin> added_since_snapshot_;     // replayed onto the fresh factor's P
+  // P: added vertex -> (covered vertex, weight) pairs.
+  std::unordered_map<std::uint32_t, std::vector<std::pair<std::uint32_t, double>>> mapped_;
+  std::vector<std::uint8_t> uncovered_;                // per vertex, for the current factor
+  std::vector<std::uint32_t> touched_;                 // covered vertices whose rows an edit changed
+  bool too_large_ = false, stale_ = false, failed_ = false;
+  double snapshot_a_ = -1, snapshot_c_ = -1;
+  BlockJacobi fallback_;
+  const std::vector<std::uint8_t>* free_ = nullptr;
+  std::uint64_t version_ = 0;
+  int factorizations_ = 0;
+  double last_ms_ = 0;
+  mutable Eigen::VectorXd rf_, zf_;
+};
+
+}  // namespace incise

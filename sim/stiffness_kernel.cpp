@@ -1,0 +1,251 @@
+#include "sim/stiffness_kernel.h"
+
+#include <algorithm>
+#include <cstring>
+#include <limits>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+namespace incise {
+
+namespace {
+
+constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+constexpr std::size_t kSerialBelow = 8000;  // tets: below this, threads cost more than they give
+constexpr std::size_t kLanes = StiffnessKernel::kLanes;
+
+// An AVX2+FMA clone next to the baseline one, picked at load time by the CPU (GCC on x86-64).
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__gnu_linux__)
+#define INCISE_SIMD_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define INCISE_SIMD_CLONES
+#endif
+
+// Per packet scratch: gathered edge differences in, corner forces out.
+struct Scratch {
+  alignas(64) double d[9][kLanes];   // d[3c+j][k]: component c of x_{j+1} - x_0 of lane k
+  alignas(64) double f[12][kLanes];  // f[3j+c][k]: component c of the force on corner j of lane k
+};
+
+// Corner forces of one packet: H = D B, (corotational: H = R^T H), P = V sigma(H),
+// (corotational: P = R P), force on corner j+1 = P grad N_{j+1}, corner 0 the negated sum.
+template <bool Corot>
+INCISE_SIMD_CLONES void packet_forces(const StiffnessKernel::Packet& __restrict p,
+                                      const StiffnessKernel::Rotations* __restrict rot, Scratch& __restrict sc) {
+  for (std::size_t k = 0; k < kLanes; ++k) {
+    double h[9];
+    for (int c = 0; c < 3; ++c)
+      for (int m = 0; m < 3; ++m)
+        h[3 * c + m] = sc.d[3 * c][k] * p.b[m][k] + sc.d[3 * c + 1][k] * p.b[3 + m][k] + sc.d[3 * c + 2][k] * p.b[6 + m][k];
+    if constexpr (Corot) {
+      double t[9];
+      for (int c = 0; c < 3; ++c)
+        for (int m = 0; m < 3; ++m)
+          t[3 * c + m] = rot->r[c][k] * h[m] + rot->r[3 + c][k] * h[3 + m] + rot->r[6 + c][k] * h[6 + m];
+      for (int i = 0; i < 9; ++i) h[i] = t[i];
+    }
+    const double mu = p.mu[k], lt = p.lam[k] * (h[0] + h[4] + h[8]);
+    double s[9];
+    for (int c = 0; c < 3; ++c)
+      for (int m = 0; m < 3; ++m) s[3 * c + m] = mu * (h[3 * c + m] + h[3 * m + c]);
+    s[0] += lt;
+    s[4] += lt;
+    s[8] += lt;
+    if constexpr (Corot) {
+      double t[9];
+      for (int c = 0; c < 3; ++c)
+        for (int m = 0; m < 3; ++m)
+          t[3 * c + m] = rot->r[3 * c][k] * s[m] + rot->r[3 * c + 1][k] * s[3 + m] + rot->r[3 * c + 2][k] * s[6 + m];
+      for (int i = 0; i < 9; ++i) s[i] = t[i];
+    }
+    for (int c = 0; c < 3; ++c) {
+      double sum = 0;
+      for (int j = 0; j < 3; ++j) {
+        const double fj = s[3 * c] * p.b[3 * j][k] + s[3 * c + 1] * p.b[3 * j + 1][k] + s[3 * c + 2] * p.b[3 * j + 2][k];
+        sc.f[3 * (j + 1) + c][k] = fj;
+        sum += fj;
+      }
+      sc.f[c][k] = -sum;
+    }
+  }
+}
+
+}  // namespace
+
+void StiffnessKernel::configure(const TetMesh& mesh) {
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::max()), hi = -lo;
+  for (VertexId v : mesh.vertices()) {
+    lo = lo.cwiseMin(mesh.rest(v));
+    hi = hi.cwiseMax(mesh.rest(v));
+  }
+  const Vec3 ext = (hi - lo).cwiseMax(0.0);
+  // The axis along which vertex ids vary slowest (smallest mean step between consecutive ids,
+  // relative to the extent): a slab is then a narrow range of ids, so each task sweeps a
+  // compact part of x and y. Structured meshes number one axis last; spatially sorted ones
+  // (Hilbert, BRIO) give about equal steps and any axis does.
+  Vec3 step = Vec3::Zero();
+  const Vec3* prev = nullptr;
+  for (VertexId v : mesh.vertices()) {
+    if (prev) step += (mesh.rest(v) - *prev).cwiseAbs();
+    prev = &mesh.rest(v);
+  }
+  double best = std::numeric_limits<double>::max();
+  for (int a = 0; a < 3; ++a)
+    if (ext[a] > 0 && step[a] / ext[a] < best) best = step[a] / ext[a], axis_ = a;
+  double widest = 0;
+  for (TetId t : mesh.tets()) {
+    double a = std::numeric_limits<double>::max(), b = -a;
+    for (VertexId v : mesh.tet_vertices(t)) {
+      a = std::min(a, mesh.rest(v)[axis_]);
+      b = std::max(b, mesh.rest(v)[axis_]);
+    }
+    widest = std::max(widest, b - a);
+  }
+  // Enough slabs per colour for load balance (3 colours x 16), none narrower than a tet.
+  const double len = ext[axis_];
+  std::size_t n = 48;
+  if (widest > 0) n = std::min<std::size_t>(n, std::size_t(std::max(1.0, std::floor(len / (1.02 * widest)))));
+  if (!(len > 0) || n < 6) n = 1;  // too short to split: one slab, serial
+  origin_ = lo[axis_];
+  width_ = len > 0 ? len / double(n) : 1.0;
+  blocks_.assign(n + 1, Block{});
+}
+
+void StiffnessKernel::add(const TetMesh& mesh, std::uint32_t t, const std::array<std::uint32_t, 4>& v,
+                          const Eigen::Matrix3d& bm, double vmu, double vlambda) {
+  remove(t);
+  if (blocks_.empty()) blocks_.assign(2, Block{});  // not configured: one slab
+  if (t >= block_.size()) {
+    block_.resize(std::max<std::size_t>(t + 1, block_.size() + block_.size() / 2), kNone);
+    slot_.resize(block_.size(), kNone);
+  }
+  double a = std::numeric_limits<double>::max(), b = -a, centre = 0;
+  for (std::uint32_t w : v) {
+    const double x = mesh.rest(VertexId(w))[axis_];
+    a = std::min(a, x);
+    b = std::max(b, x);
+    centre += x / 4;
+  }
+  const std::size_t nslabs = blocks_.size() - 1;
+  std::size_t c = nslabs;  // overflow
+  if (nslabs == 1) c = 0;
+  else if (b - a <= 0.99 * width_) c = std::size_t(std::clamp((centre - origin_) / width_, 0.0, double(nslabs - 1)));
+  Block& blk = blocks_[c];
+  const std::size_t s = blk.size(), k = s % kLanes;
+  if (k == 0) {  // a new packet, all lanes zero
+    blk.packets.emplace_back();
+    std::memset(static_cast<void*>(&blk.packets.back()), 0, sizeof(Packet));
+    if (corot_) {
+      blk.rotations.emplace_back();
+      std::memset(static_cast<void*>(&blk.rotations.back()), 0, sizeof(Rotations));
+    }
+  }
+  Packet& p = blk.packets[s / kLanes];
+  for (int i = 0; i < 4; ++i) p.v[i][k] = v[std::size_t(i)];
+  for (int j = 0; j < 3; ++j)
+    for (int m = 0; m < 3; ++m) p.b[3 * j + m][k] = bm(j, m);
+  p.mu[k] = vmu;
+  p.lam[k] = vlambda;
+  if (corot_)
+    for (int i = 0; i < 9; ++i) blk.rotations[s / kLanes].r[i][k] = i % 4 == 0 ? 1.0 : 0.0;
+  blk.tet.push_back(t);
+  block_[t] = std::uint32_t(c);
+  slot_[t] = std::uint32_t(s);
+  ++count_;
+}
+
+void StiffnessKernel::remove(std::uint32_t t) {
+  if (t >= block_.size() || block_[t] == kNone) return;
+  Block& blk = blocks_[block_[t]];
+  const std::size_t s = slot_[t], last = blk.size() - 1;
+  Packet &ps = blk.packets[s / kLanes], &pl = blk.packets[last / kLanes];
+  const std::size_t ks = s % kLanes, kl = last % kLanes;
+  // The last tet moves into the freed slot; its old lane is cleared.
+  for (int i = 0; i < 4; ++i) {
+    ps.v[i][ks] = pl.v[i][kl];
+    pl.v[i][kl] = 0;
+  }
+  for (int i = 0; i < 9; ++i) {
+    ps.b[i][ks] = pl.b[i][kl];
+    pl.b[i][kl] = 0;
+  }
+  ps.mu[ks] = pl.mu[kl];
+  ps.lam[ks] = pl.lam[kl];
+  pl.mu[kl] = pl.lam[kl] = 0;
+  if (corot_) {
+    Rotations &rs = blk.rotations[s / kLanes], &rl = blk.rotations[last / kLanes];
+    for (int i = 0; i < 9; ++i) {
+      rs.r[i][ks] = rl.r[i][kl];
+      rl.r[i][kl] = 0;
+    }
+  }
+  blk.tet[s] = blk.tet[last];
+  blk.tet.pop_back();
+  if (s != last) slot_[blk.tet[s]] = std::uint32_t(s);
+  if (kl == 0) {
+    blk.packets.pop_back();
+    if (corot_) blk.rotations.pop_back();
+  }
+  block_[t] = slot_[t] = kNone;
+  --count_;
+}
+
+void StiffnessKernel::set_rotation(std::uint32_t t, const Eigen::Matrix3d& r) {
+  if (!corot_ || t >= block_.size() || block_[t] == kNone) return;
+  Block& blk = blocks_[block_[t]];
+  const std::size_t s = slot_[t];
+  for (int a = 0; a < 3; ++a)
+    for (int c = 0; c < 3; ++c) blk.rotations[s / kLanes].r[3 * a + c][s % kLanes] = r(a, c);
+}
+
+// Packets [begin, end) of a block.
+void StiffnessKernel::multiply_block(const Block& blk, std::size_t begin, std::size_t end, const double* x,
+                                     double* y) const {
+  Scratch sc;
+  for (std::size_t pi = begin; pi < end; ++pi) {
+    const Packet& p = blk.packets[pi];
+    const std::size_t n = std::min(kLanes, blk.size() - pi * kLanes);
+    for (std::size_t k = 0; k < n; ++k) {  // gather
+      const double* x0 = x + 3 * std::size_t(p.v[0][k]);
+      for (int j = 0; j < 3; ++j) {
+        const double* xj = x + 3 * std::size_t(p.v[j + 1][k]);
+        for (int c = 0; c < 3; ++c) sc.d[3 * c + j][k] = xj[c] - x0[c];
+      }
+    }
+    for (std::size_t k = n; k < kLanes; ++k)  // empty lanes: finite inputs (their b is zero)
+      for (int i = 0; i < 9; ++i) sc.d[i][k] = 0;
+    if (corot_) packet_forces<true>(p, &blk.rotations[pi], sc);
+    else packet_forces<false>(p, nullptr, sc);
+    // Scatter (one thread per block), corner by corner: consecutive tets share vertices, and
+    // read-modify-writes of one address back to back would wait on each other.
+    for (int j = 0; j < 4; ++j)
+      for (std::size_t k = 0; k < n; ++k) {
+        double* yj = y + 3 * std::size_t(p.v[j][k]);
+        for (int c = 0; c < 3; ++c) yj[c] += sc.f[3 * j + c][k];
+      }
+  }
+}
+
+void StiffnessKernel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y, Eigen::Index rows) const {
+  y.setZero(rows);
+  const double* xp = x.data();
+  double* yp = y.data();
+  const std::size_t nslabs = blocks_.empty() ? 0 : blocks_.size() - 1;
+  if (count_ < kSerialBelow || nslabs < 6) {
+    for (const Block& blk : blocks_) multiply_block(blk, 0, blk.packets.size(), xp, yp);
+    return;
+  }
+  for (std::size_t colour = 0; colour < 3; ++colour)  // slabs 3 apart share no vertex
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (nslabs - colour + 2) / 3, 1),
+                      [&](const tbb::blocked_range<std::size_t>& rg) {
+                        for (std::size_t i = rg.begin(); i != rg.end(); ++i) {
+                          const Block& blk = blocks_[3 * i + colour];
+                          multiply_block(blk, 0, blk.packets.size(), xp, yp);
+                        }
+                      });
+  const Block& overflow = blocks_.back();
+  multiply_block(overflow, 0, overflow.packets.size(), xp, yp);
+}
+
+}  // namespace incise

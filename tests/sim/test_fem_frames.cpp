@@ -1,0 +1,212 @@
+// Frames and budgets: per-frame setup products, resuming an interrupted CG, budgeted frames
+// that add up to one uninterrupted solve, and the predicting warm start.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include "mesh/generate.h"
+#include "sim/cg_solver.h"
+#include "sim/fem_model.h"
+#include "sim/fem_simulation.h"
+#include "tests/sim/fem_test_util.h"
+
+using namespace incise;
+using namespace incise::testing;
+
+namespace {
+
+MaterialTable table(double e, double nu) {
+  Material m;
+  m.young = e;
+  m.poisson = nu;
+  return MaterialTable(m);
+}
+
+// Counts products, so the setup cost of a solve can be checked.
+struct Counting : LinearOperator {
+  const LinearOperator& a;
+  mutable int products = 0;
+  explicit Counting(const LinearOperator& op) : a(op) {}
+  Eigen::Index rows() const override { return a.rows(); }
+  void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const override {
+    ++products;
+    a.multiply(x, y);
+  }
+  const Eigen::VectorXd& diagonal() const override { return a.diagonal(); }
+  const std::vector<Eigen::Matrix3d>& diagonal_blocks() const override { return a.diagonal_blocks(); }
+};
+
+// A cantilever fixed at x = 0 with a tip probe (prescribed) and a traction.
+struct Cantilever {
+  TetMesh mesh = make_box(Vec3(4, 1, 1), {16, 4, 4});
+  std::vector<VertexId> tip;
+  void setup(FemSimulation& sim) {
+    tip.clear();
+    for (VertexId v : mesh.vertices()) {
+      if (mesh.rest(v).x() < 1e-9) sim.fix(v);
+      if (mesh.rest(v).x() > 4 - 1e-9) tip.push_back(v);
+    }
+    add_face_traction(mesh, sim, 2, 1, Vec3(0, 0, -200), 1e-9);
+  }
+  void probe(FemSimulation& sim, const Vec3& d) {
+    for (VertexId v : tip) sim.prescribe(v, d);
+  }
+};
+
+}  // namespace
+
+TEST_CASE("CG setup costs one product, a resume none", "[fem][frames]") {
+  Cantilever c;
+  FemSimulation sim(c.mesh, table(1e5, 0.3));
+  c.setup(sim);
+  c.probe(sim, Vec3(0, 0, -0.1));
+  Counting op(sim.model());
+  Eigen::VectorXd b = Eigen::VectorXd::Zero(op.rows());
+  b[3 * c.tip[0].idx()] = 1;  // a force somewhere
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(op.rows());
+  for (VertexId v : c.tip) x[3 * v.idx() + 2] = -0.1;
+  ConjugateGradient cg;
+  cg.compute(op, &sim.free_mask());
+  // Cold start with prescribed values: A x_kept only.
+  cg.set_max_iterations(30);
+  cg.solve_with_guess(b, x);
+  CHECK(cg.info() == SolveInfo::NoConvergence);
+  CHECK(op.products == cg.iterations() + 1);
+  // Same problem, same x: resumes, no setup product.
+  op.products = 0;
+  CHECK(cg.can_resume(b, x));
+  cg.solve_with_guess(b, x);
+  CHECK(cg.stats().resumed);
+  CHECK(op.products == cg.iterations());
+  // A new load, same kept values: A x_kept is cached, A x_free is the one setup product.
+  b *= 2;
+  op.products = 0;
+  cg.set_max_iterations(10000);
+  cg.solve_with_guess(b, x);
+  CHECK(!cg.stats().resumed);
+  CHECK(cg.info() == SolveInfo::Success);
+  CHECK(op.products == cg.iterations() + 1);
+  // After invalidate() (the operator changed in place) A x_kept is recomputed.
+  cg.invalidate();
+  b *= 0.5;
+  op.products = 0;
+  cg.solve_with_guess(b, x);
+  CHECK(op.products == cg.iterations() + 2);
+}
+
+TEST_CASE("budgeted frames on an unchanged problem add up to one uninterrupted solve", "[fem][frames]") {
+  for (FemKind kind : {FemKind::Linear, FemKind::Corotational}) {
+    for (Preconditioner pc : {Preconditioner::Jacobi, Preconditioner::BlockJacobi}) {
+      Cantilever c;
+      FemSimulationOptions opt;
+      opt.kind = kind;
+      opt.cg.tolerance = 1e-9;
+      opt.cg.preconditioner = pc;
+      FemSimulation ref(c.mesh, table(1e5, 0.45), opt);
+      c.setup(ref);
+      c.probe(ref, Vec3(0, 0, -0.2));
+      const FrameStats one = ref.step();
+      REQUIRE(one.info == SolveInfo::Success);
+
+      // Deterministic budget: an iteration cap per frame.
+      FemSimulation capped(c.mesh, table(1e5, 0.45), opt);
+      c.setup(capped);
+      capped.cg().set_max_iterations(7);
+      int total = 0, frames = 0;
+      while (frames < 1000) {
+        c.probe(capped, Vec3(0, 0, -0.2));  // re-set each frame, as a scene does: same values
+        const FrameStats& st = capped.step();
+        CHECK(st.resumed == (frames > 0));
+        total += st.iterations;
+        ++frames;
+        if (st.info == SolveInfo::Success) break;
+        CHECK(st.info == SolveInfo::NoConvergence);
+      }
+      CHECK(capped.last_stats().info == SolveInfo::Success);
+      CHECK(total == one.iterations);  // the same iteration, split over frames
+      CHECK(frames == (one.iterations + 6) / 7);
+      CHECK((capped.displacement() - ref.displacement()).norm() <= 1e-12 * ref.displacement().norm());
+
+      // Wall-clock budget: at least one iteration per frame, same sum, same answer.
+      opt.cg.budget_ms = 1e-3;
+      FemSimulation timed(c.mesh, table(1e5, 0.45), opt);
+      c.setup(timed);
+      c.probe(timed, Vec3(0, 0, -0.2));
+      total = 0;
+      for (frames = 0; frames < 5000; ++frames) {
+        const FrameStats& st = timed.step();
+        total += st.iterations;
+        if (st.info == SolveInfo::Success) break;
+        CHECK(st.budget_exhausted);
+      }
+      CHECK(timed.last_stats().info == SolveInfo::Success);
+      CHECK(total == one.iterations);
+      CHECK((timed.displacement() - ref.displacement()).norm() <= 1e-12 * ref.displacement().norm());
+    }
+  }
+}
+
+TEST_CASE("a change between budgeted frames restarts CG and still converges", "[fem][frames]") {
+  Cantilever c;
+  FemSimulationOptions opt;
+  opt.cg.tolerance = 1e-9;
+  FemSimulation sim(c.mesh, table(1e5, 0.3), opt);
+  c.setup(sim);
+  sim.cg().set_max_iterations(5);
+  c.probe(sim, Vec3(0, 0, -0.1));
+  sim.step();
+  c.probe(sim, Vec3(0, 0, -0.12));  // the probe moved: a restart, not a resume
+  CHECK(!sim.step().resumed);
+  CHECK(sim.step().resumed);
+  int frames = 0;
+  while (sim.step().info != SolveInfo::Success && frames < 2000) ++frames;
+  CHECK(sim.last_stats().info == SolveInfo::Success);
+  FemSimulation ref(c.mesh, table(1e5, 0.3), opt);
+  c.setup(ref);
+  c.probe(ref, Vec3(0, 0, -0.12));
+  ref.step();
+  CHECK((sim.displacement() - ref.displacement()).norm() <= 1e-7 * ref.displacement().norm());
+}
+
+TEST_CASE("predicting warm start: never a worse start than the last solution, fewer iterations on a steady probe",
+          "[fem][frames]") {
+  // Steady, then accelerating, then reversing: prediction is right, wrong, then very wrong.
+  auto path = [](int f) {
+    if (f < 12) return -0.01 * f;
+    if (f < 20) return -0.12 - 0.002 * (f - 12) * (f - 12);
+    return -0.248 + 0.03 * (f - 20);
+  };
+  Cantilever c;
+  auto run = [&](bool warm, bool predict, std::vector<FrameStats>& st) {
+    FemSimulationOptions opt;
+    opt.warm_start = warm;
+    opt.predict = predict;
+    opt.cg.tolerance = 1e-8;
+    FemSimulation sim(c.mesh, table(1e5, 0.3), opt);
+    c.setup(sim);
+    int total = 0, steady = 0;
+    for (int f = 0; f < 28; ++f) {
+      c.probe(sim, Vec3(0, 0, path(f)));
+      st.push_back(sim.step());
+      REQUIRE(st.back().info == SolveInfo::Success);
+      total += st.back().iterations;
+      if (f >= 3 && f < 12) steady += st.back().iterations;
+    }
+    return std::pair<int, int>(total, steady);
+  };
+  std::vector<FrameStats> cold_st, last_st, pred_st;
+  const auto [cold, cold_steady] = run(false, false, cold_st);
+  const auto [last, last_steady] = run(true, false, last_st);
+  const auto [pred, pred_steady] = run(true, true, pred_st);
+  WARN("iterations over 28 frames: cold " << cold << ", last solution " << last << ", predicted " << pred
+                                          << "; steady part: " << cold_steady << " / " << last_steady << " / "
+                                          << pred_steady);
+  for (std::size_t f = 0; f < pred_st.size(); ++f) {
+    INFO("frame " << f);
+    CHECK(pred_st[f].initial_relative_residual <= pred_st[f].guess_relative_residual * (1 + 1e-12));
+    // Same problems, previous frames converged to 1e-8 in both runs.
+    CHECK(pred_st[f].initial_relative_residual <= last_st[f].initial_relative_residual * (1 + 1e-4) + 1e-7);
+  }
+  CHECK(pred_steady < last_steady);
+  CHECK(last < cold);
+}

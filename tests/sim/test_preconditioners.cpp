@@ -1,0 +1,155 @@
+// Preconditioners: CG with each one equals the direct solution (static linear, corotational,
+// dynamic); block-Jacobi and the asynchronous Cholesky follow topology changes, and after cuts
+// every frame still converges while the stale factor preconditions.
+#include <catch2/catch.hpp>
+
+#include <random>
+
+#include "mesh/generate.h"
+#include "sim/async_cholesky.h"
+#include "sim/fem_simulation.h"
+#include "tests/sim/fem_test_util.h"
+
+using namespace incise;
+using namespace incise::testing;
+using incise::testing::crack;
+
+namespace {
+
+MaterialTable table(double e, double nu) {
+  Material m;
+  m.young = e;
+  m.poisson = nu;
+  return MaterialTable(m);
+}
+
+const Preconditioner kAll[] = {Preconditioner::None, Preconditioner::Jacobi, Preconditioner::BlockJacobi,
+                               Preconditioner::Cholesky};
+
+void fix_ends(const TetMesh& m, FemSimulation& sim) {
+  for (VertexId v : m.vertices())
+    if (m.rest(v).x() < 1e-9 || m.rest(v).x() > 4 - 1e-9) sim.fix(v);
+}
+
+}  // namespace
+
+TEST_CASE("CG with every preconditioner equals the direct solution", "[fem][preconditioner]") {
+  TetMesh m = make_box(Vec3(4, 1, 1), {16, 4, 4});
+  jitter(m, 0.25, 7);
+  for (bool dynamic : {false, true})
+    for (FemKind kind : {FemKind::Linear, FemKind::Corotational}) {
+      auto run = [&](SolverMethod method, Preconditioner pc, bool background) {
+        FemSimulationOptions opt;
+        opt.kind = kind;
+        opt.method = method;
+        opt.dynamic = dynamic;
+        opt.cg.tolerance = 1e-10;
+        opt.cg.preconditioner = pc;
+        opt.cholesky.background = background;
+        opt.gravity = Vec3(0, 0, -9.81);
+        FemSimulation sim(m, table(1e5, 0.45), opt);
+        fix_ends(m, sim);
+        sim.set_force(VertexId(40), Vec3(0, 30, 5));
+        int iterations = 0;
+        for (int f = 0; f < 3; ++f) {
+          const FrameStats& st = sim.step();
+          INFO(st.message);
+          REQUIRE(st.info == SolveInfo::Success);
+          iterations += st.iterations;
+        }
+        return std::pair<Eigen::VectorXd, int>(sim.displacement(), iterations);
+      };
+      const auto [ref, _] = run(SolverMethod::Direct, Preconditioner::Jacobi, true);
+      for (Preconditioner pc : kAll)
+        for (bool background : {false, true}) {
+          if (background && pc != Preconditioner::Cholesky) continue;
+          INFO("dynamic " << dynamic << ", kind " << int(kind) << ", " << to_string(pc) << ", background " << background);
+          const auto [u, it] = run(SolverMethod::Cg, pc, background);
+          CHECK((u - ref).norm() <= 1e-7 * ref.norm());
+          if (pc == Preconditioner::Cholesky && kind == FemKind::Linear) CHECK(it <= 3 * 3);  // exact factor
+        }
+    }
+}
+
+TEST_CASE("block-Jacobi blocks follow topology changes", "[fem][preconditioner][local]") {
+  TetMesh m = make_box(Vec3(2, 1, 1), {6, 3, 3});
+  jitter(m, 0.2, 3);
+  m.discard_change();
+  FemModel model(m, table(3e4, 0.4));
+  std::mt19937 rng(5);
+  for (int e = 0; e < 300; ++e) {
+    random_edit(m, rng, true);
+    if (e % 10 == 9) model.apply(m.take_change());
+  }
+  model.apply(m.take_change());
+  FemModel fresh(m, table(3e4, 0.4));
+  for (VertexId v : m.vertices())
+    CHECK((model.diagonal_blocks()[v.idx()] - fresh.diagonal_blocks()[v.idx()]).norm() <=
+          1e-12 * fresh.diagonal_blocks()[v.idx()].norm());
+}
+
+TEST_CASE("after cuts every frame converges while the stale factor preconditions", "[fem][preconditioner][cut]") {
+  for (FemKind kind : {FemKind::Linear, FemKind::Corotational}) {
+    TetMesh m = make_box(Vec3(4, 1, 1), {16, 4, 4});
+    m.discard_change();
+    FemSimulationOptions opt;
+    opt.kind = kind;
+    opt.cg.tolerance = 1e-8;
+    opt.cg.preconditioner = Preconditioner::Cholesky;
+    FemSimulation sim(m, table(1e5, 0.45), opt);
+    fix_ends(m, sim);
+    std::vector<VertexId> top;
+    for (VertexId v : m.vertices())
+      if (m.rest(v).z() > 1 - 1e-9) top.push_back(v);
+    for (VertexId v : top) sim.set_force(v, Vec3(0, 0, -2));
+    REQUIRE(sim.step().info == SolveInfo::Success);
+    // Deepen the cut by one cell per frame, feeding each change to the simulation; frames
+    // never wait for the refactorization.
+    for (int depth = 1; depth <= 3; ++depth) {
+      crack(m, 0, 2.0, 2, 1.0 - 0.25 * depth - 1e-3);
+      const TopologyChange change = m.take_change();
+      REQUIRE(!change.added_vertices.empty());
+      sim.apply(change);
+      const FrameStats& st = sim.step();
+      INFO("depth " << depth << ": " << st.message);
+      CHECK(st.info == SolveInfo::Success);
+      UNSCOPED_INFO("cut " << depth << ": " << st.iterations << " iterations, factorizing "
+                           << sim.cholesky()->factorizing() << ", factors adopted "
+                           << sim.cholesky()->factorizations());
+    }
+    m.validate();
+    // The answer on the cut mesh is the direct one (same loads: on the original top vertices).
+    FemSimulationOptions dopt = opt;
+    dopt.method = SolverMethod::Direct;
+    FemSimulation direct(m, table(1e5, 0.45), dopt);
+    fix_ends(m, direct);
+    for (VertexId v : top) direct.set_force(v, Vec3(0, 0, -2));
+    for (int f = 0; f < 8; ++f) {
+      CHECK(sim.step().info == SolveInfo::Success);
+      direct.step();
+    }
+    CHECK((sim.displacement() - direct.displacement()).norm() <= 1e-6 * direct.displacement().norm());
+    CHECK(sim.cholesky()->factorizations() >= 1);
+    WARN("kind " << int(kind) << ": after the cuts, factors adopted " << sim.cholesky()->factorizations());
+  }
+}
+
+TEST_CASE("a mesh above the factorization limit runs on block-Jacobi", "[fem][preconditioner]") {
+  TetMesh m = make_box(Vec3(4, 1, 1), {12, 3, 3});
+  FemSimulationOptions opt;
+  opt.cg.tolerance = 1e-10;
+  opt.cg.preconditioner = Preconditioner::Cholesky;
+  opt.cholesky.max_unknowns = 10;
+  opt.gravity = Vec3(0, 0, -9.81);
+  FemSimulation sim(m, table(1e5, 0.3), opt);
+  fix_ends(m, sim);
+  FemSimulationOptions dopt = opt;
+  dopt.method = SolverMethod::Direct;
+  FemSimulation direct(m, table(1e5, 0.3), dopt);
+  fix_ends(m, direct);
+  direct.step();
+  for (int f = 0; f < 3; ++f) REQUIRE(sim.step().info == SolveInfo::Success);
+  CHECK(!sim.cholesky()->has_factor());
+  CHECK(!sim.cholesky()->factorizing());
+  CHECK((sim.displacement() - direct.displacement()).norm() <= 1e-7 * direct.displacement().norm());
+}
