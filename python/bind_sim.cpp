@@ -10,6 +10,7 @@
 #include "mesh/generate.h"
 #include "mesh/io/tet_io.h"
 #include "sim/fem_simulation.h"
+#include "sim/preconditioner.h"
 #include "sim/scene.h"
 #include "sim/spring_model.h"
 
@@ -107,8 +108,11 @@ std::unique_ptr<Fem> make_fem(const py::object& mesh_obj, const py::object& mate
   o.cg.tolerance = tolerance;
   o.cg.max_iterations = max_iterations;
   o.cg.budget_ms = budget_ms;
-  o.cg.preconditioner = parse_choice<Preconditioner>(
-      "preconditioner", preconditioner, {{"jacobi", Preconditioner::Jacobi}, {"none", Preconditioner::None}});
+  try {
+    o.cg.preconditioner = parse_preconditioner(preconditioner);
+  } catch (const InvalidArgument& e) {
+    throw InvalidArgument(std::string("preconditioner: ") + e.what());
+  }
   o.warm_start = warm_start;
   o.dynamic = dynamic;
   o.dt = dt;
@@ -272,7 +276,7 @@ void bind_sim(py::module_& m) {
         d["tolerance"] = s.cg.tolerance;
         d["max_iterations"] = s.cg.max_iterations;
         d["budget_ms"] = s.cg.budget_ms;
-        d["preconditioner"] = s.cg.preconditioner == Preconditioner::None ? "none" : "jacobi";
+        d["preconditioner"] = to_string(s.cg.preconditioner);
         d["warm_start"] = s.warm_start;
         d["nonlinear_iterations"] = s.nonlinear_iterations;
         return d;

@@ -141,3 +141,17 @@ def test_springs_follow_mesh_edits(box):
     assert after.shape == (box.vertex_capacity, 3)
     assert np.array_equal(after[: len(before)], before)  # old particles untouched
     assert np.allclose(after[v], before[corners].mean(axis=0), rtol=0, atol=1e-15)  # interpolated, deformed
+
+
+@pytest.mark.parametrize("preconditioner", ["none", "jacobi", "block-jacobi", "cholesky"])
+def test_every_preconditioner_reaches_the_same_answer(box, preconditioner):
+    sim = incise.FemSimulation(box, incise.Material(young=1e5, poisson=0.3), preconditioner=preconditioner,
+                               tolerance=1e-10)
+    clamp_and_pull(box, sim, 1e-3)
+    assert sim.step()["info"] == "success"
+    ref = incise.FemSimulation(box, incise.Material(young=1e5, poisson=0.3), method="direct")
+    clamp_and_pull(box, ref, 1e-3)
+    ref.step()
+    assert np.allclose(sim.displacement, ref.displacement, atol=1e-9)
+    with pytest.raises(incise.InvalidArgument, match="preconditioner"):
+        incise.FemSimulation(box, incise.Material(), preconditioner="ilu")
