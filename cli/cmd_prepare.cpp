@@ -104,9 +104,10 @@ void add_prepare(CLI::App& app) {
         }
         std::cout << format_quality_report(q);
         for (const std::string& m : rep.messages) std::cout << "prepare: " << m << "\n";
-        std::cerr << "prepare: " << rep.stats.summary() << " -> " << out
-                  << " (report " << json_path << ")"
-                  << "\n";
+        // The meshing figures, then what was written (after the improvement).
+        std::cerr << "prepare: " << rep.stats.summary() << "\n";
+        std::cerr << "prepare: " << mesh.num_tets() << " tets, " << mesh.num_vertices() << " vertices"
+                  << (*no_improve ? "" : " after improvement") << " -> " << out << " (report " << json_path << ")\n";
       });
   c->add_option("--report", *report_file, "Quality report JSON path (default: OUT with .quality.json)");
   c->add_flag("--no-improve", *no_improve, "Skip the quality improvement (flips and smoothing) after meshing");
