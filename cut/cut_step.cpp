@@ -69,11 +69,17 @@ double CutStep::snap_length(VertexId v) {
   auto it = snap_len_.find(v.idx());
   if (it != snap_len_.end()) return it->second;
   const Vec3 x = position(v);
-  double l2 = 1e300;
+  // Relative to the mean incident edge: after earlier cuts the shortest edge can be tiny, and
+  // a threshold relative to it would stop snapping exactly where slivers pile up.
+  double sum = 0;
+  int n = 0;
   for (TetId t : mesh_.incident_tets(v))
     for (VertexId w : mesh_.tet_vertices(t))
-      if (w != v) l2 = std::min(l2, (position(w) - x).squaredNorm());
-  const double len = snap_ * std::sqrt(l2);
+      if (w != v) {
+        sum += (position(w) - x).norm();
+        ++n;
+      }
+  const double len = snap_ * (n ? sum / n : 0.0);
   snap_len_[v.idx()] = len;
   return len;
 }
