@@ -5,7 +5,7 @@
 #include <iostream>
 
 #include "cli/commands.h"
-#include "cli/improve_summary.h"
+#include "quality/improve_report.h"
 #include "mesh/errors.h"
 #include "mesh/io/atomic_file.h"
 #include "mesh/io/tet_io.h"

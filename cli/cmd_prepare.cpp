@@ -14,7 +14,7 @@
 #include "mesh/io/tet_io.h"
 
 #ifdef INCISE_HAVE_TETRA
-#include "cli/improve_summary.h"
+#include "quality/improve_report.h"
 #include "mesh/tetrahedralize/pipeline.h"
 #include "quality/improve.h"
 #include "quality/report.h"

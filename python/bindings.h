@@ -22,6 +22,7 @@ void bind_io(py::module_& m);
 void bind_quality(py::module_& m);
 void bind_sim(py::module_& m);
 void bind_cut(py::module_& m);
+void bind_improve(py::module_& m);
 void bind_tetra(py::module_& m);
 
 // (n, 3) float64 array copied from positions (copies: the mesh's storage moves when it grows,

@@ -38,6 +38,7 @@ PYBIND11_MODULE(_incise, m) {
   bind_quality(m);
   bind_sim(m);
   bind_cut(m);
+  bind_improve(m);
 #ifdef INCISE_HAVE_TETRA
   bind_tetra(m);
   m.attr("have_tetra") = true;

@@ -1,8 +1,8 @@
-#include "cli/improve_summary.h"
+#include "quality/improve_report.h"
 
 #include <cstdio>
 
-namespace incise::cli {
+namespace incise {
 
 std::string format_improve_report(const ImproveReport& r) {
   char buf[640];
@@ -44,4 +44,4 @@ nlohmann::json improve_report_json(const ImproveReport& r) {
   return j;
 }
 
-}  // namespace incise::cli
+}  // namespace incise
