@@ -421,10 +421,9 @@ void CutStep::split_crossings(const Piece& piece) {
         const Vec3 xa = position(tv[a]), xb = position(tv[b]);
         const double da = piece.distance(xa), db = piece.distance(xb);
         double u = (da - db) != 0 ? da / (da - db) : 0.5;
-        // A crossing this close to an endpoint would make a flat tet: the endpoint counts as
-        // on the plane instead (the intersection snaps to the vertex, which does not move; the
-        // cut surface bends through it, at most `snap` of this edge off the blade).
-        const int near = u < snap_ ? a : (u > 1 - snap_ ? b : -1);
+        // A crossing this close to an endpoint would make a flat tet: the endpoint is on the
+        // plane instead (the snap floor, relative to this edge).
+        const int near = u < kSnapFloor ? a : (u > 1 - kSnapFloor ? b : -1);
         if (near >= 0 && !on_piece_[k].count(tv[near].idx()) && pinned.insert(tv[near].idx()).second) {
           side_cache_[k][tv[near].idx()] = 0;
           changed = true;
