@@ -1,10 +1,11 @@
 // Consumer of the installed package: builds a box, writes and reads it back, reports its
 // quality (the JSON writer the CLI uses) and runs a few FEM frames of a clamped beam under
-// a tip load. Exits 1 with a message when an answer is wrong, so the CTest test can fail.
+// a tip load, then cuts it. Exits 1 with a message when an answer is wrong, so the CTest test can fail.
 #include <cmath>
 #include <cstdio>
 #include <string>
 
+#include "cut/cutter.h"
 #include "mesh/generate.h"
 #include "mesh/io/tet_io.h"
 #include "quality/report.h"
@@ -64,6 +65,16 @@ int main(int argc, char** argv) {
       if (mesh.rest(v).x() == 1.0) tip = std::min(tip, fem.displacement()[3 * v.idx() + 2]);
   }
   check(tip < 0, "tip deflects along the load");
+
+  // A partial cut from the top at mid-length (incise::cut, with the local improvement of
+  // incise::quality), handed to the FEM model locally.
+  mesh.discard_change();
+  Cutter cutter(mesh);
+  cutter.start({Vec3(0.503, -0.1, 0.3), Vec3(0.503, 0.3, 0.3)});
+  const CutStepReport r = cutter.advance({Vec3(0.503, -0.1, 0.1), Vec3(0.503, 0.3, 0.1)});
+  fem.apply(r.change);
+  check(r.vertices_duplicated > 0 && fem.step().info == SolveInfo::Success, "cut, applied locally, solved");
+  mesh.validate({.check_orientation = true, .check_manifold_boundary = true});
   std::remove(path.c_str());
   std::printf("consumer: %d failure(s), tip deflection %.6g\n", failures, tip);
   return failures == 0 ? 0 : 1;
