@@ -295,7 +295,7 @@ void CutStep::embed_boundary(const Piece& piece) {
   // Each real crossing makes one vertex; the cap only guards against a pathological cascade
   // on degenerate input (the cut is then less exact, never invalid).
   std::size_t splits = 0;
-  const std::size_t max_splits = 64 + 16 * cand_.size() * piece.boundary.size();
+  const std::size_t max_splits = 64 + 2 * cand_.size() * piece.boundary.size();
   while (!work.empty() && splits < max_splits) {
     const TetId t = work.back();
     work.pop_back();
