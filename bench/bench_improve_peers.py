@@ -42,7 +42,8 @@ def quality(incise, path):
     j = json.loads(r.stdout)
     m = j["metrics"]
     return {"tets": j["counts"]["tets"], "min_dih": m["min_dihedral"]["min"], "max_dih": m["max_dihedral"]["max"],
-            "min_rr": m["radius_ratio"]["min"], "inverted": j["elements"]["inverted"]}
+            "min_rr": m["radius_ratio"]["min"], "inverted": j["elements"]["inverted"], "volume": j["volume"],
+            "bfaces": j["counts"]["boundary_faces"]}
 
 
 def flip_ele(src, dst):
@@ -137,18 +138,20 @@ def main():
             except Exception as e:  # one failing tool does not stop the table
                 rows.append(dict(input=name, tool=label, error=str(e).splitlines()[0][:120]))
     print("\nworst dihedral angles in degrees, smallest radius ratio (as incise "
-          "quality reports it, 1 is regular); tets/in is the ratio to the input's tet count, same run\n")
-    print("| mesh | tool | time s | tets | min dih | max dih | min radius ratio | tets/in |")
-    print("|---|---|---:|---:|---:|---:|---:|---:|")
+          "quality reports it, 1 is regular); tets/in is the ratio to the input's tet count, same run; vol is the relative change of "
+          "the volume (the surface moved), bfaces the boundary triangles (the surface was refined)\n")
+    print("| mesh | tool | time s | tets | min dih | max dih | min radius ratio | tets/in | vol | bfaces |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
         if "error" in r:
-            print("| %s | %s | failed: %s | | | | | |" % (r["input"], r["tool"], r["error"]))
+            print("| %s | %s | failed: %s | | | | | | | |" % (r["input"], r["tool"], r["error"]))
             continue
-        n0 = next(x["tets"] for x in rows if x["input"] == r["input"] and x["tool"] == "input")
+        r0 = next(x for x in rows if x["input"] == r["input"] and x["tool"] == "input")
         inv = " (%d inverted)" % r["inverted"] if r["inverted"] else ""
-        print("| %s | %s | %s | %d%s | %.2f | %.2f | %.3f | %.2f |" % (
+        print("| %s | %s | %s | %d%s | %.2f | %.2f | %.3f | %.2f | %.1e | %d |" % (
             r["input"], r["tool"], "-" if r["tool"] == "input" else "%.2f" % r["time"], r["tets"], inv,
-            r["min_dih"], r["max_dih"], r["min_rr"], r["tets"] / n0))
+            r["min_dih"], r["max_dih"], r["min_rr"], r["tets"] / r0["tets"], r["volume"] / r0["volume"] - 1,
+            r["bfaces"]))
     shutil.rmtree(tmp, ignore_errors=True)
 
 
