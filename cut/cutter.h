@@ -13,7 +13,7 @@
 // each cut-surface vertex once per connected component of its tet star across non-cut faces,
 // tag the opened faces kTagCut, improve the touched tets locally, and hand out ONE
 // TopologyChange. Sign decisions use exact predicates on the current positions; intersection
-// points are floating point. A vertex within `snap` (relative to its shortest edge) of a cut
+// points are floating point. A vertex within `snap` (relative to its mean edge) of a cut
 // triangle's plane counts as lying on it (the cut surface bends through the vertex instead of
 // making a sliver), and a blade-boundary point within `snap` of a tet edge or vertex is put on
 // it. The blade front (where the blade stopped inside the body) stays attached: its vertices
@@ -41,7 +41,7 @@ enum class CutMode { Subdivide, Remove };
 
 struct CutOptions {
   CutMode mode = CutMode::Subdivide;
-  // Snap threshold relative to the local (shortest incident) edge length: vertices closer
+  // Snap threshold relative to the local (mean incident) edge length: vertices closer
   // than this to a cut plane are treated as on it; blade-boundary points this close to an edge
   // or vertex go onto it. Larger: fewer, better-shaped new tets, cut surface further from the
   // blade. A floor of 1e-6 always applies (points of earlier splits are floating point).
