@@ -17,6 +17,9 @@ using incise::testing::jitter;
 using incise::testing::random_edit;
 using incise::testing::random_tet;
 
+// One material for every label (E, nu, density).
+inline MaterialTable table(double e, double nu, double rho = 1000) { return MaterialTable(Material{e, nu, rho}); }
+
 // Consistent nodal forces of a uniform traction on the boundary faces lying in the plane
 // x[axis] == value: each triangle gives traction * area / 3 to each of its corners.
 inline void add_face_traction(const TetMesh& m, FemSimulation& sim, int axis, double value, const Vec3& traction,

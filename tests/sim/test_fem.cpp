@@ -19,14 +19,6 @@ using namespace incise::testing;
 
 namespace {
 
-MaterialTable table(double e, double nu, double rho = 1000) {
-  Material m;
-  m.young = e;
-  m.poisson = nu;
-  m.density = rho;
-  return MaterialTable(m);
-}
-
 Eigen::Matrix3d rotation(double angle, Vec3 axis) {
   return Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix();
 }

@@ -15,13 +15,6 @@ using namespace incise::testing;
 
 namespace {
 
-MaterialTable table(double e, double nu) {
-  Material m;
-  m.young = e;
-  m.poisson = nu;
-  return MaterialTable(m);
-}
-
 // Counts products, so the setup cost of a solve can be checked.
 struct Counting : LinearOperator {
   const LinearOperator& a;

@@ -16,13 +16,6 @@ using incise::testing::crack;
 
 namespace {
 
-MaterialTable table(double e, double nu) {
-  Material m;
-  m.young = e;
-  m.poisson = nu;
-  return MaterialTable(m);
-}
-
 const Preconditioner kAll[] = {Preconditioner::None, Preconditioner::Jacobi, Preconditioner::BlockJacobi,
                                Preconditioner::Cholesky};
 
