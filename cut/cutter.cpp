@@ -23,6 +23,30 @@ bool finite(const Vec3& x) { return x.allFinite(); }
 
 Cutter::Cutter(TetMesh& mesh, CutOptions options) : mesh_(&mesh), opt_(std::move(options)) {
   if (!(opt_.snap >= 0) || opt_.snap >= 0.5) throw InvalidArgument("cut: snap must be in [0, 0.5)");
+  grid_.build(mesh);
+  grid_edits_ = mesh.counters().edits;
+}
+
+void Cutter::notify(const TopologyChange& change) {
+  if (mesh_->counters().edits == grid_edits_) return;  // nothing new (or already taken)
+  grid_.update(*mesh_, change);
+  grid_edits_ = mesh_->counters().edits;
+}
+
+std::vector<TetId> Cutter::first_contact(const Vec3& lo, const Vec3& hi, const PositionFn& positions,
+                                         double max_displacement, bool grid_stale) {
+  if (grid_stale || !grid_.built()) grid_.build(*mesh_);
+  double grow = 0;
+  if (positions) {
+    grow = max_displacement;
+    if (!(grow >= 0)) {  // unknown: measure it (O(V), still far below a scan of the tets)
+      grow = 0;
+      for (VertexId v : mesh_->vertices()) grow = std::max(grow, (positions(v) - mesh_->rest(v)).norm());
+    }
+  }
+  // The grid's boxes are exact; the margin covers rounding of the rest boxes.
+  const double margin = 1e-9 * ((hi - lo).norm() + grow);
+  return grid_.query(*mesh_, lo, hi, grow + margin);
 }
 
 void Cutter::start(const BladeSegment& blade) {
@@ -34,7 +58,7 @@ void Cutter::start(const BladeSegment& blade) {
   has_front_ = false;
 }
 
-CutStepReport Cutter::advance(const BladeSegment& blade, const PositionFn& positions) {
+CutStepReport Cutter::advance(const BladeSegment& blade, const PositionFn& positions, double max_displacement) {
   if (!started_) {
     start(blade);
     return {};
@@ -42,10 +66,11 @@ CutStepReport Cutter::advance(const BladeSegment& blade, const PositionFn& posit
   if (!finite(blade.a) || !finite(blade.b)) throw InvalidArgument("cut: blade endpoints must be finite");
   const auto tris = swept_triangles(blade_, blade);
   blade_ = blade;
-  return run(tris, positions, true);
+  return run(tris, positions, max_displacement, true);
 }
 
-CutStepReport Cutter::cut_plane(const Vec3& point, const Vec3& normal, const PositionFn& positions) {
+CutStepReport Cutter::cut_plane(const Vec3& point, const Vec3& normal, const PositionFn& positions,
+                                double max_displacement) {
   if (!finite(point) || !finite(normal)) throw InvalidArgument("cut: plane point and normal must be finite");
   // The plane's extent: the mesh's box (a one-off O(mesh) cut by nature: it crosses everything).
   Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
@@ -56,20 +81,22 @@ CutStepReport Cutter::cut_plane(const Vec3& point, const Vec3& normal, const Pos
   }
   if (mesh_->num_vertices() == 0) return {};
   const auto tris = plane_triangles(point, normal, lo, hi);
-  return run(tris, positions, false);
+  return run(tris, positions, max_displacement, false);
 }
 
-CutStepReport Cutter::cut_surface(std::span<const CutTriangle> triangles, const PositionFn& positions) {
+CutStepReport Cutter::cut_surface(std::span<const CutTriangle> triangles, const PositionFn& positions,
+                                  double max_displacement) {
   std::vector<CutTriangle> tris;
   for (const CutTriangle& t : triangles) {
     for (const Vec3& x : t.p)
       if (!finite(x)) throw InvalidArgument("cut: surface vertices must be finite");
     if (t.area() > 0) tris.push_back(t);
   }
-  return run(tris, positions, false);
+  return run(tris, positions, max_displacement, false);
 }
 
-CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const PositionFn& positions, bool use_front) {
+CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const PositionFn& positions,
+                          double max_displacement, bool use_front) {
   const auto t0 = std::chrono::steady_clock::now();
   CutStepReport rep;
   if (triangles.empty()) return rep;
@@ -78,24 +105,17 @@ CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const Position
   std::vector<Piece> pieces = make_pieces(triangles);
   // The previous step's front is where this step's cut continues, not a rim.
   if (use_front && has_front_) mark_inner_segment(pieces, front_segment_.a, front_segment_.b);
-  // First contact (no front yet): the tets whose current box meets the pieces' box. This is
-  // the one O(mesh) pass of a cut; every later step walks from the previous step's tets.
+  // Edits since the grid was last in sync that nobody passed to notify(): rebuild on use.
+  bool grid_stale = mesh_->counters().edits != grid_edits_;
+  // First contact (no front yet, or the walk found nothing): the grid, near the pieces.
   auto scan = [&]() {
-    std::vector<TetId> hits;
     Vec3 lo = pieces[0].lo, hi = pieces[0].hi;
     for (const Piece& p : pieces) {
       lo = lo.cwiseMin(p.lo);
       hi = hi.cwiseMax(p.hi);
     }
-    for (TetId t : mesh_->tets()) {
-      Vec3 a = Vec3::Constant(1e300), b = Vec3::Constant(-1e300);
-      for (VertexId v : mesh_->tet_vertices(t)) {
-        const Vec3 x = positions ? positions(v) : mesh_->rest(v);
-        a = a.cwiseMin(x);
-        b = b.cwiseMax(x);
-      }
-      if ((a.array() <= hi.array()).all() && (b.array() >= lo.array()).all()) hits.push_back(t);
-    }
+    std::vector<TetId> hits = first_contact(lo, hi, positions, max_displacement, grid_stale);
+    grid_stale = false;
     return hits;
   };
   std::vector<TetId> seeds = use_front ? front_ : std::vector<TetId>{};
@@ -148,6 +168,10 @@ CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const Position
     }
   }
   rep.change = mesh_->take_change();
+  if (!grid_stale) {  // else the next first contact rebuilds it
+    grid_.update(*mesh_, rep.change);
+    grid_edits_ = mesh_->counters().edits;
+  }
   rep.tets_added = rep.change.added_tets.size();
   rep.vertices_added = rep.change.added_vertices.size();
   if (opt_.mode == CutMode::Subdivide) {

@@ -7,7 +7,8 @@
 //   sim.apply(r.change);                      // every backend updates locally
 //
 // One step, subdivision mode: find the tets the step's cut triangles touch (a walk from the
-// previous step's tets; a spatial index only on first contact), embed each triangle's boundary
+// previous step's tets; on first contact, a grid over rest positions kept up to date from the
+// cuts' TopologyChanges, see cut/tet_grid.h: never a scan of the mesh), embed each triangle's boundary
 // (its corners and edges become mesh vertices and edges: tet, face and edge splits), split
 // every edge the triangle crosses, so the cut surface is a union of tet faces; then duplicate
 // each cut-surface vertex once per connected component of its tet star across non-cut faces,
@@ -25,6 +26,13 @@
 // Current configuration: during a simulation pass `positions` (current position of any vertex
 // that existed before the step). New vertices get rest AND current positions from the same
 // barycentric weights, recorded in the TopologyChange, so the deformed shape does not jump.
+// With positions, also pass `max_displacement`, a bound on |current - rest| over the vertices
+// (a simulation has it from its displacement vector): first contact then looks only near the
+// blade. Left unknown (negative), it is measured over the vertices, an O(V) pass.
+//
+// Edits made to the mesh outside this cutter (another cutter, improve(), fragment removal) are
+// noticed by the mesh's edit counter: pass their TopologyChange to notify() to keep the grid
+// exact in O(change), or the next first contact rebuilds it (O(mesh)).
 #include <chrono>
 #include <functional>
 #include <optional>
@@ -32,6 +40,7 @@
 #include <vector>
 
 #include "cut/blade.h"
+#include "cut/tet_grid.h"
 #include "mesh/tet_mesh.h"
 #include "quality/improve.h"
 
@@ -81,15 +90,23 @@ public:
   // positions(v): current position of vertex v (during a simulation); empty: rest positions.
   using PositionFn = std::function<Vec3(VertexId)>;
 
+  static constexpr double kUnknownDisplacement = -1.0;
+
+  // Builds the first-contact grid over the mesh (O(mesh), once).
   explicit Cutter(TetMesh& mesh, CutOptions options = {});
 
   // Positions the blade without cutting (a new cut: forgets the previous front).
   void start(const BladeSegment& blade);
   // Cuts what the blade sweeps moving from its last position to `blade`.
-  CutStepReport advance(const BladeSegment& blade, const PositionFn& positions = {});
+  CutStepReport advance(const BladeSegment& blade, const PositionFn& positions = {},
+                        double max_displacement = kUnknownDisplacement);
   // One-shot cuts: a plane through the whole mesh, or a triangulated surface.
-  CutStepReport cut_plane(const Vec3& point, const Vec3& normal, const PositionFn& positions = {});
-  CutStepReport cut_surface(std::span<const CutTriangle> triangles, const PositionFn& positions = {});
+  CutStepReport cut_plane(const Vec3& point, const Vec3& normal, const PositionFn& positions = {},
+                          double max_displacement = kUnknownDisplacement);
+  CutStepReport cut_surface(std::span<const CutTriangle> triangles, const PositionFn& positions = {},
+                            double max_displacement = kUnknownDisplacement);
+  // Edits of the mesh made elsewhere, taken by the first-contact grid in O(change).
+  void notify(const TopologyChange& change);
 
   const CutOptions& options() const { return opt_; }
   CutOptions& options() { return opt_; }
@@ -98,7 +115,11 @@ public:
   const std::vector<TetId>& front_tets() const { return front_; }
 
 private:
-  CutStepReport run(std::span<const CutTriangle> triangles, const PositionFn& positions, bool use_front);
+  CutStepReport run(std::span<const CutTriangle> triangles, const PositionFn& positions, double max_displacement,
+                    bool use_front);
+  // Tets that may touch the pieces' box in the current configuration (first contact).
+  std::vector<TetId> first_contact(const Vec3& lo, const Vec3& hi, const PositionFn& positions,
+                                   double max_displacement, bool grid_stale);
 
   TetMesh* mesh_;
   CutOptions opt_;
@@ -108,6 +129,8 @@ private:
   BladeSegment front_segment_;          // where the last step's blade stopped ...
   std::vector<VertexId> front_vertices_;  // ... and the mesh vertices along it
   bool has_front_ = false;
+  TetGrid grid_;
+  std::uint64_t grid_edits_ = 0;  // the mesh's edit counter when the grid was last in sync
 };
 
 }  // namespace incise

@@ -25,7 +25,7 @@ SceneCutHook make_scene_cut_hook(const Scene& scene) {
   st->cutters.resize(scene.cuts.size());
   st->done.assign(scene.cuts.size(), 0.0);
   const std::vector<SceneCut> cuts = scene.cuts;
-  return [st, cuts](int frame, TetMesh& mesh, const std::function<Vec3(VertexId)>& current,
+  return [st, cuts](int frame, TetMesh& mesh, const std::function<Vec3(VertexId)>& current, double max_displacement,
                     const std::function<void(const TopologyChange&)>& apply) {
     SceneCutResult res;
     for (std::size_t i = 0; i < cuts.size(); ++i) {
@@ -41,7 +41,7 @@ SceneCutHook make_scene_cut_hook(const Scene& scene) {
         st->cutters[i]->start({c.a, c.b});
       }
       const Vec3 off = f * c.sweep;
-      CutStepReport r = st->cutters[i]->advance({c.a + off, c.b + off}, current);
+      CutStepReport r = st->cutters[i]->advance({c.a + off, c.b + off}, current, max_displacement);
       st->done[i] = f;
       apply(r.change);
       res.ms += r.ms;

@@ -515,7 +515,18 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
       if (fem) return mesh.rest(v) + fem->displacement().segment<3>(3 * v.idx());
       return springs->positions()[v.idx()];
     };
-    SceneCutResult cr = opt.cut_hook(frame, mesh, current, apply_change);
+    // One pass over the state vector, like a CG iteration's vector update (interpolated new
+    // vertices never exceed it, so it holds through the frame's cuts).
+    double max_disp = 0;
+    if (fem) {
+      const Eigen::VectorXd& u = fem->displacement();
+      for (Eigen::Index i = 0; i + 2 < u.size(); i += 3) max_disp = std::max(max_disp, u.segment<3>(i).squaredNorm());
+    } else {
+      for (VertexId v : mesh.vertices())
+        max_disp = std::max(max_disp, (springs->positions()[v.idx()] - mesh.rest(v)).squaredNorm());
+    }
+    max_disp = std::sqrt(max_disp);
+    SceneCutResult cr = opt.cut_hook(frame, mesh, current, max_disp, apply_change);
     for (const auto& part : cr.fragments) {
       std::vector<VertexId> verts;
       bool held = false;

@@ -60,12 +60,14 @@ enum class FragmentPolicy { Auto, Keep, Fix, Remove, Error };
 // What a scene's cuts did before one frame. Cutting lives in cut/, which sim does not depend
 // on: the runner calls a hook (cut/scene_cuts.h provides it) with the current positions and a
 // function that hands each cut step's TopologyChange to the backend (so the next blade of the
-// same frame sees the new vertices' current positions).
+// same frame sees the new vertices' current positions), and a bound on how far any vertex is
+// from its rest position (the cutter's first-contact grid lives in rest space).
 struct SceneCutResult {
   double ms = 0;                              // cut steps (cut + local improvement)
   std::vector<std::vector<TetId>> fragments;  // detached parts (tets), as the cutter found them
 };
 using SceneCutHook = std::function<SceneCutResult(int frame, TetMesh& mesh, const std::function<Vec3(VertexId)>& current,
+                                                  double max_displacement,
                                                   const std::function<void(const TopologyChange&)>& apply)>;
 
 struct Scene {
