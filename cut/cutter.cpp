@@ -23,6 +23,10 @@ bool finite(const Vec3& x) { return x.allFinite(); }
 
 Cutter::Cutter(TetMesh& mesh, CutOptions options) : mesh_(&mesh), opt_(std::move(options)) {
   if (!(opt_.snap >= 0) || opt_.snap >= 0.5) throw InvalidArgument("cut: snap must be in [0, 0.5)");
+  // Room for the cuts' new vertices and tets: the first steps then do not copy the mesh's
+  // arrays (an O(mesh) spike); later growth is geometric, so amortized.
+  mesh.reserve(mesh.vertex_capacity() + mesh.vertex_capacity() / 8 + 1024,
+               mesh.tet_capacity() + mesh.tet_capacity() / 8 + 4096);
   grid_.build(mesh);
   grid_edits_ = mesh.counters().edits;
 }

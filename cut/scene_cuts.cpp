@@ -28,21 +28,27 @@ SceneCutHook make_scene_cut_hook(const Scene& scene) {
   return [st, cuts](int frame, TetMesh& mesh, const std::function<Vec3(VertexId)>& current, double max_displacement,
                     const std::function<void(const TopologyChange&)>& apply) {
     SceneCutResult res;
+    // Every cutter (and its first-contact grid, O(mesh)) is made before the first frame's
+    // cuts, as setup; afterwards each step's change is passed to the other cutters, so no
+    // grid goes stale (only a fragment removal by the scene makes them rebuild).
+    if (!cuts.empty() && !st->cutters[0])
+      for (std::size_t i = 0; i < cuts.size(); ++i) {
+        CutOptions o;
+        o.mode = cuts[i].mode == "remove" ? CutMode::Remove : CutMode::Subdivide;
+        o.snap = cuts[i].snap;
+        o.improve = cuts[i].improve;
+        st->cutters[i] = std::make_unique<Cutter>(mesh, o);
+        st->cutters[i]->start({cuts[i].a, cuts[i].b});
+      }
     for (std::size_t i = 0; i < cuts.size(); ++i) {
       const SceneCut& c = cuts[i];
       const double f = sweep_fraction(c, frame);
       if (f <= st->done[i]) continue;
-      if (!st->cutters[i]) {
-        CutOptions o;
-        o.mode = c.mode == "remove" ? CutMode::Remove : CutMode::Subdivide;
-        o.snap = c.snap;
-        o.improve = c.improve;
-        st->cutters[i] = std::make_unique<Cutter>(mesh, o);
-        st->cutters[i]->start({c.a, c.b});
-      }
       const Vec3 off = f * c.sweep;
       CutStepReport r = st->cutters[i]->advance({c.a + off, c.b + off}, current, max_displacement);
       st->done[i] = f;
+      for (std::size_t j = 0; j < cuts.size(); ++j)
+        if (j != i) st->cutters[j]->notify(r.change);
       apply(r.change);
       res.ms += r.ms;
       for (Fragment& fr : r.fragments) res.fragments.push_back(std::move(fr.tets));

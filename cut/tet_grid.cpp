@@ -57,6 +57,10 @@ void TetGrid::build(const TetMesh& mesh) {
   }
   cells_.assign(std::size_t(dims_[0] * dims_[1] * dims_[2]), {});
   for (TetId t : tets) insert(mesh, t);
+  const std::size_t room = mesh.tet_capacity() + mesh.tet_capacity() / 8 + 1024;
+  in_cell_.assign(room, 0);
+  in_query_.assign(room, 0);
+  cell_stamp_ = query_stamp_ = 0;
 }
 
 void TetGrid::insert(const TetMesh& mesh, TetId t) {
@@ -80,9 +84,10 @@ std::vector<TetId> TetGrid::query(const TetMesh& mesh, const Vec3& lo, const Vec
   std::vector<TetId> out;
   if (!built()) return out;
   const Vec3 qlo = lo.array() - grow, qhi = hi.array() + grow;
-  if (in_cell_.size() < mesh.tet_capacity()) {
-    in_cell_.resize(mesh.tet_capacity(), 0);
-    in_query_.resize(mesh.tet_capacity(), 0);
+  if (in_cell_.size() < mesh.tet_capacity()) {  // geometric: amortized over the growth
+    const std::size_t room = std::max(mesh.tet_capacity(), in_cell_.size() + in_cell_.size() / 2);
+    in_cell_.resize(room, 0);
+    in_query_.resize(room, 0);
   }
   if (++query_stamp_ == 0) {  // wrapped: forget old stamps
     std::fill(in_query_.begin(), in_query_.end(), 0);

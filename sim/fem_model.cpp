@@ -97,6 +97,20 @@ FemModel::FemModel(const TetMesh& mesh, const MaterialTable& materials, FemKind 
 
 void FemModel::grow() {
   const std::size_t nt = mesh_->tet_capacity(), nv = mesh_->vertex_capacity();
+  if (tet_capacity_ == 0) {
+    // Room for edits from the start: the first cut then does not copy every per-tet array (an
+    // O(mesh) spike in its frame); later growth is geometric (std::vector), so amortized.
+    const std::size_t room = nt + nt / 8 + 256;
+    alive_.reserve(room);
+    verts_.reserve(room);
+    bm_.reserve(room);
+    vol_.reserve(room);
+    mu_.reserve(room);
+    lambda_.reserve(room);
+    rho_.reserve(room);
+    rot_.reserve(room);
+    force_.reserve(room);
+  }
   if (nt > tet_capacity_) {
     alive_.resize(nt, 0);
     verts_.resize(nt);
@@ -112,7 +126,7 @@ void FemModel::grow() {
   if (nv > vertex_capacity_) {
     // Geometric growth: a conservativeResize per added vertex would make every split O(mesh).
     // Slots beyond the mesh's capacity behave as dead vertices (zero rows, not free).
-    const std::size_t cap = vertex_capacity_ == 0 ? nv : std::max(nv, vertex_capacity_ + vertex_capacity_ / 2);
+    const std::size_t cap = vertex_capacity_ == 0 ? nv + nv / 8 + 256 : std::max(nv, vertex_capacity_ + vertex_capacity_ / 2);
     const Eigen::Index old = diag_.size();
     diag_.conservativeResize(Eigen::Index(3 * cap));
     mass_.conservativeResize(Eigen::Index(3 * cap));
