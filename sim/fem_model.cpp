@@ -126,7 +126,7 @@ void FemModel::grow() {
   if (nv > vertex_capacity_) {
     // Geometric growth: a conservativeResize per added vertex would make every split O(mesh).
     // Slots beyond the mesh's capacity behave as dead vertices (zero rows, not free).
-    const std::size_t cap = vertex_capacity_ == 0 ? nv + nv / 8 + 256 : std::max(nv, vertex_capacity_ + vertex_capacity_ / 2);
+    const std::size_t cap = vertex_capacity_ == 0 ? nv : std::max(nv, vertex_capacity_ + vertex_capacity_ / 2);
     const Eigen::Index old = diag_.size();
     diag_.conservativeResize(Eigen::Index(3 * cap));
     mass_.conservativeResize(Eigen::Index(3 * cap));

@@ -5,9 +5,12 @@
 // slabs three apart share no vertex: the product runs the slabs of colour 0, 1, 2 (slab index
 // mod 3) in turn, each slab serially on one thread and scattering its corner forces straight
 // into y: no per-corner scratch, no gather pass, and each thread sweeps a contiguous region of
-// x and y. Per packet, x is gathered, the arithmetic runs as plain loops over the lanes that
-// the compiler vectorizes (an AVX2/FMA clone where the CPU has it, baseline x86-64 otherwise),
-// and y is scattered. Tets wider than a slab (rare: edits that stretch elements) go to an
+// x and y. On CPUs with AVX2 and FMA (chosen at run time) four tets run at once in vector
+// registers: each corner's x is one masked vector load, a 4x4 transpose turns four corners into
+// x, y and z across the tets and back, and each corner's force is one vector read-modify-write
+// into a copy of y padded to 4 doubles per vertex (unpacked into y after the product).
+// Elsewhere (the portable path) x is gathered, the arithmetic runs as plain loops over the
+// packet's lanes that the compiler vectorizes, and y is scattered entry by entry. Tets wider than a slab (rare: edits that stretch elements) go to an
 // overflow block run last, serially.
 //
 // Kept locally: add() puts a tet in the slab of its centroid (O(1)), remove() swaps the last
@@ -36,8 +39,14 @@ public:
   void remove(std::uint32_t t);  // no-op for a tet not in the kernel
   void set_rotation(std::uint32_t t, const Eigen::Matrix3d& r);
 
-  // y = K x over `rows` unknowns (y is resized and overwritten).
+  // y = K x over `rows` unknowns (y is resized and overwritten). Not reentrant: one kernel
+  // multiplies for one caller at a time (it keeps padded copies of x and y).
   void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y, Eigen::Index rows) const;
+
+  // The AVX2 path (x86-64 CPUs with AVX2 and FMA, chosen at run time): used unless switched
+  // off (tests compare both paths; the portable one is what other CPUs run).
+  static bool simd_available();
+  void set_simd(bool on) { simd_ = on; }
 
   std::size_t slabs() const { return blocks_.size() - 1; }
 
@@ -63,6 +72,7 @@ private:
     std::size_t size() const { return tet.size(); }
   };
   void multiply_block(const Block& blk, std::size_t begin, std::size_t end, const double* x, double* y) const;
+  void multiply_padded(const Block& blk, const double* x, double* y) const;
 
   bool corot_;
   std::vector<Block> blocks_;                 // slabs, then the overflow block
@@ -70,6 +80,8 @@ private:
   std::size_t count_ = 0;
   int axis_ = 0;
   double origin_ = 0, width_ = 1;
+  bool simd_ = true;
+  mutable std::vector<double> ypad_;  // y with 4 doubles per vertex (AVX2 path)
 };
 
 }  // namespace incise
