@@ -4,6 +4,7 @@
 #include <cstring>
 #include <limits>
 
+#include <Eigen/Geometry>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -33,12 +34,32 @@ struct Scratch {
   alignas(64) double f[12][kLanes];  // f[3j+c][k]: component c of the force on corner j of lane k
 };
 
+// R (row-major, r[3a+c] = R(a, c)) of the unit quaternion (w, x, y, z).
+inline void rotation_from_quaternion(double w, double x, double y, double z, double* r) {
+  using T = double;
+  const T x2 = x + x, y2 = y + y, z2 = z + z;
+  const T xx = x * x2, yy = y * y2, zz = z * z2, xy = x * y2, xz = x * z2, yz = y * z2;
+  const T wx = w * x2, wy = w * y2, wz = w * z2;
+  const T one = T(1.0);
+  r[0] = one - (yy + zz);
+  r[1] = xy - wz;
+  r[2] = xz + wy;
+  r[3] = xy + wz;
+  r[4] = one - (xx + zz);
+  r[5] = yz - wx;
+  r[6] = xz - wy;
+  r[7] = yz + wx;
+  r[8] = one - (xx + yy);
+}
+
 // Corner forces of one packet: H = D B, (corotational: H = R^T H), P = V sigma(H),
 // (corotational: P = R P), force on corner j+1 = P grad N_{j+1}, corner 0 the negated sum.
 template <bool Corot>
 INCISE_SIMD_CLONES void packet_forces(const StiffnessKernel::Packet& __restrict p,
                                       const StiffnessKernel::Rotations* __restrict rot, Scratch& __restrict sc) {
   for (std::size_t k = 0; k < kLanes; ++k) {
+    double r[9];
+    if constexpr (Corot) rotation_from_quaternion(rot->q[0][k], rot->q[1][k], rot->q[2][k], rot->q[3][k], r);
     double h[9];
     for (int c = 0; c < 3; ++c)
       for (int m = 0; m < 3; ++m)
@@ -47,7 +68,7 @@ INCISE_SIMD_CLONES void packet_forces(const StiffnessKernel::Packet& __restrict 
       double t[9];
       for (int c = 0; c < 3; ++c)
         for (int m = 0; m < 3; ++m)
-          t[3 * c + m] = rot->r[c][k] * h[m] + rot->r[3 + c][k] * h[3 + m] + rot->r[6 + c][k] * h[6 + m];
+          t[3 * c + m] = r[c] * h[m] + r[3 + c] * h[3 + m] + r[6 + c] * h[6 + m];
       for (int i = 0; i < 9; ++i) h[i] = t[i];
     }
     const double mu = p.mu[k], lt = p.lam[k] * (h[0] + h[4] + h[8]);
@@ -61,7 +82,7 @@ INCISE_SIMD_CLONES void packet_forces(const StiffnessKernel::Packet& __restrict 
       double t[9];
       for (int c = 0; c < 3; ++c)
         for (int m = 0; m < 3; ++m)
-          t[3 * c + m] = rot->r[3 * c][k] * s[m] + rot->r[3 * c + 1][k] * s[3 + m] + rot->r[3 * c + 2][k] * s[6 + m];
+          t[3 * c + m] = r[3 * c] * s[m] + r[3 * c + 1] * s[3 + m] + r[3 * c + 2] * s[6 + m];
       for (int i = 0; i < 9; ++i) s[i] = t[i];
     }
     for (int c = 0; c < 3; ++c) {
@@ -134,7 +155,23 @@ __attribute__((target("avx2,fma"))) void packets_avx2(const StiffnessKernel::Pac
               d[3 * cc + 2], b[6 + m], _mm256_fmadd_pd(d[3 * cc + 1], b[3 + m], _mm256_mul_pd(d[3 * cc], b[m])));
       __m256d r[9];
       if constexpr (Corot) {
-        for (int i = 0; i < 9; ++i) r[i] = _mm256_load_pd(&rotations[pi].r[i][base]);
+        const auto& q = rotations[pi].q;
+        const __m256d w = _mm256_load_pd(&q[0][base]), qx = _mm256_load_pd(&q[1][base]);
+        const __m256d qy = _mm256_load_pd(&q[2][base]), qz = _mm256_load_pd(&q[3][base]);
+        const __m256d x2 = _mm256_add_pd(qx, qx), y2 = _mm256_add_pd(qy, qy), z2 = _mm256_add_pd(qz, qz);
+        const __m256d xx = _mm256_mul_pd(qx, x2), yy = _mm256_mul_pd(qy, y2), zz = _mm256_mul_pd(qz, z2);
+        const __m256d xy = _mm256_mul_pd(qx, y2), xz = _mm256_mul_pd(qx, z2), yz = _mm256_mul_pd(qy, z2);
+        const __m256d wx = _mm256_mul_pd(w, x2), wy = _mm256_mul_pd(w, y2), wz = _mm256_mul_pd(w, z2);
+        const __m256d one = _mm256_set1_pd(1.0);
+        r[0] = _mm256_sub_pd(one, _mm256_add_pd(yy, zz));
+        r[1] = _mm256_sub_pd(xy, wz);
+        r[2] = _mm256_add_pd(xz, wy);
+        r[3] = _mm256_add_pd(xy, wz);
+        r[4] = _mm256_sub_pd(one, _mm256_add_pd(xx, zz));
+        r[5] = _mm256_sub_pd(yz, wx);
+        r[6] = _mm256_sub_pd(xz, wy);
+        r[7] = _mm256_add_pd(yz, wx);
+        r[8] = _mm256_sub_pd(one, _mm256_add_pd(xx, yy));
         __m256d t[9];
         for (int cc = 0; cc < 3; ++cc)
           for (int m = 0; m < 3; ++m)
@@ -266,7 +303,7 @@ void StiffnessKernel::add(const TetMesh& mesh, std::uint32_t t, const std::array
   p.mu[k] = vmu;
   p.lam[k] = vlambda;
   if (corot_)
-    for (int i = 0; i < 9; ++i) blk.rotations[s / kLanes].r[i][k] = i % 4 == 0 ? 1.0 : 0.0;
+    blk.rotations[s / kLanes].q[0][k] = 1.0;  // identity (the other components are zero)
   blk.tet.push_back(t);
   block_[t] = std::uint32_t(c);
   slot_[t] = std::uint32_t(s);
@@ -293,9 +330,9 @@ void StiffnessKernel::remove(std::uint32_t t) {
   pl.mu[kl] = pl.lam[kl] = 0;
   if (corot_) {
     Rotations &rs = blk.rotations[s / kLanes], &rl = blk.rotations[last / kLanes];
-    for (int i = 0; i < 9; ++i) {
-      rs.r[i][ks] = rl.r[i][kl];
-      rl.r[i][kl] = 0;
+    for (int i = 0; i < 4; ++i) {
+      rs.q[i][ks] = rl.q[i][kl];
+      rl.q[i][kl] = 0;
     }
   }
   blk.tet[s] = blk.tet[last];
@@ -313,8 +350,13 @@ void StiffnessKernel::set_rotation(std::uint32_t t, const Eigen::Matrix3d& r) {
   if (!corot_ || t >= block_.size() || block_[t] == kNone) return;
   Block& blk = blocks_[block_[t]];
   const std::size_t s = slot_[t];
-  for (int a = 0; a < 3; ++a)
-    for (int c = 0; c < 3; ++c) blk.rotations[s / kLanes].r[3 * a + c][s % kLanes] = r(a, c);
+  Eigen::Quaterniond q(r);  // r is a proper rotation (FemModel's polar decomposition)
+  q.normalize();
+  Rotations& dst = blk.rotations[s / kLanes];
+  dst.q[0][s % kLanes] = q.w();
+  dst.q[1][s % kLanes] = q.x();
+  dst.q[2][s % kLanes] = q.y();
+  dst.q[3][s % kLanes] = q.z();
 }
 
 // Packets [begin, end) of a block.

@@ -1,7 +1,7 @@
 #pragma once
 // The matrix-free K x kernel. Tets live in slabs along the mesh's longest axis, each slab a
 // block of packets of per-tet data (struct of arrays: B = inverse rest edge matrix, V mu,
-// V lambda, 4 vertex ids, plus R for corotational). Slabs are at least as wide as any tet, so
+// V lambda, 4 vertex ids, plus R as a quaternion for corotational). Slabs are at least as wide as any tet, so
 // slabs three apart share no vertex: the product runs the slabs of colour 0, 1, 2 (slab index
 // mod 3) in turn, each slab serially on one thread and scattering its corner forces straight
 // into y: no per-corner scratch, no gather pass, and each thread sweeps a contiguous region of
@@ -58,8 +58,10 @@ public:
     alignas(64) double mu[kLanes], lam[kLanes];  // V mu, V lambda
     std::uint32_t v[4][kLanes];
   };
+  // Corotational: the rotation as a unit quaternion (w, x, y, z), 32 bytes per tet instead of
+  // 72 for the matrix; the product is bound by memory, and rebuilding R in registers is cheap.
   struct Rotations {
-    alignas(64) double r[9][kLanes];  // r[3a+c] = R(a, c)
+    alignas(64) double q[4][kLanes];
   };
 
   std::size_t tets() const { return count_; }
