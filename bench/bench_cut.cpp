@@ -13,7 +13,7 @@
 //  4. beam_ratio: a beam clamped at both ends under gravity, cut through at midspan: midspan
 //     sag after / before, against beam theory: 3 (Euler-Bernoulli: two cantilevers of half
 //     the length), 2.78 with shear (Timoshenko) for this beam's L/h = 10.
-// Usage: bench_cut [--quick] [--no-1m] [LIVER.msh]   (default samples/liver.msh)
+// Usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam] [ORGAN]   (default samples/liver.msh)
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -284,18 +284,23 @@ void beam_ratio(bool quick) {
 
 int main(int argc, char** argv) {
   bool quick = false, with_1m = true;
-  std::string organ_path = std::string(INCISE_SOURCE_DIR) + "/samples/liver.msh";
+  std::string organ_path = std::string(INCISE_SOURCE_DIR) + "/samples/liver.msh", only;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
     else if (!std::strcmp(argv[i], "--no-1m")) with_1m = false;
-    else organ_path = argv[i];
+    else if (!std::strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
+    else if (argv[i][0] == '-') {
+      std::fprintf(stderr, "usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam] [ORGAN]\n");
+      return 1;
+    } else organ_path = argv[i];
   }
-  step_to_solver_ready(quick, with_1m);
+  auto want = [&](const char* s) { return only.empty() || only == s; };
+  if (want("step")) step_to_solver_ready(quick, with_1m);
   TetMesh organ = read_tet_mesh(organ_path);
   organ.discard_change();
   const std::string name = std::filesystem::path(organ_path).filename().string();
-  quality_after_cuts(organ, name, quick);
-  snap_trade(organ);
-  beam_ratio(quick);
+  if (want("quality")) quality_after_cuts(organ, name, quick);
+  if (want("snap")) snap_trade(organ);
+  if (want("beam")) beam_ratio(quick);
   return 0;
 }

@@ -119,9 +119,14 @@ double CutStep::vertex_radius(VertexId v) {
 VertexId CutStep::insert_point(TetId t, std::array<double, 4> w) {
   const auto tv = mesh_.tet_vertices(t);
   for (double& x : w) x = std::max(x, 0.0);
-  // A point within a vertex's snap radius is that vertex. Vertices made this step keep the
-  // radius of the element they were made in: a blade segment passes within that distance of
-  // a point snapped onto an edge, and must not then refine the shrinking faces around it.
+  // A point within a vertex's snap radius is that vertex. Vertices made this step get a radius
+  // of half the snap threshold times the element they were made in: a blade segment passes
+  // within that distance of a point snapped onto an edge, and must not then refine the
+  // shrinking faces around it; and a segment that runs (up to rounding) in the plane of a
+  // face, tangent to the boundary, meets the new faces again and again at points converging
+  // on one spot (a cascade of face splits leaving tets with radius ratio 1e-13). Snapping onto
+  // a point made this step keeps the blade's boundary a chain of mesh edges: that point lies on
+  // the blade's boundary or surface.
   {
     const double sum = w[0] + w[1] + w[2] + w[3];
     Vec3 x = Vec3::Zero();
@@ -140,7 +145,7 @@ VertexId CutStep::insert_point(TetId t, std::array<double, 4> w) {
       }
     }
     if (best >= 0) return tv[best];
-    pending_radius_ = kSnapFloor * longest;
+    pending_radius_ = std::max(kSnapFloor, 0.5 * snap_) * longest;
   }
   for (double& x : w)
     if (x < kSnapFloor) x = 0;
