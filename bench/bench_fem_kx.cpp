@@ -42,10 +42,11 @@ int main(int argc, char** argv) {
   const int reps = int(args.num("--reps", 7));
   Csv csv(args.get("--out", "."), "fem_kx.csv",
           "kind,tets,vertices,threads,matrix_free_ms,assembled_ms,eigen_spmv_ms,ratio_assembled_over_mf,mf_gbs,"
-          "assembled_gbs,stream_gbs,mf_pct_bound,assembled_pct_bound,assembly_ms,model_build_ms,nnz");
+          "assembled_gbs,stream_gbs,mf_pct_bound,assembled_pct_bound,assembly_ms,model_build_ms,nnz,portable_mf_ms,"
+          "ratio_assembled_over_portable");
   std::printf("K*x, median of %d; bandwidth bound from a STREAM triad measured in the same run\n", reps);
-  std::printf("%6s %9s %3s %10s %10s %10s %8s %8s %8s %8s\n", "kind", "tets", "thr", "mf ms", "csr ms", "eigen ms", "csr/mf",
-              "mf %bw", "csr %bw", "GB/s");
+  std::printf("%6s %9s %3s %10s %10s %10s %8s %8s %8s %8s %10s %8s\n", "kind", "tets", "thr", "mf ms", "csr ms", "eigen ms",
+              "csr/mf", "mf %bw", "csr %bw", "GB/s", "port. ms", "csr/port");
   std::vector<FemKind> kinds{FemKind::Linear};
   if (!args.flag("--linear-only")) kinds.push_back(FemKind::Corotational);
   for (double target : sizes)
@@ -70,10 +71,11 @@ int main(int argc, char** argv) {
       as.rebuild();
     }
     // Minimal traffic per product. Matrix-free: per tet the packet data (B 72, V mu and V lambda
-    // 16, vertex ids 16; R 72 for corotational); x read and y read and written once per vertex.
+    // 16, vertex ids 16; the rotation's quaternion 32 for corotational); per vertex x read (24),
+    // the padded y written and read back (64) and y written (24).
     // Assembled: values + column indices (12 per nonzero), row pointers, x and y.
     const double nt = double(m.num_tets()), nv = double(m.num_vertices());
-    const double mf_bytes = nt * (72 + 16 + 16 + (corot ? 72 : 0)) + nv * 3 * 24;
+    const double mf_bytes = nt * (72 + 16 + 16 + (corot ? 32 : 0)) + nv * (24 + 64 + 24);
     const double nnz = double(as.matrix().nonZeros());
     const double as_bytes = nnz * 12 + nv * 3 * 4 + nv * 2 * 24;
     for (int threads : {1, 2}) {
@@ -82,11 +84,14 @@ int main(int argc, char** argv) {
       const double mf = time_ms(reps, [&] { model.multiply(x, y); });
       const double csr = time_ms(reps, [&] { as.multiply(x, y2); });
       const double eig = time_ms(reps, [&] { y2.noalias() = as.matrix() * x; });
+      model.set_kernel_simd(false);  // the portable path, as on CPUs without AVX2
+      const double port = time_ms(reps, [&] { model.multiply(x, y); });
+      model.set_kernel_simd(true);
       const double mf_gbs = mf_bytes / (mf * 1e6), as_gbs = as_bytes / (csr * 1e6);
-      std::printf("%6s %9.0f %3d %10.3f %10.3f %10.3f %8.2f %7.1f%% %7.1f%% %8.1f\n", corot ? "corot" : "linear", nt, threads, mf, csr, eig, csr / mf,
-                  100 * mf_gbs / bw, 100 * as_gbs / bw, bw);
+      std::printf("%6s %9.0f %3d %10.3f %10.3f %10.3f %8.2f %7.1f%% %7.1f%% %8.1f %10.3f %8.2f\n", corot ? "corot" : "linear", nt,
+                  threads, mf, csr, eig, csr / mf, 100 * mf_gbs / bw, 100 * as_gbs / bw, bw, port, csr / port);
       csv.row(corot ? "corotational" : "linear", nt, nv, threads, mf, csr, eig, csr / mf, mf_gbs, as_gbs, bw, 100 * mf_gbs / bw, 100 * as_gbs / bw,
-              assembly_ms, build_ms, nnz);
+              assembly_ms, build_ms, nnz, port, csr / port);
     }
     std::printf("          (model build %.0f ms, assembly %.0f ms, %.1fM nonzeros = %.0f MB)\n", build_ms, assembly_ms,
                 nnz / 1e6, nnz * 12 / 1e6);

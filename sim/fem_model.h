@@ -78,6 +78,9 @@ public:
   // ---- LinearOperator: y = K x (K_R for corotational), parallel --------------------
   Eigen::Index rows() const override { return Eigen::Index(num_dofs()); }
   void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const override;
+  // The matrix-free kernel's AVX2 path (default where the CPU has it); off: the portable
+  // path other CPUs run (benchmarks compare the two).
+  void set_kernel_simd(bool on) { kernel_.set_simd(on); }
   const Eigen::VectorXd& diagonal() const override { return diag_; }
   // Per vertex: the 3x3 diagonal block of K (K_R), kept current with the diagonal.
   const std::vector<Eigen::Matrix3d>& diagonal_blocks() const override { return blocks_; }
