@@ -6,7 +6,7 @@
 //  3. warm start on a probe moving steadily over 40 frames: iterations of the last solution
 //     and of the prediction against a cold start;
 //  4. iterations against Poisson's ratio up to 0.4999 for each preconditioner.
-//   bench_fem_precond [--organ MESH] [--beam SCENE] [--budget-tets 30000] [--out DIR]
+//   bench_fem_precond [--organ MESH] [--beam SCENE] [--budget-tets 30000] [--only SECTION] [--out DIR]
 #include <cmath>
 
 #include "bench/bench_common.h"
@@ -192,12 +192,13 @@ void section_budget(double tets, Csv& csv) {
 void section_warm_start(Csv& csv) {
   Cantilever c(5000);
   std::printf("\nwarm start: probe at the tip moving steadily over 40 frames, cantilever %zu tets, corotational, "
-              "tolerance 1e-8\n",
+              "tolerance 1e-8; CG iterations, and all operator products (iterations + each frame's start: guess, "
+              "prescribed values, prediction directions)\n",
               c.mesh.num_tets());
-  std::printf("  %-13s %10s %10s %10s %12s %12s\n", "preconditioner", "cold", "last", "predicted", "last/cold",
-              "predict/cold");
+  std::printf("  %-13s %10s %10s %10s %12s %12s %22s %14s\n", "preconditioner", "cold", "last", "predicted", "last/cold",
+              "predict/cold", "products cold/predicted", "products ratio");
   for (Preconditioner pc : kPcs) {
-    int total[3] = {0, 0, 0};
+    int total[3] = {0, 0, 0}, products[3] = {0, 0, 0};
     for (int mode = 0; mode < 3; ++mode) {
       FemSimulationOptions opt;
       opt.kind = FemKind::Corotational;
@@ -215,13 +216,16 @@ void section_warm_start(Csv& csv) {
       }
       for (int f = 0; f < 40; ++f) {
         for (VertexId v : tip) sim.prescribe(v, Vec3(0, 0.002 * f, -0.01 * f));
-        total[mode] += sim.step().iterations;
+        const FrameStats& st = sim.step();
+        total[mode] += st.iterations;
+        products[mode] += st.products;
       }
     }
-    std::printf("  %-13s %10d %10d %10d %12.3f %12.3f\n", to_string(pc), total[0], total[1], total[2],
-                double(total[1]) / total[0], double(total[2]) / total[0]);
+    std::printf("  %-13s %10d %10d %10d %12.3f %12.3f %11d/%-10d %14.3f\n", to_string(pc), total[0], total[1], total[2],
+                double(total[1]) / total[0], double(total[2]) / total[0], products[0], products[2],
+                double(products[2]) / products[0]);
     csv.row("warm-start", to_string(pc), c.mesh.num_tets(), total[0], total[1], total[2], double(total[1]) / total[0],
-            double(total[2]) / total[0], 0, 0);
+            double(total[2]) / total[0], products[0], products[2]);
   }
 }
 
@@ -253,10 +257,14 @@ int main(int argc, char** argv) {
   Args args(argc, argv);
   const std::string out = args.get("--out", ".");
   Csv csv(out, "fem_precond.csv", "section,setting,tets,a,b,c,d,e,f,g");
+  // --only SECTION (beam, organ, budget, warm, poisson, rotated): one section, for quick runs.
+  const std::string only = args.get("--only", "");
+  auto want = [&](const char* name) { return only.empty() || only == name; };
   const std::string beam = args.get("--beam", std::string(INCISE_SOURCE_DIR) + "/samples/scenes/beam.json");
-  section_beam_scene(beam, csv);
+  if (want("beam")) section_beam_scene(beam, csv);
   const std::string organ = args.get("--organ", "");
-  if (!organ.empty()) {
+  if (!want("organ")) {
+  } else if (!organ.empty()) {
     const TetMesh m = read_tet_mesh(organ);
     section_organ("organ", m, -1, csv);
     section_organ("cut organ", m, 10, csv);
@@ -264,9 +272,9 @@ int main(int argc, char** argv) {
     std::printf("\n(no --organ MESH: organ sections skipped; make one with `incise prepare samples/liver.inr.gz -o "
                 "liver.vtu`)\n");
   }
-  section_budget(args.num("--budget-tets", 30000), csv);
-  section_warm_start(csv);
-  section_poisson(csv);
+  if (want("budget")) section_budget(args.num("--budget-tets", 30000), csv);
+  if (want("warm")) section_warm_start(csv);
+  if (want("poisson")) section_poisson(csv);
   std::printf("\nCSV: %s\n", csv.path().c_str());
   return 0;
 }

@@ -278,6 +278,7 @@ void FemSimulation::solve_system(const LinearOperator& k, double a, double c, co
     st.resumed = s.resumed;
   }
   st.iterations += s.iterations;
+  st.products += s.products;
   st.relative_residual = s.relative_residual;
   st.solve_ms += s.solve_ms;
   st.budget_exhausted = st.budget_exhausted || s.budget_exhausted;
