@@ -5,7 +5,8 @@
 //     budgets, resuming CG (now) against restarting it every frame (before);
 //  3. warm start on a probe moving steadily over 40 frames: iterations of the last solution
 //     and of the prediction against a cold start;
-//  4. iterations against Poisson's ratio up to 0.4999 for each preconditioner.
+//  4. a corotational beam bent far with a stale Cholesky factor, rotated (now) against as is;
+//  5. iterations against Poisson's ratio up to 0.4999 for each preconditioner.
 //   bench_fem_precond [--organ MESH] [--beam SCENE] [--budget-tets 30000] [--only SECTION] [--out DIR]
 #include <cmath>
 
@@ -229,6 +230,57 @@ void section_warm_start(Csv& csv) {
   }
 }
 
+// The tip face of a cantilever turned rigidly along a circular arc (the beam bent into an arc)
+// up to `degrees`, over `frames` frames; corotational, Cholesky. The factor is stale between
+// refreshes; rotated (now) against as is (before), same run, same factors (computed in the
+// frame). `refactor`: CG iterations above which a fresh factor is asked for.
+void section_rotated(Csv& csv) {
+  Cantilever c(5000);
+  const int frames = 40;
+  std::printf("\nstale factor under large rotation: cantilever %zu tets, corotational, nu 0.45, tip face turned along "
+              "an arc by up to 90 degrees over %d frames, tolerance 1e-8, Cholesky factor computed in the frame\n",
+              c.mesh.num_tets(), frames);
+  std::printf("  %-34s %14s %14s %10s %16s %12s\n", "refresh rule", "it/frame as is", "it/frame rot.", "ratio",
+              "factorizations", "answer diff");
+  for (int refactor : {1000000, 10}) {
+    double it[2] = {0, 0};
+    int facts[2] = {0, 0};
+    Eigen::VectorXd u[2];
+    for (int rot = 0; rot < 2; ++rot) {
+      FemSimulationOptions opt;
+      opt.kind = FemKind::Corotational;
+      opt.cg.tolerance = 1e-8;
+      opt.cg.preconditioner = Preconditioner::Cholesky;
+      opt.cg.max_iterations = 100000;
+      opt.cholesky.background = false;
+      opt.cholesky.refactor_iterations = refactor;
+      opt.cholesky.rotate = rot == 1;
+      FemSimulation sim(c.mesh, material(1e5, 0.45), opt);
+      std::vector<VertexId> tip;
+      for (VertexId v : c.mesh.vertices()) {
+        if (c.mesh.rest(v).x() < 1e-9) sim.fix(v);
+        if (c.mesh.rest(v).x() > 8 - 1e-9) tip.push_back(v);
+      }
+      const Vec3 centre(8, 0.5, 0.5);
+      for (int f = 1; f <= frames; ++f) {
+        const double theta = 0.5 * M_PI * f / frames, radius = 8 / theta;
+        const Eigen::Matrix3d r = Eigen::AngleAxisd(-theta, Vec3::UnitY()).toRotationMatrix();
+        const Vec3 end(radius * std::sin(theta), 0.5, 0.5 + radius * (1 - std::cos(theta)));
+        for (VertexId v : tip) sim.prescribe(v, end + r * (c.mesh.rest(v) - centre) - c.mesh.rest(v));
+        it[rot] += sim.step().iterations;
+      }
+      it[rot] /= frames;
+      facts[rot] = sim.cholesky() ? sim.cholesky()->factorizations() : 0;
+      u[rot] = sim.displacement();
+    }
+    const std::string rule = refactor > 1000 ? "first factor only (stale throughout)" : "refresh above 10 it (default)";
+    const double diff = (u[1] - u[0]).norm() / u[0].norm();
+    std::printf("  %-34s %14.1f %14.1f %10.3f %9d / %-4d %12.1e\n", rule.c_str(), it[0], it[1], it[1] / it[0], facts[0],
+                facts[1], diff);
+    csv.row("rotated", refactor, c.mesh.num_tets(), it[0], it[1], it[1] / it[0], facts[0], facts[1], diff, 0);
+  }
+}
+
 void section_poisson(Csv& csv) {
   Cantilever c(5000);
   std::printf("\niterations against Poisson's ratio: cantilever %zu tets, linear, cold start, tolerance 1e-8\n",
@@ -274,6 +326,7 @@ int main(int argc, char** argv) {
   }
   if (want("budget")) section_budget(args.num("--budget-tets", 30000), csv);
   if (want("warm")) section_warm_start(csv);
+  if (want("rotated")) section_rotated(csv);
   if (want("poisson")) section_poisson(csv);
   std::printf("\nCSV: %s\n", csv.path().c_str());
   return 0;
