@@ -6,8 +6,11 @@
 //  3. warm start on a probe moving steadily over 40 frames: iterations of the last solution
 //     and of the prediction against a cold start;
 //  4. a corotational beam bent far with a stale Cholesky factor, rotated (now) against as is;
-//  5. iterations against Poisson's ratio up to 0.4999 for each preconditioner.
-//   bench_fem_precond [--organ MESH] [--beam SCENE] [--budget-tets 30000] [--only SECTION] [--out DIR]
+//  5. iterations against Poisson's ratio up to 0.4999 for each preconditioner;
+//  6. with --size-tets N: Jacobi against Cholesky on a large model (first-frame wait, memory).
+//   bench_fem_precond [--organ MESH] [--beam SCENE] [--budget-tets 30000] [--only SECTION] [--size-tets N] [--out DIR]
+#include <sys/resource.h>
+
 #include <cmath>
 
 #include "bench/bench_common.h"
@@ -281,6 +284,44 @@ void section_rotated(Csv& csv) {
   }
 }
 
+// The library default near the factorization limit: a corotational cantilever of `tets` tets,
+// 5 frames of a moving probe, tolerance 1e-6, Jacobi then Cholesky (the first frame waits for
+// the first factorization); time per frame and the process's peak memory after each.
+void section_size(double tets, Csv& csv) {
+  Cantilever c(tets);
+  std::printf("\nnear the factorization limit: cantilever %zu tets, %zu vertices, corotational, tolerance 1e-6, "
+              "5 frames\n",
+              c.mesh.num_tets(), c.mesh.num_vertices());
+  std::printf("  %-13s %12s %22s %10s %14s\n", "preconditioner", "frame 1 ms", "frames 2-5 ms (mean)", "it total",
+              "peak RSS MB");
+  for (Preconditioner pc : {Preconditioner::Jacobi, Preconditioner::Cholesky}) {
+    FemSimulationOptions opt;
+    opt.kind = FemKind::Corotational;
+    opt.cg.tolerance = 1e-6;
+    opt.cg.preconditioner = pc;
+    opt.cg.max_iterations = 100000;
+    FemSimulation sim(c.mesh, material(1e5, 0.45), opt);
+    std::vector<VertexId> tip;
+    for (VertexId v : c.mesh.vertices()) {
+      if (c.mesh.rest(v).x() < 1e-9) sim.fix(v);
+      if (c.mesh.rest(v).x() > 8 - 1e-9) tip.push_back(v);
+    }
+    double first = 0, rest = 0;
+    int it = 0;
+    for (int f = 1; f <= 5; ++f) {
+      for (VertexId v : tip) sim.prescribe(v, Vec3(0, 0, -0.02 * f));
+      const FrameStats& st = sim.step();
+      (f == 1 ? first : rest) += st.frame_ms;
+      it += st.iterations;
+    }
+    rusage ru{};
+    getrusage(RUSAGE_SELF, &ru);
+    const double rss = double(ru.ru_maxrss) / 1024;  // peak so far: Jacobi runs first
+    std::printf("  %-13s %12.0f %22.0f %10d %14.0f\n", to_string(pc), first, rest / 4, it, rss);
+    csv.row("size", to_string(pc), c.mesh.num_tets(), first, rest / 4, it, rss, 0, 0, 0);
+  }
+}
+
 void section_poisson(Csv& csv) {
   Cantilever c(5000);
   std::printf("\niterations against Poisson's ratio: cantilever %zu tets, linear, cold start, tolerance 1e-8\n",
@@ -328,6 +369,8 @@ int main(int argc, char** argv) {
   if (want("warm")) section_warm_start(csv);
   if (want("rotated")) section_rotated(csv);
   if (want("poisson")) section_poisson(csv);
+  // Slow (the factorization of a large model): only on request.
+  if (args.get("--size-tets", "") != "") section_size(args.num("--size-tets", 0), csv);
   std::printf("\nCSV: %s\n", csv.path().c_str());
   return 0;
 }

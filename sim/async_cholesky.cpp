@@ -68,6 +68,9 @@ std::shared_ptr<AsyncCholesky::Factor> factorize(const FemElements& e, const Eig
   Eigen::SparseMatrix<double> k(f->rows, f->rows);
   k.setFromTriplets(lower.begin(), lower.end());
   lower = {};
+#ifdef INCISE_HAVE_CHOLMOD
+  f->llt.cholmod().print = 0;  // a failure (not positive definite) is reported by ok, not on stdout
+#endif
   f->llt.compute(k);
   f->ok = f->llt.info() == Eigen::Success;
   f->ms = now_ms() - t0;

@@ -50,7 +50,9 @@ struct FemSimulationOptions {
   FemKind kind = FemKind::Linear;                       // Linear or Corotational elements
   SolverMethod method = SolverMethod::Cg;               // Direct: SimplicialLDLT reference
   StiffnessBackend backend = StiffnessBackend::MatrixFree;  // operator CG multiplies with
-  CgOptions cg;                                         // tolerance, cap, budget, preconditioner
+  // tolerance, cap, budget, preconditioner: the asynchronous Cholesky, as in scenes (the
+  // fastest measured, docs/solver.md; block-Jacobi above AsyncCholeskyOptions::max_unknowns).
+  CgOptions cg{.preconditioner = Preconditioner::Cholesky};
   AsyncCholeskyOptions cholesky;                        // for cg.preconditioner == Cholesky
   bool warm_start = true;                               // start CG from the previous frame
   bool predict = true;                                  // static warm start extrapolates the last frames
