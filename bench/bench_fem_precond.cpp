@@ -245,10 +245,10 @@ void section_rotated(Csv& csv) {
   std::printf("\nstale factor under large rotation: cantilever %zu tets, corotational, nu 0.45, tip face turned along "
               "an arc by up to 90 degrees over %d frames, tolerance 1e-8, Cholesky factor computed in the frame\n",
               c.mesh.num_tets(), frames);
-  std::printf("  %-34s %14s %14s %10s %16s %12s\n", "refresh rule", "it/frame as is", "it/frame rot.", "ratio",
-              "factorizations", "answer diff");
+  std::printf("  %-34s %14s %14s %10s %16s %12s %20s\n", "refresh rule", "it/frame as is", "it/frame rot.", "ratio",
+              "factorizations", "answer diff", "ms/frame as is/rot.");
   for (int refactor : {1000000, 10}) {
-    double it[2] = {0, 0};
+    double it[2] = {0, 0}, ms[2] = {0, 0};
     int facts[2] = {0, 0};
     Eigen::VectorXd u[2];
     for (int rot = 0; rot < 2; ++rot) {
@@ -272,16 +272,19 @@ void section_rotated(Csv& csv) {
         const Eigen::Matrix3d r = Eigen::AngleAxisd(-theta, Vec3::UnitY()).toRotationMatrix();
         const Vec3 end(radius * std::sin(theta), 0.5, 0.5 + radius * (1 - std::cos(theta)));
         for (VertexId v : tip) sim.prescribe(v, end + r * (c.mesh.rest(v) - centre) - c.mesh.rest(v));
-        it[rot] += sim.step().iterations;
+        const FrameStats& st = sim.step();
+        it[rot] += st.iterations;
+        ms[rot] += st.frame_ms;
       }
       it[rot] /= frames;
+      ms[rot] /= frames;
       facts[rot] = sim.cholesky() ? sim.cholesky()->factorizations() : 0;
       u[rot] = sim.displacement();
     }
     const std::string rule = refactor > 1000 ? "first factor only (stale throughout)" : "refresh above 10 it (default)";
     const double diff = (u[1] - u[0]).norm() / u[0].norm();
-    std::printf("  %-34s %14.1f %14.1f %10.3f %9d / %-4d %12.1e\n", rule.c_str(), it[0], it[1], it[1] / it[0], facts[0],
-                facts[1], diff);
+    std::printf("  %-34s %14.1f %14.1f %10.3f %9d / %-4d %12.1e %9.2f / %-8.2f\n", rule.c_str(), it[0], it[1],
+                it[1] / it[0], facts[0], facts[1], diff, ms[0], ms[1]);
     csv.row("rotated", refactor, c.mesh.num_tets(), it[0], it[1], it[1] / it[0], facts[0], facts[1], diff, 0);
   }
 }
