@@ -58,7 +58,7 @@ struct CgOptions {
   double tolerance = 1e-8;                          // relative residual target
   int max_iterations = 10000;                       // cap per solve
   double budget_ms = 0;                             // wall-clock budget per solve; 0 = none
-  Preconditioner preconditioner = Preconditioner::Jacobi;  // see sim/preconditioner.h
+  Preconditioner preconditioner = Preconditioner::Jacobi;  // see sim/preconditioner.h; FemSimulation: Cholesky
 };
 
 class ConjugateGradient {
