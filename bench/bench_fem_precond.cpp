@@ -5,8 +5,12 @@
 //     budgets, resuming CG (now) against restarting it every frame (before);
 //  3. warm start on a probe moving steadily over 40 frames: iterations of the last solution
 //     and of the prediction against a cold start;
-//  4. iterations against Poisson's ratio up to 0.4999 for each preconditioner.
-//   bench_fem_precond [--organ MESH] [--beam SCENE] [--budget-tets 30000] [--out DIR]
+//  4. a corotational beam bent far with a stale Cholesky factor, rotated (now) against as is;
+//  5. iterations against Poisson's ratio up to 0.4999 for each preconditioner;
+//  6. with --size-tets N: Jacobi against Cholesky on a large model (first-frame wait, memory).
+//   bench_fem_precond [--organ MESH] [--beam SCENE] [--budget-tets 30000] [--only SECTION] [--size-tets N] [--out DIR]
+#include <sys/resource.h>
+
 #include <cmath>
 
 #include "bench/bench_common.h"
@@ -192,12 +196,14 @@ void section_budget(double tets, Csv& csv) {
 void section_warm_start(Csv& csv) {
   Cantilever c(5000);
   std::printf("\nwarm start: probe at the tip moving steadily over 40 frames, cantilever %zu tets, corotational, "
-              "tolerance 1e-8\n",
+              "tolerance 1e-8; CG iterations, all operator products (iterations + each frame's start: guess, "
+              "prescribed values, prediction directions), and CG time (the solves only)\n",
               c.mesh.num_tets());
-  std::printf("  %-13s %10s %10s %10s %12s %12s\n", "preconditioner", "cold", "last", "predicted", "last/cold",
-              "predict/cold");
+  std::printf("  %-13s %10s %10s %10s %12s %12s %22s %14s %18s\n", "preconditioner", "cold", "last", "predicted",
+              "last/cold", "predict/cold", "products cold/predicted", "products ratio", "solve ms ratio");
   for (Preconditioner pc : kPcs) {
-    int total[3] = {0, 0, 0};
+    int total[3] = {0, 0, 0}, products[3] = {0, 0, 0};
+    double solve_ms[3] = {0, 0, 0};
     for (int mode = 0; mode < 3; ++mode) {
       FemSimulationOptions opt;
       opt.kind = FemKind::Corotational;
@@ -215,13 +221,109 @@ void section_warm_start(Csv& csv) {
       }
       for (int f = 0; f < 40; ++f) {
         for (VertexId v : tip) sim.prescribe(v, Vec3(0, 0.002 * f, -0.01 * f));
-        total[mode] += sim.step().iterations;
+        const FrameStats& st = sim.step();
+        total[mode] += st.iterations;
+        products[mode] += st.products;
+        solve_ms[mode] += st.solve_ms;
       }
     }
-    std::printf("  %-13s %10d %10d %10d %12.3f %12.3f\n", to_string(pc), total[0], total[1], total[2],
-                double(total[1]) / total[0], double(total[2]) / total[0]);
+    std::printf("  %-13s %10d %10d %10d %12.3f %12.3f %11d/%-10d %14.3f %18.3f\n", to_string(pc), total[0], total[1],
+                total[2], double(total[1]) / total[0], double(total[2]) / total[0], products[0], products[2],
+                double(products[2]) / products[0], solve_ms[2] / solve_ms[0]);
     csv.row("warm-start", to_string(pc), c.mesh.num_tets(), total[0], total[1], total[2], double(total[1]) / total[0],
-            double(total[2]) / total[0], 0, 0);
+            double(total[2]) / total[0], products[0], products[2]);
+  }
+}
+
+// The tip face of a cantilever turned rigidly along a circular arc (the beam bent into an arc)
+// up to `degrees`, over `frames` frames; corotational, Cholesky. The factor is stale between
+// refreshes; rotated (now) against as is (before), same run, same factors (computed in the
+// frame). `refactor`: CG iterations above which a fresh factor is asked for.
+void section_rotated(Csv& csv) {
+  Cantilever c(5000);
+  const int frames = 40;
+  std::printf("\nstale factor under large rotation: cantilever %zu tets, corotational, nu 0.45, tip face turned along "
+              "an arc by up to 90 degrees over %d frames, tolerance 1e-8, Cholesky factor computed in the frame\n",
+              c.mesh.num_tets(), frames);
+  std::printf("  %-34s %14s %14s %10s %16s %12s %20s\n", "refresh rule", "it/frame as is", "it/frame rot.", "ratio",
+              "factorizations", "answer diff", "ms/frame as is/rot.");
+  for (int refactor : {1000000, 10}) {
+    double it[2] = {0, 0}, ms[2] = {0, 0};
+    int facts[2] = {0, 0};
+    Eigen::VectorXd u[2];
+    for (int rot = 0; rot < 2; ++rot) {
+      FemSimulationOptions opt;
+      opt.kind = FemKind::Corotational;
+      opt.cg.tolerance = 1e-8;
+      opt.cg.preconditioner = Preconditioner::Cholesky;
+      opt.cg.max_iterations = 100000;
+      opt.cholesky.background = false;
+      opt.cholesky.refactor_iterations = refactor;
+      opt.cholesky.rotate = rot == 1;
+      FemSimulation sim(c.mesh, material(1e5, 0.45), opt);
+      std::vector<VertexId> tip;
+      for (VertexId v : c.mesh.vertices()) {
+        if (c.mesh.rest(v).x() < 1e-9) sim.fix(v);
+        if (c.mesh.rest(v).x() > 8 - 1e-9) tip.push_back(v);
+      }
+      const Vec3 centre(8, 0.5, 0.5);
+      for (int f = 1; f <= frames; ++f) {
+        const double theta = 0.5 * M_PI * f / frames, radius = 8 / theta;
+        const Eigen::Matrix3d r = Eigen::AngleAxisd(-theta, Vec3::UnitY()).toRotationMatrix();
+        const Vec3 end(radius * std::sin(theta), 0.5, 0.5 + radius * (1 - std::cos(theta)));
+        for (VertexId v : tip) sim.prescribe(v, end + r * (c.mesh.rest(v) - centre) - c.mesh.rest(v));
+        const FrameStats& st = sim.step();
+        it[rot] += st.iterations;
+        ms[rot] += st.frame_ms;
+      }
+      it[rot] /= frames;
+      ms[rot] /= frames;
+      facts[rot] = sim.cholesky() ? sim.cholesky()->factorizations() : 0;
+      u[rot] = sim.displacement();
+    }
+    const std::string rule = refactor > 1000 ? "first factor only (stale throughout)" : "refresh above 10 it (default)";
+    const double diff = (u[1] - u[0]).norm() / u[0].norm();
+    std::printf("  %-34s %14.1f %14.1f %10.3f %9d / %-4d %12.1e %9.2f / %-8.2f\n", rule.c_str(), it[0], it[1],
+                it[1] / it[0], facts[0], facts[1], diff, ms[0], ms[1]);
+    csv.row("rotated", refactor, c.mesh.num_tets(), it[0], it[1], it[1] / it[0], facts[0], facts[1], diff, 0);
+  }
+}
+
+// The library default near the factorization limit: a corotational cantilever of `tets` tets,
+// 5 frames of a moving probe, tolerance 1e-6, Jacobi then Cholesky (the first frame waits for
+// the first factorization); time per frame and the process's peak memory after each.
+void section_size(double tets, Csv& csv) {
+  Cantilever c(tets);
+  std::printf("\nnear the factorization limit: cantilever %zu tets, %zu vertices, corotational, tolerance 1e-6, "
+              "5 frames\n",
+              c.mesh.num_tets(), c.mesh.num_vertices());
+  std::printf("  %-13s %12s %22s %10s %14s\n", "preconditioner", "frame 1 ms", "frames 2-5 ms (mean)", "it total",
+              "peak RSS MB");
+  for (Preconditioner pc : {Preconditioner::Jacobi, Preconditioner::Cholesky}) {
+    FemSimulationOptions opt;
+    opt.kind = FemKind::Corotational;
+    opt.cg.tolerance = 1e-6;
+    opt.cg.preconditioner = pc;
+    opt.cg.max_iterations = 100000;
+    FemSimulation sim(c.mesh, material(1e5, 0.45), opt);
+    std::vector<VertexId> tip;
+    for (VertexId v : c.mesh.vertices()) {
+      if (c.mesh.rest(v).x() < 1e-9) sim.fix(v);
+      if (c.mesh.rest(v).x() > 8 - 1e-9) tip.push_back(v);
+    }
+    double first = 0, rest = 0;
+    int it = 0;
+    for (int f = 1; f <= 5; ++f) {
+      for (VertexId v : tip) sim.prescribe(v, Vec3(0, 0, -0.02 * f));
+      const FrameStats& st = sim.step();
+      (f == 1 ? first : rest) += st.frame_ms;
+      it += st.iterations;
+    }
+    rusage ru{};
+    getrusage(RUSAGE_SELF, &ru);
+    const double rss = double(ru.ru_maxrss) / 1024;  // peak so far: Jacobi runs first
+    std::printf("  %-13s %12.0f %22.0f %10d %14.0f\n", to_string(pc), first, rest / 4, it, rss);
+    csv.row("size", to_string(pc), c.mesh.num_tets(), first, rest / 4, it, rss, 0, 0, 0);
   }
 }
 
@@ -253,10 +355,14 @@ int main(int argc, char** argv) {
   Args args(argc, argv);
   const std::string out = args.get("--out", ".");
   Csv csv(out, "fem_precond.csv", "section,setting,tets,a,b,c,d,e,f,g");
+  // --only SECTION (beam, organ, budget, warm, poisson, rotated): one section, for quick runs.
+  const std::string only = args.get("--only", "");
+  auto want = [&](const char* name) { return only.empty() || only == name; };
   const std::string beam = args.get("--beam", std::string(INCISE_SOURCE_DIR) + "/samples/scenes/beam.json");
-  section_beam_scene(beam, csv);
+  if (want("beam")) section_beam_scene(beam, csv);
   const std::string organ = args.get("--organ", "");
-  if (!organ.empty()) {
+  if (!want("organ")) {
+  } else if (!organ.empty()) {
     const TetMesh m = read_tet_mesh(organ);
     section_organ("organ", m, -1, csv);
     section_organ("cut organ", m, 10, csv);
@@ -264,9 +370,12 @@ int main(int argc, char** argv) {
     std::printf("\n(no --organ MESH: organ sections skipped; make one with `incise prepare samples/liver.inr.gz -o "
                 "liver.vtu`)\n");
   }
-  section_budget(args.num("--budget-tets", 30000), csv);
-  section_warm_start(csv);
-  section_poisson(csv);
+  if (want("budget")) section_budget(args.num("--budget-tets", 30000), csv);
+  if (want("warm")) section_warm_start(csv);
+  if (want("rotated")) section_rotated(csv);
+  if (want("poisson")) section_poisson(csv);
+  // Slow (the factorization of a large model): only on request.
+  if (args.get("--size-tets", "") != "") section_size(args.num("--size-tets", 0), csv);
   std::printf("\nCSV: %s\n", csv.path().c_str());
   return 0;
 }

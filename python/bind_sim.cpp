@@ -172,7 +172,7 @@ void bind_sim(py::module_& m) {
       .def(py::init(&make_fem), py::arg("mesh"), py::arg("materials") = py::none(), py::kw_only(),
            py::arg("kind") = "linear", py::arg("method") = "cg", py::arg("backend") = "matrix-free",
            py::arg("tolerance") = 1e-8, py::arg("max_iterations") = 10000, py::arg("budget_ms") = 0.0,
-           py::arg("preconditioner") = "jacobi", py::arg("warm_start") = true, py::arg("dynamic") = false,
+           py::arg("preconditioner") = "cholesky", py::arg("warm_start") = true, py::arg("dynamic") = false,
            py::arg("dt") = 0.01, py::arg("damping") = 0.0, py::arg("nonlinear_iterations") = 1,
            py::arg("gravity") = py::make_tuple(0.0, 0.0, 0.0), py::arg("check_rigid_modes") = true)
       .def("fix", [](Fem& f, const py::object& v) { for (VertexId x : to_vertices(f.mesh, v)) f.sim.fix(x); })

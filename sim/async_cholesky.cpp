@@ -1,8 +1,12 @@
 #include "sim/async_cholesky.h"
 
 #include <chrono>
+#include <cmath>
 
+#include <Eigen/SVD>
 #include <Eigen/SparseCore>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #ifdef INCISE_HAVE_CHOLMOD
 #include <Eigen/CholmodSupport>
 #else
@@ -64,6 +68,9 @@ std::shared_ptr<AsyncCholesky::Factor> factorize(const FemElements& e, const Eig
   Eigen::SparseMatrix<double> k(f->rows, f->rows);
   k.setFromTriplets(lower.begin(), lower.end());
   lower = {};
+#ifdef INCISE_HAVE_CHOLMOD
+  f->llt.cholmod().print = 0;  // a failure (not positive definite) is reported by ok, not on stdout
+#endif
   f->llt.compute(k);
   f->ok = f->llt.info() == Eigen::Success;
   f->ms = now_ms() - t0;
@@ -98,7 +105,11 @@ void AsyncCholesky::start(const std::vector<std::uint8_t>& free, double a, doubl
   added_since_snapshot_.clear();
   // The snapshot is taken here, on the frame thread (a copy of the per-tet arrays); the job
   // owns it, so later edits and rotations never race with the factorization.
-  auto task = [e = model_->elements(), mass = a != 0 ? model_->lumped_mass() : Eigen::VectorXd(), fr = free, a, c] {
+  FemElements elements = model_->elements();
+  pending_rot_ = opt_.rotate && model_->kind() == FemKind::Corotational
+                     ? std::make_shared<const std::vector<Eigen::Matrix3d>>(elements.rot)
+                     : nullptr;
+  auto task = [e = std::move(elements), mass = a != 0 ? model_->lumped_mass() : Eigen::VectorXd(), fr = free, a, c] {
     return factorize(e, mass, fr, a, c);
   };
   job_ = std::async(opt_.background ? std::launch::async : std::launch::deferred, std::move(task));
@@ -113,6 +124,8 @@ void AsyncCholesky::adopt() {
   }
   failed_ = false;
   factor_ = std::move(f);
+  snap_rot_ = std::move(pending_rot_);
+  q_.clear();
   const std::size_t nv = factor_->index.size() / 3;
   uncovered_.assign(nv, 0);
   for (std::size_t v = 0; v < nv; ++v)
@@ -187,6 +200,53 @@ void AsyncCholesky::apply(const TopologyChange& change) {
 void AsyncCholesky::setup(const LinearOperator& a, const std::vector<std::uint8_t>* free) {
   free_ = free;
   fallback_.setup(a, free);
+  update_rotation_change();
+}
+
+namespace {
+
+// The rotation closest to m (polar factor), m = sum of rotations near each other: a few
+// Newton steps R <- (R + R^-T) / 2 from m scaled to unit determinant; the SVD when m is far
+// from a rotation (det <= 0 or no convergence). Identity when m is ~0.
+Eigen::Matrix3d nearest_rotation(const Eigen::Matrix3d& m) {
+  const double det = m.determinant();
+  if (det > 0 && std::isfinite(det)) {
+    Eigen::Matrix3d r = m / std::cbrt(det);
+    for (int it = 0; it < 8; ++it) {
+      const Eigen::Matrix3d next = 0.5 * (r + r.inverse().transpose());
+      const double change = (next - r).cwiseAbs().maxCoeff();
+      r = next;
+      if (change < 1e-12) return r;
+    }
+  }
+  if (!(m.cwiseAbs().maxCoeff() > 0) || !m.allFinite()) return Eigen::Matrix3d::Identity();
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(m, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d u = svd.matrixU();
+  if ((u * svd.matrixV().transpose()).determinant() < 0) u.col(2) = -u.col(2);
+  return u * svd.matrixV().transpose();
+}
+
+}  // namespace
+
+void AsyncCholesky::update_rotation_change() {
+  q_.clear();
+  if (!factor_ || !snap_rot_ || model_->kind() != FemKind::Corotational) return;
+  const TetMesh& mesh = model_->mesh();
+  const std::vector<Eigen::Matrix3d>& r0 = *snap_rot_;
+  const std::size_t nv = std::min(uncovered_.size(), mesh.vertex_capacity());
+  q_.assign(nv, Eigen::Matrix3d::Identity());
+  // Tets born after the snapshot have no snapshot rotation; a reused tet id carries the old
+  // tet's, which only makes q a little less apt (M stays SPD with any orthogonal q).
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 1024), [&](const tbb::blocked_range<std::size_t>& range) {
+    for (std::size_t v = range.begin(); v != range.end(); ++v) {
+      if (uncovered_[v] || !mesh.is_alive(VertexId(std::uint32_t(v)))) continue;
+      Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
+      for (TetId t : mesh.incident_tets(VertexId(std::uint32_t(v))))
+        if (t.idx() < r0.size() && model_->tet_alive(t))
+          m.noalias() += model_->tet_volume(t) * model_->rotation(t) * r0[t.idx()].transpose();
+      q_[v] = nearest_rotation(m);
+    }
+  });
 }
 
 void AsyncCholesky::apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
@@ -197,21 +257,36 @@ void AsyncCholesky::apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
   const auto& idx = factor_->index;
   const std::size_t nv = std::size_t(r.size() / 3), ncov = std::min(nv, uncovered_.size());
   auto is_free = [&](std::size_t i) { return !free_ || (*free_)[i]; };
+  // Q_v (identity without rotation); an added vertex moves like its first parent.
+  auto q = [&](std::size_t v) -> const Eigen::Matrix3d* { return v < q_.size() ? &q_[v] : nullptr; };
+  // r_v with kept unknowns zeroed, rotated back to the snapshot: Q_v^T r_v.
+  auto r_back = [&](std::size_t v, const Eigen::Matrix3d* qv) {
+    Eigen::Vector3d x;
+    for (int c = 0; c < 3; ++c) x[c] = is_free(3 * v + std::size_t(c)) ? r[Eigen::Index(3 * v + std::size_t(c))] : 0.0;
+    return qv ? Eigen::Vector3d(qv->transpose() * x) : x;
+  };
   rf_.setZero(factor_->rows);
   for (std::size_t v = 0; v < ncov; ++v)
-    if (!uncovered_[v])
-      for (std::size_t i = 3 * v; i < 3 * v + 3; ++i)
-        if (is_free(i)) rf_[idx[i]] = r[Eigen::Index(i)];
-  for (const auto& [v, row] : mapped_)  // P^T r: added vertices onto their parents' rows
-    if (v < nv)
-      for (int c = 0; c < 3; ++c)
-        if (is_free(3 * v + std::size_t(c)))
-          for (const auto& [p, w] : row) rf_[idx[3 * p + std::size_t(c)]] += w * r[Eigen::Index(3 * v + std::size_t(c))];
+    if (!uncovered_[v]) {
+      const Eigen::Vector3d x = r_back(v, q(v));
+      for (int c = 0; c < 3; ++c) rf_[idx[3 * v + std::size_t(c)]] = x[c];
+    }
+  for (const auto& [v, row] : mapped_)  // P^T Q^T r: added vertices onto their parents' rows
+    if (v < nv) {
+      const Eigen::Vector3d x = r_back(v, q(row.front().first));
+      for (const auto& [p, w] : row)
+        for (int c = 0; c < 3; ++c) rf_[idx[3 * p + std::size_t(c)]] += w * x[c];
+    }
   zf_ = factor_->llt.solve(rf_);
+  auto zf_vertex = [&](std::size_t p) {
+    return Eigen::Vector3d(zf_[idx[3 * p]], zf_[idx[3 * p + 1]], zf_[idx[3 * p + 2]]);
+  };
   z.resize(r.size());
   for (std::size_t v = 0; v < nv; ++v) {
     if (v < ncov && !uncovered_[v]) {
-      for (std::size_t i = 3 * v; i < 3 * v + 3; ++i) z[Eigen::Index(i)] = is_free(i) ? zf_[idx[i]] : 0.0;
+      const Eigen::Matrix3d* qv = q(v);
+      const Eigen::Vector3d y = qv ? Eigen::Vector3d(*qv * zf_vertex(v)) : zf_vertex(v);
+      for (int c = 0; c < 3; ++c) z[Eigen::Index(3 * v + std::size_t(c))] = is_free(3 * v + std::size_t(c)) ? y[c] : 0.0;
     } else {
       fallback_.apply_vertex(v, r, z);
     }
@@ -222,13 +297,14 @@ void AsyncCholesky::apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
       fallback_.apply_vertex(v, r, z);
       z.segment<3>(3 * Eigen::Index(v)) += keep;
     }
-  for (const auto& [v, row] : mapped_)  // + P F^-1 P^T r
-    if (v < nv)
-      for (int c = 0; c < 3; ++c) {
-        const std::size_t i = 3 * v + std::size_t(c);
-        if (!is_free(i)) continue;
-        for (const auto& [p, w] : row) z[Eigen::Index(i)] += w * zf_[idx[3 * p + std::size_t(c)]];
-      }
+  for (const auto& [v, row] : mapped_)  // + Q P F^-1 P^T Q^T r
+    if (v < nv) {
+      Eigen::Vector3d y = Eigen::Vector3d::Zero();
+      for (const auto& [p, w] : row) y += w * zf_vertex(p);
+      if (const Eigen::Matrix3d* qv = q(row.front().first)) y = *qv * y;
+      for (int c = 0; c < 3; ++c)
+        if (is_free(3 * v + std::size_t(c))) z[Eigen::Index(3 * v + std::size_t(c))] += y[c];
+    }
 }
 
 }  // namespace incise

@@ -15,6 +15,15 @@
 // stale F is, so plain CG stays correct; only the iteration count degrades until the fresh
 // factor is adopted (at the start of a frame, then CG restarts).
 //
+// Corotational models (`rotate`): between factorizations the elements rotate, and K_R = R K R^T
+// drifts away from the factor's snapshot mostly by those rotations. So the stale factor is
+// used rotated: M^-1 = Q P F^-1 P^T Q^T, Q block-diagonal with one 3x3 rotation per vertex, the
+// change of the vertex's rotation since the snapshot (the polar factor of the volume-weighted
+// sum of its incident tets' R_now R_snapshot^T; an added vertex uses its first parent's). Q is
+// computed at each fresh CG start (setup(): O(vertices + tets), parallel, one 3x3 polar per
+// vertex, like the per-tet rotation update the frame already does), never per iteration, and
+// it stays fixed during a solve. Q orthogonal keeps M^-1 symmetric positive definite.
+//
 // Factorization: CHOLMOD's supernodal LL^T when built with it, else Eigen's SimplicialLDLT.
 #include <cstdint>
 #include <future>
@@ -33,6 +42,7 @@ struct AsyncCholeskyOptions {
   bool wait_for_first = true;      // the first factor is waited for (no factor to fall back on yet)
   int refactor_iterations = 10;    // a frame needing more CG iterations asks for a fresh factor
   std::size_t max_unknowns = 150000;  // above this many free unknowns no factor is built (block-Jacobi)
+  bool rotate = true;              // corotational: rotate the stale factor by the vertices' rotation change
 };
 
 class AsyncCholesky : public CgPreconditioner {
@@ -64,6 +74,7 @@ public:
 private:
   void start(const std::vector<std::uint8_t>& free, double a, double c);
   void adopt();
+  void update_rotation_change();  // q_ from the model's current rotations and snap_rot_
 
   const FemModel* model_;
   AsyncCholeskyOptions opt_;
@@ -85,6 +96,10 @@ private:
   int factorizations_ = 0;
   double last_ms_ = 0;
   mutable Eigen::VectorXd rf_, zf_;
+  // Rotation: per-tet rotations at the snapshot of the current factor (pending_: of the job),
+  // and per vertex the rotation change q_ (empty: no rotation).
+  std::shared_ptr<const std::vector<Eigen::Matrix3d>> snap_rot_, pending_rot_;
+  std::vector<Eigen::Matrix3d> q_;
 };
 
 }  // namespace incise

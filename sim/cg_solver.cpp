@@ -94,7 +94,8 @@ bool ConjugateGradient::can_resume(const Eigen::VectorXd& b, const Eigen::Vector
 }
 
 // Sets r_, bnorm_ and the start point; returns false when the solve is already finished.
-// x += sum alpha_i d_i, r -= sum alpha_i P A d_i with the alphas of least ||r||.
+// x += sum alpha_i d_i, r -= sum alpha_i P A d_i with the Galerkin alphas (least energy-norm
+// error), or those of least ||r|| when the Galerkin ones do not lower ||r||.
 void ConjugateGradient::predict(Eigen::VectorXd& x, std::span<const Eigen::VectorXd> d) {
   const Eigen::Index n = A_->rows();
   pd_.clear();
@@ -109,27 +110,39 @@ void ConjugateGradient::predict(Eigen::VectorXd& x, std::span<const Eigen::Vecto
     }
     qd_.emplace_back();
     A_->multiply(pd_.back(), qd_.back());
+    ++stats_.products;
     project(qd_.back());
   }
   const Eigen::Index k = Eigen::Index(qd_.size());
   if (k == 0) return;
-  Eigen::MatrixXd g(k, k);
-  Eigen::VectorXd h(k);
+  // Galerkin: D^T A D a = D^T r (the start of least energy-norm error over the span, CG's
+  // own criterion). Least residual: (A D)^T (A D) a = (A D)^T r. Same products, two 4x4 solves.
+  Eigen::MatrixXd g(k, k), gr(k, k);
+  Eigen::VectorXd h(k), hr(k);
   for (Eigen::Index i = 0; i < k; ++i) {
-    h[i] = qd_[std::size_t(i)].dot(r_);
-    for (Eigen::Index j = 0; j < k; ++j) g(i, j) = qd_[std::size_t(i)].dot(qd_[std::size_t(j)]);
+    h[i] = pd_[std::size_t(i)].dot(r_);
+    hr[i] = qd_[std::size_t(i)].dot(r_);
+    for (Eigen::Index j = 0; j < k; ++j) {
+      g(i, j) = pd_[std::size_t(i)].dot(qd_[std::size_t(j)]);
+      gr(i, j) = qd_[std::size_t(i)].dot(qd_[std::size_t(j)]);
+    }
   }
-  // Near-parallel directions make g singular: a tiny ridge keeps the solve finite; the check
-  // below keeps the start point when the result is no better.
-  g.diagonal() *= 1 + 1e-12;
-  const Eigen::VectorXd alpha = g.ldlt().solve(h);
-  if (!alpha.allFinite()) return;
-  z_ = r_;
-  for (Eigen::Index i = 0; i < k; ++i) z_.noalias() -= alpha[i] * qd_[std::size_t(i)];
-  if (!(z_.squaredNorm() < r_.squaredNorm())) return;
-  r_.swap(z_);
-  for (Eigen::Index i = 0; i < k; ++i) x.noalias() += alpha[i] * pd_[std::size_t(i)];
-  stats_.prediction_weight = alpha[0];
+  // Takes the weights of m a = rhs when they lower the residual. Near-parallel directions make
+  // m singular: a tiny ridge keeps the solve finite, and the residual check keeps the start
+  // point when the result is no better.
+  auto take = [&](Eigen::MatrixXd& m, const Eigen::VectorXd& rhs) {
+    m.diagonal() *= 1 + 1e-12;
+    const Eigen::VectorXd alpha = m.ldlt().solve(rhs);
+    if (!alpha.allFinite()) return false;
+    z_ = r_;
+    for (Eigen::Index i = 0; i < k; ++i) z_.noalias() -= alpha[i] * qd_[std::size_t(i)];
+    if (!(z_.squaredNorm() < r_.squaredNorm())) return false;
+    r_.swap(z_);
+    for (Eigen::Index i = 0; i < k; ++i) x.noalias() += alpha[i] * pd_[std::size_t(i)];
+    stats_.prediction_weight = alpha[0];
+    return true;
+  };
+  if (!take(g, h)) take(gr, hr);
 }
 
 bool ConjugateGradient::start(const Eigen::VectorXd& b, Eigen::VectorXd& x, std::span<const Eigen::VectorXd> d) {
@@ -147,6 +160,7 @@ bool ConjugateGradient::start(const Eigen::VectorXd& b, Eigen::VectorXd& x, std:
     akept_valid_ = true;
   } else if (!(akept_valid_ && kept_last_.size() == n && z_ == kept_last_)) {
     A_->multiply(z_, akept_);
+    ++stats_.products;
     project(akept_);
     kept_last_ = z_;
     akept_valid_ = true;
@@ -167,6 +181,7 @@ bool ConjugateGradient::start(const Eigen::VectorXd& b, Eigen::VectorXd& x, std:
   }
   if (!p_.isZero(0)) {
     A_->multiply(p_, q_);
+    ++stats_.products;
     project(q_);
     r_ -= q_;
   }
@@ -277,6 +292,7 @@ void ConjugateGradient::iterate(Eigen::VectorXd& x, double t0) {
     rz_ = rz_new;
   }
   stats_.iterations = k;
+  stats_.products += k;
 }
 
 }  // namespace incise

@@ -41,6 +41,7 @@ const char* to_string(SolveInfo info);
 
 struct SolveStats {
   int iterations = 0;              // CG iterations (one K x each)
+  int products = 0;                // all K x of the solve: iterations + start (guess, kept, prediction)
   double relative_residual = 0;    // ||r|| / ||b_eff|| at exit
   double initial_relative_residual = 0;  // at the start point actually used (after prediction)
   double guess_relative_residual = 0;    // at the guess as given (before prediction)
@@ -57,7 +58,7 @@ struct CgOptions {
   double tolerance = 1e-8;                          // relative residual target
   int max_iterations = 10000;                       // cap per solve
   double budget_ms = 0;                             // wall-clock budget per solve; 0 = none
-  Preconditioner preconditioner = Preconditioner::Jacobi;  // see sim/preconditioner.h
+  Preconditioner preconditioner = Preconditioner::Jacobi;  // see sim/preconditioner.h; FemSimulation: Cholesky
 };
 
 class ConjugateGradient {
@@ -86,8 +87,9 @@ public:
   Eigen::VectorXd solve(const Eigen::VectorXd& b);
   // Starts from x (kept unknowns hold their prescribed values) and overwrites it. With
   // prediction directions d_i (their kept entries are ignored), starts from x + sum alpha_i d_i
-  // with the alphas minimizing the initial residual (least squares over their span, 0 included),
-  // so a prediction never starts worse than x itself.
+  // with the alphas of the Galerkin projection onto their span (least A-norm error, CG's own
+  // criterion), or of least initial residual when the Galerkin start's residual is not below
+  // x's; a prediction never starts with a larger residual than x itself. One product per d_i.
   void solve_with_guess(const Eigen::VectorXd& b, Eigen::VectorXd& x, std::span<const Eigen::VectorXd> d = {});
   // Whether solve_with_guess(b, x) would resume the previous solve.
   bool can_resume(const Eigen::VectorXd& b, const Eigen::VectorXd& x) const;

@@ -278,6 +278,7 @@ void FemSimulation::solve_system(const LinearOperator& k, double a, double c, co
     st.resumed = s.resumed;
   }
   st.iterations += s.iterations;
+  st.products += s.products;
   st.relative_residual = s.relative_residual;
   st.solve_ms += s.solve_ms;
   st.budget_exhausted = st.budget_exhausted || s.budget_exhausted;
@@ -307,6 +308,12 @@ const FrameStats& FemSimulation::step() {
   const int last_iterations = stats_.iterations;
   stats_ = FrameStats{};
   grow();
+  // Under-constrained static problems are refused before anything else, so no factorization of
+  // a singular matrix is started for them.
+  if (!opt_.dynamic && opt_.check_rigid_modes && rigid_dirty_) {
+    check_rigid_modes();
+    rigid_dirty_ = false;
+  }
   // The asynchronous factor: adopt a finished one, start a fresh one if due, before anything
   // below decides whether CG resumes (a new factor means a restart).
   if (opt_.method == SolverMethod::Cg && cg_.options().preconditioner == Preconditioner::Cholesky) {
@@ -342,10 +349,6 @@ const FrameStats& FemSimulation::step() {
   auto resumable = [&] { return opt_.method == SolverMethod::Cg && !system_dirty_ && cg_.can_resume(b_, x_); };
 
   if (!opt_.dynamic) {
-    if (opt_.check_rigid_modes && rigid_dirty_) {
-      check_rigid_modes();
-      rigid_dirty_ = false;
-    }
     const bool corot = model_.kind() == FemKind::Corotational;
     const int rounds = corot ? opt_.nonlinear_iterations : 1;
     for (int it = 0; it < rounds; ++it) {

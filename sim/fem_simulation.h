@@ -9,7 +9,7 @@
 //
 // Solvers: CG on the matrix-free model or on the assembled matrix (same CG, same stats), or
 // the direct LDL^T reference. CG is warm-started from the previous frame (static frames: with
-// a prediction extrapolated from the last three, see sim/warm_start.h) and may stop on a
+// a prediction extrapolated from the last five, see sim/warm_start.h) and may stop on a
 // wall-clock budget; the approximate solution is kept, and when nothing changed by the next
 // frame (loads, constraints, topology; corotational rotations are not refreshed while such a
 // solve is pending) CG resumes it, so budgeted frames add up to one uninterrupted solve.
@@ -50,10 +50,12 @@ struct FemSimulationOptions {
   FemKind kind = FemKind::Linear;                       // Linear or Corotational elements
   SolverMethod method = SolverMethod::Cg;               // Direct: SimplicialLDLT reference
   StiffnessBackend backend = StiffnessBackend::MatrixFree;  // operator CG multiplies with
-  CgOptions cg;                                         // tolerance, cap, budget, preconditioner
+  // tolerance, cap, budget, preconditioner: the asynchronous Cholesky, as in scenes (the
+  // fastest measured, docs/solver.md; block-Jacobi above AsyncCholeskyOptions::max_unknowns).
+  CgOptions cg{.preconditioner = Preconditioner::Cholesky};
   AsyncCholeskyOptions cholesky;                        // for cg.preconditioner == Cholesky
   bool warm_start = true;                               // start CG from the previous frame
-  bool predict = true;                                  // static warm start extrapolates the last two frames
+  bool predict = true;                                  // static warm start extrapolates the last frames
   bool dynamic = false;                                 // backward Euler instead of static
   double dt = 0.01;                                     // dynamic time step [s]
   double damping = 0;                                   // mass-proportional damping [1/s]
@@ -65,6 +67,7 @@ struct FemSimulationOptions {
 // Statistics of one frame (sums over the corotational re-linearizations).
 struct FrameStats {
   int iterations = 0;
+  int products = 0;                      // all operator products of the solves (CG: iterations + starts)
   double relative_residual = 0;
   double initial_relative_residual = 0;  // first solve of the frame, at its start point
   double guess_relative_residual = 0;    // same, before the prediction (at the last solution)

@@ -143,6 +143,7 @@ TEST_CASE("a change between budgeted frames restarts CG and still converges", "[
   Cantilever c;
   FemSimulationOptions opt;
   opt.cg.tolerance = 1e-9;
+  opt.cg.preconditioner = Preconditioner::Jacobi;  // capped at 5 iterations: needs many frames
   FemSimulation sim(c.mesh, table(1e5, 0.3), opt);
   c.setup(sim);
   sim.cg().set_max_iterations(5);
@@ -175,6 +176,9 @@ TEST_CASE("predicting warm start: never a worse start than the last solution, fe
     opt.warm_start = warm;
     opt.predict = predict;
     opt.cg.tolerance = 1e-8;
+    // Jacobi: enough iterations per frame for the counts to compare (bench_fem_precond
+    // measures the default, Cholesky).
+    opt.cg.preconditioner = Preconditioner::Jacobi;
     FemSimulation sim(c.mesh, table(1e5, 0.3), opt);
     c.setup(sim);
     int total = 0, steady = 0;
@@ -202,4 +206,44 @@ TEST_CASE("predicting warm start: never a worse start than the last solution, fe
   }
   CHECK(pred_steady < last_steady);
   CHECK(last < cold);
+}
+
+TEST_CASE("warm-start directions: polynomial extrapolation up to order 4 is in their span, kept unknowns are 0",
+          "[fem][frames][predict]") {
+  // u(t) = a + b t + c t^2 + d t^3 + e t^4 per unknown: the order-4 Newton extrapolation
+  // u1 + d1 + d2 + d3 + d4 from t = 0..4 gives u(5) exactly; fewer frames give fewer directions.
+  const int n = 6;
+  Eigen::MatrixXd coef = Eigen::MatrixXd::Random(n, 5);
+  auto u = [&](double t) {
+    Eigen::VectorXd x(n);
+    for (int i = 0; i < n; ++i) x[i] = coef(i, 0) + t * (coef(i, 1) + t * (coef(i, 2) + t * (coef(i, 3) + t * coef(i, 4))));
+    return x;
+  };
+  std::vector<std::uint8_t> free(n, 1);
+  free[2] = 0;
+  WarmStartPredictor p;
+  std::vector<Eigen::VectorXd> d;
+  CHECK(p.directions(free, d) == 0);
+  for (int t = 0; t < 5; ++t) {
+    p.record(u(t));
+    CHECK(p.directions(free, d) == std::min(t, 4));
+  }
+  // One more frame: still four directions (the oldest frame dropped).
+  Eigen::VectorXd pred = u(4);
+  for (const Eigen::VectorXd& di : d) pred += di;
+  const Eigen::VectorXd exact = u(5);
+  for (int i = 0; i < n; ++i) {
+    if (!free[std::size_t(i)]) {
+      for (const Eigen::VectorXd& di : d) CHECK(di[i] == 0);
+      continue;
+    }
+    CHECK(pred[i] == Approx(exact[i]).margin(1e-9 * std::max(1.0, std::abs(exact[i]))));
+  }
+  p.record(u(5));
+  CHECK(p.directions(free, d) == 4);
+  pred = u(5);
+  for (const Eigen::VectorXd& di : d) pred += di;
+  const Eigen::VectorXd next = u(6);
+  for (int i = 0; i < n; ++i)
+    if (free[std::size_t(i)]) CHECK(pred[i] == Approx(next[i]).margin(1e-9 * std::max(1.0, std::abs(next[i]))));
 }
