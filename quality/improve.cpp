@@ -8,6 +8,7 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "quality/collapse.h"
 #include "quality/flips.h"
 #include "quality/insertion.h"
 #include "quality/improve.h"
@@ -59,6 +60,12 @@ public:
     smooth_.iterations = opt.smoothing_iterations;
     smooth_.frozen = &frozen_;
     smooth_.curved_slid = &curved_slid_;
+    collapse_.edge_ratio = opt.collapse_edge_ratio;
+    collapse_.frozen = &frozen_;
+    collapse_.keep = &inserted_;
+    // Local mode runs in the cutter's batch, after the cut added its vertices on the cut
+    // surface; their duplicates name them as parents, so they must outlive the batch.
+    collapse_.keep_cut_vertices = region != nullptr;
   }
 
   // One sweep over `tets`; returns whether anything improved.
@@ -120,7 +127,10 @@ private:
   void changed(TetId a) {
     for (VertexId w : mesh_.tet_vertices(a)) {
       stuck_.erase(w.idx());
-      for (TetId u : mesh_.incident_tets(w)) flip_stuck_.erase(u.idx());
+      for (TetId u : mesh_.incident_tets(w)) {
+        flip_stuck_.erase(u.idx());
+        collapse_stuck_.erase(u.idx());
+      }
     }
   }
 
@@ -140,6 +150,20 @@ private:
         replaced(f.removed, f.added);
         return true;
       }
+    }
+    // A tet with a tiny edge: no flip helps (every configuration of that edge's star keeps it)
+    // and smoothing moves a vertex by a fraction of that edge; contracting the edge does.
+    if (opt_.collapse && !collapse_stuck_.count(t.idx())) {
+      if (auto c = improve_by_collapse(mesh_, t, scope_, collapse_)) {
+        ++rep.contractions;
+        const std::uint32_t gone = c->removed_vertex.idx();
+        moved.erase(gone);
+        stuck_.erase(gone);
+        curved_slid_.erase(gone);
+        replaced(c->removed, c->rebuilt);
+        return true;
+      }
+      collapse_stuck_.insert(t.idx());
     }
     bool any = false;
     if (opt_.smoothing) {
@@ -163,10 +187,13 @@ private:
       }
     }
     // An insertion adds one tet per tet around the split edge (at most max_ring).
-    if (!any && opt_.insertion && mesh_.is_alive(t) && scope_.growth_left >= opt_.max_ring) {
+    // Not after a contraction in this pass: the new vertex would take the removed vertex's id,
+    // and one TopologyChange cannot list an id as both removed and added.
+    if (!any && opt_.insertion && rep.contractions == 0 && mesh_.is_alive(t) && scope_.growth_left >= opt_.max_ring) {
       if (auto ins = improve_by_insertion(mesh_, t, scope_, opt_.max_ring, 2 * opt_.smoothing_iterations)) {
         ++rep.insertions;
         moved.insert(ins->vertex.idx());
+        inserted_.insert(ins->vertex.idx());
         replaced(ins->removed, ins->added);
         return true;
       }
@@ -181,10 +208,12 @@ private:
   std::unordered_set<std::uint32_t>* region_;
   ImproveScope scope_;
   SmoothOptions smooth_;
+  CollapseOptions collapse_;
+  std::unordered_set<std::uint32_t> inserted_;  // vertices this pass added (never contracted away)
   std::unordered_set<std::uint32_t> frozen_;
   std::unordered_set<std::uint32_t> curved_slid_;
   // Smoothing (vertices) or flips (tets) failed and nothing around changed since.
-  std::unordered_set<std::uint32_t> stuck_, flip_stuck_;
+  std::unordered_set<std::uint32_t> stuck_, flip_stuck_, collapse_stuck_;
   std::unordered_map<std::uint32_t, std::uint32_t> version_;
   std::priority_queue<Entry> queue_;
   int work_ = 0;
