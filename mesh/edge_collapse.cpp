@@ -96,13 +96,18 @@ double longest_edge(const std::array<Vec3, 4>& p) {
   return l;
 }
 
-// The boundary faces around `remove` must be one flat disc with one tag, `keep` on its rim,
-// and the disc retiled from `keep` must keep every face's orientation in the plane.
+// The boundary faces around `remove` form one cycle (a disc). It may go when that disc is flat
+// with one tag and `keep` is on its rim, or when it is two such flat parts meeting along a
+// straight crease through `remove` (two boundary edges in line: where a cut meets the surface,
+// or a box's edge) and `keep` is on that crease. Every face retiled from `keep` must keep its
+// orientation in its plane, so the new faces cover the same polygons.
 bool boundary_disc_ok(const TetMesh& m, VertexId keep, VertexId remove, std::span<const TetId> star) {
   struct Face {
     VertexId x, y;  // the face is (remove, x, y), outward
     std::uint16_t tag;
+    Vec3 n;  // (x - remove) x (y - remove)
   };
+  const Vec3 pr = m.rest(remove), pk = m.rest(keep);
   std::vector<Face> disc;
   for (TetId t : star) {
     const int ir = m.local_index(t, remove);
@@ -110,45 +115,65 @@ bool boundary_disc_ok(const TetMesh& m, VertexId keep, VertexId remove, std::spa
       if (f == ir || m.neighbor(t, f).is_valid()) continue;
       auto fv = m.face_vertices(t, f);
       while (fv[0] != remove) std::rotate(fv.begin(), fv.begin() + 1, fv.end());
-      disc.push_back({fv[1], fv[2], m.face_tag(t, f)});
+      disc.push_back({fv[1], fv[2], m.face_tag(t, f), (m.rest(fv[1]) - pr).cross(m.rest(fv[2]) - pr)});
     }
   }
   if (disc.empty()) return true;  // an interior vertex
-  bool keep_on_rim = false;
-  for (const Face& f : disc) {
-    if (f.tag != disc[0].tag) return false;  // a tag border (e.g. where a cut meets the surface)
-    keep_on_rim = keep_on_rim || f.x == keep || f.y == keep;
+  // Order the faces as one cycle x -> y around `remove` (two fans would be a pinch).
+  std::vector<Face> cyc{disc[0]};
+  while (cyc.size() < disc.size()) {
+    auto it = std::find_if(disc.begin(), disc.end(), [&](const Face& f) { return f.x == cyc.back().y; });
+    if (it == disc.end() || it->x == disc[0].x) return false;
+    cyc.push_back(*it);
   }
-  if (!keep_on_rim) return false;
-  // One cycle x -> y around `remove` (two fans would be a pinch, which the link test also sees).
-  std::size_t steps = 0;
-  VertexId cur = disc[0].x;
-  do {
-    auto it = std::find_if(disc.begin(), disc.end(), [&](const Face& f) { return f.x == cur; });
-    if (it == disc.end()) return false;
-    cur = it->y;
-    ++steps;
-  } while (cur != disc[0].x && steps <= disc.size());
-  if (steps != disc.size()) return false;
-  // Flat: every rim vertex within 1e-10 of the disc's size from the plane through `remove`
-  // (the tolerance smoothing uses to slide boundary vertices in their plane).
-  const Vec3 pr = m.rest(remove), pk = m.rest(keep);
-  Vec3 n = Vec3::Zero();
-  double h = 0;
-  for (const Face& f : disc) {
-    n += (m.rest(f.x) - pr).cross(m.rest(f.y) - pr);
-    h = std::max(h, (m.rest(f.x) - pr).norm());
+  if (cyc.back().y != cyc.front().x) return false;
+  const std::size_t n = cyc.size();
+  // A crease at rim vertex cyc[i].x: the faces on either side of edge (remove, cyc[i].x) differ
+  // in tag or are not coplanar (the test smoothing uses).
+  std::vector<std::size_t> creases;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Face& a = cyc[(i + n - 1) % n];
+    const Face& b = cyc[i];
+    const bool coplanar = a.n.dot(b.n) > 0 && a.n.cross(b.n).norm() <= 1e-10 * a.n.norm() * b.n.norm();
+    if (a.tag != b.tag || !coplanar) creases.push_back(i);
   }
-  if (!(n.norm() > 0) || !(h > 0)) return false;
-  n.normalize();
-  for (const Face& f : disc)
-    if (std::abs(n.dot(m.rest(f.x) - pr)) > 1e-10 * h) return false;
-  // Retiled from `keep`: each face not holding `keep` keeps its orientation in the plane,
-  // clearly, so the new faces tile the same polygon.
-  for (const Face& f : disc) {
-    if (f.x == keep || f.y == keep) continue;
-    const Vec3 e1 = m.rest(f.x) - pk, e2 = m.rest(f.y) - pk;
-    if (!(n.dot(e1.cross(e2)) > 1e-12 * e1.norm() * e2.norm())) return false;
+  // Parts of the disc, as ranges [begin, begin + count) of cyc.
+  std::vector<std::pair<std::size_t, std::size_t>> parts;
+  if (creases.empty()) {
+    bool on_rim = false;
+    for (const Face& f : cyc) on_rim = on_rim || f.x == keep;
+    if (!on_rim) return false;
+    parts.push_back({0, n});
+  } else if (creases.size() == 2) {
+    const VertexId p = cyc[creases[0]].x, q = cyc[creases[1]].x;
+    if (keep != p && keep != q) return false;  // `remove` would leave the crease
+    const Vec3 ep = m.rest(p) - pr, eq = m.rest(q) - pr;
+    if (!(ep.dot(eq) < 0) || ep.cross(eq).norm() > 1e-10 * ep.norm() * eq.norm()) return false;  // bent: a corner
+    parts.push_back({creases[0], creases[1] - creases[0]});
+    parts.push_back({creases[1], n - (creases[1] - creases[0])});
+  } else {
+    return false;  // a corner, or a tag border meeting a crease
+  }
+  for (const auto& [begin, count] : parts) {
+    // Flat: every vertex of the part within 1e-10 of its size from its plane through `remove`.
+    Vec3 nrm = Vec3::Zero();
+    double h = 0;
+    for (std::size_t k = 0; k < count; ++k) {
+      const Face& f = cyc[(begin + k) % n];
+      nrm += f.n;
+      h = std::max({h, (m.rest(f.x) - pr).norm(), (m.rest(f.y) - pr).norm()});
+    }
+    if (!(nrm.norm() > 0) || !(h > 0)) return false;
+    nrm.normalize();
+    for (std::size_t k = 0; k < count; ++k) {
+      const Face& f = cyc[(begin + k) % n];
+      if (std::abs(nrm.dot(m.rest(f.x) - pr)) > 1e-10 * h || std::abs(nrm.dot(m.rest(f.y) - pr)) > 1e-10 * h)
+        return false;
+      if (f.x == keep || f.y == keep) continue;
+      // Retiled from `keep`: clearly the same orientation in the plane.
+      const Vec3 e1 = m.rest(f.x) - pk, e2 = m.rest(f.y) - pk;
+      if (!(nrm.dot(e1.cross(e2)) > 1e-12 * e1.norm() * e2.norm())) return false;
+    }
   }
   return true;
 }

@@ -12,9 +12,11 @@
 //  - invert or flatten a tet (signed volume above 1e-12 l^3 for its longest edge l), or
 //    change the volume the star of `remove` covers (it is retiled exactly or not at all);
 //  - change the boundary: `remove` may be a boundary vertex only when its boundary faces form
-//    one flat disc (tolerance 1e-10 of its size) with one tag, `keep` lies on that disc's rim
-//    and every retiled disc face keeps its orientation in the plane; corners, creases and tag
-//    borders are never removed;
+//    one flat disc (tolerance 1e-10 of its size) with one tag and `keep` lies on the disc's rim,
+//    or two such flat parts meeting along a straight crease through `remove` (two boundary
+//    edges in line: a box's edge, the rim where a cut meets the surface) and `keep` lies on
+//    that crease; every retiled face keeps its orientation in its plane. Corners, bent creases
+//    and curved parts never lose a vertex, and a crease vertex never leaves its crease;
 //  - change a label region: the tets of `remove` must all have one label (a vertex on an
 //    interface between labels is never removed; `keep` may be anywhere).
 // collapse_edge() then goes through TetMesh's public edits, so the TopologyChange records it
@@ -23,9 +25,9 @@
 // of the two stars as touched. Boundary faces keep their tags (kTagCut included).
 //
 // Batches: consumers apply added and moved vertices before removed ones, so `remove` may be
-// a parent of vertices added earlier in the same batch. It must not itself have been added in
-// the batch if a later record names it as a parent (its record would be dropped); callers that
-// run inside a batch with new vertices (the improvement pass after a cut) keep those vertices.
+// a parent of records made earlier in the same batch. It must not itself have been added in
+// the batch (TetMesh::pending_added_vertices()) when a later record names it as a parent: its
+// own record would vanish. Callers keep those (the improvement pass keeps them all).
 #include <array>
 #include <vector>
 
@@ -39,8 +41,8 @@ enum class CollapseRefusal {
   Link,         // the link condition fails (the collapse would pinch or glue the mesh)
   Orientation,  // a rebuilt tet would be inverted or flat
   Volume,       // the rebuilt tets would not cover the star of `remove` (or nothing is left of it)
-  Boundary,     // `remove` is on a crease, a corner, a tag border or a curved part of the surface,
-                // or `keep` is not on its flat disc
+  Boundary,     // `remove` is on a corner or a curved part of the surface, or `keep` is not on its
+                // flat disc (or not on its straight crease)
   Labels,       // `remove` lies on an interface between labels
 };
 

@@ -6,18 +6,6 @@
 
 namespace incise {
 
-namespace {
-
-bool on_cut_face(const TetMesh& mesh, VertexId v) {
-  for (TetId t : mesh.incident_tets(v))
-    for (int f = 0; f < 4; ++f)
-      if (!mesh.neighbor(t, f).is_valid() && mesh.face_tag(t, f) == kTagCut && mesh.tet_vertices(t)[f] != v)
-        return true;
-  return false;
-}
-
-}  // namespace
-
 std::optional<CollapseOutcome> improve_by_collapse(TetMesh& mesh, TetId t, const ImproveScope& scope,
                                                    const CollapseOptions& opt) {
   const auto tv = mesh.tet_vertices(t);
@@ -36,8 +24,7 @@ std::optional<CollapseOutcome> improve_by_collapse(TetMesh& mesh, TetId t, const
   std::sort(edges.begin(), edges.end(), [](const Edge& a, const Edge& b) { return a.len < b.len; });
   auto removable = [&](VertexId v) {
     if (opt.frozen && opt.frozen->count(v.idx())) return false;
-    if (opt.keep && opt.keep->count(v.idx())) return false;
-    return !(opt.keep_cut_vertices && on_cut_face(mesh, v));
+    return !(opt.keep && opt.keep->count(v.idx()));
   };
   std::optional<CollapsePlan> best;
   AngleQuality best_q;

@@ -20,7 +20,6 @@ struct CollapseOptions {
   // Never removed either: vertices added earlier in the same batch (a cut's new vertices,
   // this pass's insertions), since later records of the batch may name them as parents.
   const std::unordered_set<std::uint32_t>* keep = nullptr;
-  bool keep_cut_vertices = false;  // also keep every vertex on a kTagCut face (see improve.cpp)
 };
 
 struct CollapseOutcome {

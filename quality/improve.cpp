@@ -62,10 +62,11 @@ public:
     smooth_.curved_slid = &curved_slid_;
     collapse_.edge_ratio = opt.collapse_edge_ratio;
     collapse_.frozen = &frozen_;
-    collapse_.keep = &inserted_;
-    // Local mode runs in the cutter's batch, after the cut added its vertices on the cut
-    // surface; their duplicates name them as parents, so they must outlive the batch.
-    collapse_.keep_cut_vertices = region != nullptr;
+    // The pass may run inside its caller's batch (improve_local after a cut): the vertices the
+    // batch added so far (a cut's split points, whose duplicates name them as parents) stay.
+    // O(batch), not O(mesh).
+    collapse_.keep = &batch_new_;
+    for (const VertexOrigin& o : mesh.pending_added_vertices()) batch_new_.insert(o.vertex.idx());
   }
 
   // One sweep over `tets`; returns whether anything improved.
@@ -193,7 +194,7 @@ private:
       if (auto ins = improve_by_insertion(mesh_, t, scope_, opt_.max_ring, 2 * opt_.smoothing_iterations)) {
         ++rep.insertions;
         moved.insert(ins->vertex.idx());
-        inserted_.insert(ins->vertex.idx());
+        batch_new_.insert(ins->vertex.idx());
         replaced(ins->removed, ins->added);
         return true;
       }
@@ -209,7 +210,8 @@ private:
   ImproveScope scope_;
   SmoothOptions smooth_;
   CollapseOptions collapse_;
-  std::unordered_set<std::uint32_t> inserted_;  // vertices this pass added (never contracted away)
+  // Vertices added in this batch (the caller's and this pass's insertions): never contracted away.
+  std::unordered_set<std::uint32_t> batch_new_;
   std::unordered_set<std::uint32_t> frozen_;
   std::unordered_set<std::uint32_t> curved_slid_;
   // Smoothing (vertices) or flips (tets) failed and nothing around changed since.

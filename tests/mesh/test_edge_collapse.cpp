@@ -50,8 +50,10 @@ TEST_CASE("collapsing a split edge gives back a valid mesh with the same volume 
     const char* name;
     Vec3 a, b;  // the edge split (on the 2x2x2 box of unit cells)
   };
-  // Interior edge, and an edge inside the flat bottom face (the new vertex is on the boundary).
-  for (const Case& c : {Case{"interior", Vec3(1, 1, 1), Vec3(1, 0, 1)}, Case{"boundary", Vec3(1, 1, 0), Vec3(1, 0, 0)}})
+  // Interior edge, an edge inside the flat bottom face (the new vertex is on the boundary), and
+  // an edge on the box's edge (the new vertex is on a straight crease).
+  for (const Case& c : {Case{"interior", Vec3(1, 1, 1), Vec3(1, 0, 1)}, Case{"boundary", Vec3(1, 1, 0), Vec3(1, 0, 0)},
+                        Case{"crease", Vec3(0, 0, 0), Vec3(1, 0, 0)}})
     for (double s : {0.5, 0.01, 0.99}) {
       INFO(c.name << " s=" << s);
       TetMesh m = make_box(Vec3(2, 2, 2), {2, 2, 2});
@@ -115,17 +117,19 @@ TEST_CASE("collapses that would change the mesh are refused and leave it intact"
   }
   // A boundary vertex may not leave the boundary for an interior one.
   CHECK(check_collapse(m, at(1, 1, 1), at(1, 1, 0)).refusal == CollapseRefusal::Boundary);
-  // Corners and creases stay (their boundary faces are not one flat disc).
+  // A corner stays; a crease vertex may go only along its crease.
   CHECK(check_collapse(m, at(1, 0, 0), at(0, 0, 0)).refusal == CollapseRefusal::Boundary);
-  CHECK(check_collapse(m, at(0, 0, 0), at(1, 0, 0)).refusal == CollapseRefusal::Boundary);
+  CHECK(check_collapse(m, at(1, 1, 0), at(1, 0, 0)).refusal == CollapseRefusal::Boundary);
+  CHECK(check_collapse(m, at(1, 0, 1), at(1, 0, 0)).refusal == CollapseRefusal::Boundary);
+  CHECK(check_collapse(m, at(0, 0, 0), at(1, 0, 0)).ok());
   // The centre onto a corner or onto the bottom face's middle: its star is star-shaped from both.
   CHECK(check_collapse(m, at(0, 0, 0), at(1, 1, 1)).ok());
   CHECK(check_collapse(m, at(1, 1, 0), at(1, 1, 1)).ok());
   // Not an edge / the same vertex / a dead vertex.
   CHECK(check_collapse(m, at(0, 0, 0), at(2, 2, 2)).refusal == CollapseRefusal::NotAnEdge);
   CHECK(check_collapse(m, at(0, 0, 0), at(0, 0, 0)).refusal == CollapseRefusal::NotAnEdge);
-  // A tag border on a flat face: the new vertex of a split bottom-face edge, with half of the
-  // bottom faces around it tagged differently, is not removed.
+  // A tag border on a flat face is a crease: a vertex on a straight stretch of it may go along
+  // it (the tag regions keep their shape), not across it, and the border's corner stays.
   {
     TetMesh t = make_box(Vec3(2, 2, 2), {2, 2, 2});
     const VertexId p = vertex_at(t, Vec3(1, 1, 0)), q = vertex_at(t, Vec3(1, 0, 0));
@@ -133,9 +137,15 @@ TEST_CASE("collapses that would change the mesh are refused and leave it intact"
     for (const auto& f : t.boundary_faces()) {
       Vec3 c = Vec3::Zero();
       for (VertexId v : f.vertices) c += t.rest(v) / 3;
-      if (c.z() < 1e-12 && c.x() < 1) t.set_face_tag(f.tet, f.local, 20);
+      if (c.z() < 1e-12 && c.x() < 1 && c.y() < 1) t.set_face_tag(f.tet, f.local, 20);  // a quadrant
     }
-    CHECK(check_collapse(t, p, x).refusal == CollapseRefusal::Boundary);
+    t.discard_change();
+    CHECK(check_collapse(t, vertex_at(t, Vec3(0, 1, 0)), p).refusal == CollapseRefusal::Boundary);  // corner
+    CHECK(check_collapse(t, vertex_at(t, Vec3(2, 1, 0)), p).refusal == CollapseRefusal::Boundary);
+    const auto area0 = tag_areas(t);
+    REQUIRE(collapse_edge(t, q, x));  // along the border
+    t.validate({true, true});
+    check_same(area0, tag_areas(t));
   }
   // A vertex on an interface between labels stays.
   {
