@@ -20,6 +20,7 @@ struct CollapseOptions {
   // Never removed either: vertices added earlier in the same batch (a cut's new vertices,
   // this pass's insertions), since later records of the batch may name them as parents.
   const std::unordered_set<std::uint32_t>* keep = nullptr;
+  bool remove_boundary = true;  // false: boundary vertices stay (ImproveOptions::move_surface / move_cut off)
 };
 
 struct CollapseOutcome {

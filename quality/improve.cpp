@@ -61,6 +61,9 @@ public:
     smooth_.frozen = &frozen_;
     smooth_.curved_slid = &curved_slid_;
     collapse_.edge_ratio = opt.collapse_edge_ratio;
+    // Boundary vertices that may not slide may not be contracted away either (the boundary's
+    // triangulation then stays as it is).
+    collapse_.remove_boundary = opt.move_surface && opt.move_cut;
     collapse_.frozen = &frozen_;
     // The pass may run inside its caller's batch (improve_local after a cut): the vertices the
     // batch added so far (a cut's split points, whose duplicates name them as parents) stay.

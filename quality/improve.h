@@ -33,6 +33,7 @@ struct ImproveOptions {
   double max_growth = 1.5;           // tet count stays <= max_growth x input (region in local mode)
   bool move_surface = true;          // boundary vertices may slide within the (flat part of the) surface
   bool move_cut = true;              // vertices on cut-tagged faces may slide within their plane
+                                     // (both on: boundary vertices may also be contracted away)
   bool move_interface = true;        // vertices on a flat two-label interface may slide within it
   bool slide_curved = false;         // boundary/interface vertices also slide on smooth curved parts (no edge
                                      // sharper than feature_angle_deg), staying on the old surface; the
