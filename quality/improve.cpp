@@ -138,8 +138,39 @@ private:
     }
   }
 
+  // A tet with a tiny edge: no flip helps (every configuration of that edge's star keeps it)
+  // and smoothing moves a vertex by a fraction of that edge; contracting the edge does.
+  bool try_collapse(TetId t, ImproveReport& rep) {
+    if (!opt_.collapse || collapse_stuck_.count(t.idx())) return false;
+    if (auto c = improve_by_collapse(mesh_, t, scope_, collapse_)) {
+      ++rep.contractions;
+      const std::uint32_t gone = c->removed_vertex.idx();
+      moved.erase(gone);
+      stuck_.erase(gone);
+      curved_slid_.erase(gone);
+      replaced(c->removed, c->rebuilt);
+      return true;
+    }
+    collapse_stuck_.insert(t.idx());
+    return false;
+  }
+
+  // Shortest edge below a tenth of the longest: contraction first, before the costlier flips.
+  bool has_tiny_edge(TetId t) const {
+    const auto tv = mesh_.tet_vertices(t);
+    double lo = 1e300, hi = 0;
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j) {
+        const double l = (mesh_.rest(tv[i]) - mesh_.rest(tv[j])).squaredNorm();
+        lo = std::min(lo, l);
+        hi = std::max(hi, l);
+      }
+    return lo < 0.01 * hi;
+  }
+
   bool step(TetId t, ImproveReport& rep) {
     scope_.growth_left = growth_cap_ - grown_;
+    if (has_tiny_edge(t) && try_collapse(t, rep)) return true;
     if (opt_.flips && !flip_stuck_.count(t.idx())) {
       FlipOutcome f = improve_by_flip(mesh_, t, scope_, opt_.max_ring);
       if (f.kind == FlipOutcome::None) flip_stuck_.insert(t.idx());
@@ -155,20 +186,7 @@ private:
         return true;
       }
     }
-    // A tet with a tiny edge: no flip helps (every configuration of that edge's star keeps it)
-    // and smoothing moves a vertex by a fraction of that edge; contracting the edge does.
-    if (opt_.collapse && !collapse_stuck_.count(t.idx())) {
-      if (auto c = improve_by_collapse(mesh_, t, scope_, collapse_)) {
-        ++rep.contractions;
-        const std::uint32_t gone = c->removed_vertex.idx();
-        moved.erase(gone);
-        stuck_.erase(gone);
-        curved_slid_.erase(gone);
-        replaced(c->removed, c->rebuilt);
-        return true;
-      }
-      collapse_stuck_.insert(t.idx());
-    }
+    if (try_collapse(t, rep)) return true;
     bool any = false;
     if (opt_.smoothing) {
       const auto tv = mesh_.tet_vertices(t);
