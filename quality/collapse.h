@@ -15,7 +15,7 @@
 namespace incise {
 
 struct CollapseOptions {
-  double edge_ratio = 0.4;  // try edges shorter than this times the tet's longest edge
+  double edge_ratio = 0.2;  // try edges shorter than this times the tet's longest edge
   const std::unordered_set<std::uint32_t>* frozen = nullptr;  // never removed
   // Never removed either: vertices added earlier in the same batch (a cut's new vertices,
   // this pass's insertions), since later records of the batch may name them as parents.

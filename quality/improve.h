@@ -29,7 +29,7 @@ struct ImproveOptions {
                                      // (none after the pass's first contraction: ids would be reused in one batch)
   bool collapse = true;              // edge contraction of a tet's short edge (mesh/edge_collapse.h); never
                                      // removes a vertex added earlier in the batch (a cut's new vertices)
-  double collapse_edge_ratio = 0.4;  // ... an edge shorter than this times the tet's longest
+  double collapse_edge_ratio = 0.2;  // ... an edge shorter than this times the tet's longest
   double max_growth = 1.5;           // tet count stays <= max_growth x input (region in local mode)
   bool move_surface = true;          // boundary vertices may slide within the (flat part of the) surface
   bool move_cut = true;              // vertices on cut-tagged faces may slide within their plane
