@@ -6,7 +6,8 @@
 //     the blade above the body (no contact: must cost nothing), and the first step of a cut
 //     (first contact: a query of the grid near the blade).
 //  2. quality_after_cuts: 100 random blade steps (20 cuts of 5 steps, fixed seed) on the liver:
-//     subdivision with and without the local improvement, and removal.
+//     subdivision with and without the local improvement (each with and without edge
+//     contraction; last column: contractions made), and removal.
 //  3. snap_trade: plane cuts of the liver for several snap thresholds: quality of the result,
 //     new tets, and the largest distance of a cut-face vertex from the plane (in mean edge
 //     lengths).
@@ -144,26 +145,35 @@ std::vector<Blade> random_blades(const TetMesh& m, int count, unsigned seed) {
 
 void quality_after_cuts(const TetMesh& organ, const std::string& name, bool quick) {
   std::printf("# quality_after_cuts (%s, %d cuts x 5 steps)\n", name.c_str(), quick ? 6 : 20);
-  std::printf("variant,tets,min_dihedral,max_dihedral,min_radius_ratio,tets_below_5deg,ms_total,ms_max_step\n");
+  std::printf("variant,tets,min_dihedral,max_dihedral,min_radius_ratio,tets_below_5deg,ms_total,ms_max_step,contractions\n");
   const Range r0 = quality_range(organ);
-  std::printf("uncut,%zu,%.3f,%.3f,%.4f,%zu,0,0\n", organ.num_tets(), r0.min_dih, r0.max_dih, r0.min_rr, r0.below5);
+  std::printf("uncut,%zu,%.3f,%.3f,%.4f,%zu,0,0,0\n", organ.num_tets(), r0.min_dih, r0.max_dih, r0.min_rr, r0.below5);
   const auto blades = random_blades(organ, quick ? 6 : 20, 2026);
   struct Variant {
     const char* name;
     CutMode mode;
     bool improve;
-    double budget;
+    double budget;  // ms per step; 0: no time limit (the same work on any machine)
+    bool collapse = true;
   };
+  // Each improving variant with and without edge contraction, so the collapse figures compare
+  // within one run (the 2 and 10 ms budgets depend on the machine's load; unlimited does not).
   for (const Variant& v : {Variant{"subdivide+improve(2ms)", CutMode::Subdivide, true, 2.0},
+                           Variant{"subdivide+improve(2ms,no-collapse)", CutMode::Subdivide, true, 2.0, false},
                            Variant{"subdivide+improve(10ms)", CutMode::Subdivide, true, 10.0},
+                           Variant{"subdivide+improve(10ms,no-collapse)", CutMode::Subdivide, true, 10.0, false},
+                           Variant{"subdivide+improve(unlimited)", CutMode::Subdivide, true, 0.0},
+                           Variant{"subdivide+improve(unlimited,no-collapse)", CutMode::Subdivide, true, 0.0, false},
                            Variant{"subdivide", CutMode::Subdivide, false, 0}, Variant{"remove", CutMode::Remove, false, 0}}) {
     TetMesh m = organ;
     CutOptions opt;
     opt.mode = v.mode;
     opt.improve = v.improve;
     opt.improve_budget_ms = v.budget;
+    opt.improve_options.collapse = v.collapse;
     Cutter cutter(m, opt);
     double total = 0, worst = 0;
+    int contractions = 0;
     for (const Blade& b : blades) {
       cutter.start({b.a, b.b});
       for (int s = 1; s <= 5; ++s) {
@@ -171,11 +181,12 @@ void quality_after_cuts(const TetMesh& organ, const std::string& name, bool quic
         const CutStepReport r = cutter.advance({b.a + off, b.b + off});
         total += r.ms;
         worst = std::max(worst, r.ms);
+        contractions += r.improve.contractions;
       }
     }
     const Range q = quality_range(m);
-    std::printf("%s,%zu,%.3f,%.3f,%.4f,%zu,%.1f,%.2f\n", v.name, m.num_tets(), q.min_dih, q.max_dih, q.min_rr, q.below5,
-                total, worst);
+    std::printf("%s,%zu,%.3f,%.3f,%.4f,%zu,%.1f,%.2f,%d\n", v.name, m.num_tets(), q.min_dih, q.max_dih, q.min_rr, q.below5,
+                total, worst, contractions);
     std::fflush(stdout);
   }
 }

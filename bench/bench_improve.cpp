@@ -30,11 +30,11 @@ namespace {
 
 void row(const std::string& name, const char* mode, const ImproveReport& r) {
   std::printf("%-22s %-8s dihedral %6.2f..%6.2f -> %6.2f..%6.2f  rr %.3f -> %.3f  tets %7zu -> %7zu (x%.3f)  "
-              "%5.2f s  ops 23:%d 32:%d 44:%d er:%d bf:%d sm:%d ins:%d\n",
+              "%5.2f s  ops 23:%d 32:%d 44:%d er:%d bf:%d sm:%d ins:%d ct:%d\n",
               name.c_str(), mode, r.min_dihedral_before, r.max_dihedral_before, r.min_dihedral_after,
               r.max_dihedral_after, r.min_radius_ratio_before, r.min_radius_ratio_after, r.tets_before, r.tets_after,
               double(r.tets_after) / double(r.tets_before), r.seconds, r.flips23, r.flips32, r.flips44,
-              r.edge_removals, r.boundary_flips, r.smoothing_moves, r.insertions);
+              r.edge_removals, r.boundary_flips, r.smoothing_moves, r.insertions, r.contractions);
 }
 
 // What the solvers see: static CG iterations under gravity with the input's lowest 10% of

@@ -49,6 +49,7 @@ void add_improve(CLI::App& app) {
       throw InvalidArgument("improve: targets must satisfy 0 < --target-dihedral < 70.5 < --target-max-dihedral < 180");
     ImproveOptions opt = o->improve;
     opt.flips = !o->no_flips;
+    opt.collapse = !o->no_flips;  // contraction changes connectivity too
     opt.smoothing = !o->no_smoothing;
     opt.move_surface = !o->fixed_boundary;
     opt.slide_curved = !o->keep_surface;

@@ -8,6 +8,7 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "quality/collapse.h"
 #include "quality/flips.h"
 #include "quality/insertion.h"
 #include "quality/improve.h"
@@ -59,6 +60,16 @@ public:
     smooth_.iterations = opt.smoothing_iterations;
     smooth_.frozen = &frozen_;
     smooth_.curved_slid = &curved_slid_;
+    collapse_.edge_ratio = opt.collapse_edge_ratio;
+    // Boundary vertices that may not slide may not be contracted away either (the boundary's
+    // triangulation then stays as it is).
+    collapse_.remove_boundary = opt.move_surface && opt.move_cut;
+    collapse_.frozen = &frozen_;
+    // The pass may run inside its caller's batch (improve_local after a cut): the vertices the
+    // batch added so far (a cut's split points, whose duplicates name them as parents) stay.
+    // O(batch), not O(mesh).
+    collapse_.keep = &batch_new_;
+    for (const VertexOrigin& o : mesh.pending_added_vertices()) batch_new_.insert(o.vertex.idx());
   }
 
   // One sweep over `tets`; returns whether anything improved.
@@ -120,12 +131,46 @@ private:
   void changed(TetId a) {
     for (VertexId w : mesh_.tet_vertices(a)) {
       stuck_.erase(w.idx());
-      for (TetId u : mesh_.incident_tets(w)) flip_stuck_.erase(u.idx());
+      for (TetId u : mesh_.incident_tets(w)) {
+        flip_stuck_.erase(u.idx());
+        collapse_stuck_.erase(u.idx());
+      }
     }
+  }
+
+  // A tet with a tiny edge: no flip helps (every configuration of that edge's star keeps it)
+  // and smoothing moves a vertex by a fraction of that edge; contracting the edge does.
+  bool try_collapse(TetId t, ImproveReport& rep) {
+    if (!opt_.collapse || collapse_stuck_.count(t.idx())) return false;
+    if (auto c = improve_by_collapse(mesh_, t, scope_, collapse_)) {
+      ++rep.contractions;
+      const std::uint32_t gone = c->removed_vertex.idx();
+      moved.erase(gone);
+      stuck_.erase(gone);
+      curved_slid_.erase(gone);
+      replaced(c->removed, c->rebuilt);
+      return true;
+    }
+    collapse_stuck_.insert(t.idx());
+    return false;
+  }
+
+  // Shortest edge below a tenth of the longest: contraction first, before the costlier flips.
+  bool has_tiny_edge(TetId t) const {
+    const auto tv = mesh_.tet_vertices(t);
+    double lo = 1e300, hi = 0;
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j) {
+        const double l = (mesh_.rest(tv[i]) - mesh_.rest(tv[j])).squaredNorm();
+        lo = std::min(lo, l);
+        hi = std::max(hi, l);
+      }
+    return lo < 0.01 * hi;
   }
 
   bool step(TetId t, ImproveReport& rep) {
     scope_.growth_left = growth_cap_ - grown_;
+    if (has_tiny_edge(t) && try_collapse(t, rep)) return true;
     if (opt_.flips && !flip_stuck_.count(t.idx())) {
       FlipOutcome f = improve_by_flip(mesh_, t, scope_, opt_.max_ring);
       if (f.kind == FlipOutcome::None) flip_stuck_.insert(t.idx());
@@ -141,6 +186,7 @@ private:
         return true;
       }
     }
+    if (try_collapse(t, rep)) return true;
     bool any = false;
     if (opt_.smoothing) {
       const auto tv = mesh_.tet_vertices(t);
@@ -163,10 +209,13 @@ private:
       }
     }
     // An insertion adds one tet per tet around the split edge (at most max_ring).
-    if (!any && opt_.insertion && mesh_.is_alive(t) && scope_.growth_left >= opt_.max_ring) {
+    // Not after a contraction in this pass: the new vertex would take the removed vertex's id,
+    // and one TopologyChange cannot list an id as both removed and added.
+    if (!any && opt_.insertion && rep.contractions == 0 && mesh_.is_alive(t) && scope_.growth_left >= opt_.max_ring) {
       if (auto ins = improve_by_insertion(mesh_, t, scope_, opt_.max_ring, 2 * opt_.smoothing_iterations)) {
         ++rep.insertions;
         moved.insert(ins->vertex.idx());
+        batch_new_.insert(ins->vertex.idx());
         replaced(ins->removed, ins->added);
         return true;
       }
@@ -181,10 +230,13 @@ private:
   std::unordered_set<std::uint32_t>* region_;
   ImproveScope scope_;
   SmoothOptions smooth_;
+  CollapseOptions collapse_;
+  // Vertices added in this batch (the caller's and this pass's insertions): never contracted away.
+  std::unordered_set<std::uint32_t> batch_new_;
   std::unordered_set<std::uint32_t> frozen_;
   std::unordered_set<std::uint32_t> curved_slid_;
   // Smoothing (vertices) or flips (tets) failed and nothing around changed since.
-  std::unordered_set<std::uint32_t> stuck_, flip_stuck_;
+  std::unordered_set<std::uint32_t> stuck_, flip_stuck_, collapse_stuck_;
   std::unordered_map<std::uint32_t, std::uint32_t> version_;
   std::priority_queue<Entry> queue_;
   int work_ = 0;

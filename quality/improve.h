@@ -1,7 +1,8 @@
 #pragma once
 // Mesh improvement: topological flips (2-3, 3-2, 4-4, edge removal with the optimal ring
-// triangulation, boundary edge removal between coplanar faces of one tag), optimization-based
-// vertex smoothing and optional vertex insertion, worst element first. The measure is
+// triangulation, boundary edge removal between coplanar faces of one tag), contraction of short
+// edges (quality/collapse.h), optimization-based vertex smoothing and optional vertex
+// insertion, worst element first. The measure is
 // angle_quality() (quality/dihedral_objective.h): the worst dihedral angle relative to the
 // targets, so small and large angles both count. An operation is applied only when it raises
 // the worst measure of the tets it replaces, keeps their minimum radius ratio, and lowers
@@ -25,9 +26,14 @@ struct ImproveOptions {
   bool flips = true;                 // 2-3, 3-2, 4-4 and edge removal
   bool smoothing = true;             // optimization-based vertex smoothing
   bool insertion = false;            // vertex insertion (edge split + placement) where flips and smoothing fail
+                                     // (none after the pass's first contraction: ids would be reused in one batch)
+  bool collapse = true;              // edge contraction of a tet's short edge (mesh/edge_collapse.h); never
+                                     // removes a vertex added earlier in the batch (a cut's new vertices)
+  double collapse_edge_ratio = 0.2;  // ... an edge shorter than this times the tet's longest
   double max_growth = 1.5;           // tet count stays <= max_growth x input (region in local mode)
   bool move_surface = true;          // boundary vertices may slide within the (flat part of the) surface
   bool move_cut = true;              // vertices on cut-tagged faces may slide within their plane
+                                     // (both on: boundary vertices may also be contracted away)
   bool move_interface = true;        // vertices on a flat two-label interface may slide within it
   bool slide_curved = false;         // boundary/interface vertices also slide on smooth curved parts (no edge
                                      // sharper than feature_angle_deg), staying on the old surface; the
@@ -44,7 +50,7 @@ struct ImproveReport {
   double min_radius_ratio_before = 0, min_radius_ratio_after = 0;
   std::size_t tets_before = 0, tets_after = 0;
   int flips23 = 0, flips32 = 0, flips44 = 0, edge_removals = 0, multi_face_removals = 0, smoothing_moves = 0,
-      insertions = 0, contractions = 0;
+      insertions = 0, contractions = 0;  // contractions: edge collapses (one vertex removed each)
   int boundary_flips = 0;  // boundary edge removals between coplanar faces (2-2 and larger)
   double seconds = 0;
   std::vector<VertexId> moved_vertices;  // vertices whose position changed (for local backend refresh)

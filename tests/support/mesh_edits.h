@@ -5,6 +5,7 @@
 #include <random>
 #include <vector>
 
+#include "mesh/edge_collapse.h"
 #include "mesh/errors.h"
 #include "mesh/tet_mesh.h"
 
@@ -69,6 +70,19 @@ inline bool random_edit(TetMesh& m, std::mt19937& rng, bool allow_remove = false
       return true;
     }
   }
+}
+
+// One random edge contraction: a random edge of a random tet, either way, where
+// check_collapse allows it and `removable(v)` says the vertex that goes may go (callers keep the
+// vertices added earlier in the same batch, see mesh/edge_collapse.h). Returns whether the mesh
+// changed.
+template <class Removable>
+bool random_collapse(TetMesh& m, std::mt19937& rng, Removable removable) {
+  const TetId t = random_tet(m, rng);
+  const auto v = m.tet_vertices(t);
+  const int i = static_cast<int>(rng() % 4), j = (i + 1 + static_cast<int>(rng() % 3)) % 4;
+  if (!removable(v[j])) return false;
+  return collapse_edge(m, v[i], v[j]);
 }
 
 inline std::vector<std::uint8_t> boundary_vertices(const TetMesh& m) {

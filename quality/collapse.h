@@ -1,0 +1,35 @@
+#pragma once
+// Edge contraction in the improvement pass: where a tet below the targets has an edge much
+// shorter than its longest (needles, caps with a short edge, the slivers a cut leaves where it
+// passed close to a vertex), contract that edge (mesh/edge_collapse.h) in the direction whose
+// rebuilt tets are best, when they better() the star they replace. Flips and smoothing cannot
+// repair those tets: every configuration of the tiny edge's star stays tiny.
+#include <cstdint>
+#include <optional>
+#include <unordered_set>
+#include <vector>
+
+#include "mesh/tet_mesh.h"
+#include "quality/improve_scope.h"
+
+namespace incise {
+
+struct CollapseOptions {
+  double edge_ratio = 0.2;  // try edges shorter than this times the tet's longest edge
+  const std::unordered_set<std::uint32_t>* frozen = nullptr;  // never removed
+  // Never removed either: vertices added earlier in the same batch (a cut's new vertices,
+  // this pass's insertions), since later records of the batch may name them as parents.
+  const std::unordered_set<std::uint32_t>* keep = nullptr;
+  bool remove_boundary = true;  // false: boundary vertices stay (ImproveOptions::move_surface / move_cut off)
+};
+
+struct CollapseOutcome {
+  VertexId kept, removed_vertex;
+  std::vector<TetId> removed;  // every tet of the removed vertex before the collapse
+  std::vector<TetId> rebuilt;  // the ones still alive (same ids, rebuilt on `kept`)
+};
+
+std::optional<CollapseOutcome> improve_by_collapse(TetMesh& mesh, TetId t, const ImproveScope& scope,
+                                                   const CollapseOptions& opt);
+
+}  // namespace incise
