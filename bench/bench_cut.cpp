@@ -40,21 +40,6 @@ double now_ms() {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-struct Range {
-  double min_dih = 180, max_dih = 0, min_rr = 1;
-  std::size_t below5 = 0;
-};
-Range quality_range(const TetMesh& m) {
-  Range r;
-  for (TetId t : m.tets()) {
-    const TetQuality q = tet_quality(m, t);
-    r.min_dih = std::min(r.min_dih, q.min_dihedral);
-    r.max_dih = std::max(r.max_dih, q.max_dihedral);
-    r.min_rr = std::min(r.min_rr, q.radius_ratio);
-    r.below5 += q.min_dihedral < 5;
-  }
-  return r;
-}
 
 // ---- 1 -------------------------------------------------------------------------------------
 void step_to_solver_ready(bool quick, bool with_1m) {
@@ -146,8 +131,8 @@ std::vector<Blade> random_blades(const TetMesh& m, int count, unsigned seed) {
 void quality_after_cuts(const TetMesh& organ, const std::string& name, bool quick) {
   std::printf("# quality_after_cuts (%s, %d cuts x 5 steps)\n", name.c_str(), quick ? 6 : 20);
   std::printf("variant,tets,min_dihedral,max_dihedral,min_radius_ratio,tets_below_5deg,ms_total,ms_max_step,contractions\n");
-  const Range r0 = quality_range(organ);
-  std::printf("uncut,%zu,%.3f,%.3f,%.4f,%zu,0,0,0\n", organ.num_tets(), r0.min_dih, r0.max_dih, r0.min_rr, r0.below5);
+  const QualityRange r0 = quality_range(organ);
+  std::printf("uncut,%zu,%.3f,%.3f,%.4f,%zu,0,0,0\n", organ.num_tets(), r0.min_dihedral, r0.max_dihedral, r0.min_radius_ratio, r0.below);
   const auto blades = random_blades(organ, quick ? 6 : 20, 2026);
   struct Variant {
     const char* name;
@@ -184,8 +169,8 @@ void quality_after_cuts(const TetMesh& organ, const std::string& name, bool quic
         contractions += r.improve.contractions;
       }
     }
-    const Range q = quality_range(m);
-    std::printf("%s,%zu,%.3f,%.3f,%.4f,%zu,%.1f,%.2f,%d\n", v.name, m.num_tets(), q.min_dih, q.max_dih, q.min_rr, q.below5,
+    const QualityRange q = quality_range(m);
+    std::printf("%s,%zu,%.3f,%.3f,%.4f,%zu,%.1f,%.2f,%d\n", v.name, m.num_tets(), q.min_dihedral, q.max_dihedral, q.min_radius_ratio, q.below,
                 total, worst, contractions);
     std::fflush(stdout);
   }
@@ -213,7 +198,7 @@ void snap_trade(const TetMesh& organ) {
                                           {c - 0.11 * (hi - lo), Vec3(0.2, 1, -0.3)},
                                           {c + 0.07 * (hi - lo), Vec3(-0.4, 0.3, 1)}};
   for (double snap : {0.0, 0.02, 0.05, 0.1, 0.2, 0.3, 0.45}) {
-    Range worst;
+    QualityRange worst;
     std::size_t added = 0;
     double dist = 0;
     for (const auto& [p, n] : planes) {
@@ -224,16 +209,16 @@ void snap_trade(const TetMesh& organ) {
       Cutter cutter(m, opt);
       const CutStepReport r = cutter.cut_plane(p, n);
       added += r.tets_added;
-      const Range q = quality_range(m);
-      worst.min_dih = std::min(worst.min_dih, q.min_dih);
-      worst.min_rr = std::min(worst.min_rr, q.min_rr);
-      worst.below5 += q.below5;
+      const QualityRange q = quality_range(m);
+      worst.min_dihedral = std::min(worst.min_dihedral, q.min_dihedral);
+      worst.min_radius_ratio = std::min(worst.min_radius_ratio, q.min_radius_ratio);
+      worst.below += q.below;
       const Vec3 un = n.normalized();
       for (const auto& f : m.boundary_faces())
         if (f.tag == kTagCut)
           for (VertexId v : f.vertices) dist = std::max(dist, std::abs(un.dot(m.rest(v) - p)));
     }
-    std::printf("%.2f,%.3f,%.4f,%zu,%zu,%.4f\n", snap, worst.min_dih, worst.min_rr, worst.below5, added, dist / edge);
+    std::printf("%.2f,%.3f,%.4f,%zu,%zu,%.4f\n", snap, worst.min_dihedral, worst.min_radius_ratio, worst.below, added, dist / edge);
     std::fflush(stdout);
   }
 }

@@ -17,21 +17,6 @@
 
 namespace incise::cli {
 
-namespace {
-struct DihedralRange {
-  double min = 180, max = 0;
-};
-DihedralRange dihedral_range(const TetMesh& m) {
-  DihedralRange r;
-  for (TetId t : m.tets()) {
-    const TetQuality q = tet_quality(m, t);
-    r.min = std::min(r.min, q.min_dihedral);
-    r.max = std::max(r.max, q.max_dihedral);
-  }
-  return r;
-}
-}  // namespace
-
 void add_cut(CLI::App& app) {
   struct Opts {
     std::string in, out, json, mode = "subdivide", surface;
@@ -75,7 +60,7 @@ void add_cut(CLI::App& app) {
     opt.snap = o->snap;
     opt.improve = !o->no_improve;
     opt.improve_budget_ms = o->budget_ms;
-    const DihedralRange before = dihedral_range(mesh);
+    const QualityRange before = quality_range(mesh);
     const std::size_t tets_before = mesh.num_tets(), verts_before = mesh.num_vertices();
 
     Cutter cutter(mesh, opt);
@@ -122,12 +107,12 @@ void add_cut(CLI::App& app) {
         tris.push_back({{surface.vertices[t[0]], surface.vertices[t[1]], surface.vertices[t[2]]}});
       record(cutter.cut_surface(tris), 1);
     }
-    const DihedralRange after = dihedral_range(mesh);
+    const QualityRange after = quality_range(mesh);
     write_tet_mesh(mesh, o->out);
     std::cerr << "cut: " << o->in << " -> " << o->out << ": " << tets_before << " -> " << mesh.num_tets() << " tets, "
               << verts_before << " -> " << mesh.num_vertices() << " vertices; " << tets_cut << " tets cut, "
-              << duplicated << " vertices duplicated, " << fragments << " fragment(s); min dihedral " << before.min
-              << " -> " << after.min << " deg; " << ms_total << " ms (max step " << ms_max << " ms)\n";
+              << duplicated << " vertices duplicated, " << fragments << " fragment(s); min dihedral " << before.min_dihedral
+              << " -> " << after.min_dihedral << " deg; " << ms_total << " ms (max step " << ms_max << " ms)\n";
     if (!o->json.empty()) {
       nlohmann::json j = {{"schema", "incise.cut/1"},
                           {"input", o->in},
@@ -144,10 +129,10 @@ void add_cut(CLI::App& app) {
                           {"cut_faces", faces},
                           {"cut_area", area},
                           {"fragments", fragments},
-                          {"min_dihedral_before", before.min},
-                          {"max_dihedral_before", before.max},
-                          {"min_dihedral_after", after.min},
-                          {"max_dihedral_after", after.max},
+                          {"min_dihedral_before", before.min_dihedral},
+                          {"max_dihedral_before", before.max_dihedral},
+                          {"min_dihedral_after", after.min_dihedral},
+                          {"max_dihedral_after", after.max_dihedral},
                           {"ms_total", ms_total},
                           {"ms_max_step", ms_max},
                           {"steps", steps}};

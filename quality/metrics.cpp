@@ -152,4 +152,16 @@ TetQuality tet_quality(const TetMesh& mesh, TetId t, std::span<const Vec3> posit
   return tet_quality(positions[v[0].idx()], positions[v[1].idx()], positions[v[2].idx()], positions[v[3].idx()]);
 }
 
+QualityRange quality_range(const TetMesh& mesh, double below_degrees) {
+  QualityRange r;
+  for (TetId t : mesh.tets()) {
+    const TetQuality q = tet_quality(mesh, t);
+    r.min_dihedral = std::min(r.min_dihedral, q.min_dihedral);
+    r.max_dihedral = std::max(r.max_dihedral, q.max_dihedral);
+    r.min_radius_ratio = std::min(r.min_radius_ratio, q.radius_ratio);
+    r.below += q.min_dihedral < below_degrees;
+  }
+  return r;
+}
+
 }  // namespace incise

@@ -72,4 +72,11 @@ TetQuality tet_quality(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec
 // VertexId, e.g. the current deformed configuration) when that is not empty.
 TetQuality tet_quality(const TetMesh& mesh, TetId t, std::span<const Vec3> positions = {});
 
+// The extremes of a whole mesh (rest positions): what command summaries and benchmarks print.
+struct QualityRange {
+  double min_dihedral = 180, max_dihedral = 0, min_radius_ratio = 1;
+  std::size_t below = 0;  // tets whose min dihedral is under `below_degrees`
+};
+QualityRange quality_range(const TetMesh& mesh, double below_degrees = 5.0);  // O(mesh)
+
 }  // namespace incise

@@ -19,22 +19,6 @@ using namespace incise::testing;
 
 namespace {
 
-struct Worst {
-  double min_dihedral = 180, min_radius_ratio = 1;
-  std::size_t below5 = 0;
-};
-
-Worst worst_of(const TetMesh& m) {
-  Worst w;
-  for (TetId t : m.tets()) {
-    const TetQuality q = tet_quality(m, t);
-    w.min_dihedral = std::min(w.min_dihedral, q.min_dihedral);
-    w.min_radius_ratio = std::min(w.min_radius_ratio, q.radius_ratio);
-    w.below5 += q.min_dihedral < 5;
-  }
-  return w;
-}
-
 TetMesh jittered_two_label_box() {
   TetMesh m = make_box(Vec3(1, 1, 1), {6, 6, 6});
   jitter(m, 0.3, 17);
@@ -71,9 +55,9 @@ TEST_CASE("contractions after a cut leave a better worst tet than flips and smoo
   cut_three(cutter, [&](const CutStepReport& r) {
     for (TetId t : r.change.added_tets) seeds.push_back(t);
   });
-  const Worst raw = worst_of(cut);
+  const QualityRange raw = quality_range(cut);
   REQUIRE(raw.min_dihedral < 1);  // the small snap left slivers
-  Worst result[2];
+  QualityRange result[2];
   int contractions = 0;
   for (bool collapse : {false, true}) {
     TetMesh m = cut;
@@ -87,21 +71,21 @@ TEST_CASE("contractions after a cut leave a better worst tet than flips and smoo
     const TopologyChange ch = m.take_change();
     CHECK(ch.removed_vertices.size() == static_cast<std::size_t>(rep.contractions));
     for (VertexId v : ch.removed_vertices) CHECK_FALSE(m.is_alive(v));
-    result[collapse] = worst_of(m);
+    result[collapse] = quality_range(m);
     if (collapse) contractions = rep.contractions;
   }
-  INFO("cut: min dihedral " << raw.min_dihedral << ", radius ratio " << raw.min_radius_ratio << ", " << raw.below5
+  INFO("cut: min dihedral " << raw.min_dihedral << ", radius ratio " << raw.min_radius_ratio << ", " << raw.below
                             << " below 5 deg");
   INFO("improved without contractions: " << result[0].min_dihedral << ", " << result[0].min_radius_ratio << ", "
-                                         << result[0].below5);
+                                         << result[0].below);
   INFO("with " << contractions << " contractions: " << result[1].min_dihedral << ", " << result[1].min_radius_ratio
-               << ", " << result[1].below5);
+               << ", " << result[1].below);
   CHECK(contractions > 0);
   // The worst tet itself lies where the cut meets the surface next to a snapped vertex (its
   // faces not exactly flat: no contraction may touch it), so its angle stays; the rest improves.
   CHECK(result[1].min_dihedral >= result[0].min_dihedral);
   CHECK(result[1].min_radius_ratio > result[0].min_radius_ratio);
-  CHECK(result[1].below5 < 0.7 * result[0].below5);
+  CHECK(result[1].below < 0.7 * result[0].below);
 }
 
 TEST_CASE("contractions inside the cutter's step keep every cut invariant", "[cut][collapse]") {
