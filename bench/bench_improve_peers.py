@@ -16,34 +16,13 @@ given or not found is skipped with a note. Stellar runs twice: with its built-in
 (vertex insertion on) and with a config file that turns insertion off.
 """
 import argparse
-import json
 import os
 import shutil
-import subprocess
 import sys
 import tempfile
-import time
 
+from bench_util import quality, run  # bench/ (the script's own folder)
 
-def run(cmd, cwd=None):
-    t0 = time.perf_counter()
-    r = subprocess.run(cmd, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    dt = time.perf_counter() - t0
-    if r.returncode != 0:
-        tail = (r.stderr.strip() or r.stdout.strip()).splitlines()[-1:] or ["exit %d" % r.returncode]
-        raise RuntimeError("%s failed: %s" % (os.path.basename(cmd[0]), tail[0][:120]))
-    return dt
-
-
-def quality(incise, path):
-    r = subprocess.run([incise, "quality", "--json", path], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    if r.returncode != 0:
-        raise RuntimeError("incise quality " + path + ": " + r.stderr.strip())
-    j = json.loads(r.stdout)
-    m = j["metrics"]
-    return {"tets": j["counts"]["tets"], "min_dih": m["min_dihedral"]["min"], "max_dih": m["max_dihedral"]["max"],
-            "min_rr": m["radius_ratio"]["min"], "inverted": j["elements"]["inverted"], "volume": j["volume"],
-            "bfaces": j["counts"]["boundary_faces"]}
 
 
 def flip_ele(src, dst):

@@ -15,17 +15,16 @@ its -a bound, Gmsh the size as its element size (surface remeshed at that size).
 Needs /usr/bin/python3 (numpy, meshio), tetgen and gmsh on PATH (missing ones are skipped).
 """
 import argparse
-import json
 import math
 import os
 import shutil
-import subprocess
 import sys
 import tempfile
-import time
 
 import meshio
 import numpy as np
+
+from bench_util import quality, run  # bench/ (the script's own folder)
 
 
 def load_surface(path):
@@ -97,24 +96,6 @@ def boundary_distance(out_path, surf_pts, surf_tris, samples=1500):
         best[i:i + 64] = point_triangle_distance(q[i:i + 64], a, b, c).min(axis=1)
     return best.max(), best.mean()
 
-
-def run(cmd, cwd=None):
-    t0 = time.perf_counter()
-    r = subprocess.run(cmd, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    dt = time.perf_counter() - t0
-    if r.returncode != 0:
-        raise RuntimeError(" ".join(cmd) + " failed:\n" + r.stderr[-2000:])
-    return dt
-
-
-def quality(incise, path):
-    r = subprocess.run([incise, "quality", "--json", path], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    if r.returncode != 0:
-        raise RuntimeError("incise quality " + path + ": " + r.stderr.strip())
-    j = json.loads(r.stdout)
-    m = j["metrics"]
-    return {"tets": j["counts"]["tets"], "min_dih": m["min_dihedral"]["min"], "max_dih": m["max_dihedral"]["max"],
-            "mean_rr": m["radius_ratio"]["mean"], "inverted": j["elements"]["inverted"]}
 
 
 def main():
