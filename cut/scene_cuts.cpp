@@ -25,9 +25,11 @@ SceneCutHook make_scene_cut_hook(const Scene& scene) {
   st->cutters.resize(scene.cuts.size());
   st->done.assign(scene.cuts.size(), 0.0);
   const std::vector<SceneCut> cuts = scene.cuts;
-  return [st, cuts](int frame, TetMesh& mesh, const std::function<Vec3(VertexId)>& current, double max_displacement,
+  return [st, cuts](int frame, TetMesh& mesh, const std::function<Vec3(VertexId)>& current,
+                    const std::function<double()>& max_displacement_of,
                     const std::function<void(const TopologyChange&)>& apply) {
     SceneCutResult res;
+    double max_displacement = -1;  // measured once, in the first frame step that needs it
     // Every cutter (and its first-contact grid, O(mesh)) is made before the first frame's
     // cuts, as setup; afterwards each step's change is passed to the other cutters, so no
     // grid goes stale (only a fragment removal by the scene makes them rebuild).
@@ -45,6 +47,7 @@ SceneCutHook make_scene_cut_hook(const Scene& scene) {
       const double f = sweep_fraction(c, frame);
       if (f <= st->done[i]) continue;
       const Vec3 off = f * c.sweep;
+      if (max_displacement < 0) max_displacement = max_displacement_of();
       CutStepReport r = st->cutters[i]->advance({c.a + off, c.b + off}, current, max_displacement);
       st->done[i] = f;
       for (std::size_t j = 0; j < cuts.size(); ++j)

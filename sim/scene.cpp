@@ -517,15 +517,16 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
     };
     // One pass over the state vector, like a CG iteration's vector update (interpolated new
     // vertices never exceed it, so it holds through the frame's cuts).
-    double max_disp = 0;
-    if (fem) {
-      const Eigen::VectorXd& u = fem->displacement();
-      for (Eigen::Index i = 0; i + 2 < u.size(); i += 3) max_disp = std::max(max_disp, u.segment<3>(i).squaredNorm());
-    } else {
-      for (VertexId v : mesh.vertices())
-        max_disp = std::max(max_disp, (springs->positions()[v.idx()] - mesh.rest(v)).squaredNorm());
-    }
-    max_disp = std::sqrt(max_disp);
+    auto max_disp = [&]() -> double {
+      double d = 0;
+      if (fem) {
+        const Eigen::VectorXd& u = fem->displacement();
+        for (Eigen::Index i = 0; i + 2 < u.size(); i += 3) d = std::max(d, u.segment<3>(i).squaredNorm());
+      } else {
+        for (VertexId v : mesh.vertices()) d = std::max(d, (springs->positions()[v.idx()] - mesh.rest(v)).squaredNorm());
+      }
+      return std::sqrt(d);
+    };
     SceneCutResult cr = opt.cut_hook(frame, mesh, current, max_disp, apply_change);
     for (const auto& part : cr.fragments) {
       std::vector<VertexId> verts;

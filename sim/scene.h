@@ -61,13 +61,14 @@ enum class FragmentPolicy { Auto, Keep, Fix, Remove, Error };
 // on: the runner calls a hook (cut/scene_cuts.h provides it) with the current positions and a
 // function that hands each cut step's TopologyChange to the backend (so the next blade of the
 // same frame sees the new vertices' current positions), and a bound on how far any vertex is
-// from its rest position (the cutter's first-contact grid lives in rest space).
+// from its rest position (the cutter's first-contact grid lives in rest space; an O(V) pass,
+// so the hook asks for it only in frames where a blade moves).
 struct SceneCutResult {
   double ms = 0;                              // cut steps (cut + local improvement)
   std::vector<std::vector<TetId>> fragments;  // detached parts (tets), as the cutter found them
 };
 using SceneCutHook = std::function<SceneCutResult(int frame, TetMesh& mesh, const std::function<Vec3(VertexId)>& current,
-                                                  double max_displacement,
+                                                  const std::function<double()>& max_displacement,
                                                   const std::function<void(const TopologyChange&)>& apply)>;
 
 struct Scene {
