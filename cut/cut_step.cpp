@@ -294,30 +294,35 @@ void CutStep::embed_boundary(const Piece& piece) {
       break;
     }
   }
-  // Then the segments: every face a segment crosses gets the crossing point.
-  std::vector<TetId> work(cand_.begin(), cand_.end());
-  std::unordered_set<std::uint32_t> queued(in_cand_);
-  // Each real crossing makes one vertex; the cap only guards against a pathological cascade
-  // on degenerate input (the cut is then less exact, never invalid).
-  std::size_t splits = 0;
-  const std::size_t max_splits = 64 + 2 * cand_.size() * piece.boundary.size();
-  while (!work.empty() && splits < max_splits) {
-    const TetId t = work.back();
-    work.pop_back();
-    queued.erase(t.idx());
-    if (!mesh_.is_alive(t)) continue;
-    bool split = false;
-    for (int f = 0; f < 4 && !split; ++f) {
-      const auto fv = mesh_.face_vertices(t, f);
-      const Vec3 a = position(fv[0]), b = position(fv[1]), c = position(fv[2]);
-      std::uint32_t face_bits = 0;
-      for (VertexId v : fv) {
-        auto it = on_segment.find(v.idx());
-        if (it != on_segment.end()) face_bits |= it->second;
-      }
-      for (std::size_t si = 0; si < ns; ++si) {
-        if (known[si] || (face_bits & (1u << si))) continue;
-        const auto& seg = piece.boundary[si];
+  // Then the segments, one at a time: every face a segment crosses gets the crossing point.
+  // One at a time is what makes this end. A split for segment i makes only faces through the
+  // new point, which segment i skips, so each of its splits uses up one crossing of the mesh
+  // as it was. Interleaving two segments broke that: near a shared corner each one's split
+  // made fresh faces for the other, whose crossing then lay on a flatter child of the same
+  // tet, without end (a cascade of slivers with radius ratio 1e-21 on the liver).
+  for (std::size_t si = 0; si < ns; ++si) {
+    if (known[si]) continue;
+    const auto& seg = piece.boundary[si];
+    std::vector<TetId> work(cand_.begin(), cand_.end());
+    std::unordered_set<std::uint32_t> queued(in_cand_);
+    // The cap only guards against degenerate input (the cut is then less exact, never
+    // invalid); each real crossing makes one vertex.
+    std::size_t splits = 0;
+    const std::size_t max_splits = 64 + 2 * cand_.size();
+    while (!work.empty() && splits < max_splits) {
+      const TetId t = work.back();
+      work.pop_back();
+      queued.erase(t.idx());
+      if (!mesh_.is_alive(t)) continue;
+      for (int f = 0; f < 4; ++f) {
+        const auto fv = mesh_.face_vertices(t, f);
+        bool on_face = false;
+        for (VertexId v : fv) {
+          auto it = on_segment.find(v.idx());
+          on_face |= it != on_segment.end() && (it->second & (1u << si));
+        }
+        if (on_face) continue;
+        const Vec3 a = position(fv[0]), b = position(fv[1]), c = position(fv[2]);
         const int sp = orient3d(a, b, c, seg[0]), sq = orient3d(a, b, c, seg[1]);
         if (sp * sq >= 0) continue;
         const Vec3 n = (b - a).cross(c - a);
@@ -334,7 +339,6 @@ void CutStep::embed_boundary(const Piece& piece) {
         if (mesh_.num_vertices() != alive_before || mesh_.vertex_capacity() != before) {
           for (TetId x2 : mesh_.incident_tets(p))
             if (queued.insert(x2.idx()).second) work.push_back(x2);
-          split = true;
           ++splits;
           break;
         }
