@@ -25,9 +25,8 @@
 // of the two stars as touched. Boundary faces keep their tags (kTagCut included).
 //
 // Batches: consumers apply added and moved vertices before removed ones, so `remove` may be
-// a parent of records made earlier in the same batch. It must not itself have been added in
-// the batch (TetMesh::pending_added_vertices()) when a later record names it as a parent: its
-// own record would vanish. Callers keep those (the improvement pass keeps them all).
+// a parent of records made earlier in the same batch, and may itself have been added in the
+// batch (a cut's new vertex): its added record stays and it is listed as removed as well.
 #include <array>
 #include <vector>
 

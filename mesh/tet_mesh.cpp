@@ -252,13 +252,10 @@ void TetMesh::remove_vertex(VertexId v) {
   if (!vertex_tets_[v.idx()].empty()) throw InvalidMesh("remove_vertex: " + vid(v) + " is still used by tets");
   vertex_alive_[v.idx()] = 0;
   --vertex_alive_count_;
-  free_vertices_.push_back(v);
-  auto it = std::find_if(pending_vertices_.begin(), pending_vertices_.end(),
-                         [&](const VertexOrigin& o) { return o.vertex == v; });
-  if (it != pending_vertices_.end())
-    pending_vertices_.erase(it);
-  else
-    pending_removed_vertices_.push_back(v);
+  // Listed as removed even when this batch added it: its added record stays, since later
+  // records of the batch may name it as a parent (consumers apply removals last). Its id is
+  // reused only after the batch, so one id never stands for two vertices in one record.
+  pending_removed_vertices_.push_back(v);
   pending_.any = true;
 }
 
@@ -402,6 +399,7 @@ TopologyChange TetMesh::take_change() {
   }
   ch.added_vertices = std::move(pending_vertices_);
   ch.moved_vertices = std::move(pending_moved_);
+  free_vertices_.insert(free_vertices_.end(), pending_removed_vertices_.begin(), pending_removed_vertices_.end());
   ch.removed_vertices = std::move(pending_removed_vertices_);
   for (VertexId v : pending_touched_) {
     touched_mark_[v.idx()] = 0;

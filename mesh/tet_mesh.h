@@ -159,10 +159,6 @@ public:
   // starts a new batch. O(size of the batch).
   TopologyChange take_change();
   bool has_pending_change() const { return !pending_.empty(); }
-  // The vertices added since the last take_change(), in creation order. An editor that removes
-  // vertices keeps these: a later record of the batch may name one as a parent, and a vertex
-  // removed in the batch that added it vanishes from the record (mesh/edge_collapse.h).
-  std::span<const VertexOrigin> pending_added_vertices() const { return pending_vertices_; }
   // Drops the pending record (readers and generators call it: a fresh mesh starts clean).
   void discard_change();
 

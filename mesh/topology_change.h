@@ -35,7 +35,9 @@ struct TopologyChange {
   // The tets around a moved vertex are listed as removed and added (their rest shape changed).
   // Editors that both insert and move in one batch insert first (the order above is exact).
   std::vector<VertexOrigin> moved_vertices;
-  // Isolated vertices deleted by the batch.
+  // Isolated vertices deleted by the batch. One the batch itself added (an improvement pass
+  // contracting a cut's new vertex) is in added_vertices too, since later records may name
+  // it as a parent: consumers apply removals after added and moved vertices.
   std::vector<VertexId> removed_vertices;
   // Vertices (old or new) whose set of incident tets changed, each listed once.
   std::vector<VertexId> touched_vertices;

@@ -24,7 +24,6 @@ std::optional<CollapseOutcome> improve_by_collapse(TetMesh& mesh, TetId t, const
   std::sort(edges.begin(), edges.end(), [](const Edge& a, const Edge& b) { return a.len < b.len; });
   auto removable = [&](VertexId v) {
     if (opt.frozen && opt.frozen->count(v.idx())) return false;
-    if (opt.keep && opt.keep->count(v.idx())) return false;
     if (!opt.remove_boundary)
       for (TetId u : mesh.incident_tets(v))
         for (int f = 0; f < 4; ++f)

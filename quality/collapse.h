@@ -17,9 +17,6 @@ namespace incise {
 struct CollapseOptions {
   double edge_ratio = 0.2;  // try edges shorter than this times the tet's longest edge
   const std::unordered_set<std::uint32_t>* frozen = nullptr;  // never removed
-  // Never removed either: vertices added earlier in the same batch (a cut's new vertices,
-  // this pass's insertions), since later records of the batch may name them as parents.
-  const std::unordered_set<std::uint32_t>* keep = nullptr;
   bool remove_boundary = true;  // false: boundary vertices stay (ImproveOptions::move_surface / move_cut off)
 };
 

@@ -65,11 +65,6 @@ public:
     // triangulation then stays as it is).
     collapse_.remove_boundary = opt.move_surface && opt.move_cut;
     collapse_.frozen = &frozen_;
-    // The pass may run inside its caller's batch (improve_local after a cut): the vertices the
-    // batch added so far (a cut's split points, whose duplicates name them as parents) stay.
-    // O(batch), not O(mesh).
-    collapse_.keep = &batch_new_;
-    for (const VertexOrigin& o : mesh.pending_added_vertices()) batch_new_.insert(o.vertex.idx());
   }
 
   // One sweep over `tets`; returns whether anything improved.
@@ -208,14 +203,12 @@ private:
         stuck_.erase(v.idx());
       }
     }
-    // An insertion adds one tet per tet around the split edge (at most max_ring).
-    // Not after a contraction in this pass: the new vertex would take the removed vertex's id,
-    // and one TopologyChange cannot list an id as both removed and added.
-    if (!any && opt_.insertion && rep.contractions == 0 && mesh_.is_alive(t) && scope_.growth_left >= opt_.max_ring) {
+    // An insertion adds one tet per tet around the split edge (at most max_ring). (Ids freed
+    // by this pass's contractions are not reused before the batch ends, so both can mix.)
+    if (!any && opt_.insertion && mesh_.is_alive(t) && scope_.growth_left >= opt_.max_ring) {
       if (auto ins = improve_by_insertion(mesh_, t, scope_, opt_.max_ring, 2 * opt_.smoothing_iterations)) {
         ++rep.insertions;
         moved.insert(ins->vertex.idx());
-        batch_new_.insert(ins->vertex.idx());
         replaced(ins->removed, ins->added);
         return true;
       }
@@ -231,8 +224,6 @@ private:
   ImproveScope scope_;
   SmoothOptions smooth_;
   CollapseOptions collapse_;
-  // Vertices added in this batch (the caller's and this pass's insertions): never contracted away.
-  std::unordered_set<std::uint32_t> batch_new_;
   std::unordered_set<std::uint32_t> frozen_;
   std::unordered_set<std::uint32_t> curved_slid_;
   // Smoothing (vertices) or flips (tets) failed and nothing around changed since.

@@ -26,9 +26,8 @@ struct ImproveOptions {
   bool flips = true;                 // 2-3, 3-2, 4-4 and edge removal
   bool smoothing = true;             // optimization-based vertex smoothing
   bool insertion = false;            // vertex insertion (edge split + placement) where flips and smoothing fail
-                                     // (none after the pass's first contraction: ids would be reused in one batch)
-  bool collapse = true;              // edge contraction of a tet's short edge (mesh/edge_collapse.h); never
-                                     // removes a vertex added earlier in the batch (a cut's new vertices)
+  bool collapse = true;              // edge contraction of a tet's short edge (mesh/edge_collapse.h), also of
+                                     // vertices added earlier in the batch (a cut's new vertices)
   double collapse_edge_ratio = 0.2;  // ... an edge shorter than this times the tet's longest
   double max_growth = 1.5;           // tet count stays <= max_growth x input (region in local mode)
   bool move_surface = true;          // boundary vertices may slide within the (flat part of the) surface

@@ -187,7 +187,6 @@ void AsyncCholesky::apply(const TopologyChange& change) {
     mapped_.erase(v.idx());
     if (job_.valid()) changed_since_snapshot_.push_back(v.idx());
   };
-  for (VertexId v : change.removed_vertices) uncover(v);
   for (VertexId v : change.touched_vertices)
     if (v.idx() < uncovered_.size() && !uncovered_[v.idx()]) touched_.push_back(v.idx());
   for (const VertexOrigin& o : change.added_vertices) {
@@ -195,6 +194,8 @@ void AsyncCholesky::apply(const TopologyChange& change) {
     map_added(o);
     if (job_.valid()) added_since_snapshot_.push_back(o);
   }
+  // Removals last: a vertex the batch added and then removed is in both lists.
+  for (VertexId v : change.removed_vertices) uncover(v);
 }
 
 void AsyncCholesky::setup(const LinearOperator& a, const std::vector<std::uint8_t>* free) {

@@ -266,12 +266,6 @@ void SpringModel::apply(const TetMesh& mesh, const TopologyChange& change) {
     mark_[v] = 1;
     touched_.push_back(v);
   };
-  for (VertexId v : change.removed_vertices) {
-    const std::uint32_t i = v.idx();
-    alive_[i] = fixed_[i] = prescribed_[i] = 0;
-    mass_[i] = 0;
-    touch(i);
-  }
   for (const VertexOrigin& o : change.added_vertices) {
     const std::uint32_t i = o.vertex.idx();
     Vec3 x = Vec3::Zero(), u = Vec3::Zero(), target = Vec3::Zero();
@@ -312,6 +306,13 @@ void SpringModel::apply(const TetMesh& mesh, const TopologyChange& change) {
     x_[i] = x;
     v_[i] = u;
     if (prescribed_[i]) target_[i] = target;
+    touch(i);
+  }
+  // Removals last: a vertex the batch added and then removed (contracted) is in both lists.
+  for (VertexId v : change.removed_vertices) {
+    const std::uint32_t i = v.idx();
+    alive_[i] = fixed_[i] = prescribed_[i] = 0;
+    mass_[i] = 0;
     touch(i);
   }
   auto add_edges = [&](const std::array<VertexId, 4>& tv) {

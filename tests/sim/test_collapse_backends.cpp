@@ -15,16 +15,20 @@ using namespace incise::testing;
 
 namespace {
 
-// A batch: some random edits, then contractions of vertices that existed before the batch
-// (never one it added: the record could not describe that, see mesh/edge_collapse.h), last,
-// so no later edit of the batch reuses a removed vertex's id.
+// A batch: random edits and contractions interleaved, of any vertex, also one the batch
+// itself added (its added record stays and it is listed as removed as well; freed ids are
+// reused only after the batch, see mesh/edge_collapse.h).
 int edit_batch(TetMesh& m, std::mt19937& rng, int edits, int collapses) {
-  std::vector<std::uint8_t> old(m.vertex_capacity(), 0);
-  for (VertexId v : m.vertices()) old[v.idx()] = 1;
-  for (int k = 0; k < edits; ++k) random_edit(m, rng, true);
   int done = 0;
-  for (int k = 0; k < collapses; ++k)
-    done += random_collapse(m, rng, [&](VertexId v) { return v.idx() < old.size() && old[v.idx()]; });
+  while (edits + collapses > 0) {
+    if (edits > 0 && (collapses == 0 || rng() % 2 == 0)) {
+      random_edit(m, rng, true);
+      --edits;
+    } else {
+      done += random_collapse(m, rng, [](VertexId) { return true; });
+      --collapses;
+    }
+  }
   return done;
 }
 
