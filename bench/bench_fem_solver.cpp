@@ -120,6 +120,7 @@ void spectrum_section(const Args& args, const std::string& out, bool quick) {
       cases.push_back({"liver improved", std::move(m)});
     }
   }
+  cases.push_back({"bar 4x1x1", make_box(Vec3(4, 1, 1), {16, 4, 4})});  // slender: one soft bending mode
   for (int n : {8, 16}) {
     cases.push_back({"box " + std::to_string(n) + "^3", make_box(Vec3(1, 1, 1), {n, n, n})});
     TetMesh j = make_box(Vec3(1, 1, 1), {n, n, n});
@@ -146,14 +147,14 @@ void spectrum_section(const Args& args, const std::string& out, bool quick) {
     const FemModel model(c.mesh, MaterialTable(m));
     const ClampedProblem problem = clamped_problem(model);
     const double model_ms = now_ms() - t0;
-    std::printf("   %s: %zu tets, %zu clamped vertices, model %.1f ms\n", c.name.c_str(), c.mesh.num_tets(),
+    std::printf("   %s: %zu tets, %zu clamped vertices, FEM model %.1f ms\n", c.name.c_str(), c.mesh.num_tets(),
                 problem.fixed_vertices, model_ms);
     for (Preconditioner pc : {Preconditioner::None, Preconditioner::Jacobi}) {
       const CgSpectrumRun full = run_cg_spectrum(model, problem, pc, 100000, tol);
       std::printf("     %-7s full %6d it %8.1f ms | formula %6.0f (%5.2f)", to_string(pc), full.iterations, full.ms,
                   pc == Preconditioner::None ? std::ceil(formula.cg_iterations) : NAN,
                   pc == Preconditioner::None ? std::ceil(formula.cg_iterations) / full.iterations : NAN);
-      std::printf(" | kappa(full run) %.3g\n", full.kappa);
+      std::printf(" | Ritz kappa of the full run %.3g\n", full.kappa);
       for (int k : ks) {
         const CgSpectrumRun est = run_cg_spectrum(model, problem, pc, k, tol);
         const double ratio = est.predicted_iterations / full.iterations;

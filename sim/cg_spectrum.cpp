@@ -53,8 +53,10 @@ double cg_iterations_with_outliers(const std::vector<double>& ritz, double toler
   if (ritz.empty()) return 0;
   const double lo = ritz.front();
   double best = cg_iterations_for(ritz.back() / lo, tolerance), last = ritz.back();
+  // The lower Ritz values stand for the bulk of the spectrum, not for single eigenvalues.
+  const int cap = std::min(max_outliers, int(ritz.size()) / 10);
   int m = 0;
-  for (auto it = ritz.rbegin(); it != ritz.rend() && m < max_outliers; ++it) {
+  for (auto it = ritz.rbegin(); it != ritz.rend() && m < cap; ++it) {
     if (!(*it < last * (1 - 1e-6))) continue;  // a repeat of the value just removed
     last = *it;
     ++m;

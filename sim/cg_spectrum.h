@@ -54,12 +54,15 @@ LanczosExtremes lanczos_extremes(const CgCoefficients& c);
 // 0.5 sqrt(kappa) ln(2/tol): the classical CG bound on iterations to reduce the error by tol.
 double cg_iterations_for(double kappa, double tolerance);
 // The same bound with isolated large eigenvalues paid one iteration each:
-//   min over m <= max_outliers of  m + cg_iterations_for(theta_(m) / theta_min, tol)
+//   min over m <= min(max_outliers, k / 10) of  m + cg_iterations_for(theta_(m) / theta_min, tol)
 // with theta_(m) the (m+1)-th largest DISTINCT Ritz value (values within a relative 1e-6 are
 // one: finite-precision Lanczos repeats converged ones, and CG needs one iteration for a
 // multiple eigenvalue anyway). The bound holds for the true eigenvalues (a polynomial with
 // roots at the m outliers times the Chebyshev one on the rest); a few slivers make exactly
-// such outliers, which the plain bound charges in sqrt(kappa). Ritz values ascending.
+// such outliers, which the plain bound charges in sqrt(kappa). Only the top tenth of the k
+// Ritz values may count as outliers: the rest stand for the bulk of the spectrum, and the
+// small end converges too slowly to tell isolated soft modes (a slender body's first bending
+// mode) from the bulk, so they are never removed. Ritz values ascending.
 double cg_iterations_with_outliers(const std::vector<double>& ritz, double tolerance, int max_outliers = 10);
 
 // The clamped, loaded problem above on a model of the mesh.
