@@ -5,14 +5,21 @@
 //  3. tolerance -> error and time;
 //  4. mesh resolution -> tip error against Timoshenko beam theory, and time (CG and direct);
 //  5. linear vs corotational vs springs vs direct on one cantilever, small and large load;
-//  6. CG iterations against mesh quality (worst dihedral after jitter) and against nu.
-//   bench_fem_solver [--out DIR] [--quick]
+//  6. CG iterations against mesh quality (worst dihedral after jitter) and against nu;
+//  7. spectrum: the quality report's CG iteration estimates (formula, and Lanczos from a short
+//     CG solve) against full solves on the sample meshes, unpreconditioned and Jacobi.
+//   bench_fem_solver [--out DIR] [--quick] [--only warm|cap|tolerance|resolution|models|conditioning|spectrum]
+//                    [--lanczos 20,40,80,160] [--meshes a.msh,b.msh]   (spectrum: default samples/*.msh)
 #include <cmath>
 #include <numbers>
 #include <random>
 
 #include "bench/bench_common.h"
 #include "mesh/generate.h"
+#include "mesh/io/tet_io.h"
+#include "quality/conditioning.h"
+#include "quality/improve.h"
+#include "sim/cg_spectrum.h"
 #include "sim/fem_simulation.h"
 #include "sim/spring_model.h"
 #include "tests/support/mesh_edits.h"
@@ -85,16 +92,94 @@ struct Beam {
 
 double rel(const Eigen::VectorXd& a, const Eigen::VectorXd& ref) { return (a - ref).norm() / ref.norm(); }
 
+// 7. Formula and Lanczos estimates of CG iterations against full solves, on the problem the
+// quality report measures (sim/cg_spectrum.h: clamped on one side, gravity-like load, nu 0.45,
+// tolerance 1e-6).
+void spectrum_section(const Args& args, const std::string& out, bool quick) {
+  const std::string dir = std::string(INCISE_SOURCE_DIR) + "/samples/";
+  std::vector<std::string> files;
+  std::stringstream ss(args.get("--meshes", dir + "liver.msh," + dir + "elephant.msh"));
+  for (std::string f; std::getline(ss, f, ',');) files.push_back(f);
+  std::vector<int> ks;
+  for (double k : args.list("--lanczos", quick ? "20,40,80" : "20,40,60,80,100,120,160")) ks.push_back(int(k));
+  struct Case {
+    std::string name;
+    TetMesh mesh;
+  };
+  std::vector<Case> cases;
+  for (const std::string& f : files) {
+    const std::string name = std::filesystem::path(f).filename().string();
+    cases.push_back({name, read_tet_mesh(f)});
+    if (name == "liver.msh") {  // what `incise improve` makes of it (the CLI's defaults)
+      TetMesh m = read_tet_mesh(f);
+      ImproveOptions io;
+      io.slide_curved = true;
+      improve(m, io);
+      m.discard_change();
+      m.compact();
+      cases.push_back({"liver improved", std::move(m)});
+    }
+  }
+  cases.push_back({"bar 4x1x1", make_box(Vec3(4, 1, 1), {16, 4, 4})});  // slender: one soft bending mode
+  for (int n : {8, 16}) {
+    cases.push_back({"box " + std::to_string(n) + "^3", make_box(Vec3(1, 1, 1), {n, n, n})});
+    TetMesh j = make_box(Vec3(1, 1, 1), {n, n, n});
+    jitter(j, 0.45, 5);
+    cases.push_back({"box " + std::to_string(n) + "^3 jitter 0.45", std::move(j)});
+  }
+  const double tol = 1e-6, nu = 0.45;
+  Csv csv(out, "fem_spectrum.csv",
+          "mesh,tets,preconditioner,lanczos_iterations,formula_iterations,lanczos_kappa,lanczos_iterations_predicted,"
+          "full_iterations,predicted_over_full,estimate_ms,full_ms");
+  std::printf("7. CG iterations to %g (nu %g, clamped on the low 10%% of the longest axis, gravity-like load):\n"
+              "   formula (quality/conditioning.h), Lanczos estimate after k CG iterations (sim/cg_spectrum.h),\n"
+              "   and the full solve; ratio = estimate / full; times of the k-iteration run and of the full solve\n",
+              tol, nu);
+  for (const Case& c : cases) {
+    SolverEstimateOptions fo;
+    fo.tolerance = tol;
+    fo.poisson_ratio = nu;
+    const SolverEstimate formula = estimate_solver(c.mesh, fo);
+    Material m;
+    m.young = 1;
+    m.poisson = nu;
+    const double t0 = now_ms();
+    const FemModel model(c.mesh, MaterialTable(m));
+    const ClampedProblem problem = clamped_problem(model);
+    const double model_ms = now_ms() - t0;
+    std::printf("   %s: %zu tets, %zu clamped vertices, FEM model %.1f ms\n", c.name.c_str(), c.mesh.num_tets(),
+                problem.fixed_vertices, model_ms);
+    for (Preconditioner pc : {Preconditioner::None, Preconditioner::Jacobi}) {
+      const CgSpectrumRun full = run_cg_spectrum(model, problem, pc, 100000, tol);
+      std::printf("     %-7s full %6d it %8.1f ms | formula %6.0f (%5.2f)", to_string(pc), full.iterations, full.ms,
+                  pc == Preconditioner::None ? std::ceil(formula.cg_iterations) : NAN,
+                  pc == Preconditioner::None ? std::ceil(formula.cg_iterations) / full.iterations : NAN);
+      std::printf(" | Ritz kappa of the full run %.3g\n", full.kappa);
+      for (int k : ks) {
+        const CgSpectrumRun est = run_cg_spectrum(model, problem, pc, k, tol);
+        const double ratio = est.predicted_iterations / full.iterations;
+        std::printf("       k %4d: kappa %10.4g -> %6.0f it (%5.2f), %7.1f ms (%.3f of full)", k, est.kappa,
+                    std::ceil(est.predicted_iterations), ratio, est.ms, est.ms / full.ms);
+        std::printf(" | plain bound %6.0f (%5.2f)\n", std::ceil(est.classic_iterations), est.classic_iterations / full.iterations);
+        csv.row(c.name, c.mesh.num_tets(), to_string(pc), k, pc == Preconditioner::None ? formula.cg_iterations : NAN,
+                est.kappa, est.predicted_iterations, full.iterations, ratio, est.ms, full.ms);
+      }
+    }
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   Args args(argc, argv);
   const std::string out = args.get("--out", ".");
   const bool quick = args.flag("--quick");
+  const std::string only = args.get("--only", "");
+  auto want = [&](const char* name) { return only.empty() || only == name; };
   const int n_beam = quick ? 3 : 5;  // cells across the beam section
 
   // ---- 1. warm vs cold start ------------------------------------------------------------
-  {
+  if (want("warm")) {
     Beam beam(n_beam);
     Csv csv(out, "fem_warm_cold.csv", "probe_step_pct,frame,cold_iterations,cold_ms,warm_iterations,warm_ms");
     std::vector<VertexId> probe;
@@ -149,7 +234,7 @@ int main(int argc, char** argv) {
   const Eigen::VectorXd ref = direct.displacement();
 
   // ---- 2. iteration cap and budget -> error ------------------------------------------------
-  {
+  if (want("cap")) {
     Csv csv(out, "fem_cap_error.csv", "max_iterations,iterations,relative_residual,relative_error,solve_ms");
     std::printf("2. iteration cap -> error against the direct solution (%zu tets, cold start, one frame)\n",
                 beam.mesh.num_tets());
@@ -185,7 +270,7 @@ int main(int argc, char** argv) {
   }
 
   // ---- 3. tolerance -> error --------------------------------------------------------------
-  {
+  if (want("tolerance")) {
     Csv csv(out, "fem_tolerance_error.csv", "tolerance,iterations,relative_error,solve_ms,direct_ms");
     std::printf("3. tolerance -> error (direct solve: %.1f ms incl. factorization)\n", direct_ms);
     std::printf("   %10s %8s %12s %9s %10s\n", "tol", "iters", "error", "ms", "ms/direct");
@@ -202,7 +287,7 @@ int main(int argc, char** argv) {
   }
 
   // ---- 4. resolution -> error against beam theory, and time ---------------------------------
-  {
+  if (want("resolution")) {
     Csv csv(out, "fem_resolution.csv", "n,tets,tip_error_vs_timoshenko,cg_iterations,cg_ms,direct_ms");
     std::printf("4. resolution -> tip error against Timoshenko, time (CG tol 1e-8 cold, direct)\n");
     std::printf("   %6s %8s %10s %8s %10s %10s\n", "n", "tets", "error", "iters", "cg ms", "direct ms");
@@ -225,7 +310,7 @@ int main(int argc, char** argv) {
   }
 
   // ---- 5. linear vs corotational vs springs vs direct ----------------------------------------
-  {
+  if (want("models")) {
     Csv csv(out, "fem_models.csv", "load,model,tip_deflection,relative_to_linear_direct,ms");
     std::printf("5. models on the cantilever (%zu tets), tip deflection / linear direct, time\n", beam.mesh.num_tets());
     for (double load : {-1.0, -300.0}) {
@@ -278,7 +363,7 @@ int main(int argc, char** argv) {
   }
 
   // ---- 6. CG iterations against mesh quality and nu ------------------------------------------
-  {
+  if (want("conditioning")) {
     Csv csv(out, "fem_conditioning.csv", "series,parameter,worst_dihedral_deg,iterations,solve_ms");
     const int n = quick ? 8 : 12;
     std::printf("6. CG iterations (tol 1e-8, Jacobi) on a %d^3 box fixed at the bottom under gravity\n", n);
@@ -310,6 +395,7 @@ int main(int argc, char** argv) {
       std::printf("   %-8g %10d\n", nu, st.iterations);
     }
   }
+  if (want("spectrum")) spectrum_section(args, out, quick);
   std::printf("CSV files in %s; plot: /usr/bin/python3 bench/plot_fem.py %s\n", out.c_str(), out.c_str());
   return 0;
 }

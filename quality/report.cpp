@@ -300,12 +300,12 @@ std::string format_quality_report(const QualityReport& r) {
   line("");
   const SolverEstimate& s = r.solver;
   if (s.available) {
-    line("solver (estimate): condition number ~" + num(s.kappa) + " (Laplacian " + num(s.kappa_laplace) + " x " +
+    line("solver (formula): condition number ~" + num(s.kappa) + " (Laplacian " + num(s.kappa_laplace) + " x " +
          num(s.elasticity_factor) + " for nu = " + num(s.poisson_ratio) + "), CG ~" +
          fmt("%.0f", std::ceil(s.cg_iterations)) + " iterations to " + fmt("%g", s.tolerance) +
          " unpreconditioned; stiffest at vertex " + std::to_string(s.lambda_max_vertex.idx()));
   } else {
-    line("solver (estimate): unavailable: " + s.reason);
+    line("solver (formula): unavailable: " + s.reason);
   }
   return o;
 }

@@ -93,6 +93,7 @@ json quality_report_json(const QualityReport& r) {
   j["solver"] = {{"available", s.available},
                  {"reason", s.available ? json(nullptr) : json(s.reason)},
                  {"model", "estimate: P1 Laplacian bound x elasticity factor; see docs/quality-report.md"},
+                 {"source", "formula"},
                  {"domain_size", avail(s.domain_size)},
                  {"lambda_max_bound", avail(s.lambda_max_bound)},
                  {"lambda_max_vertex", s.available ? json(s.lambda_max_vertex.idx()) : json(nullptr)},

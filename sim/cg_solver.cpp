@@ -198,6 +198,7 @@ bool ConjugateGradient::start(const Eigen::VectorXd& b, Eigen::VectorXd& x, std:
     stats_.relative_residual = stats_.initial_relative_residual;
     return false;
   }
+  if (log_) *log_ = {};
   pc_->setup(*A_, free_);
   pc_version_ = pc_->version();
   pc_->apply(r_, z_);
@@ -288,6 +289,10 @@ void ConjugateGradient::iterate(Eigen::VectorXd& x, double t0) {
     pc_->apply(r_, z_);
     project(z_);
     const double rz_new = r_.dot(z_);
+    if (log_) {
+      log_->alpha.push_back(alpha);
+      log_->beta.push_back(rz_new / rz_);
+    }
     p_ = z_ + (rz_new / rz_) * p_;
     rz_ = rz_new;
   }

@@ -54,6 +54,11 @@ struct SolveStats {
   bool converged() const { return info == SolveInfo::Success; }
 };
 
+// alpha_j = r_j.z_j / p_j.A p_j and beta_j = r_{j+1}.z_{j+1} / r_j.z_j of each iteration j.
+struct CgCoefficients {
+  std::vector<double> alpha, beta;
+};
+
 struct CgOptions {
   double tolerance = 1e-8;                          // relative residual target
   int max_iterations = 10000;                       // cap per solve
@@ -94,6 +99,12 @@ public:
   // Whether solve_with_guess(b, x) would resume the previous solve.
   bool can_resume(const Eigen::VectorXd& b, const Eigen::VectorXd& x) const;
 
+  // Records each iteration's alpha and beta into `log` (not owned; nullptr stops recording):
+  // the Lanczos tridiagonal matrix of the solve, hence estimates of the extreme eigenvalues
+  // of M^-1 A, come from them (sim/cg_spectrum.h). A fresh start clears the log, a resume
+  // appends to it. Two pushes per iteration, nothing else.
+  void set_coefficient_log(CgCoefficients* log) { log_ = log; }
+
   SolveInfo info() const { return stats_.info; }
   int iterations() const { return stats_.iterations; }
   double error() const { return stats_.relative_residual; }
@@ -110,6 +121,7 @@ private:
   const std::vector<std::uint8_t>* free_ = nullptr;
   std::unique_ptr<CgPreconditioner> builtin_;
   CgPreconditioner* pc_ = nullptr;  // builtin_ or the attached one
+  CgCoefficients* log_ = nullptr;
   SolveStats stats_;
   Eigen::VectorXd r_, z_, p_, q_;  // kept between solves: resume state and no reallocation
   std::vector<Eigen::VectorXd> pd_, qd_;  // projected prediction directions and A times them

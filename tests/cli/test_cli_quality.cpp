@@ -72,7 +72,37 @@ TEST_CASE("incise quality --json on a generated box", "[cli][quality]") {
   CHECK(j["solver"]["available"] == true);
   CHECK(j["solver"]["kappa"].get<double>() > j["solver"]["kappa_laplace"].get<double>());
   CHECK(j["solver"]["cg_iterations"].get<double>() > 1);
+  CHECK(j["solver"]["source"] == "formula");
+  // The measured estimate (a short CG solve; this box is small enough to converge within it).
+  const auto& me = j["solver"]["measured"];
+  REQUIRE(me.is_object());
+  CHECK(me["available"] == true);
+  CHECK(me["source"] == "measured: Lanczos from 100 CG iterations");
+  CHECK(me["clamp_axis"] == "x");
+  CHECK(me["fixed_vertices"] == 3 * 3);
+  for (const char* pc : {"none", "jacobi"}) {
+    INFO(pc);
+    CHECK(me[pc]["cg_iterations"].get<double>() >= 1);
+    CHECK(me[pc]["kappa"].get<double>() > 1);
+    CHECK(me[pc]["lambda_max"].get<double>() > me[pc]["lambda_min"].get<double>());
+  }
   CHECK(j["options"]["histogram_bins"] == 6);
+
+  // --solver-estimate formula skips the solve; --lanczos-iterations says how short it is.
+  Run f = run_incise("quality '" + mesh + "' --json --solver-estimate formula", dir);
+  REQUIRE(f.code == 0);
+  CHECK_FALSE(nlohmann::json::parse(f.out)["solver"].contains("measured"));
+  Run l = run_incise("quality '" + mesh + "' --json --lanczos-iterations 5", dir);
+  REQUIRE(l.code == 0);
+  const nlohmann::json lj = nlohmann::json::parse(l.out)["solver"]["measured"];
+  CHECK(lj["source"] == "measured: Lanczos from 5 CG iterations");
+  CHECK(lj["none"]["iterations_run"] == 5);
+  CHECK(lj["none"]["converged"] == false);
+  Run text = run_incise("quality '" + mesh + "'", dir);
+  REQUIRE(text.code == 0);
+  CHECK(text.out.find("solver (formula): condition number") != std::string::npos);
+  CHECK(text.out.find("solver (measured: Lanczos from 100 CG iterations") != std::string::npos);
+  CHECK(run_incise("quality '" + mesh + "' --solver-estimate guess", dir).code != 0);
 
   // The sliver threshold follows the option.
   Run s = run_incise("quality '" + mesh + "' --json --sliver-angle 50", dir);
