@@ -56,7 +56,14 @@ struct CutOptions {
   // blade. A floor of 1e-6 always applies (points of earlier splits are floating point).
   double snap = 0.05;
   bool improve = true;             // local flips + smoothing after each step
-  ImproveOptions improve_options;  // used when improve (rings, budget, ...); frozen is set per step
+  // Used when improve (rings, budget, ...); frozen is set per step. Contraction tolerance 0.01:
+  // where the rim passes within a hair of a surface vertex, the edge between them may go even
+  // on the curved surface (moving it by at most that hair, well inside the snap threshold).
+  ImproveOptions improve_options = [] {
+    ImproveOptions o;
+    o.collapse_tolerance = 0.01;
+    return o;
+  }();
   double improve_budget_ms = 2.0;  // wall-clock budget of the local improvement per step
   std::vector<VertexId> frozen;    // vertices improvement must not move (e.g. constrained nodes)
   // Fragments: after a step, the tets on each side of the new cut faces are flood-filled

@@ -101,7 +101,17 @@ double longest_edge(const std::array<Vec3, 4>& p) {
 // straight crease through `remove` (two boundary edges in line: where a cut meets the surface,
 // or a box's edge) and `keep` is on that crease. Every face retiled from `keep` must keep its
 // orientation in its plane, so the new faces cover the same polygons.
-bool boundary_disc_ok(const TetMesh& m, VertexId keep, VertexId remove, std::span<const TetId> star) {
+// Faces around `remove` retiled from `keep` must not turn over: the new normal within 60 degrees
+// of the old one (what the tolerance mode asks of boundary and interface faces instead of
+// flatness). Faces holding `keep` vanish.
+bool keeps_facing(const TetMesh& m, VertexId keep, VertexId x, VertexId y, const Vec3& n_old) {
+  if (x == keep || y == keep) return true;
+  const Vec3 pk = m.rest(keep);
+  const Vec3 n = (m.rest(x) - pk).cross(m.rest(y) - pk);
+  return n.dot(n_old) > 0.5 * n.norm() * n_old.norm();
+}
+
+bool boundary_disc_ok(const TetMesh& m, VertexId keep, VertexId remove, std::span<const TetId> star, bool tolerant) {
   struct Face {
     VertexId x, y;  // the face is (remove, x, y), outward
     std::uint16_t tag;
@@ -128,6 +138,11 @@ bool boundary_disc_ok(const TetMesh& m, VertexId keep, VertexId remove, std::spa
   }
   if (cyc.back().y != cyc.front().x) return false;
   const std::size_t n = cyc.size();
+  if (tolerant) {  // a tiny edge: any shape of boundary, as long as no face turns over
+    for (const Face& f : cyc)
+      if (!keeps_facing(m, keep, f.x, f.y, f.n)) return false;
+    return true;
+  }
   // A crease at rim vertex cyc[i].x: the faces on either side of edge (remove, cyc[i].x) differ
   // in tag or are not coplanar (the test smoothing uses).
   std::vector<std::size_t> creases;
@@ -193,7 +208,7 @@ const char* to_string(CollapseRefusal r) {
   return "?";
 }
 
-CollapseCheck check_collapse(const TetMesh& m, VertexId keep, VertexId remove) {
+CollapseCheck check_collapse(const TetMesh& m, VertexId keep, VertexId remove, double tolerance) {
   CollapseCheck out;
   out.plan.keep = keep;
   out.plan.remove = remove;
@@ -205,8 +220,29 @@ CollapseCheck check_collapse(const TetMesh& m, VertexId keep, VertexId remove) {
   const auto star = m.incident_tets(remove);
   for (TetId t : star) (m.local_index(t, keep) >= 0 ? out.plan.removed : out.plan.rebuilt).push_back(t);
   if (out.plan.removed.empty()) return refuse(CollapseRefusal::NotAnEdge);
+  const double edge_len = (m.rest(keep) - m.rest(remove)).norm();
+  double reach = 0;  // longest edge at `remove`
   for (TetId t : star)
-    if (m.label(t) != m.label(star[0])) return refuse(CollapseRefusal::Labels);
+    for (VertexId w : m.tet_vertices(t)) reach = std::max(reach, (m.rest(w) - m.rest(remove)).norm());
+  const bool tolerant = edge_len <= tolerance * reach;
+  bool one_label = true;
+  for (TetId t : star) one_label = one_label && m.label(t) == m.label(star[0]);
+  if (!one_label) {
+    if (!tolerant) return refuse(CollapseRefusal::Labels);
+    // Interface faces (remove, x, y) between two labels keep facing the same way.
+    for (TetId t : star) {
+      const int ir = m.local_index(t, remove);
+      for (int f = 0; f < 4; ++f) {
+        const TetId u = m.neighbor(t, f);
+        if (f == ir || !u.is_valid() || m.label(u) == m.label(t)) continue;
+        auto fv = m.face_vertices(t, f);
+        while (fv[0] != remove) std::rotate(fv.begin(), fv.begin() + 1, fv.end());
+        const Vec3 pr = m.rest(remove);
+        if (!keeps_facing(m, keep, fv[1], fv[2], (m.rest(fv[1]) - pr).cross(m.rest(fv[2]) - pr)))
+          return refuse(CollapseRefusal::Labels);
+      }
+    }
+  }
 
   // Link condition: Lk(keep) ∩ Lk(remove) == Lk(edge) in vertices and edges, and no common
   // triangle (the edge's link has none). Lk(edge) is always inside the intersection, so
@@ -234,13 +270,22 @@ CollapseCheck check_collapse(const TetMesh& m, VertexId keep, VertexId remove) {
   if (common(lk.verts, lr.verts) != edge.verts.size() || common(lk.edges, lr.edges) != edge.edges.size() ||
       common(lk.tris, lr.tris) != 0)
     return refuse(CollapseRefusal::Link);
-  if (!boundary_disc_ok(m, keep, remove, star)) return refuse(CollapseRefusal::Boundary);
+  if (!boundary_disc_ok(m, keep, remove, star, tolerant)) return refuse(CollapseRefusal::Boundary);
   // Nothing would be left where `remove`'s star was: its volume would be lost.
   if (out.plan.rebuilt.empty()) return refuse(CollapseRefusal::Volume);
 
   // Geometry: every rebuilt tet clearly positive, and together they cover the star's volume.
   double before = 0, after = 0;
-  for (TetId t : star) before += m.volume(t);
+  std::vector<std::pair<int, double>> by_label;  // label volume after - before (a few labels)
+  auto add_label = [&](int label, double dv) {
+    for (auto& [l, v] : by_label)
+      if (l == label) return void(v += dv);
+    by_label.push_back({label, dv});
+  };
+  for (TetId t : star) {
+    before += m.volume(t);
+    add_label(m.label(t), -m.volume(t));
+  }
   for (TetId t : out.plan.rebuilt) {
     std::array<VertexId, 4> v = m.tet_vertices(t);
     std::array<Vec3, 4> p;
@@ -252,9 +297,24 @@ CollapseCheck check_collapse(const TetMesh& m, VertexId keep, VertexId remove) {
     const double o = orient6(p[0], p[1], p[2], p[3]);
     if (!(o > 1e-12 * l * l * l)) return refuse(CollapseRefusal::Orientation);
     after += o / 6;
+    add_label(m.label(t), o / 6);
     out.plan.tets.push_back(v);
   }
-  if (!(std::abs(after - before) <= 1e-8 * std::abs(before))) return refuse(CollapseRefusal::Volume);
+  // Exact retiling, or (tolerance mode) no more than the boundary faces sweep when their
+  // corner moves by the edge's length.
+  double sweep = 0;
+  if (tolerant)
+    for (TetId t : star) {
+      const int ir = m.local_index(t, remove);
+      for (int f = 0; f < 4; ++f) {
+        const TetId u = m.neighbor(t, f);
+        if (f == ir || (u.is_valid() && m.label(u) == m.label(t))) continue;
+        const auto fv = m.face_vertices(t, f);
+        sweep += 0.5 * (m.rest(fv[1]) - m.rest(fv[0])).cross(m.rest(fv[2]) - m.rest(fv[0])).norm() * edge_len;
+      }
+    }
+  if (!(std::abs(after - before) <= 1e-8 * std::abs(before) + sweep)) return refuse(CollapseRefusal::Volume);
+  for (const auto& [l, dv] : by_label) out.plan.volume_change += std::abs(dv);
   out.refusal = CollapseRefusal::None;
   return out;
 }
@@ -310,8 +370,8 @@ void collapse_edge(TetMesh& m, const CollapsePlan& plan) {
   }
 }
 
-bool collapse_edge(TetMesh& m, VertexId keep, VertexId remove) {
-  const CollapseCheck c = check_collapse(m, keep, remove);
+bool collapse_edge(TetMesh& m, VertexId keep, VertexId remove, double tolerance) {
+  const CollapseCheck c = check_collapse(m, keep, remove, tolerance);
   if (!c.ok()) return false;
   collapse_edge(m, c.plan);
   return true;

@@ -16,7 +16,8 @@
 //    or two such flat parts meeting along a straight crease through `remove` (two boundary
 //    edges in line: a box's edge, the rim where a cut meets the surface) and `keep` lies on
 //    that crease; every retiled face keeps its orientation in its plane. Corners, bent creases
-//    and curved parts never lose a vertex, and a crease vertex never leaves its crease;
+//    and curved parts never lose a vertex, and a crease vertex never leaves its crease (unless
+//    the edge is within the tolerance below);
 //  - change a label region: the tets of `remove` must all have one label (a vertex on an
 //    interface between labels is never removed; `keep` may be anywhere).
 // collapse_edge() then goes through TetMesh's public edits, so the TopologyChange records it
@@ -53,6 +54,7 @@ struct CollapsePlan {
   std::vector<TetId> removed;                   // the tets around the edge (deleted)
   std::vector<TetId> rebuilt;                   // the other tets of `remove` (kept ids, rebuilt on `keep`)
   std::vector<std::array<VertexId, 4>> tets;    // rebuilt[i]'s vertices after the collapse
+  double volume_change = 0;                     // sum over labels of |volume after - before| (0 unless tolerant)
 };
 
 struct CollapseCheck {
@@ -62,14 +64,23 @@ struct CollapseCheck {
 };
 
 // O(size of the two stars); reads rest positions only.
-CollapseCheck check_collapse(const TetMesh& mesh, VertexId keep, VertexId remove);
-inline bool is_collapse_ok(const TetMesh& mesh, VertexId keep, VertexId remove) {
-  return check_collapse(mesh, keep, remove).ok();
+//
+// `tolerance` > 0: an edge no longer than tolerance x the longest edge at `remove` may also
+// contract where the boundary or a label interface is curved, creased or a corner there (the
+// slivers a cut leaves where its rim passes within a hair of a surface vertex sit on such
+// edges, and nothing else removes them). The boundary and the interfaces then move by at most
+// the edge's length: retiled boundary and interface faces must keep facing the same way
+// (within 60 degrees), the star's volume may change by at most what its boundary and
+// interface faces sweep over that length, and the plan reports the label volumes it moves.
+// The link condition and the orientation checks stay as they are.
+CollapseCheck check_collapse(const TetMesh& mesh, VertexId keep, VertexId remove, double tolerance = 0);
+inline bool is_collapse_ok(const TetMesh& mesh, VertexId keep, VertexId remove, double tolerance = 0) {
+  return check_collapse(mesh, keep, remove, tolerance).ok();
 }
 // Applies a plan that check_collapse returned ok() for on the mesh as it is now (no edit in
 // between). Throws InvalidArgument for a plan that was refused.
 void collapse_edge(TetMesh& mesh, const CollapsePlan& plan);
 // Check then act; returns whether the mesh changed.
-bool collapse_edge(TetMesh& mesh, VertexId keep, VertexId remove);
+bool collapse_edge(TetMesh& mesh, VertexId keep, VertexId remove, double tolerance = 0);
 
 }  // namespace incise

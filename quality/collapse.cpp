@@ -41,7 +41,7 @@ std::optional<CollapseOutcome> improve_by_collapse(TetMesh& mesh, TetId t, const
       bool in_scope = true;
       for (TetId u : mesh.incident_tets(remove)) in_scope = in_scope && scope.contains(u);
       if (!in_scope) continue;
-      CollapseCheck c = check_collapse(mesh, keep, remove);
+      CollapseCheck c = check_collapse(mesh, keep, remove, opt.tolerance);
       if (!c.ok()) continue;
       AngleQuality before;
       for (TetId u : mesh.incident_tets(remove)) before.combine(angle_quality(mesh, u, scope.targets));
@@ -60,6 +60,7 @@ std::optional<CollapseOutcome> improve_by_collapse(TetMesh& mesh, TetId t, const
   out.removed = best->removed;
   out.removed.insert(out.removed.end(), best->rebuilt.begin(), best->rebuilt.end());
   out.rebuilt = best->rebuilt;
+  out.volume_change = best->volume_change;
   collapse_edge(mesh, *best);
   return out;
 }

@@ -17,6 +17,7 @@ namespace incise {
 struct CollapseOptions {
   double edge_ratio = 0.2;  // try edges shorter than this times the tet's longest edge
   const std::unordered_set<std::uint32_t>* frozen = nullptr;  // never removed
+  double tolerance = 0;  // check_collapse's: tiny edges may contract on curved boundary and interfaces
   bool remove_boundary = true;  // false: boundary vertices stay (ImproveOptions::move_surface / move_cut off)
 };
 
@@ -24,6 +25,7 @@ struct CollapseOutcome {
   VertexId kept, removed_vertex;
   std::vector<TetId> removed;  // every tet of the removed vertex before the collapse
   std::vector<TetId> rebuilt;  // the ones still alive (same ids, rebuilt on `kept`)
+  double volume_change = 0;    // sum over labels of |volume change| (tolerance mode only)
 };
 
 std::optional<CollapseOutcome> improve_by_collapse(TetMesh& mesh, TetId t, const ImproveScope& scope,

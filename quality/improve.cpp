@@ -61,6 +61,7 @@ public:
     smooth_.frozen = &frozen_;
     smooth_.curved_slid = &curved_slid_;
     collapse_.edge_ratio = opt.collapse_edge_ratio;
+    collapse_.tolerance = opt.collapse_tolerance;
     // Boundary vertices that may not slide may not be contracted away either (the boundary's
     // triangulation then stays as it is).
     collapse_.remove_boundary = opt.move_surface && opt.move_cut;
@@ -139,6 +140,7 @@ private:
     if (!opt_.collapse || collapse_stuck_.count(t.idx())) return false;
     if (auto c = improve_by_collapse(mesh_, t, scope_, collapse_)) {
       ++rep.contractions;
+      rep.volume_change += c->volume_change;
       const std::uint32_t gone = c->removed_vertex.idx();
       moved.erase(gone);
       stuck_.erase(gone);

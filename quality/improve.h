@@ -29,6 +29,10 @@ struct ImproveOptions {
   bool collapse = true;              // edge contraction of a tet's short edge (mesh/edge_collapse.h), also of
                                      // vertices added earlier in the batch (a cut's new vertices)
   double collapse_edge_ratio = 0.2;  // ... an edge shorter than this times the tet's longest
+  double collapse_tolerance = 0;     // > 0: an edge at most this times the longest edge at the removed vertex
+                                     // may contract where the boundary or a label interface is curved,
+                                     // creased or a corner (moving it by that edge; volume_change says how
+                                     // much). 0: the boundary and interfaces stay exactly (cutter: 0.01)
   double max_growth = 1.5;           // tet count stays <= max_growth x input (region in local mode)
   bool move_surface = true;          // boundary vertices may slide within the (flat part of the) surface
   bool move_cut = true;              // vertices on cut-tagged faces may slide within their plane
@@ -51,6 +55,7 @@ struct ImproveReport {
   int flips23 = 0, flips32 = 0, flips44 = 0, edge_removals = 0, multi_face_removals = 0, smoothing_moves = 0,
       insertions = 0, contractions = 0;  // contractions: edge collapses (one vertex removed each)
   int boundary_flips = 0;  // boundary edge removals between coplanar faces (2-2 and larger)
+  double volume_change = 0;  // sum of |label volume change| of tolerance-mode contractions (else 0)
   double seconds = 0;
   std::vector<VertexId> moved_vertices;  // vertices whose position changed (for local backend refresh)
   bool budget_exhausted = false;

@@ -96,8 +96,10 @@ TEST_CASE("contractions inside the cutter's step keep every cut invariant", "[cu
   opt.improve_budget_ms = 0;  // no clock: the same work on any machine
   Cutter cutter(m, opt);
   int contractions = 0;
+  double moved = 0;
   cut_three(cutter, [&](const CutStepReport& r) {
     contractions += r.improve.contractions;
+    moved += r.improve.volume_change;
     CHECK(r.change.removed_vertices.size() == static_cast<std::size_t>(r.improve.contractions));
     for (VertexId v : r.change.removed_vertices) CHECK_FALSE(m.is_alive(v));
     // Every parent a record names is a vertex consumers know: alive before the step (alive
@@ -118,7 +120,12 @@ TEST_CASE("contractions inside the cutter's step keep every cut invariant", "[cu
       known.insert(o.vertex.idx());
     }
     for (const auto& o : r.change.moved_vertices) check_parents(o);
-    check_cut_invariants(m, vol0);
+    check_cut_invariants(m, vol0, 1e-9, moved);
   });
   CHECK(contractions > 0);
+  // The label interface is not flat (jittered): the cutter's contraction tolerance moves it
+  // by hairs only.
+  double total = 0;
+  for (const auto& [l, v] : vol0) total += v;
+  CHECK(moved <= 1e-5 * total);
 }
