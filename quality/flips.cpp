@@ -95,17 +95,18 @@ void consider_edge_removal(const TetMesh& mesh, VertexId a, VertexId b, const Im
   out.push_back(std::move(c));
 }
 
-// A disc of one face is the 2-3 flip (consider_flip23), one of two faces the 4-4 flip of their
-// common edge, an edge of t (consider_edge_removal): when the best disc is one of those, that
-// candidate is already there.
+// A disc of one face is the 2-3 flip (consider_flip23). One of two faces is a 4-4 flip of their
+// common edge (an edge of t) onto the diagonal u-w, counted as such; consider_edge_removal
+// offers only that edge's best diagonal, which the mesh may refuse (the other diagonal is an
+// edge elsewhere), so this one is kept as a candidate too.
 void consider_multi_face(const TetMesh& mesh, TetId t, int f, const ImproveScope& scope, int max_sandwich,
                          std::vector<Candidate>& out) {
   auto plan = best_multi_face_removal(mesh, t, f, scope, max_sandwich);
-  if (!plan || plan->faces.size() < 3) return;
+  if (!plan || plan->faces.size() < 2) return;
   if (!better(plan->after, worst_of(mesh, plan->removed, scope.targets), scope.targets)) return;
   Candidate c;
   c.after = plan->after;
-  c.kind = FlipOutcome::MultiFaceRemoval;
+  c.kind = plan->faces.size() == 2 ? FlipOutcome::Flip44 : FlipOutcome::MultiFaceRemoval;
   c.a = plan->u;
   c.b = plan->w;
   c.faces = std::move(plan->faces);
@@ -119,8 +120,9 @@ long growth_of(const Candidate& c) {
   switch (c.kind) {
     case FlipOutcome::Flip23: return 1;
     case FlipOutcome::BoundaryFlip: return static_cast<long>(c.boundary->triangles.size() * 2) - removed;
-    case FlipOutcome::MultiFaceRemoval: return static_cast<long>(c.faces.size() + 2) - removed;
-    default: return static_cast<long>(c.triangles.size() * 2) - removed;
+    default:
+      if (!c.faces.empty()) return static_cast<long>(c.faces.size() + 2) - removed;  // multi-face removal
+      return static_cast<long>(c.triangles.size() * 2) - removed;
   }
 }
 
@@ -143,7 +145,7 @@ FlipOutcome improve_by_flip(TetMesh& mesh, TetId t, const ImproveScope& scope, c
     if (growth_of(c) > scope.growth_left) continue;
     if (c.kind == FlipOutcome::BoundaryFlip) {
       out.added = remove_boundary_edge(mesh, *c.boundary);
-    } else if (c.kind == FlipOutcome::MultiFaceRemoval) {
+    } else if (!c.faces.empty()) {  // multi-face removal (a 4-4 flip when it has two faces)
       if (!mesh.is_multi_face_removal_ok(c.a, c.b, c.faces)) continue;
       out.added = mesh.remove_faces(c.a, c.b, c.faces);
     } else if (c.kind == FlipOutcome::Flip23) {
