@@ -1,7 +1,8 @@
 // Mesh improvement benchmark. Figures are relative to baselines measured in the same run:
 //  1. quality before -> after (min/max dihedral, min radius ratio, tet count, seconds) for
 //     each mesh, with the surface kept exactly (flat sliding only), with sliding on smooth
-//     curved parts, and with that plus vertex insertion; the input mesh is the baseline;
+//     curved parts, and with that plus vertex insertion; the input mesh is the baseline; the
+//     first two also without multi-face removal (the ratios on / off are printed);
 //     plus what the solvers see before -> after: static CG iterations (no preconditioner and
 //     Jacobi) under gravity, and the spring model's stable explicit time step;
 //  2. local mode: time per improve_local call against the number of seed tets, on a 10k-tet
@@ -30,11 +31,12 @@ namespace {
 
 void row(const std::string& name, const char* mode, const ImproveReport& r) {
   std::printf("%-22s %-8s dihedral %6.2f..%6.2f -> %6.2f..%6.2f  rr %.3f -> %.3f  tets %7zu -> %7zu (x%.3f)  "
-              "%5.2f s  ops 23:%d 32:%d 44:%d er:%d bf:%d sm:%d ins:%d ct:%d\n",
+              "%5.2f s  ops 23:%d 32:%d 44:%d er:%d mf:%d bf:%d sm:%d ins:%d ct:%d\n",
               name.c_str(), mode, r.min_dihedral_before, r.max_dihedral_before, r.min_dihedral_after,
               r.max_dihedral_after, r.min_radius_ratio_before, r.min_radius_ratio_after, r.tets_before, r.tets_after,
               double(r.tets_after) / double(r.tets_before), r.seconds, r.flips23, r.flips32, r.flips44,
-              r.edge_removals, r.boundary_flips, r.smoothing_moves, r.insertions, r.contractions);
+              r.edge_removals, r.multi_face_removals, r.boundary_flips, r.smoothing_moves, r.insertions,
+              r.contractions);
 }
 
 // What the solvers see: static CG iterations under gravity with the input's lowest 10% of
@@ -80,18 +82,38 @@ SolverFigures solver_figures(const TetMesh& m, const std::vector<VertexId>& fixe
   return out;
 }
 
+struct Mode {
+  const char* name;
+  bool slide_curved, insertion, multi_face;
+};
+// Each "-mf0" mode is the one before it without multi-face removal: the pair is measured in the
+// same run, and the line after it gives the ratios on / off.
+constexpr Mode kModes[] = {{"exact", false, false, true},  {"exact-mf0", false, false, false},
+                           {"curved", true, false, true},  {"curved-mf0", true, false, false},
+                           {"insert", true, true, true}};
+
 void global(const std::string& name, const TetMesh& input, double time_limit) {
   TetMesh dense = input;
   dense.compact();
   const std::vector<VertexId> fixed = bottom(dense);
   const SolverFigures before = solver_figures(dense, fixed);
-  for (int mode = 0; mode < 3; ++mode) {
+  ImproveReport previous;
+  for (const Mode& mode : kModes) {
     TetMesh m = dense;
     ImproveOptions o;
     o.time_limit_s = time_limit;
-    o.slide_curved = mode >= 1;
-    o.insertion = mode == 2;
-    row(name, mode == 0 ? "exact" : mode == 1 ? "curved" : "insert", improve(m, o));
+    o.slide_curved = mode.slide_curved;
+    o.insertion = mode.insertion;
+    o.multi_face_removal = mode.multi_face;
+    const ImproveReport r = improve(m, o);
+    row(name, mode.name, r);
+    if (!mode.multi_face)
+      std::printf("%-22s %-8s multi-face on/off: min dihedral %.2f / %.2f, max %.2f / %.2f, rr %.3f / %.3f, "
+                  "tets x%.3f, time x%.2f\n",
+                  name.c_str(), "", previous.min_dihedral_after, r.min_dihedral_after, previous.max_dihedral_after,
+                  r.max_dihedral_after, previous.min_radius_ratio_after, r.min_radius_ratio_after,
+                  double(previous.tets_after) / double(r.tets_after), previous.seconds / r.seconds);
+    previous = r;
     m.compact();
     const SolverFigures after = solver_figures(m, fixed);
     std::printf("%-22s %-8s solver: CG %d -> %d (x%.2f), Jacobi-CG %d -> %d (x%.2f), spring stable dt x%.2f\n",
@@ -124,7 +146,7 @@ void local(const std::string& name, TetMesh m) {
       const double t0 = bench::now_ms();
       const ImproveReport r = improve_local(m, s);  // no budget: runs until the region is done
       total += bench::now_ms() - t0;
-      ops += r.flips23 + r.flips32 + r.flips44 + r.edge_removals + r.smoothing_moves;
+      ops += r.flips23 + r.flips32 + r.flips44 + r.edge_removals + r.multi_face_removals + r.smoothing_moves;
     }
     std::printf("local %-14s %8zu tets  %4d seeds  %8.3f ms/call  %6.1f ops/call  %6.3f ms/op\n", name.c_str(),
                 m.num_tets(), seeds, total / calls, double(ops) / calls, total / std::max(ops, 1));
@@ -145,7 +167,8 @@ int main(int argc, char** argv) {
     }
     if (args.argv[i].rfind("--", 0) != 0) files.push_back(args.argv[i]);
   }
-  std::printf("# global improve: input (baseline) -> improved; exact = surface kept, curved = sliding on smooth parts, insert = curved + insertion\n");
+  std::printf("# global improve: input (baseline) -> improved; exact = surface kept, curved = sliding on smooth parts, "
+              "insert = curved + insertion, -mf0 = without multi-face removal\n");
   global("box8-jitter0.4", jittered_box(8, 0.4), limit);
   StuffingOptions so;
   so.cell_size = quick ? 0.2 : 0.1;

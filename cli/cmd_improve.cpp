@@ -17,7 +17,7 @@ void add_improve(CLI::App& app) {
   struct Opts {
     std::string in, out, json;
     ImproveOptions improve;
-    bool no_flips = false, no_smoothing = false, fixed_boundary = false, keep_surface = false, insert = false;
+    bool no_flips = false, no_multi_face = false, no_smoothing = false, fixed_boundary = false, keep_surface = false, insert = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("improve", "Improve element quality by flips and smoothing (surface unchanged)");
@@ -32,6 +32,7 @@ void add_improve(CLI::App& app) {
                   "... and its largest is at most this (degrees)")
       ->capture_default_str();
   cmd->add_flag("--no-flips", o->no_flips, "Smoothing only (connectivity unchanged)");
+  cmd->add_flag("--no-multi-face", o->no_multi_face, "No multi-face removal among the flips (for comparison)");
   cmd->add_flag("--no-smoothing", o->no_smoothing, "Flips only (vertices stay)");
   cmd->add_flag("--insert", o->insert, "Also insert vertices (edge splits) where flips and smoothing are stuck");
   cmd->add_option("--max-growth", o->improve.max_growth, "The tet count stays within this factor of the input")
@@ -50,6 +51,7 @@ void add_improve(CLI::App& app) {
     ImproveOptions opt = o->improve;
     opt.flips = !o->no_flips;
     opt.collapse = !o->no_flips;  // contraction changes connectivity too
+    opt.multi_face_removal = !o->no_multi_face;
     opt.smoothing = !o->no_smoothing;
     opt.move_surface = !o->fixed_boundary;
     opt.slide_curved = !o->keep_surface;

@@ -153,6 +153,14 @@ public:
   // (k = 0 or 1).
   bool is_flip44_ok(VertexId a, VertexId b, int k) const;
   std::array<TetId, 4> flip44(VertexId a, VertexId b, int k);
+  // Multi-face removal, the inverse of edge removal: m faces sandwiched between vertices u and
+  // w (each face has one tet with u and one with w, all of one label) that form a disc with
+  // every vertex on its rim are removed with their 2m tets, replaced by the m+2 tets
+  // (rim edge, u, w) around the new edge u-w. `faces` are vertex triples in any order and
+  // orientation; flip23 is the case m = 1. The boundary is unchanged: the removed faces are
+  // interior. remove_faces returns the new tets in rim order.
+  bool is_multi_face_removal_ok(VertexId u, VertexId w, std::span<const std::array<VertexId, 3>> faces) const;
+  std::vector<TetId> remove_faces(VertexId u, VertexId w, std::span<const std::array<VertexId, 3>> faces);
 
   // ---- batches ------------------------------------------------------------------------
   // Returns everything edited since the last call, normalized (see TopologyChange), and
@@ -195,6 +203,10 @@ private:
                                    std::span<const std::array<VertexId, 4>> new_tets);
   std::vector<std::array<VertexId, 4>> edge_removal_tets(const EdgeStar& star, VertexId a, VertexId b,
                                                          std::span<const std::array<int, 3>> triangles) const;
+  // The old and new tets of a multi-face removal, or false when the faces are not a sandwiched
+  // disc (orientation of the new tets not checked).
+  bool multi_face_removal_tets(VertexId u, VertexId w, std::span<const std::array<VertexId, 3>> faces,
+                               std::vector<TetId>& old_tets, std::vector<std::array<VertexId, 4>>& new_tets) const;
   double signed_volume(const std::array<VertexId, 4>& v) const;
 
   std::vector<Vec3> rest_;

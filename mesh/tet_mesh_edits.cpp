@@ -1,9 +1,11 @@
-// Refinement (edge / face / tet splits) and flips (2-3, 3-2, 4-4, edge removal).
+// Refinement (edge / face / tet splits) and flips (2-3, 3-2, 4-4, edge removal, multi-face
+// removal).
 // Every operation is "remove these tets, add those", so incidence upkeep is the one path in
 // tet_mesh.cpp and the cost is proportional to the tets involved.
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <set>
 
 #include "mesh/errors.h"
 #include "mesh/tet_mesh.h"
@@ -254,6 +256,83 @@ std::array<TetId, 4> TetMesh::flip44(VertexId a, VertexId b, int k) {
   auto tri = flip44_triangles(k);
   auto out = remove_edge(a, b, tri);
   return {out[0], out[1], out[2], out[3]};
+}
+
+bool TetMesh::multi_face_removal_tets(VertexId u, VertexId w, std::span<const std::array<VertexId, 3>> faces,
+                                      std::vector<TetId>& old_tets,
+                                      std::vector<std::array<VertexId, 4>>& new_tets) const {
+  old_tets.clear();
+  new_tets.clear();
+  if (!is_alive(u) || !is_alive(w) || u == w || faces.empty()) return false;
+  // The new edge u-w must not exist already.
+  for (TetId t : vertex_tets_[u.idx()])
+    if (local_index(t, w) >= 0) return false;
+  // The tet with vertices {f, apex}, found among apex's tets.
+  auto tet_with = [&](VertexId apex, const std::array<VertexId, 3>& f) {
+    for (TetId t : vertex_tets_[apex.idx()])
+      if (local_index(t, f[0]) >= 0 && local_index(t, f[1]) >= 0 && local_index(t, f[2]) >= 0) return t;
+    return TetId();
+  };
+  const std::size_t m = faces.size();
+  std::set<std::array<std::uint32_t, 3>> seen;
+  std::set<std::pair<std::uint32_t, std::uint32_t>> directed;  // edges of the faces oriented towards w
+  std::set<std::uint32_t> verts;
+  for (const auto& f : faces) {
+    if (!is_alive(f[0]) || !is_alive(f[1]) || !is_alive(f[2])) return false;
+    if (!seen.insert(sorted_key(f[0], f[1], f[2])).second) return false;
+    const TetId tu = tet_with(u, f), tw = tet_with(w, f);
+    if (!tu.is_valid() || !tw.is_valid()) return false;
+    const int lab = label_[tu.idx()];
+    if (label_[tw.idx()] != lab || (!old_tets.empty() && label_[old_tets[0].idx()] != lab)) return false;
+    old_tets.push_back(tu);
+    old_tets.push_back(tw);
+    // Out of tu = towards w: (x_k, x_k+1, u, w) is positive, as in flip23.
+    const auto x = face_vertices(tu, local_index(tu, u));
+    for (int k = 0; k < 3; ++k) {
+      verts.insert(x[k].idx());
+      // The same directed edge twice: two faces fold onto each other.
+      if (!directed.insert({x[k].idx(), x[(k + 1) % 3].idx()}).second) return false;
+    }
+  }
+  // The rim: directed edges whose reverse is not there. A disc with every vertex on its rim has
+  // m + 2 of them forming one cycle through all m + 2 vertices (an inner vertex would lose its
+  // last tets).
+  std::map<std::uint32_t, std::uint32_t> next;
+  for (const auto& [a, b] : directed)
+    if (!directed.count({b, a}) && !next.emplace(a, b).second) return false;
+  if (next.size() != m + 2 || verts.size() != m + 2) return false;
+  std::uint32_t v = next.begin()->first;
+  for (std::size_t k = 0; k < m + 2; ++k) {
+    const auto it = next.find(v);
+    if (it == next.end()) return false;
+    new_tets.push_back({VertexId(it->first), VertexId(it->second), u, w});
+    v = it->second;
+  }
+  if (v != next.begin()->first) return false;
+  std::set<std::uint32_t> on_rim;
+  for (const auto& q : new_tets) on_rim.insert(q[0].idx());
+  return on_rim.size() == m + 2;
+}
+
+bool TetMesh::is_multi_face_removal_ok(VertexId u, VertexId w, std::span<const std::array<VertexId, 3>> faces) const {
+  std::vector<TetId> old_tets;
+  std::vector<std::array<VertexId, 4>> q;
+  if (!multi_face_removal_tets(u, w, faces, old_tets, q)) return false;
+  // Every new tet positive is enough: the new tets have the old ones' outer faces (the cones of
+  // the rim from u and from w), so positive ones tile exactly the old region.
+  for (const auto& x : q)
+    if (!clearly_positive({rest_[x[0].idx()], rest_[x[1].idx()], rest_[x[2].idx()], rest_[x[3].idx()]})) return false;
+  return true;
+}
+
+std::vector<TetId> TetMesh::remove_faces(VertexId u, VertexId w, std::span<const std::array<VertexId, 3>> faces) {
+  if (!is_multi_face_removal_ok(u, w, faces))
+    throw InvalidArgument("remove_faces: removing " + std::to_string(faces.size()) + " faces between vertices " +
+                          std::to_string(u.idx()) + " and " + std::to_string(w.idx()) + " is not valid");
+  std::vector<TetId> old_tets;
+  std::vector<std::array<VertexId, 4>> q;
+  multi_face_removal_tets(u, w, faces, old_tets, q);
+  return retriangulate(old_tets, q);
 }
 
 }  // namespace incise

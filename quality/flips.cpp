@@ -6,6 +6,7 @@
 #include "mesh/errors.h"
 #include "quality/boundary_flips.h"
 #include "quality/edge_removal.h"
+#include "quality/multi_face_removal.h"
 
 namespace incise {
 
@@ -16,8 +17,9 @@ struct Candidate {
   FlipOutcome::Kind kind = FlipOutcome::None;
   TetId tet;  // 2-3: the tet and face
   int face = -1;
-  VertexId a, b;  // edge removal
+  VertexId a, b;  // edge removal; multi-face removal: the apexes u, w
   std::vector<std::array<int, 3>> triangles;
+  std::vector<std::array<VertexId, 3>> faces;  // multi-face removal
   std::vector<TetId> removed;
   std::optional<BoundaryEdgeRemoval> boundary;
 };
@@ -93,26 +95,59 @@ void consider_edge_removal(const TetMesh& mesh, VertexId a, VertexId b, const Im
   out.push_back(std::move(c));
 }
 
+// A disc of one face is the 2-3 flip (consider_flip23). One of two faces is a 4-4 flip of their
+// common edge (an edge of t) onto the diagonal u-w, counted as such; consider_edge_removal
+// offers only that edge's best diagonal, which the mesh may refuse (the other diagonal is an
+// edge elsewhere), so this one is kept as a candidate too.
+void consider_multi_face(const TetMesh& mesh, TetId t, int f, const ImproveScope& scope, int max_sandwich,
+                         std::vector<Candidate>& out) {
+  auto plan = best_multi_face_removal(mesh, t, f, scope, max_sandwich);
+  if (!plan || plan->faces.size() < 2) return;
+  if (!better(plan->after, worst_of(mesh, plan->removed, scope.targets), scope.targets)) return;
+  Candidate c;
+  c.after = plan->after;
+  c.kind = plan->faces.size() == 2 ? FlipOutcome::Flip44 : FlipOutcome::MultiFaceRemoval;
+  c.a = plan->u;
+  c.b = plan->w;
+  c.faces = std::move(plan->faces);
+  c.removed = std::move(plan->removed);
+  out.push_back(std::move(c));
+}
+
+// Net tets a candidate adds.
+long growth_of(const Candidate& c) {
+  const long removed = static_cast<long>(c.removed.size());
+  switch (c.kind) {
+    case FlipOutcome::Flip23: return 1;
+    case FlipOutcome::BoundaryFlip: return static_cast<long>(c.boundary->triangles.size() * 2) - removed;
+    default:
+      if (!c.faces.empty()) return static_cast<long>(c.faces.size() + 2) - removed;  // multi-face removal
+      return static_cast<long>(c.triangles.size() * 2) - removed;
+  }
+}
+
 }  // namespace
 
-FlipOutcome improve_by_flip(TetMesh& mesh, TetId t, const ImproveScope& scope, int max_ring) {
+FlipOutcome improve_by_flip(TetMesh& mesh, TetId t, const ImproveScope& scope, const FlipOptions& opt) {
   std::vector<Candidate> cands;
   const auto v = mesh.tet_vertices(t);
-  for (int f = 0; f < 4; ++f) consider_flip23(mesh, t, f, scope, cands);
+  for (int f = 0; f < 4; ++f) {
+    consider_flip23(mesh, t, f, scope, cands);
+    if (opt.multi_face) consider_multi_face(mesh, t, f, scope, opt.max_sandwich, cands);
+  }
   for (int i = 0; i < 4; ++i)
-    for (int j = i + 1; j < 4; ++j) consider_edge_removal(mesh, v[i], v[j], scope, max_ring, cands);
+    for (int j = i + 1; j < 4; ++j) consider_edge_removal(mesh, v[i], v[j], scope, opt.max_ring, cands);
   // Best result first; the mesh's own check may still refuse one (an edge the flip would
   // create exists elsewhere, or a new tet is too flat to trust its orientation).
   std::sort(cands.begin(), cands.end(), [](const Candidate& x, const Candidate& y) { return x.after.q > y.after.q; });
   FlipOutcome out;
   for (auto& c : cands) {
-    const long growth = c.kind == FlipOutcome::Flip23 ? 1
-                        : c.kind == FlipOutcome::BoundaryFlip
-                            ? static_cast<long>(c.boundary->triangles.size() * 2) - static_cast<long>(c.removed.size())
-                            : static_cast<long>(c.triangles.size() * 2) - static_cast<long>(c.removed.size());
-    if (growth > scope.growth_left) continue;
+    if (growth_of(c) > scope.growth_left) continue;
     if (c.kind == FlipOutcome::BoundaryFlip) {
       out.added = remove_boundary_edge(mesh, *c.boundary);
+    } else if (!c.faces.empty()) {  // multi-face removal (a 4-4 flip when it has two faces)
+      if (!mesh.is_multi_face_removal_ok(c.a, c.b, c.faces)) continue;
+      out.added = mesh.remove_faces(c.a, c.b, c.faces);
     } else if (c.kind == FlipOutcome::Flip23) {
       if (!mesh.is_flip23_ok(c.tet, c.face)) continue;
       auto added = mesh.flip23(c.tet, c.face);

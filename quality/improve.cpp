@@ -52,6 +52,8 @@ public:
     scope_.targets = {opt.target_dihedral_deg, opt.target_max_dihedral_deg};
     scope_.region = region;
     for (VertexId v : opt.frozen) frozen_.insert(v.idx());
+    flip_.max_ring = opt.max_ring;
+    flip_.multi_face = opt.multi_face_removal;
     smooth_.move_surface = opt.move_surface;
     smooth_.move_cut = opt.move_cut;
     smooth_.move_interface = opt.move_interface;
@@ -169,7 +171,7 @@ private:
     scope_.growth_left = growth_cap_ - grown_;
     if (has_tiny_edge(t) && try_collapse(t, rep)) return true;
     if (opt_.flips && !flip_stuck_.count(t.idx())) {
-      FlipOutcome f = improve_by_flip(mesh_, t, scope_, opt_.max_ring);
+      FlipOutcome f = improve_by_flip(mesh_, t, scope_, flip_);
       if (f.kind == FlipOutcome::None) flip_stuck_.insert(t.idx());
       if (f.kind != FlipOutcome::None) {
         switch (f.kind) {
@@ -177,6 +179,7 @@ private:
           case FlipOutcome::Flip32: ++rep.flips32; break;
           case FlipOutcome::Flip44: ++rep.flips44; break;
           case FlipOutcome::BoundaryFlip: ++rep.boundary_flips; break;
+          case FlipOutcome::MultiFaceRemoval: ++rep.multi_face_removals; break;
           default: ++rep.edge_removals; break;
         }
         replaced(f.removed, f.added);
@@ -224,6 +227,7 @@ private:
   bool has_deadline_;
   std::unordered_set<std::uint32_t>* region_;
   ImproveScope scope_;
+  FlipOptions flip_;
   SmoothOptions smooth_;
   CollapseOptions collapse_;
   std::unordered_set<std::uint32_t> frozen_;

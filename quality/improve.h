@@ -1,8 +1,8 @@
 #pragma once
 // Mesh improvement: topological flips (2-3, 3-2, 4-4, edge removal with the optimal ring
-// triangulation, boundary edge removal between coplanar faces of one tag), contraction of short
-// edges (quality/collapse.h), optimization-based vertex smoothing and optional vertex
-// insertion, worst element first. The measure is
+// triangulation, multi-face removal with the optimal disc, boundary edge removal between
+// coplanar faces of one tag), contraction of short edges (quality/collapse.h),
+// optimization-based vertex smoothing and optional vertex insertion, worst element first. The measure is
 // angle_quality() (quality/dihedral_objective.h): the worst dihedral angle relative to the
 // targets, so small and large angles both count. An operation is applied only when it raises
 // the worst measure of the tets it replaces, keeps their minimum radius ratio, and lowers
@@ -23,7 +23,8 @@ struct ImproveOptions {
   int max_work = 0;                  // cap on attempted operations (0 = none)
   double target_dihedral_deg = 35;   // stop improving a tet once its min dihedral reaches this
   double target_max_dihedral_deg = 135;  // ... and its max dihedral is at most this
-  bool flips = true;                 // 2-3, 3-2, 4-4 and edge removal
+  bool flips = true;                 // 2-3, 3-2, 4-4, edge removal and multi-face removal
+  bool multi_face_removal = true;    // ... multi-face removal among them (quality/multi_face_removal.h)
   bool smoothing = true;             // optimization-based vertex smoothing
   bool insertion = false;            // vertex insertion (edge split + placement) where flips and smoothing fail
   bool collapse = true;              // edge contraction of a tet's short edge (mesh/edge_collapse.h), also of

@@ -1,11 +1,13 @@
-// Edge contractions fed to the backends: after batches of random splits, flips, tet removals
-// and contractions, the locally updated FEM model and spring model equal ones built from
-// scratch, and the fields of the surviving vertices are untouched.
+// Edge contractions and multi-face removals fed to the backends: after batches of random
+// splits, flips, tet removals, multi-face removals and contractions, the locally updated FEM
+// model and spring model equal ones built from scratch, and the fields of the surviving
+// vertices are untouched.
 #include <catch2/catch.hpp>
 
 #include <random>
 
 #include "mesh/generate.h"
+#include "quality/multi_face_removal.h"
 #include "sim/fem_model.h"
 #include "sim/spring_model.h"
 #include "tests/sim/fem_test_util.h"
@@ -15,26 +17,43 @@ using namespace incise::testing;
 
 namespace {
 
-// A batch: random edits and contractions interleaved, of any vertex, also one the batch
-// itself added (its added record stays and it is listed as removed as well; freed ids are
-// reused only after the batch, see mesh/edge_collapse.h).
-int edit_batch(TetMesh& m, std::mt19937& rng, int edits, int collapses) {
-  int done = 0;
-  while (edits + collapses > 0) {
-    if (edits > 0 && (collapses == 0 || rng() % 2 == 0)) {
+// The best multi-face removal from a random face of a random tet (quality/multi_face_removal.h),
+// when the mesh takes it and it has at least two faces (one is a 2-3 flip, which random_edit makes).
+bool random_multi_face_removal(TetMesh& m, std::mt19937& rng) {
+  const TetId t = random_tet(m, rng);
+  const auto plan = best_multi_face_removal(m, t, static_cast<int>(rng() % 4), ImproveScope{});
+  if (!plan || plan->faces.size() < 2 || !m.is_multi_face_removal_ok(plan->u, plan->w, plan->faces)) return false;
+  m.remove_faces(plan->u, plan->w, plan->faces);
+  return true;
+}
+
+struct Done {
+  int collapses = 0, multi_face = 0;
+};
+
+// A batch: random edits, multi-face removals and contractions interleaved; a contraction may
+// remove any vertex, also one the batch itself added (its added record stays and it is listed
+// as removed as well; freed ids are reused only after the batch, see mesh/edge_collapse.h).
+void edit_batch(TetMesh& m, std::mt19937& rng, int edits, int removals, int collapses, Done& done) {
+  while (edits + removals + collapses > 0) {
+    const int k = static_cast<int>(rng() % std::uint32_t(edits + removals + collapses));
+    if (k < edits) {
       random_edit(m, rng, true);
       --edits;
+    } else if (k < edits + removals) {
+      done.multi_face += random_multi_face_removal(m, rng);
+      --removals;
     } else {
-      done += random_collapse(m, rng, [](VertexId) { return true; });
+      done.collapses += random_collapse(m, rng, [](VertexId) { return true; });
       --collapses;
     }
   }
-  return done;
 }
 
 }  // namespace
 
-TEST_CASE("contractions keep locally updated FEM and spring models equal to fresh ones", "[fem][springs][collapse]") {
+TEST_CASE("contractions and multi-face removals keep locally updated FEM and spring models equal to fresh ones",
+          "[fem][springs][collapse][multiface]") {
   TetMesh m = make_box(Vec3(1, 1.5, 1), {4, 5, 4});
   jitter(m, 0.25, 9);
   for (TetId t : m.tets())
@@ -51,9 +70,9 @@ TEST_CASE("contractions keep locally updated FEM and spring models equal to fres
   for (VertexId v : m.vertices()) u.segment<3>(3 * v.idx()) = F * m.rest(v);
   std::mt19937 rng(31), check_rng(2);
   std::normal_distribution<double> nd;
-  int collapses = 0;
+  Done done;
   for (int batch = 0; batch < 300; ++batch) {
-    collapses += edit_batch(m, rng, batch % 3, 4 + batch % 12);
+    edit_batch(m, rng, batch % 3, batch % 4, 4 + batch % 12, done);
     const TopologyChange ch = m.take_change();
     fem.apply(ch);
     springs.apply(m, ch);
@@ -78,6 +97,7 @@ TEST_CASE("contractions keep locally updated FEM and spring models equal to fres
       CHECK(springs.stable_time_step() == Approx(fresh.stable_time_step()).epsilon(1e-12));
     }
   }
-  INFO(collapses << " contractions");
-  CHECK(collapses > 50);
+  INFO(done.collapses << " contractions, " << done.multi_face << " multi-face removals");
+  CHECK(done.collapses > 50);
+  CHECK(done.multi_face > 20);
 }
