@@ -98,6 +98,9 @@ void add_cut(CLI::App& app) {
         const Vec3 off = d * (double(k) / o->steps);
         record(cutter.advance({a + off, b + off}), k);
       }
+      // The blade is withdrawn: the last front's tets get the improvement with it free.
+      CutStepReport fin = cutter.finish();
+      if (!fin.change.empty()) record(std::move(fin), o->steps + 1);
     } else if (!o->plane.empty()) {
       record(cutter.cut_plane(Vec3(o->plane[0], o->plane[1], o->plane[2]), Vec3(o->plane[3], o->plane[4], o->plane[5])),
              1);

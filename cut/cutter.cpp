@@ -62,6 +62,36 @@ void Cutter::start(const BladeSegment& blade) {
   has_front_ = false;
 }
 
+CutStepReport Cutter::finish() {
+  const auto t0 = std::chrono::steady_clock::now();
+  CutStepReport rep;
+  std::vector<TetId> live;
+  for (TetId t : front_)
+    if (mesh_->is_alive(t)) live.push_back(t);
+  started_ = false;
+  front_.clear();
+  front_vertices_.clear();
+  has_front_ = false;
+  if (opt_.mode != CutMode::Subdivide || !opt_.improve || live.empty()) return rep;
+  if (mesh_->has_pending_change())
+    throw InvalidArgument("cut: the mesh has edits not yet taken (call take_change() before finishing a cut)");
+  const bool grid_stale = mesh_->counters().edits != grid_edits_;
+  ImproveOptions io = opt_.improve_options;
+  io.frozen = opt_.frozen;
+  io.time_budget_ms = opt_.improve_budget_ms;
+  rep.improve = improve_local(*mesh_, live, io);
+  rep.ms_improve = ms_since(t0);
+  rep.change = mesh_->take_change();
+  if (!grid_stale) {
+    grid_.update(*mesh_, rep.change);
+    grid_edits_ = mesh_->counters().edits;
+  }
+  rep.tets_added = rep.change.added_tets.size();
+  rep.vertices_added = rep.change.added_vertices.size();
+  rep.ms = ms_since(t0);
+  return rep;
+}
+
 CutStepReport Cutter::advance(const BladeSegment& blade, const PositionFn& positions, double max_displacement) {
   if (!started_) {
     start(blade);

@@ -112,6 +112,12 @@ public:
                           double max_displacement = kUnknownDisplacement);
   CutStepReport cut_surface(std::span<const CutTriangle> triangles, const PositionFn& positions = {},
                             double max_displacement = kUnknownDisplacement);
+  // The blade is withdrawn (the cut ends here): the front need no longer stay where it is, so
+  // the tets around it get the local improvement with its vertices free (a front step's
+  // improvement keeps them frozen, and nothing else revisits them), and the front is
+  // forgotten. One record, like a step's; empty when improvement is off or nothing was cut.
+  // Call it when a cut ends; start() alone forgets the front without improving it.
+  CutStepReport finish();
   // Edits of the mesh made elsewhere, taken by the first-contact grid in O(change).
   void notify(const TopologyChange& change);
 

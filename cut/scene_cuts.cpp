@@ -55,6 +55,15 @@ SceneCutHook make_scene_cut_hook(const Scene& scene) {
       apply(r.change);
       res.ms += r.ms;
       for (Fragment& fr : r.fragments) res.fragments.push_back(std::move(fr.tets));
+      if (f >= 1) {  // the sweep is done: the blade is withdrawn, its front released
+        const CutStepReport fin = st->cutters[i]->finish();
+        if (!fin.change.empty()) {
+          for (std::size_t j = 0; j < cuts.size(); ++j)
+            if (j != i) st->cutters[j]->notify(fin.change);
+          apply(fin.change);
+        }
+        res.ms += fin.ms;
+      }
     }
     return res;
   };

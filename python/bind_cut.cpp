@@ -79,6 +79,10 @@ void bind_cut(py::module_& m) {
           },
           py::arg("a"), py::arg("b"), "Places the blade (segment a-b) without cutting; forgets the previous front")
       .def(
+          "finish", [](PyCutter& c) { return report(c.cutter.finish()); },
+          "The blade is withdrawn: improves the tets around the last front with its vertices free and "
+          "forgets the front. Returns a step report (its 'change' empty when there was nothing to do)")
+      .def(
           "advance",
           [](PyCutter& c, const py::object& a, const py::object& b, const py::object& positions) {
             std::vector<Vec3> storage;

@@ -129,3 +129,29 @@ TEST_CASE("contractions inside the cutter's step keep every cut invariant", "[cu
   for (const auto& [l, v] : vol0) total += v;
   CHECK(moved <= 1e-5 * total);
 }
+
+TEST_CASE("finishing a cut improves around its front with the front's vertices free", "[cut][collapse]") {
+  // A partial cut of a two-label box: the front stays frozen through the steps; finish()
+  // releases it, improves there and forgets it.
+  TetMesh m = jittered_two_label_box();
+  const auto vol0 = label_volumes(m);
+  CutOptions opt;
+  opt.improve_budget_ms = 0;  // no clock
+  Cutter cutter(m, opt);
+  double moved = 0;
+  cutter.start({Vec3(-0.2, 0.43, 1.2), Vec3(1.2, 0.47, 1.2)});
+  for (int s = 1; s <= 3; ++s) moved += cutter.advance({Vec3(-0.2, 0.43, 1.2 - 0.25 * s), Vec3(1.2, 0.47, 1.2 - 0.25 * s)}).improve.volume_change;
+  REQUIRE_FALSE(cutter.front_tets().empty());
+  const CutStepReport fin = cutter.finish();
+  moved += fin.improve.volume_change;
+  check_cut_invariants(m, vol0, 1e-9, moved);
+  CHECK(cutter.front_tets().empty());
+  CHECK_FALSE(m.has_pending_change());
+  // It did work there (the region has the cut's slivers), in one record.
+  CHECK(fin.improve.flips23 + fin.improve.flips32 + fin.improve.flips44 + fin.improve.edge_removals +
+            fin.improve.smoothing_moves + fin.improve.contractions > 0);
+  CHECK_FALSE(fin.change.empty());
+  // Nothing to do twice; the next advance starts a new cut.
+  CHECK(cutter.finish().change.empty());
+  CHECK(cutter.advance({Vec3(-0.2, 0.2, 1.2), Vec3(1.2, 0.2, 1.2)}).change.empty());
+}
