@@ -21,6 +21,7 @@ ImproveOptions options(double time_limit, double budget_ms, int max_work, double
   o.target_dihedral_deg = target;
   o.target_max_dihedral_deg = target_max;
   o.flips = flips;
+  o.collapse = flips;  // like --no-flips: contraction changes connectivity too
   o.smoothing = smoothing;
   o.insertion = insertion;
   o.max_growth = max_growth;

@@ -47,3 +47,18 @@ def test_improve_refuses_a_mesh_with_pending_edits():
     m.split_tet(int(m.tet_ids[0]))
     with pytest.raises(incise.InvalidArgument, match="take_change"):
         incise.improve(m)
+
+
+def test_improve_without_flips_keeps_the_connectivity():
+    # Like `incise improve --no-flips`: smoothing only, so no contraction either. A plane cut
+    # with no snapping leaves tiny edges that contraction removes when flips are on.
+    def cut_box():
+        m = jittered_box()
+        incise.Cutter(m, snap=0.0, improve=False).cut_plane((0.5, 0.5, 0.503), (0.02, 0.01, 1.0))
+        return m
+    m = cut_box()
+    tets0 = np.sort(np.sort(m.tets, axis=1), axis=0)
+    r = incise.improve(m, time_limit=5, flips=False)
+    assert r["operations"]["contractions"] == 0
+    assert np.array_equal(np.sort(np.sort(m.tets, axis=1), axis=0), tets0)
+    assert incise.improve(cut_box(), time_limit=5)["operations"]["contractions"] > 0
