@@ -1,5 +1,5 @@
 // Refinement (edge / face / tet splits) and flips (2-3, 3-2, 4-4, edge removal, multi-face
-// removal).
+// removal, cavity insertion).
 // Every operation is "remove these tets, add those", so incidence upkeep is the one path in
 // tet_mesh.cpp and the cost is proportional to the tets involved.
 #include <algorithm>
@@ -333,6 +333,122 @@ std::vector<TetId> TetMesh::remove_faces(VertexId u, VertexId w, std::span<const
   std::vector<std::array<VertexId, 4>> q;
   multi_face_removal_tets(u, w, faces, old_tets, q);
   return retriangulate(old_tets, q);
+}
+
+std::vector<std::array<VertexId, 3>> TetMesh::cavity_boundary(std::span<const TetId> cavity) const {
+  std::vector<std::array<VertexId, 3>> faces;
+  if (cavity.empty()) return faces;
+  std::set<std::uint32_t> in;
+  const int lab = is_alive(cavity.front()) ? label_[cavity.front().idx()] : 0;
+  for (TetId t : cavity)
+    if (!is_alive(t) || label_[t.idx()] != lab || !in.insert(t.idx()).second) return {};
+  for (TetId t : cavity)
+    for (int f = 0; f < 4; ++f) {
+      const TetId n = tet_n_[t.idx()][f];
+      if (n.is_valid() && in.count(n.idx())) continue;
+      const auto x = face_vertices(t, f);  // outward: reversed, it faces the inside
+      faces.push_back({x[0], x[2], x[1]});
+    }
+  return faces;
+}
+
+namespace {
+// The checks of a cavity insertion at p over the cavity's boundary `faces`, skipping face
+// `skip` (the boundary face a boundary insertion splits; -1: none) in the orientation check.
+bool cavity_ok(const std::vector<std::array<VertexId, 3>>& faces, std::span<const std::array<VertexId, 4>> tets,
+               const std::vector<Vec3>& rest, const Vec3& p, int skip) {
+  if (faces.empty()) return false;
+  // Edge-manifold boundary: each edge in two faces, once in each direction.
+  std::set<std::pair<std::uint32_t, std::uint32_t>> directed;
+  std::set<std::uint32_t> on_boundary;
+  for (const auto& f : faces)
+    for (int k = 0; k < 3; ++k) {
+      on_boundary.insert(f[k].idx());
+      if (!directed.insert({f[k].idx(), f[(k + 1) % 3].idx()}).second) return false;
+    }
+  for (const auto& [a, b] : directed)
+    if (!directed.count({b, a})) return false;
+  for (const auto& tv : tets)
+    for (VertexId v : tv)
+      if (!on_boundary.count(v.idx())) return false;  // it would lose all its tets
+  for (std::size_t i = 0; i < faces.size(); ++i) {
+    const auto& f = faces[i];
+    if (static_cast<int>(i) != skip && !clearly_positive({rest[f[0].idx()], rest[f[1].idx()], rest[f[2].idx()], p}))
+      return false;
+  }
+  return true;
+}
+}  // namespace
+
+bool TetMesh::is_cavity_insertion_ok(std::span<const TetId> cavity, const Vec3& p) const {
+  std::vector<std::array<VertexId, 4>> tv;
+  for (TetId t : cavity)
+    if (is_alive(t)) tv.push_back(tet_v_[t.idx()]);
+  return cavity_ok(cavity_boundary(cavity), tv, rest_, p, -1);
+}
+
+VertexId TetMesh::insert_in_cavity(std::span<const TetId> cavity, std::span<const VertexId> parents,
+                                   std::span<const double> weights) {
+  Vec3 p = Vec3::Zero();
+  for (std::size_t k = 0; k < parents.size() && k < weights.size(); ++k)
+    if (is_alive(parents[k])) p += weights[k] * rest_[parents[k].idx()];
+  if (parents.empty() || parents.size() != weights.size() || !is_cavity_insertion_ok(cavity, p))
+    throw InvalidArgument("insert_in_cavity: inserting into " + std::to_string(cavity.size()) +
+                          " tets is not valid");
+  const auto faces = cavity_boundary(cavity);
+  const std::vector<TetId> old(cavity.begin(), cavity.end());  // cavity may alias mesh data
+  const VertexId v = add_vertex_interpolated(parents, weights);
+  std::vector<std::array<VertexId, 4>> q;
+  q.reserve(faces.size());
+  for (const auto& f : faces) q.push_back({f[0], f[1], f[2], v});
+  retriangulate(old, q);
+  return v;
+}
+
+namespace {
+// Index of the cavity boundary face that is face f of t (the boundary insertion's face), or -1.
+int face_index(const std::vector<std::array<VertexId, 3>>& faces, const std::array<VertexId, 3>& x) {
+  for (std::size_t i = 0; i < faces.size(); ++i)
+    if (sorted_key(faces[i][0], faces[i][1], faces[i][2]) == sorted_key(x[0], x[1], x[2])) return static_cast<int>(i);
+  return -1;
+}
+}  // namespace
+
+bool TetMesh::is_boundary_cavity_insertion_ok(std::span<const TetId> cavity, TetId t, int f,
+                                              const std::array<double, 3>& w) const {
+  if (!is_alive(t) || f < 0 || f > 3 || tet_n_[t.idx()][f].is_valid()) return false;
+  if (std::find(cavity.begin(), cavity.end(), t) == cavity.end()) return false;
+  for (double x : w)
+    if (!(x > 0)) return false;
+  const auto fv = face_vertices(t, f);
+  const Vec3 p = w[0] * rest_[fv[0].idx()] + w[1] * rest_[fv[1].idx()] + w[2] * rest_[fv[2].idx()];
+  const auto faces = cavity_boundary(cavity);
+  std::vector<std::array<VertexId, 4>> tv;
+  for (TetId c : cavity)
+    if (is_alive(c)) tv.push_back(tet_v_[c.idx()]);
+  const int skip = face_index(faces, fv);
+  return skip >= 0 && cavity_ok(faces, tv, rest_, p, skip);
+}
+
+VertexId TetMesh::insert_in_cavity_on_boundary(std::span<const TetId> cavity, TetId t, int f,
+                                               const std::array<double, 3>& w) {
+  if (!is_boundary_cavity_insertion_ok(cavity, t, f, w))
+    throw InvalidArgument("insert_in_cavity_on_boundary: inserting into " + std::to_string(cavity.size()) +
+                          " tets is not valid");
+  const auto fv = face_vertices(t, f);
+  const std::uint16_t tag = face_tag_[t.idx()][f];
+  const auto faces = cavity_boundary(cavity);
+  const int skip = face_index(faces, fv);
+  const std::vector<TetId> old(cavity.begin(), cavity.end());
+  const VertexId v = add_vertex_interpolated(fv, w);
+  std::vector<std::array<VertexId, 4>> q;
+  for (std::size_t i = 0; i < faces.size(); ++i)
+    if (static_cast<int>(i) != skip) q.push_back({faces[i][0], faces[i][1], faces[i][2], v});
+  // The split face's three parts are the new tets' faces (rim edge, v) on the boundary.
+  for (TetId c : retriangulate(old, q))
+    for (int g = 0; g < 4; ++g)
+      if (!tet_n_[c.idx()][g].is_valid() && tet_v_[c.idx()][g] != v) face_tag_[c.idx()][g] = tag;
+  return v;
 }
 
 }  // namespace incise
