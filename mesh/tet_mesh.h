@@ -172,13 +172,15 @@ public:
   bool is_cavity_insertion_ok(std::span<const TetId> cavity, const Vec3& p) const;
   VertexId insert_in_cavity(std::span<const TetId> cavity, std::span<const VertexId> parents,
                             std::span<const double> weights);
-  // Boundary insertion: the same with the new vertex inside face f of cavity tet t, a face of
-  // the mesh boundary, at barycentric w (all > 0) of face_vertices(t, f) (its parents): that
-  // face is split in three, each part keeping its tag, so the boundary keeps its shape exactly.
-  bool is_boundary_cavity_insertion_ok(std::span<const TetId> cavity, TetId t, int f,
-                                       const std::array<double, 3>& w) const;
-  VertexId insert_in_cavity_on_boundary(std::span<const TetId> cavity, TetId t, int f,
-                                        const std::array<double, 3>& w);
+  // Boundary insertion: the same with the new vertex on the mesh boundary, at weights (all > 0)
+  // of 3 parents (inside the boundary face they span) or 2 (on the boundary edge, inside its two
+  // boundary faces). Those faces are split (in three, or two each), every part keeping its
+  // face's tag, so the boundary keeps its shape exactly; the vertex is joined to the cavity's
+  // other boundary faces, which must all be seen from it.
+  bool is_boundary_cavity_insertion_ok(std::span<const TetId> cavity, std::span<const VertexId> parents,
+                                       std::span<const double> weights) const;
+  VertexId insert_in_cavity_on_boundary(std::span<const TetId> cavity, std::span<const VertexId> parents,
+                                        std::span<const double> weights);
   // The cavity's boundary faces, oriented towards the inside: a new tet is (face, p), positive
   // when p sees the face from inside. Empty when `cavity` is not a set of live tets of one label.
   std::vector<std::array<VertexId, 3>> cavity_boundary(std::span<const TetId> cavity) const;

@@ -353,10 +353,11 @@ std::vector<std::array<VertexId, 3>> TetMesh::cavity_boundary(std::span<const Te
 }
 
 namespace {
-// The checks of a cavity insertion at p over the cavity's boundary `faces`, skipping face
-// `skip` (the boundary face a boundary insertion splits; -1: none) in the orientation check.
+// The checks of a cavity insertion at p over the cavity's boundary `faces`; the cones over
+// `oriented` (all faces but those a boundary insertion splits) must be clearly positive.
 bool cavity_ok(const std::vector<std::array<VertexId, 3>>& faces, std::span<const std::array<VertexId, 4>> tets,
-               const std::vector<Vec3>& rest, const Vec3& p, int skip) {
+               const std::vector<Vec3>& rest, const Vec3& p,
+               const std::vector<std::array<VertexId, 3>>& oriented) {
   if (faces.empty()) return false;
   // Edge-manifold boundary: each edge in two faces, once in each direction.
   std::set<std::pair<std::uint32_t, std::uint32_t>> directed;
@@ -371,11 +372,8 @@ bool cavity_ok(const std::vector<std::array<VertexId, 3>>& faces, std::span<cons
   for (const auto& tv : tets)
     for (VertexId v : tv)
       if (!on_boundary.count(v.idx())) return false;  // it would lose all its tets
-  for (std::size_t i = 0; i < faces.size(); ++i) {
-    const auto& f = faces[i];
-    if (static_cast<int>(i) != skip && !clearly_positive({rest[f[0].idx()], rest[f[1].idx()], rest[f[2].idx()], p}))
-      return false;
-  }
+  for (const auto& f : oriented)
+    if (!clearly_positive({rest[f[0].idx()], rest[f[1].idx()], rest[f[2].idx()], p})) return false;
   return true;
 }
 }  // namespace
@@ -384,7 +382,8 @@ bool TetMesh::is_cavity_insertion_ok(std::span<const TetId> cavity, const Vec3& 
   std::vector<std::array<VertexId, 4>> tv;
   for (TetId t : cavity)
     if (is_alive(t)) tv.push_back(tet_v_[t.idx()]);
-  return cavity_ok(cavity_boundary(cavity), tv, rest_, p, -1);
+  const auto faces = cavity_boundary(cavity);
+  return cavity_ok(faces, tv, rest_, p, faces);
 }
 
 VertexId TetMesh::insert_in_cavity(std::span<const TetId> cavity, std::span<const VertexId> parents,
@@ -406,48 +405,83 @@ VertexId TetMesh::insert_in_cavity(std::span<const TetId> cavity, std::span<cons
 }
 
 namespace {
-// Index of the cavity boundary face that is face f of t (the boundary insertion's face), or -1.
-int face_index(const std::vector<std::array<VertexId, 3>>& faces, const std::array<VertexId, 3>& x) {
-  for (std::size_t i = 0; i < faces.size(); ++i)
-    if (sorted_key(faces[i][0], faces[i][1], faces[i][2]) == sorted_key(x[0], x[1], x[2])) return static_cast<int>(i);
-  return -1;
+// The cavity boundary faces a boundary insertion splits: faces of the mesh boundary (no tet
+// across) holding every parent. Empty when there are not 1 (point in a face) or 2 (on an edge).
+std::vector<int> split_faces(const TetMesh& m, std::span<const TetId> cavity, std::span<const VertexId> parents,
+                             const std::vector<std::array<VertexId, 3>>& faces) {
+  std::vector<int> out;
+  std::size_t i = 0;
+  for (TetId t : cavity)  // the order cavity_boundary lists faces in
+    for (int f = 0; f < 4; ++f) {
+      const TetId n = m.neighbor(t, f);
+      if (n.is_valid() && std::find(cavity.begin(), cavity.end(), n) != cavity.end()) continue;
+      if (!n.is_valid()) {
+        bool all = true;
+        for (VertexId p : parents) all = all && std::find(faces[i].begin(), faces[i].end(), p) != faces[i].end();
+        if (all) out.push_back(static_cast<int>(i));
+      }
+      ++i;
+    }
+  if (out.size() != (parents.size() == 3 ? 1u : 2u)) out.clear();
+  return out;
 }
 }  // namespace
 
-bool TetMesh::is_boundary_cavity_insertion_ok(std::span<const TetId> cavity, TetId t, int f,
-                                              const std::array<double, 3>& w) const {
-  if (!is_alive(t) || f < 0 || f > 3 || tet_n_[t.idx()][f].is_valid()) return false;
-  if (std::find(cavity.begin(), cavity.end(), t) == cavity.end()) return false;
-  for (double x : w)
-    if (!(x > 0)) return false;
-  const auto fv = face_vertices(t, f);
-  const Vec3 p = w[0] * rest_[fv[0].idx()] + w[1] * rest_[fv[1].idx()] + w[2] * rest_[fv[2].idx()];
+bool TetMesh::is_boundary_cavity_insertion_ok(std::span<const TetId> cavity, std::span<const VertexId> parents,
+                                              std::span<const double> weights) const {
+  if ((parents.size() != 2 && parents.size() != 3) || weights.size() != parents.size()) return false;
+  Vec3 p = Vec3::Zero();
+  for (std::size_t k = 0; k < parents.size(); ++k) {
+    if (!is_alive(parents[k]) || !(weights[k] > 0)) return false;
+    p += weights[k] * rest_[parents[k].idx()];
+  }
   const auto faces = cavity_boundary(cavity);
+  if (faces.empty()) return false;
+  const auto skip = split_faces(*this, cavity, parents, faces);
+  if (skip.empty()) return false;
   std::vector<std::array<VertexId, 4>> tv;
-  for (TetId c : cavity)
-    if (is_alive(c)) tv.push_back(tet_v_[c.idx()]);
-  const int skip = face_index(faces, fv);
-  return skip >= 0 && cavity_ok(faces, tv, rest_, p, skip);
+  for (TetId c : cavity) tv.push_back(tet_v_[c.idx()]);
+  // The split faces' cones are flat (p lies in them); every other cone must be positive.
+  std::vector<std::array<VertexId, 3>> rest_faces;
+  for (std::size_t i = 0; i < faces.size(); ++i)
+    if (std::find(skip.begin(), skip.end(), static_cast<int>(i)) == skip.end()) rest_faces.push_back(faces[i]);
+  return cavity_ok(faces, tv, rest_, p, rest_faces);
 }
 
-VertexId TetMesh::insert_in_cavity_on_boundary(std::span<const TetId> cavity, TetId t, int f,
-                                               const std::array<double, 3>& w) {
-  if (!is_boundary_cavity_insertion_ok(cavity, t, f, w))
+VertexId TetMesh::insert_in_cavity_on_boundary(std::span<const TetId> cavity, std::span<const VertexId> parents,
+                                               std::span<const double> weights) {
+  if (!is_boundary_cavity_insertion_ok(cavity, parents, weights))
     throw InvalidArgument("insert_in_cavity_on_boundary: inserting into " + std::to_string(cavity.size()) +
                           " tets is not valid");
-  const auto fv = face_vertices(t, f);
-  const std::uint16_t tag = face_tag_[t.idx()][f];
   const auto faces = cavity_boundary(cavity);
-  const int skip = face_index(faces, fv);
+  const auto skip = split_faces(*this, cavity, parents, faces);
+  // Tags of the split faces, by their vertex sets.
+  std::vector<std::pair<std::array<VertexId, 3>, std::uint16_t>> split;
+  for (TetId t : cavity)
+    for (int f = 0; f < 4; ++f)
+      if (!tet_n_[t.idx()][f].is_valid()) {
+        const auto fv = face_vertices(t, f);
+        for (int i : skip)
+          if (sorted_key(fv[0], fv[1], fv[2]) == sorted_key(faces[i][0], faces[i][1], faces[i][2]))
+            split.push_back({fv, face_tag_[t.idx()][f]});
+      }
   const std::vector<TetId> old(cavity.begin(), cavity.end());
-  const VertexId v = add_vertex_interpolated(fv, w);
+  const VertexId v = add_vertex_interpolated(parents, weights);
   std::vector<std::array<VertexId, 4>> q;
   for (std::size_t i = 0; i < faces.size(); ++i)
-    if (static_cast<int>(i) != skip) q.push_back({faces[i][0], faces[i][1], faces[i][2], v});
-  // The split face's three parts are the new tets' faces (rim edge, v) on the boundary.
+    if (std::find(skip.begin(), skip.end(), static_cast<int>(i)) == skip.end())
+      q.push_back({faces[i][0], faces[i][1], faces[i][2], v});
+  // A new boundary face (x, y, v) is a part of the split face holding x and y.
   for (TetId c : retriangulate(old, q))
-    for (int g = 0; g < 4; ++g)
-      if (!tet_n_[c.idx()][g].is_valid() && tet_v_[c.idx()][g] != v) face_tag_[c.idx()][g] = tag;
+    for (int g = 0; g < 4; ++g) {
+      if (tet_n_[c.idx()][g].is_valid() || tet_v_[c.idx()][g] == v) continue;
+      const auto fv = face_vertices(c, g);
+      for (const auto& [sf, tag] : split) {
+        int shared = 0;
+        for (VertexId x : fv) shared += x != v && std::find(sf.begin(), sf.end(), x) != sf.end();
+        if (shared == 2) face_tag_[c.idx()][g] = tag;
+      }
+    }
   return v;
 }
 

@@ -26,19 +26,27 @@ struct Side {
   TetId across;
 };
 
-// A face of the mesh boundary the new vertex goes into (boundary insertion), or none.
-struct OnFace {
-  TetId tet;
-  int local = -1;
+// Boundary insertion: the boundary face (3 vertices) or edge (2) the new vertex goes into; empty
+// for an interior insertion.
+struct OnBoundary {
+  std::vector<VertexId> parents;
+  bool holds(const std::array<VertexId, 3>& f) const {
+    if (parents.empty()) return false;
+    for (VertexId p : parents)
+      if (std::find(f.begin(), f.end(), p) == f.end()) return false;
+    return true;
+  }
 };
 
-std::vector<Side> sides(const TetMesh& mesh, const Cavity& c, const OnFace& skip) {
+// The cavity's boundary faces but those a boundary insertion splits (mesh boundary faces
+// holding the boundary face or edge).
+std::vector<Side> sides(const TetMesh& mesh, const Cavity& c, const OnBoundary& skip) {
   std::vector<Side> out;
   for (TetId t : c.tets)
     for (int f = 0; f < 4; ++f) {
       const TetId n = mesh.neighbor(t, f);
       if (n.is_valid() && c.in.count(n.idx())) continue;
-      if (t == skip.tet && f == skip.local) continue;
+      if (!n.is_valid() && skip.holds(mesh.face_vertices(t, f))) continue;
       const auto x = mesh.face_vertices(t, f);
       out.push_back({{x[0], x[2], x[1]}, n});
     }
@@ -65,11 +73,15 @@ bool joinable(const TetMesh& mesh, TetId n, int label, const ImproveScope& scope
   return n.is_valid() && mesh.label(n) == label && scope.contains(n);
 }
 
-// Grows c at point p: across a face p does not see (forced), else across the face whose new tet
-// is worst while that raises the worst new tet. False when a forced growth is impossible.
+// Grows c at point p, across a face p does not see or else across the face whose new tet is
+// worst, up to max_cavity tets, and keeps the cavity along the way whose worst new tet is best
+// (a new tet's quality can need two steps to rise). False when no cavity on the way is seen
+// from p.
 bool grow(const TetMesh& mesh, Cavity& c, const Vec3& p, const ImproveScope& scope, int max_cavity,
-          const OnFace& on) {
+          const OnBoundary& on) {
   const int label = mesh.label(c.tets.front());
+  Cavity best;
+  double best_q = -1e300;
   for (;;) {
     const auto s = sides(mesh, c, on);
     const OpenStar star = cones(mesh, s);
@@ -83,21 +95,14 @@ bool grow(const TetMesh& mesh, Cavity& c, const Vec3& p, const ImproveScope& sco
       const double q = star.one(i, p, scope.targets).q;
       if (q < wq) wq = q, worst = i;
     }
-    if (blind >= 0) {
-      const TetId n = s[blind].across;
-      if (static_cast<int>(c.tets.size()) >= max_cavity || !joinable(mesh, n, label, scope)) return false;
-      c.add(n);
-      continue;
-    }
-    const TetId n = s[worst].across;
-    if (static_cast<int>(c.tets.size()) >= max_cavity || !joinable(mesh, n, label, scope)) return true;
-    Cavity bigger = c;
-    bigger.add(n);
-    const auto s2 = sides(mesh, bigger, on);
-    const AngleQuality q2 = cones(mesh, s2).at(p, scope.targets);
-    if (!(q2.q > wq + 1e-9)) return true;
-    c = std::move(bigger);
+    if (blind < 0 && wq > best_q) best = c, best_q = wq;
+    const TetId n = s[blind >= 0 ? static_cast<std::size_t>(blind) : worst].across;
+    if (static_cast<int>(c.tets.size()) >= max_cavity || !joinable(mesh, n, label, scope)) break;
+    c.add(n);
   }
+  if (best.tets.empty()) return false;
+  c = std::move(best);
+  return true;
 }
 
 // Bowyer-Watson: the tets reachable from t through faces (one label, in scope) whose
@@ -123,10 +128,10 @@ void delaunay_cavity(const TetMesh& mesh, Cavity& c, const Vec3& p, const Improv
 
 struct Plan {
   Cavity cavity;
-  OnFace on;
-  std::array<VertexId, 4> parents;      // interior: a cavity tet holding the point
+  OnBoundary on;
+  std::array<VertexId, 4> parents;  // interior: a cavity tet holding the point
   std::array<double, 4> weights;
-  std::array<double, 3> face_weights;   // boundary: the point in the face
+  std::vector<double> boundary_weights;  // boundary: the point in on.parents
   AngleQuality after;
 };
 
@@ -137,7 +142,7 @@ std::array<double, 3> in_triangle(const Vec3& p, const Vec3& a, const Vec3& b, c
   return {(b - p).cross(c - p).dot(n) / nn, (c - p).cross(a - p).dot(n) / nn, (a - p).cross(b - p).dot(n) / nn};
 }
 
-std::optional<Plan> plan_at(const TetMesh& mesh, TetId t, const Vec3& p0, bool delaunay, const OnFace& on,
+std::optional<Plan> plan_at(const TetMesh& mesh, TetId t, const Vec3& p0, bool delaunay, const OnBoundary& on,
                             const ImproveScope& scope, int max_cavity, int iterations) {
   Plan plan;
   plan.on = on;
@@ -152,28 +157,39 @@ std::optional<Plan> plan_at(const TetMesh& mesh, TetId t, const Vec3& p0, bool d
   AscentOptions ao;
   ao.iterations = iterations;
   ao.scale = h;
-  std::array<Vec3, 3> fx;
-  Vec3 normal;
-  if (on.local >= 0) {
-    const auto fv = mesh.face_vertices(on.tet, on.local);
-    for (int k = 0; k < 3; ++k) fx[k] = mesh.rest(fv[k]);
-    normal = (fx[1] - fx[0]).cross(fx[2] - fx[0]).normalized();
-    ao.normal = &normal;
+  std::vector<Vec3> bx;
+  for (VertexId v : on.parents) bx.push_back(mesh.rest(v));
+  const auto coords = [&](const Vec3& q) {
+    if (bx.size() == 3) {
+      const auto w = in_triangle(q, bx[0], bx[1], bx[2]);
+      return std::vector<double>(w.begin(), w.end());
+    }
+    const double s = (q - bx[0]).dot(bx[1] - bx[0]) / (bx[1] - bx[0]).squaredNorm();
+    return std::vector<double>{1 - s, s};
+  };
+  Vec3 dir;
+  if (bx.size() == 3) {
+    dir = (bx[1] - bx[0]).cross(bx[2] - bx[0]).normalized();
+    ao.normal = &dir;
+  } else if (bx.size() == 2) {
+    dir = (bx[1] - bx[0]).normalized();
+    ao.line = &dir;
+  }
+  if (!bx.empty())
     ao.project = [&](Vec3& q) {
-      const auto w = in_triangle(q, fx[0], fx[1], fx[2]);
+      const auto w = coords(q);
       return *std::min_element(w.begin(), w.end()) > 0.05;
     };
-  }
   const Vec3 p = ascend(cones(mesh, sides(mesh, plan.cavity, on)), p0, scope.targets, ao);
   if (!grow(mesh, plan.cavity, p, scope, max_cavity, on)) return std::nullopt;
   const auto s = sides(mesh, plan.cavity, on);
   const long growth = static_cast<long>(s.size()) - static_cast<long>(plan.cavity.tets.size());
   if (growth > scope.growth_left) return std::nullopt;
   Vec3 actual = Vec3::Zero();
-  if (on.local >= 0) {
-    plan.face_weights = in_triangle(p, fx[0], fx[1], fx[2]);
-    for (int k = 0; k < 3; ++k) actual += plan.face_weights[k] * fx[k];
-    if (!mesh.is_boundary_cavity_insertion_ok(plan.cavity.tets, on.tet, on.local, plan.face_weights))
+  if (!bx.empty()) {
+    plan.boundary_weights = coords(p);
+    for (std::size_t k = 0; k < bx.size(); ++k) actual += plan.boundary_weights[k] * bx[k];
+    if (!mesh.is_boundary_cavity_insertion_ok(plan.cavity.tets, on.parents, plan.boundary_weights))
       return std::nullopt;
   } else {
     // Parents: the cavity tet that holds p best; the position is what the record computes.
@@ -223,7 +239,7 @@ std::optional<InsertionOutcome> improve_by_insertion(TetMesh& mesh, TetId t, con
   struct Start {
     Vec3 p;
     bool delaunay;
-    OnFace on;
+    OnBoundary on;
   };
   std::vector<Start> starts = {{bary, false, {}}, {bary, true, {}}};
   const Vec3 cc = circumcenter(x);
@@ -233,10 +249,19 @@ std::optional<InsertionOutcome> improve_by_insertion(TetMesh& mesh, TetId t, con
     if (mesh.neighbor(t, f).is_valid())
       starts.push_back({centroid, false, {}});
     else if (opt.boundary_tags && opt.boundary_tags(mesh.face_tag(t, f)))
-      starts.push_back({centroid, false, {t, f}});
+      starts.push_back({centroid, false, {{v[kFaceLocal[f][0]], v[kFaceLocal[f][1]], v[kFaceLocal[f][2]]}}});
   }
   for (int i = 0; i < 4; ++i)
-    for (int j = i + 1; j < 4; ++j) starts.push_back({0.5 * (x[i] + x[j]), false, {}});
+    for (int j = i + 1; j < 4; ++j) {
+      const Vec3 mid = 0.5 * (x[i] + x[j]);
+      starts.push_back({mid, false, {}});
+      // On a boundary edge of t: its boundary faces (the check finds them) take the vertex.
+      bool boundary_edge = false;
+      for (int f = 0; f < 4; ++f)
+        boundary_edge = boundary_edge || (f != i && f != j && !mesh.neighbor(t, f).is_valid() &&
+                                          opt.boundary_tags && opt.boundary_tags(mesh.face_tag(t, f)));
+      if (boundary_edge) starts.push_back({mid, false, {{v[i], v[j]}}});
+    }
   std::optional<Plan> best;
   for (const Start& s : starts)
     if (auto plan = plan_at(mesh, t, s.p, s.delaunay, s.on, scope, opt.max_cavity, opt.iterations))
@@ -244,10 +269,9 @@ std::optional<InsertionOutcome> improve_by_insertion(TetMesh& mesh, TetId t, con
   if (!best) return std::nullopt;
   InsertionOutcome out;
   out.removed = best->cavity.tets;
-  out.on_boundary = best->on.local >= 0;
+  out.on_boundary = !best->on.parents.empty();
   out.vertex = out.on_boundary
-                   ? mesh.insert_in_cavity_on_boundary(best->cavity.tets, best->on.tet, best->on.local,
-                                                       best->face_weights)
+                   ? mesh.insert_in_cavity_on_boundary(best->cavity.tets, best->on.parents, best->boundary_weights)
                    : mesh.insert_in_cavity(best->cavity.tets, best->parents, best->weights);
   const auto inc = mesh.incident_tets(out.vertex);
   out.added.assign(inc.begin(), inc.end());

@@ -119,6 +119,59 @@ TEST_CASE("cavity insertions keep every invariant, the volume, the labels and th
   }
 }
 
+TEST_CASE("boundary cavity insertions split a boundary face or edge in place, keeping its tag", "[mesh][cavity]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {4, 4, 4});
+  jitter(m, 0.2, 22);
+  for (TetId t : m.tets())  // a second tag on part of the surface
+    for (int f = 0; f < 4; ++f)
+      if (!m.neighbor(t, f).is_valid() && t.idx() % 3 == 0) m.set_face_tag(t, f, kTagCut);
+  const double vol = m.total_volume(), surface = tagged_area(m, kTagSurface), cut = tagged_area(m, kTagCut);
+  const std::size_t faces = m.boundary_faces().size();
+  std::mt19937 rng(9);
+  int on_face = 0, on_edge = 0;
+  m.discard_change();
+  for (int i = 0; i < 2000; ++i) {
+    const TetId t = random_tet(m, rng);
+    const int f = static_cast<int>(rng() % 4);
+    if (m.neighbor(t, f).is_valid()) continue;
+    const auto fv = m.face_vertices(t, f);
+    // The cavity: t and its neighbours (those around the edge too, for an edge insertion).
+    std::vector<TetId> cavity = {t};
+    for (int g = 0; g < 4; ++g)
+      if (m.neighbor(t, g).is_valid() && rng() % 2) cavity.push_back(m.neighbor(t, g));
+    const bool edge = rng() % 2;
+    const double a = 0.3 + 0.4 * double(rng() % 100) / 100;
+    bool ok;
+    if (edge) {
+      const VertexId par[2] = {fv[0], fv[1]};
+      const double w[2] = {a, 1 - a};
+      for (TetId u : m.incident_tets(fv[0]))
+        if (m.local_index(u, fv[1]) >= 0 && std::find(cavity.begin(), cavity.end(), u) == cavity.end())
+          cavity.push_back(u);
+      ok = m.is_boundary_cavity_insertion_ok(cavity, par, w);
+      if (ok) m.insert_in_cavity_on_boundary(cavity, par, w);
+      on_edge += ok;
+    } else {
+      const double w[3] = {a / 2, a / 2, 1 - a};
+      ok = m.is_boundary_cavity_insertion_ok(cavity, fv, w);
+      if (ok) m.insert_in_cavity_on_boundary(cavity, fv, w);
+      on_face += ok;
+    }
+    if (ok) m.validate();
+  }
+  m.validate({true, true});
+  CHECK(on_face > 30);
+  CHECK(on_edge > 30);
+  CHECK(m.total_volume() == Approx(vol).epsilon(1e-12));
+  CHECK(tagged_area(m, kTagSurface) == Approx(surface).epsilon(1e-12));
+  CHECK(tagged_area(m, kTagCut) == Approx(cut).epsilon(1e-12));
+  CHECK(m.boundary_faces().size() == faces + 2 * std::size_t(on_face + on_edge));
+  // A face point must lie inside its face; an interior face is not a boundary face.
+  const TetId t = m.tets().front();
+  const double bad[3] = {0.5, 0.6, -0.1};
+  CHECK_FALSE(m.is_boundary_cavity_insertion_ok(std::vector<TetId>{t}, m.face_vertices(t, 0), bad));
+}
+
 TEST_CASE("cavity insertions that would orphan a vertex, mix labels or invert are refused", "[mesh][cavity]") {
   TetMesh m = make_box(Vec3(1, 1, 1), {3, 3, 3});
   jitter(m, 0.2, 5);
