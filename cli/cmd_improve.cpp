@@ -34,7 +34,7 @@ void add_improve(CLI::App& app) {
   cmd->add_flag("--no-flips", o->no_flips, "Smoothing only (connectivity unchanged)");
   cmd->add_flag("--no-multi-face", o->no_multi_face, "No multi-face removal among the flips (for comparison)");
   cmd->add_flag("--no-smoothing", o->no_smoothing, "Flips only (vertices stay)");
-  cmd->add_flag("--insert", o->insert, "Also insert vertices (edge splits) where flips and smoothing are stuck");
+  cmd->add_flag("--insert", o->insert, "Also insert vertices (cavity insertion) where flips, contraction and smoothing are stuck");
   cmd->add_option("--max-growth", o->improve.max_growth, "The tet count stays within this factor of the input")
       ->capture_default_str();
   cmd->add_flag("--fixed-boundary", o->fixed_boundary, "Boundary vertices never move");

@@ -162,6 +162,29 @@ public:
   bool is_multi_face_removal_ok(VertexId u, VertexId w, std::span<const std::array<VertexId, 3>> faces) const;
   std::vector<TetId> remove_faces(VertexId u, VertexId w, std::span<const std::array<VertexId, 3>> faces);
 
+  // Cavity insertion (Bowyer-Watson style; Stellar's vertex insertion): the tets `cavity` (one
+  // label, each once) are removed and a new vertex, at sum_k weights[k] * rest(parents[k]), is
+  // joined to every face of the cavity's boundary. Valid when the boundary is edge-manifold,
+  // every cavity vertex lies on it (none would be orphaned) and every new tet is clearly
+  // positive: the cones of a closed surface from a point that sees each face from inside tile
+  // exactly the region the surface bounds. Boundary and interface faces are kept with their
+  // tags. Recorded as an added vertex (parents: normally a cavity tet holding the point).
+  bool is_cavity_insertion_ok(std::span<const TetId> cavity, const Vec3& p) const;
+  VertexId insert_in_cavity(std::span<const TetId> cavity, std::span<const VertexId> parents,
+                            std::span<const double> weights);
+  // Boundary insertion: the same with the new vertex on the mesh boundary, at weights (all > 0)
+  // of 3 parents (inside the boundary face they span) or 2 (on the boundary edge, inside its two
+  // boundary faces). Those faces are split (in three, or two each), every part keeping its
+  // face's tag, so the boundary keeps its shape exactly; the vertex is joined to the cavity's
+  // other boundary faces, which must all be seen from it.
+  bool is_boundary_cavity_insertion_ok(std::span<const TetId> cavity, std::span<const VertexId> parents,
+                                       std::span<const double> weights) const;
+  VertexId insert_in_cavity_on_boundary(std::span<const TetId> cavity, std::span<const VertexId> parents,
+                                        std::span<const double> weights);
+  // The cavity's boundary faces, oriented towards the inside: a new tet is (face, p), positive
+  // when p sees the face from inside. Empty when `cavity` is not a set of live tets of one label.
+  std::vector<std::array<VertexId, 3>> cavity_boundary(std::span<const TetId> cavity) const;
+
   // ---- batches ------------------------------------------------------------------------
   // Returns everything edited since the last call, normalized (see TopologyChange), and
   // starts a new batch. O(size of the batch).

@@ -1,5 +1,5 @@
 // Refinement (edge / face / tet splits) and flips (2-3, 3-2, 4-4, edge removal, multi-face
-// removal).
+// removal, cavity insertion).
 // Every operation is "remove these tets, add those", so incidence upkeep is the one path in
 // tet_mesh.cpp and the cost is proportional to the tets involved.
 #include <algorithm>
@@ -333,6 +333,156 @@ std::vector<TetId> TetMesh::remove_faces(VertexId u, VertexId w, std::span<const
   std::vector<std::array<VertexId, 4>> q;
   multi_face_removal_tets(u, w, faces, old_tets, q);
   return retriangulate(old_tets, q);
+}
+
+std::vector<std::array<VertexId, 3>> TetMesh::cavity_boundary(std::span<const TetId> cavity) const {
+  std::vector<std::array<VertexId, 3>> faces;
+  if (cavity.empty()) return faces;
+  std::set<std::uint32_t> in;
+  const int lab = is_alive(cavity.front()) ? label_[cavity.front().idx()] : 0;
+  for (TetId t : cavity)
+    if (!is_alive(t) || label_[t.idx()] != lab || !in.insert(t.idx()).second) return {};
+  for (TetId t : cavity)
+    for (int f = 0; f < 4; ++f) {
+      const TetId n = tet_n_[t.idx()][f];
+      if (n.is_valid() && in.count(n.idx())) continue;
+      const auto x = face_vertices(t, f);  // outward: reversed, it faces the inside
+      faces.push_back({x[0], x[2], x[1]});
+    }
+  return faces;
+}
+
+namespace {
+// The checks of a cavity insertion at p over the cavity's boundary `faces`; the cones over
+// `oriented` (all faces but those a boundary insertion splits) must be clearly positive.
+bool cavity_ok(const std::vector<std::array<VertexId, 3>>& faces, std::span<const std::array<VertexId, 4>> tets,
+               const std::vector<Vec3>& rest, const Vec3& p,
+               const std::vector<std::array<VertexId, 3>>& oriented) {
+  if (faces.empty()) return false;
+  // Edge-manifold boundary: each edge in two faces, once in each direction.
+  std::set<std::pair<std::uint32_t, std::uint32_t>> directed;
+  std::set<std::uint32_t> on_boundary;
+  for (const auto& f : faces)
+    for (int k = 0; k < 3; ++k) {
+      on_boundary.insert(f[k].idx());
+      if (!directed.insert({f[k].idx(), f[(k + 1) % 3].idx()}).second) return false;
+    }
+  for (const auto& [a, b] : directed)
+    if (!directed.count({b, a})) return false;
+  for (const auto& tv : tets)
+    for (VertexId v : tv)
+      if (!on_boundary.count(v.idx())) return false;  // it would lose all its tets
+  for (const auto& f : oriented)
+    if (!clearly_positive({rest[f[0].idx()], rest[f[1].idx()], rest[f[2].idx()], p})) return false;
+  return true;
+}
+}  // namespace
+
+bool TetMesh::is_cavity_insertion_ok(std::span<const TetId> cavity, const Vec3& p) const {
+  std::vector<std::array<VertexId, 4>> tv;
+  for (TetId t : cavity)
+    if (is_alive(t)) tv.push_back(tet_v_[t.idx()]);
+  const auto faces = cavity_boundary(cavity);
+  return cavity_ok(faces, tv, rest_, p, faces);
+}
+
+VertexId TetMesh::insert_in_cavity(std::span<const TetId> cavity, std::span<const VertexId> parents,
+                                   std::span<const double> weights) {
+  Vec3 p = Vec3::Zero();
+  for (std::size_t k = 0; k < parents.size() && k < weights.size(); ++k)
+    if (is_alive(parents[k])) p += weights[k] * rest_[parents[k].idx()];
+  if (parents.empty() || parents.size() != weights.size() || !is_cavity_insertion_ok(cavity, p))
+    throw InvalidArgument("insert_in_cavity: inserting into " + std::to_string(cavity.size()) +
+                          " tets is not valid");
+  const auto faces = cavity_boundary(cavity);
+  const std::vector<TetId> old(cavity.begin(), cavity.end());  // cavity may alias mesh data
+  const VertexId v = add_vertex_interpolated(parents, weights);
+  std::vector<std::array<VertexId, 4>> q;
+  q.reserve(faces.size());
+  for (const auto& f : faces) q.push_back({f[0], f[1], f[2], v});
+  retriangulate(old, q);
+  return v;
+}
+
+namespace {
+// The cavity boundary faces a boundary insertion splits: faces of the mesh boundary (no tet
+// across) holding every parent. Empty when there are not 1 (point in a face) or 2 (on an edge).
+std::vector<int> split_faces(const TetMesh& m, std::span<const TetId> cavity, std::span<const VertexId> parents,
+                             const std::vector<std::array<VertexId, 3>>& faces) {
+  std::vector<int> out;
+  std::size_t i = 0;
+  for (TetId t : cavity)  // the order cavity_boundary lists faces in
+    for (int f = 0; f < 4; ++f) {
+      const TetId n = m.neighbor(t, f);
+      if (n.is_valid() && std::find(cavity.begin(), cavity.end(), n) != cavity.end()) continue;
+      if (!n.is_valid()) {
+        bool all = true;
+        for (VertexId p : parents) all = all && std::find(faces[i].begin(), faces[i].end(), p) != faces[i].end();
+        if (all) out.push_back(static_cast<int>(i));
+      }
+      ++i;
+    }
+  if (out.size() != (parents.size() == 3 ? 1u : 2u)) out.clear();
+  return out;
+}
+}  // namespace
+
+bool TetMesh::is_boundary_cavity_insertion_ok(std::span<const TetId> cavity, std::span<const VertexId> parents,
+                                              std::span<const double> weights) const {
+  if ((parents.size() != 2 && parents.size() != 3) || weights.size() != parents.size()) return false;
+  Vec3 p = Vec3::Zero();
+  for (std::size_t k = 0; k < parents.size(); ++k) {
+    if (!is_alive(parents[k]) || !(weights[k] > 0)) return false;
+    p += weights[k] * rest_[parents[k].idx()];
+  }
+  const auto faces = cavity_boundary(cavity);
+  if (faces.empty()) return false;
+  const auto skip = split_faces(*this, cavity, parents, faces);
+  if (skip.empty()) return false;
+  std::vector<std::array<VertexId, 4>> tv;
+  for (TetId c : cavity) tv.push_back(tet_v_[c.idx()]);
+  // The split faces' cones are flat (p lies in them); every other cone must be positive.
+  std::vector<std::array<VertexId, 3>> rest_faces;
+  for (std::size_t i = 0; i < faces.size(); ++i)
+    if (std::find(skip.begin(), skip.end(), static_cast<int>(i)) == skip.end()) rest_faces.push_back(faces[i]);
+  return cavity_ok(faces, tv, rest_, p, rest_faces);
+}
+
+VertexId TetMesh::insert_in_cavity_on_boundary(std::span<const TetId> cavity, std::span<const VertexId> parents,
+                                               std::span<const double> weights) {
+  if (!is_boundary_cavity_insertion_ok(cavity, parents, weights))
+    throw InvalidArgument("insert_in_cavity_on_boundary: inserting into " + std::to_string(cavity.size()) +
+                          " tets is not valid");
+  const auto faces = cavity_boundary(cavity);
+  const auto skip = split_faces(*this, cavity, parents, faces);
+  // Tags of the split faces, by their vertex sets.
+  std::vector<std::pair<std::array<VertexId, 3>, std::uint16_t>> split;
+  for (TetId t : cavity)
+    for (int f = 0; f < 4; ++f)
+      if (!tet_n_[t.idx()][f].is_valid()) {
+        const auto fv = face_vertices(t, f);
+        for (int i : skip)
+          if (sorted_key(fv[0], fv[1], fv[2]) == sorted_key(faces[i][0], faces[i][1], faces[i][2]))
+            split.push_back({fv, face_tag_[t.idx()][f]});
+      }
+  const std::vector<TetId> old(cavity.begin(), cavity.end());
+  const VertexId v = add_vertex_interpolated(parents, weights);
+  std::vector<std::array<VertexId, 4>> q;
+  for (std::size_t i = 0; i < faces.size(); ++i)
+    if (std::find(skip.begin(), skip.end(), static_cast<int>(i)) == skip.end())
+      q.push_back({faces[i][0], faces[i][1], faces[i][2], v});
+  // A new boundary face (x, y, v) is a part of the split face holding x and y.
+  for (TetId c : retriangulate(old, q))
+    for (int g = 0; g < 4; ++g) {
+      if (tet_n_[c.idx()][g].is_valid() || tet_v_[c.idx()][g] == v) continue;
+      const auto fv = face_vertices(c, g);
+      for (const auto& [sf, tag] : split) {
+        int shared = 0;
+        for (VertexId x : fv) shared += x != v && std::find(sf.begin(), sf.end(), x) != sf.end();
+        if (shared == 2) face_tag_[c.idx()][g] = tag;
+      }
+    }
+  return v;
 }
 
 }  // namespace incise

@@ -71,6 +71,14 @@ public:
     // triangulation then stays as it is).
     collapse_.remove_boundary = opt.move_surface && opt.move_cut;
     collapse_.frozen = &frozen_;
+    insert_.max_cavity = opt.max_cavity;
+    insert_.iterations = 2 * opt.smoothing_iterations;
+    // The boundary keeps its shape under boundary insertion, but its triangulation changes: only
+    // where boundary vertices may move at all.
+    if (opt.boundary_insertion && (opt.move_surface || opt.move_cut))
+      insert_.boundary_tags = [surface = opt.move_surface, cut = opt.move_cut](std::uint16_t tag) {
+        return tag == kTagCut ? cut : surface;
+      };
   }
 
   // One sweep over `tets`; returns whether anything improved. `seen`: also gathers the
@@ -216,12 +224,12 @@ private:
         stuck_.erase(v.idx());
       }
     }
-    // An insertion adds one tet per tet around the split edge (at most max_ring). (Ids freed
-    // by this pass's contractions are not reused before the batch ends, so both can mix.)
-    if (!any && opt_.insertion && mesh_.is_alive(t) && scope_.growth_left >= opt_.max_ring) {
-      if (auto ins = improve_by_insertion(mesh_, t, scope_, opt_.max_ring, 2 * opt_.smoothing_iterations)) {
+    // Insertion checks its growth against scope_.growth_left. (Ids freed by this pass's
+    // contractions are not reused before the batch ends, so both can mix.)
+    if (!any && opt_.insertion && mesh_.is_alive(t) && scope_.growth_left > 0) {
+      if (auto ins = improve_by_insertion(mesh_, t, scope_, insert_)) {
         ++rep.insertions;
-        moved.insert(ins->vertex.idx());
+        rep.boundary_insertions += ins->on_boundary;
         replaced(ins->removed, ins->added);
         return true;
       }
@@ -238,6 +246,7 @@ private:
   FlipOptions flip_;
   SmoothOptions smooth_;
   CollapseOptions collapse_;
+  InsertionOptions insert_;
   std::unordered_set<std::uint32_t> frozen_;
   std::unordered_set<std::uint32_t> curved_slid_;
   // Smoothing (vertices) or flips (tets) failed and nothing around changed since.

@@ -26,7 +26,10 @@ struct ImproveOptions {
   bool flips = true;                 // 2-3, 3-2, 4-4, edge removal and multi-face removal
   bool multi_face_removal = true;    // ... multi-face removal among them (quality/multi_face_removal.h)
   bool smoothing = true;             // optimization-based vertex smoothing
-  bool insertion = false;            // vertex insertion (edge split + placement) where flips and smoothing fail
+  bool insertion = false;            // vertex insertion into a cavity (quality/insertion.h) where the rest fails
+  int max_cavity = 16;               // ... largest cavity (tets replaced by one insertion)
+  bool boundary_insertion = true;    // ... also on boundary faces (split in their plane, tag kept), where
+                                     // move_surface (move_cut for cut faces) allows boundary changes
   bool collapse = true;              // edge contraction of a tet's short edge (mesh/edge_collapse.h), also of
                                      // vertices added earlier in the batch (a cut's new vertices)
   double collapse_edge_ratio = 0.2;  // ... an edge shorter than this times the tet's longest
@@ -54,7 +57,8 @@ struct ImproveReport {
   double min_radius_ratio_before = 0, min_radius_ratio_after = 0;
   std::size_t tets_before = 0, tets_after = 0;
   int flips23 = 0, flips32 = 0, flips44 = 0, edge_removals = 0, multi_face_removals = 0, smoothing_moves = 0,
-      insertions = 0, contractions = 0;  // contractions: edge collapses (one vertex removed each)
+      insertions = 0, contractions = 0;
+  int boundary_insertions = 0;  // insertions on a boundary face (counted in insertions too)  // contractions: edge collapses (one vertex removed each)
   int boundary_flips = 0;  // boundary edge removals between coplanar faces (2-2 and larger)
   double volume_change = 0;  // sum of |label volume change| of tolerance-mode contractions (else 0)
   double seconds = 0;

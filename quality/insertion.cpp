@@ -1,21 +1,66 @@
 #include "quality/insertion.h"
 
 #include <algorithm>
+#include <unordered_set>
 
-#include "mesh/errors.h"
 #include "quality/star_ascent.h"
 
 namespace incise {
 
 namespace {
 
-struct Plan {
-  VertexId a, b;
-  std::vector<TetId> removed;
-  std::array<VertexId, 4> parents;
-  std::array<double, 4> weights;
-  AngleQuality after;
+struct Cavity {
+  std::vector<TetId> tets;
+  std::unordered_set<std::uint32_t> in;
+  bool add(TetId t) {
+    if (!in.insert(t.idx()).second) return false;
+    tets.push_back(t);
+    return true;
+  }
 };
+
+// A boundary face of the cavity (oriented towards the inside) and the tet across it (invalid
+// on the mesh boundary).
+struct Side {
+  std::array<VertexId, 3> face;
+  TetId across;
+};
+
+// Boundary insertion: the boundary face (3 vertices) or edge (2) the new vertex goes into; empty
+// for an interior insertion.
+struct OnBoundary {
+  std::vector<VertexId> parents;
+  bool holds(const std::array<VertexId, 3>& f) const {
+    if (parents.empty()) return false;
+    for (VertexId p : parents)
+      if (std::find(f.begin(), f.end(), p) == f.end()) return false;
+    return true;
+  }
+};
+
+// The cavity's boundary faces but those a boundary insertion splits (mesh boundary faces
+// holding the boundary face or edge).
+std::vector<Side> sides(const TetMesh& mesh, const Cavity& c, const OnBoundary& skip) {
+  std::vector<Side> out;
+  for (TetId t : c.tets)
+    for (int f = 0; f < 4; ++f) {
+      const TetId n = mesh.neighbor(t, f);
+      if (n.is_valid() && c.in.count(n.idx())) continue;
+      if (!n.is_valid() && skip.holds(mesh.face_vertices(t, f))) continue;
+      const auto x = mesh.face_vertices(t, f);
+      out.push_back({{x[0], x[2], x[1]}, n});
+    }
+  return out;
+}
+
+OpenStar cones(const TetMesh& mesh, const std::vector<Side>& s) {
+  OpenStar star;
+  for (const Side& x : s) {
+    star.tets.push_back({mesh.rest(x.face[0]), mesh.rest(x.face[1]), mesh.rest(x.face[2]), Vec3::Zero()});
+    star.slot.push_back(3);
+  }
+  return star;
+}
 
 bool clearly_positive(const std::array<Vec3, 4>& x) {
   const Vec3 e1 = x[1] - x[0], e2 = x[2] - x[0], e3 = x[3] - x[0];
@@ -24,86 +69,210 @@ bool clearly_positive(const std::array<Vec3, 4>& x) {
   return e1.dot(e2.cross(e3)) > 1e-12 * l * l * l;
 }
 
-std::optional<Plan> plan_split(const TetMesh& mesh, VertexId a, VertexId b, const ImproveScope& scope, int max_ring,
-                               int iterations) {
-  TetMesh::EdgeStar star;
-  try {
-    star = mesh.edge_star(a, b);
-  } catch (const InvalidMesh&) {
-    return std::nullopt;
+bool joinable(const TetMesh& mesh, TetId n, int label, const ImproveScope& scope) {
+  return n.is_valid() && mesh.label(n) == label && scope.contains(n);
+}
+
+// Grows c at point p, across a face p does not see or else across the face whose new tet is
+// worst, up to max_cavity tets, and keeps the cavity along the way whose worst new tet is best
+// (a new tet's quality can need two steps to rise). False when no cavity on the way is seen
+// from p.
+bool grow(const TetMesh& mesh, Cavity& c, const Vec3& p, const ImproveScope& scope, int max_cavity,
+          const OnBoundary& on) {
+  const int label = mesh.label(c.tets.front());
+  Cavity best;
+  double best_q = -1e300;
+  for (;;) {
+    const auto s = sides(mesh, c, on);
+    const OpenStar star = cones(mesh, s);
+    std::size_t worst = 0;
+    double wq = 1e300;
+    int blind = -1;
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      auto x = star.tets[i];
+      x[3] = p;
+      if (blind < 0 && !clearly_positive(x)) blind = static_cast<int>(i);
+      const double q = star.one(i, p, scope.targets).q;
+      if (q < wq) wq = q, worst = i;
+    }
+    if (blind < 0 && wq > best_q) best = c, best_q = wq;
+    const TetId n = s[blind >= 0 ? static_cast<std::size_t>(blind) : worst].across;
+    if (static_cast<int>(c.tets.size()) >= max_cavity || !joinable(mesh, n, label, scope)) break;
+    c.add(n);
   }
-  if (!star.closed || static_cast<int>(star.tets.size()) > max_ring) return std::nullopt;
-  AngleQuality before;
-  for (TetId t : star.tets) {
-    if (!scope.contains(t) || mesh.label(t) != mesh.label(star.tets.front())) return std::nullopt;
-    before.combine(angle_quality(mesh, t, scope.targets));
-  }
-  // The children of each tet around the edge, as split_edge makes them: the tet with a's
-  // slot, then b's slot, taken by the new vertex.
-  OpenStar children;
-  const Vec3 mid = 0.5 * (mesh.rest(a) + mesh.rest(b));
+  if (best.tets.empty()) return false;
+  c = std::move(best);
+  return true;
+}
+
+// Bowyer-Watson: the tets reachable from t through faces (one label, in scope) whose
+// circumsphere holds p.
+void delaunay_cavity(const TetMesh& mesh, Cavity& c, const Vec3& p, const ImproveScope& scope, int max_cavity) {
+  const int label = mesh.label(c.tets.front());
+  for (std::size_t i = 0; i < c.tets.size() && static_cast<int>(c.tets.size()) < max_cavity; ++i)
+    for (int f = 0; f < 4 && static_cast<int>(c.tets.size()) < max_cavity; ++f) {
+      const TetId n = mesh.neighbor(c.tets[i], f);
+      if (!joinable(mesh, n, label, scope) || c.in.count(n.idx())) continue;
+      const auto& v = mesh.tet_vertices(n);
+      Eigen::Matrix3d a;
+      Eigen::Vector3d b;
+      for (int k = 0; k < 3; ++k) {
+        const Vec3 d = mesh.rest(v[k + 1]) - mesh.rest(v[0]);
+        a.row(k) = 2 * d.transpose();
+        b[k] = d.squaredNorm();
+      }
+      const Vec3 cc = a.partialPivLu().solve(b);  // circumcenter relative to v[0]
+      if ((p - mesh.rest(v[0]) - cc).squaredNorm() < cc.squaredNorm()) c.add(n);
+    }
+}
+
+struct Plan {
+  Cavity cavity;
+  OnBoundary on;
+  std::array<VertexId, 4> parents;  // interior: a cavity tet holding the point
+  std::array<double, 4> weights;
+  std::vector<double> boundary_weights;  // boundary: the point in on.parents
+  AngleQuality after;
+};
+
+// Barycentric coordinates of p's projection in triangle (a, b, c).
+std::array<double, 3> in_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 n = (b - a).cross(c - a);
+  const double nn = n.squaredNorm();
+  return {(b - p).cross(c - p).dot(n) / nn, (c - p).cross(a - p).dot(n) / nn, (a - p).cross(b - p).dot(n) / nn};
+}
+
+std::optional<Plan> plan_at(const TetMesh& mesh, TetId t, const Vec3& p0, bool delaunay, const OnBoundary& on,
+                            const ImproveScope& scope, int max_cavity, int iterations) {
+  Plan plan;
+  plan.on = on;
+  plan.cavity.add(t);
+  if (delaunay) delaunay_cavity(mesh, plan.cavity, p0, scope, max_cavity);
+  if (!grow(mesh, plan.cavity, p0, scope, max_cavity, on)) return std::nullopt;
+  // Place the point by the ascent on its new tets (within the face for a boundary insertion),
+  // then let the cavity follow it once.
   double h = 1e300;
-  for (TetId t : star.tets) {
-    std::array<Vec3, 4> x;
-    for (int k = 0; k < 4; ++k) {
-      x[k] = mesh.rest(mesh.tet_vertices(t)[k]);
-      h = std::min(h, (x[k] - mid).norm());
-    }
-    for (VertexId e : {a, b}) {
-      children.tets.push_back(x);
-      children.slot.push_back(mesh.local_index(t, e));
-    }
-  }
+  for (TetId c : plan.cavity.tets)
+    for (VertexId v : mesh.tet_vertices(c)) h = std::min(h, (mesh.rest(v) - p0).norm());
   AscentOptions ao;
   ao.iterations = iterations;
   ao.scale = h;
-  const Vec3 p = ascend(children, mid, scope.targets, ao);
-  // Parents: the old tet around the edge that holds p; the position is what move_vertex
-  // will compute from them.
-  Plan plan;
-  double best = -1e300;
-  for (TetId t : star.tets) {
-    const auto& tv = mesh.tet_vertices(t);
-    Eigen::Matrix3d m;
-    for (int k = 0; k < 3; ++k) m.col(k) = mesh.rest(tv[k + 1]) - mesh.rest(tv[0]);
-    const Vec3 l = m.partialPivLu().solve(p - mesh.rest(tv[0]));
-    const std::array<double, 4> w = {1 - l.sum(), l[0], l[1], l[2]};
-    const double lo = *std::min_element(w.begin(), w.end());
-    if (lo > best) best = lo, plan.parents = tv, plan.weights = w;
+  std::vector<Vec3> bx;
+  for (VertexId v : on.parents) bx.push_back(mesh.rest(v));
+  const auto coords = [&](const Vec3& q) {
+    if (bx.size() == 3) {
+      const auto w = in_triangle(q, bx[0], bx[1], bx[2]);
+      return std::vector<double>(w.begin(), w.end());
+    }
+    const double s = (q - bx[0]).dot(bx[1] - bx[0]) / (bx[1] - bx[0]).squaredNorm();
+    return std::vector<double>{1 - s, s};
+  };
+  Vec3 dir;
+  if (bx.size() == 3) {
+    dir = (bx[1] - bx[0]).cross(bx[2] - bx[0]).normalized();
+    ao.normal = &dir;
+  } else if (bx.size() == 2) {
+    dir = (bx[1] - bx[0]).normalized();
+    ao.line = &dir;
   }
-  if (!(best > -1e-9)) return std::nullopt;
-  double s = 0;
-  for (double& w : plan.weights) s += (w = std::max(w, 0.0));
+  if (!bx.empty())
+    ao.project = [&](Vec3& q) {
+      const auto w = coords(q);
+      return *std::min_element(w.begin(), w.end()) > 0.05;
+    };
+  const Vec3 p = ascend(cones(mesh, sides(mesh, plan.cavity, on)), p0, scope.targets, ao);
+  if (!grow(mesh, plan.cavity, p, scope, max_cavity, on)) return std::nullopt;
+  const auto s = sides(mesh, plan.cavity, on);
+  const long growth = static_cast<long>(s.size()) - static_cast<long>(plan.cavity.tets.size());
+  if (growth > scope.growth_left) return std::nullopt;
   Vec3 actual = Vec3::Zero();
-  for (int k = 0; k < 4; ++k) actual += (plan.weights[k] /= s) * mesh.rest(plan.parents[k]);
-  for (std::size_t i = 0; i < children.tets.size(); ++i) {
-    auto x = children.tets[i];
-    x[children.slot[i]] = actual;
-    if (!clearly_positive(x)) return std::nullopt;
+  if (!bx.empty()) {
+    plan.boundary_weights = coords(p);
+    for (std::size_t k = 0; k < bx.size(); ++k) actual += plan.boundary_weights[k] * bx[k];
+    if (!mesh.is_boundary_cavity_insertion_ok(plan.cavity.tets, on.parents, plan.boundary_weights))
+      return std::nullopt;
+  } else {
+    // Parents: the cavity tet that holds p best; the position is what the record computes.
+    double best = -1e300;
+    for (TetId c : plan.cavity.tets) {
+      const auto& tv = mesh.tet_vertices(c);
+      Eigen::Matrix3d m;
+      for (int k = 0; k < 3; ++k) m.col(k) = mesh.rest(tv[k + 1]) - mesh.rest(tv[0]);
+      const Vec3 l = m.partialPivLu().solve(p - mesh.rest(tv[0]));
+      const std::array<double, 4> w = {1 - l.sum(), l[0], l[1], l[2]};
+      const double lo = *std::min_element(w.begin(), w.end());
+      if (lo > best) best = lo, plan.parents = tv, plan.weights = w;
+    }
+    if (!(best > -1e-9)) return std::nullopt;
+    double sum = 0;
+    for (double& w : plan.weights) sum += (w = std::max(w, 0.0));
+    for (int k = 0; k < 4; ++k) actual += (plan.weights[k] /= sum) * mesh.rest(plan.parents[k]);
+    if (!mesh.is_cavity_insertion_ok(plan.cavity.tets, actual)) return std::nullopt;
   }
-  plan.after = children.at(actual, scope.targets);
+  plan.after = cones(mesh, s).at(actual, scope.targets);
+  AngleQuality before;
+  for (TetId c : plan.cavity.tets) before.combine(angle_quality(mesh, c, scope.targets));
   if (!better(plan.after, before, scope.targets)) return std::nullopt;
-  plan.a = a;
-  plan.b = b;
-  plan.removed = star.tets;
   return plan;
+}
+
+Vec3 circumcenter(const std::array<Vec3, 4>& x) {
+  Eigen::Matrix3d a;
+  Eigen::Vector3d b;
+  for (int k = 0; k < 3; ++k) {
+    const Vec3 d = x[k + 1] - x[0];
+    a.row(k) = 2 * d.transpose();
+    b[k] = d.squaredNorm();
+  }
+  return x[0] + a.partialPivLu().solve(b);
 }
 
 }  // namespace
 
-std::optional<InsertionOutcome> improve_by_insertion(TetMesh& mesh, TetId t, const ImproveScope& scope, int max_ring,
-                                                     int iterations) {
+std::optional<InsertionOutcome> improve_by_insertion(TetMesh& mesh, TetId t, const ImproveScope& scope,
+                                                     const InsertionOptions& opt) {
   const auto v = mesh.tet_vertices(t);
-  std::optional<Plan> best;
+  std::array<Vec3, 4> x;
+  for (int k = 0; k < 4; ++k) x[k] = mesh.rest(v[k]);
+  const Vec3 bary = 0.25 * (x[0] + x[1] + x[2] + x[3]);
+  // Start points: (point, Bowyer-Watson cavity first, boundary face).
+  struct Start {
+    Vec3 p;
+    bool delaunay;
+    OnBoundary on;
+  };
+  std::vector<Start> starts = {{bary, false, {}}, {bary, true, {}}};
+  const Vec3 cc = circumcenter(x);
+  if (cc.allFinite()) starts.push_back({cc, true, {}});
+  for (int f = 0; f < 4; ++f) {
+    const Vec3 centroid = (bary * 4 - x[f]) / 3;
+    if (mesh.neighbor(t, f).is_valid())
+      starts.push_back({centroid, false, {}});
+    else if (opt.boundary_tags && opt.boundary_tags(mesh.face_tag(t, f)))
+      starts.push_back({centroid, false, {{v[kFaceLocal[f][0]], v[kFaceLocal[f][1]], v[kFaceLocal[f][2]]}}});
+  }
   for (int i = 0; i < 4; ++i)
-    for (int j = i + 1; j < 4; ++j)
-      if (auto p = plan_split(mesh, v[i], v[j], scope, max_ring, iterations))
-        if (!best || p->after.q > best->after.q) best = std::move(p);
+    for (int j = i + 1; j < 4; ++j) {
+      const Vec3 mid = 0.5 * (x[i] + x[j]);
+      starts.push_back({mid, false, {}});
+      // On a boundary edge of t: its boundary faces (the check finds them) take the vertex.
+      bool boundary_edge = false;
+      for (int f = 0; f < 4; ++f)
+        boundary_edge = boundary_edge || (f != i && f != j && !mesh.neighbor(t, f).is_valid() &&
+                                          opt.boundary_tags && opt.boundary_tags(mesh.face_tag(t, f)));
+      if (boundary_edge) starts.push_back({mid, false, {{v[i], v[j]}}});
+    }
+  std::optional<Plan> best;
+  for (const Start& s : starts)
+    if (auto plan = plan_at(mesh, t, s.p, s.delaunay, s.on, scope, opt.max_cavity, opt.iterations))
+      if (!best || plan->after.q > best->after.q) best = std::move(plan);
   if (!best) return std::nullopt;
   InsertionOutcome out;
-  out.removed = best->removed;
-  out.vertex = mesh.split_edge(best->a, best->b, 0.5);
-  mesh.move_vertex(out.vertex, best->parents, best->weights);
+  out.removed = best->cavity.tets;
+  out.on_boundary = !best->on.parents.empty();
+  out.vertex = out.on_boundary
+                   ? mesh.insert_in_cavity_on_boundary(best->cavity.tets, best->on.parents, best->boundary_weights)
+                   : mesh.insert_in_cavity(best->cavity.tets, best->parents, best->weights);
   const auto inc = mesh.incident_tets(out.vertex);
   out.added.assign(inc.begin(), inc.end());
   return out;

@@ -80,6 +80,127 @@ TEST_CASE("thousands of random edits keep every invariant, the volume and the ta
   }
 }
 
+TEST_CASE("cavity insertions keep every invariant, the volume, the labels and the tags", "[mesh][cavity]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {4, 4, 4});
+  jitter(m, 0.2, 21);
+  for (TetId t : m.tets())
+    if (t.idx() % 4 == 0) m.set_label(t, 3);
+  auto label_volume = [&](int lab) {
+    double v = 0;
+    for (TetId t : m.tets())
+      if (m.label(t) == lab) v += m.volume(t);
+    return v;
+  };
+  const double vol0 = label_volume(0), vol3 = label_volume(3), area = tagged_area(m, kTagSurface);
+  std::mt19937 rng(4);
+  int done = 0, multi = 0;
+  m.discard_change();
+  for (int i = 0; i < 400; ++i) {
+    const std::size_t before = m.num_tets();
+    if (!random_cavity_insertion(m, rng)) continue;
+    ++done;
+    multi += m.num_tets() > before + 3;  // more than a 1-4 split: a cavity of several tets
+    m.validate();
+  }
+  m.validate({true, true});
+  CHECK(done > 100);
+  CHECK(multi > 20);
+  CHECK(label_volume(0) == Approx(vol0).epsilon(1e-12));
+  CHECK(label_volume(3) == Approx(vol3).epsilon(1e-12));
+  CHECK(tagged_area(m, kTagSurface) == Approx(area).epsilon(1e-12));
+  const TopologyChange ch = m.take_change();
+  CHECK(ch.added_vertices.size() == static_cast<std::size_t>(done));
+  // Each new vertex sits where its record's parents put it.
+  for (const VertexOrigin& o : ch.added_vertices) {
+    Vec3 p = Vec3::Zero();
+    for (int k = 0; k < 4; ++k)
+      if (o.parents[k].is_valid()) p += o.weights[k] * m.rest(o.parents[k]);
+    CHECK((p - m.rest(o.vertex)).norm() < 1e-12);
+  }
+}
+
+TEST_CASE("boundary cavity insertions split a boundary face or edge in place, keeping its tag", "[mesh][cavity]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {4, 4, 4});
+  jitter(m, 0.2, 22);
+  for (TetId t : m.tets())  // a second tag on part of the surface
+    for (int f = 0; f < 4; ++f)
+      if (!m.neighbor(t, f).is_valid() && t.idx() % 3 == 0) m.set_face_tag(t, f, kTagCut);
+  const double vol = m.total_volume(), surface = tagged_area(m, kTagSurface), cut = tagged_area(m, kTagCut);
+  const std::size_t faces = m.boundary_faces().size();
+  std::mt19937 rng(9);
+  int on_face = 0, on_edge = 0;
+  m.discard_change();
+  for (int i = 0; i < 2000; ++i) {
+    const TetId t = random_tet(m, rng);
+    const int f = static_cast<int>(rng() % 4);
+    if (m.neighbor(t, f).is_valid()) continue;
+    const auto fv = m.face_vertices(t, f);
+    // The cavity: t and its neighbours (those around the edge too, for an edge insertion).
+    std::vector<TetId> cavity = {t};
+    for (int g = 0; g < 4; ++g)
+      if (m.neighbor(t, g).is_valid() && rng() % 2) cavity.push_back(m.neighbor(t, g));
+    const bool edge = rng() % 2;
+    const double a = 0.3 + 0.4 * double(rng() % 100) / 100;
+    bool ok;
+    if (edge) {
+      const VertexId par[2] = {fv[0], fv[1]};
+      const double w[2] = {a, 1 - a};
+      for (TetId u : m.incident_tets(fv[0]))
+        if (m.local_index(u, fv[1]) >= 0 && std::find(cavity.begin(), cavity.end(), u) == cavity.end())
+          cavity.push_back(u);
+      ok = m.is_boundary_cavity_insertion_ok(cavity, par, w);
+      if (ok) m.insert_in_cavity_on_boundary(cavity, par, w);
+      on_edge += ok;
+    } else {
+      const double w[3] = {a / 2, a / 2, 1 - a};
+      ok = m.is_boundary_cavity_insertion_ok(cavity, fv, w);
+      if (ok) m.insert_in_cavity_on_boundary(cavity, fv, w);
+      on_face += ok;
+    }
+    if (ok) m.validate();
+  }
+  m.validate({true, true});
+  CHECK(on_face > 30);
+  CHECK(on_edge > 30);
+  CHECK(m.total_volume() == Approx(vol).epsilon(1e-12));
+  CHECK(tagged_area(m, kTagSurface) == Approx(surface).epsilon(1e-12));
+  CHECK(tagged_area(m, kTagCut) == Approx(cut).epsilon(1e-12));
+  CHECK(m.boundary_faces().size() == faces + 2 * std::size_t(on_face + on_edge));
+  // A face point must lie inside its face; an interior face is not a boundary face.
+  const TetId t = m.tets().front();
+  const double bad[3] = {0.5, 0.6, -0.1};
+  CHECK_FALSE(m.is_boundary_cavity_insertion_ok(std::vector<TetId>{t}, m.face_vertices(t, 0), bad));
+}
+
+TEST_CASE("cavity insertions that would orphan a vertex, mix labels or invert are refused", "[mesh][cavity]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {3, 3, 3});
+  jitter(m, 0.2, 5);
+  VertexId inner;
+  for (VertexId v : m.vertices())
+    if ((m.rest(v) - Vec3(1, 1, 1) / 3).norm() < 0.2) inner = v;
+  REQUIRE(inner.is_valid());
+  const auto star = m.incident_tets(inner);
+  const std::vector<TetId> cavity(star.begin(), star.end());
+  // The whole star of an interior vertex: the vertex would be left without tets.
+  CHECK_FALSE(m.is_cavity_insertion_ok(cavity, m.rest(inner) + Vec3(1e-3, 0, 0)));
+  // One tet: a point outside it does not see all its faces.
+  const TetId t = cavity.front();
+  Vec3 c = Vec3::Zero();
+  for (VertexId v : m.tet_vertices(t)) c += m.rest(v) / 4;
+  CHECK(m.is_cavity_insertion_ok(std::vector<TetId>{t}, c));
+  CHECK_FALSE(m.is_cavity_insertion_ok(std::vector<TetId>{t}, c + Vec3(5, 0, 0)));
+  // Two labels in one cavity.
+  const TetId n = m.neighbor(t, 0);
+  m.set_label(n, 7);
+  CHECK_FALSE(m.is_cavity_insertion_ok(std::vector<TetId>{t, n}, c));
+  const std::size_t tets = m.num_tets();
+  const VertexId parents[1] = {inner};
+  const double w[1] = {1.0};
+  CHECK_THROWS_AS(m.insert_in_cavity(cavity, parents, w), InvalidArgument);
+  CHECK(m.num_tets() == tets);
+  m.validate();
+}
+
 TEST_CASE("flip 2-3 and 3-2 are inverse; 4-4 keeps volume and boundary", "[mesh]") {
   TetMesh m = make_box(Vec3(1, 1, 1), {3, 3, 3});
   jitter(m, 0.25, 5);

@@ -1,7 +1,7 @@
-// Edge contractions and multi-face removals fed to the backends: after batches of random
-// splits, flips, tet removals, multi-face removals and contractions, the locally updated FEM
-// model and spring model equal ones built from scratch, and the fields of the surviving
-// vertices are untouched.
+// Edge contractions, multi-face removals and cavity insertions fed to the backends: after
+// batches of random splits, flips, tet removals, multi-face removals, cavity insertions and
+// contractions, the locally updated FEM model and spring model equal ones built from scratch,
+// and the fields of the surviving vertices are untouched.
 #include <catch2/catch.hpp>
 
 #include <random>
@@ -28,7 +28,7 @@ bool random_multi_face_removal(TetMesh& m, std::mt19937& rng) {
 }
 
 struct Done {
-  int collapses = 0, multi_face = 0;
+  int collapses = 0, multi_face = 0, cavities = 0;
 };
 
 // A batch: random edits, multi-face removals and contractions interleaved; a contraction may
@@ -42,6 +42,7 @@ void edit_batch(TetMesh& m, std::mt19937& rng, int edits, int removals, int coll
       --edits;
     } else if (k < edits + removals) {
       done.multi_face += random_multi_face_removal(m, rng);
+      done.cavities += random_cavity_insertion(m, rng);  // quality/insertion.h's edit
       --removals;
     } else {
       done.collapses += random_collapse(m, rng, [](VertexId) { return true; });
@@ -52,7 +53,8 @@ void edit_batch(TetMesh& m, std::mt19937& rng, int edits, int removals, int coll
 
 }  // namespace
 
-TEST_CASE("contractions and multi-face removals keep locally updated FEM and spring models equal to fresh ones",
+TEST_CASE("contractions, multi-face removals and cavity insertions keep locally updated FEM and spring "
+          "models equal to fresh ones",
           "[fem][springs][collapse][multiface]") {
   TetMesh m = make_box(Vec3(1, 1.5, 1), {4, 5, 4});
   jitter(m, 0.25, 9);
@@ -97,7 +99,9 @@ TEST_CASE("contractions and multi-face removals keep locally updated FEM and spr
       CHECK(springs.stable_time_step() == Approx(fresh.stable_time_step()).epsilon(1e-12));
     }
   }
-  INFO(done.collapses << " contractions, " << done.multi_face << " multi-face removals");
+  INFO(done.collapses << " contractions, " << done.multi_face << " multi-face removals, " << done.cavities
+                      << " cavity insertions");
   CHECK(done.collapses > 50);
   CHECK(done.multi_face > 20);
+  CHECK(done.cavities > 20);
 }

@@ -85,6 +85,30 @@ bool random_collapse(TetMesh& m, std::mt19937& rng, Removable removable) {
   return collapse_edge(m, v[i], v[j]);
 }
 
+// One random cavity insertion (TetMesh::insert_in_cavity): a random interior point of a random
+// tet, the cavity that tet plus a random subset of its same-label neighbours (and of theirs).
+// Returns whether the mesh took it.
+inline bool random_cavity_insertion(TetMesh& m, std::mt19937& rng) {
+  const TetId t = random_tet(m, rng);
+  std::vector<TetId> cavity = {t};
+  for (std::size_t i = 0; i < cavity.size() && i < 3; ++i)
+    for (int f = 0; f < 4; ++f) {
+      const TetId n = m.neighbor(cavity[i], f);
+      if (n.is_valid() && m.label(n) == m.label(t) && rng() % 2 &&
+          std::find(cavity.begin(), cavity.end(), n) == cavity.end())
+        cavity.push_back(n);
+    }
+  std::uniform_real_distribution<double> u(0.25, 0.75);
+  std::array<double, 4> w;
+  double s = 0;
+  for (double& x : w) s += (x = u(rng));
+  Vec3 p = Vec3::Zero();
+  for (int k = 0; k < 4; ++k) p += (w[k] /= s) * m.rest(m.tet_vertices(t)[k]);
+  if (!m.is_cavity_insertion_ok(cavity, p)) return false;
+  m.insert_in_cavity(cavity, m.tet_vertices(t), w);
+  return true;
+}
+
 inline std::vector<std::uint8_t> boundary_vertices(const TetMesh& m) {
   std::vector<std::uint8_t> on(m.vertex_capacity(), 0);
   for (const auto& f : m.boundary_faces())
