@@ -31,6 +31,9 @@ void add_improve(CLI::App& app) {
   cmd->add_option("--target-max-dihedral", o->improve.target_max_dihedral_deg,
                   "... and its largest is at most this (degrees)")
       ->capture_default_str();
+  cmd->add_option("--radius-ratio-floor", o->improve.radius_ratio_floor,
+                  "An operation may lower its tets' radius ratio down to this, never below (1: never lower it)")
+      ->capture_default_str();
   cmd->add_flag("--no-flips", o->no_flips, "Smoothing only (connectivity unchanged)");
   cmd->add_flag("--no-multi-face", o->no_multi_face, "No multi-face removal among the flips (for comparison)");
   cmd->add_flag("--no-smoothing", o->no_smoothing, "Flips only (vertices stay)");
@@ -48,6 +51,8 @@ void add_improve(CLI::App& app) {
     if (!(o->improve.target_dihedral_deg > 0 && o->improve.target_dihedral_deg < 70.5 &&
           o->improve.target_max_dihedral_deg > 70.6 && o->improve.target_max_dihedral_deg < 180))
       throw InvalidArgument("improve: targets must satisfy 0 < --target-dihedral < 70.5 < --target-max-dihedral < 180");
+    if (!(o->improve.radius_ratio_floor > 0 && o->improve.radius_ratio_floor <= 1))
+      throw InvalidArgument("improve: --radius-ratio-floor must be in (0, 1]");
     ImproveOptions opt = o->improve;
     opt.flips = !o->no_flips;
     opt.collapse = !o->no_flips;  // contraction changes connectivity too

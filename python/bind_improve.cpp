@@ -12,8 +12,11 @@ namespace incise::python {
 namespace {
 
 ImproveOptions options(double time_limit, double budget_ms, int max_work, double target, double target_max,
-                       bool flips, bool smoothing, bool insertion, double max_growth, bool keep_surface,
-                       bool fixed_boundary, double feature_angle, const std::vector<VertexId>& frozen) {
+                       bool flips, bool multi_face, bool smoothing, bool insertion, double max_growth,
+                       double radius_ratio_floor, bool keep_surface, bool fixed_boundary, double feature_angle,
+                       const std::vector<VertexId>& frozen) {
+  if (!(radius_ratio_floor > 0 && radius_ratio_floor <= 1))
+    throw InvalidArgument("improve: radius_ratio_floor must be in (0, 1]");
   ImproveOptions o;
   o.time_limit_s = time_limit;
   o.time_budget_ms = budget_ms;
@@ -22,6 +25,8 @@ ImproveOptions options(double time_limit, double budget_ms, int max_work, double
   o.target_max_dihedral_deg = target_max;
   o.flips = flips;
   o.collapse = flips;  // like --no-flips: contraction changes connectivity too
+  o.multi_face_removal = multi_face;
+  o.radius_ratio_floor = radius_ratio_floor;
   o.smoothing = smoothing;
   o.insertion = insertion;
   o.max_growth = max_growth;
@@ -45,19 +50,21 @@ py::dict result(TetMesh& mesh, const ImproveReport& r) {
 void bind_improve(py::module_& m) {
   m.def(
       "improve",
-      [](TetMesh& mesh, double time_limit, double target, double target_max, bool flips, bool smoothing,
-         bool insertion, double max_growth, bool keep_surface, bool fixed_boundary, double feature_angle,
-         const py::object& frozen) {
+      [](TetMesh& mesh, double time_limit, double target, double target_max, bool flips, bool multi_face,
+         bool smoothing, bool insertion, double max_growth, double radius_ratio_floor, bool keep_surface,
+         bool fixed_boundary, double feature_angle, const py::object& frozen) {
         if (mesh.has_pending_change())
           throw InvalidArgument("improve: the mesh has edits not yet taken (call take_change() first)");
         const std::vector<VertexId> fz = frozen.is_none() ? std::vector<VertexId>{} : to_vertices(mesh, frozen);
-        const ImproveReport r = improve(mesh, options(time_limit, 0, 0, target, target_max, flips, smoothing, insertion,
-                                                      max_growth, keep_surface, fixed_boundary, feature_angle, fz));
+        const ImproveReport r = improve(mesh, options(time_limit, 0, 0, target, target_max, flips, multi_face, smoothing,
+                                                      insertion, max_growth, radius_ratio_floor, keep_surface,
+                                                      fixed_boundary, feature_angle, fz));
         return result(mesh, r);
       },
       py::arg("mesh"), py::kw_only(), py::arg("time_limit") = 10.0, py::arg("target_dihedral") = 35.0,
-      py::arg("target_max_dihedral") = 135.0, py::arg("flips") = true, py::arg("smoothing") = true,
-      py::arg("insert") = false, py::arg("max_growth") = 1.5, py::arg("keep_surface") = false,
+      py::arg("target_max_dihedral") = 135.0, py::arg("flips") = true, py::arg("multi_face") = true,
+      py::arg("smoothing") = true, py::arg("insert") = false, py::arg("max_growth") = 1.5,
+      py::arg("radius_ratio_floor") = 0.1, py::arg("keep_surface") = false,
       py::arg("fixed_boundary") = false, py::arg("feature_angle") = 30.0, py::arg("frozen") = py::none(),
       "Flips and smoothing over the whole mesh, worst first (as `incise improve`); returns the "
       "`incise improve --json` report with the edits as 'change'");
@@ -74,7 +81,7 @@ void bind_improve(py::module_& m) {
         }
         const std::vector<VertexId> fz = frozen.is_none() ? std::vector<VertexId>{} : to_vertices(mesh, frozen);
         // Local passes keep the surface exactly, as the cutter's does.
-        ImproveOptions o = options(10, budget_ms, max_work, 35, 135, true, true, false, 1.5, true, false, 30, fz);
+        ImproveOptions o = options(10, budget_ms, max_work, 35, 135, true, true, true, false, 1.5, 0.1, true, false, 30, fz);
         o.rings = rings;
         return result(mesh, improve_local(mesh, ts, o));
       },

@@ -199,11 +199,13 @@ TEST_CASE("improve: sliver-laden mesh from random splits and flips", "[improve]"
   // Insertion where flips and smoothing are stuck: never worse, within the growth bound.
   ImproveOptions o;
   o.insertion = true;
-  o.collapse = false;  // no insertion follows a contraction in one pass (ids would be reused)
   o.max_growth = 1.2;
   const ImproveReport ins = run_and_check(with_insertion, 1.0, o);
   CHECK(ins.insertions > 0);
-  CHECK(ins.max_dihedral_after <= rep.max_dihedral_after + 10);  // loose: a different path, but no worse by much
+  // Insertion starts once the sweeps without it (the run above) have converged, and never
+  // makes the worst tet worse: at least as good at both ends (19.70..144.20 -> 21.82..144.20).
+  CHECK(ins.min_dihedral_after >= rep.min_dihedral_after);
+  CHECK(ins.max_dihedral_after <= rep.max_dihedral_after);
 }
 
 TEST_CASE("improve: cavity insertion lifts the sample elephant's worst tets further", "[improve][insertion]") {
