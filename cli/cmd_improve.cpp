@@ -2,6 +2,7 @@
 // the time limit; labels and boundary tags kept, boundary vertices on the old surface (and
 // the surface exactly kept with --keep-surface). Prints the before/after summary; --json
 // writes the report (schema incise.improve/1).
+#include <cstdio>
 #include <iostream>
 
 #include "cli/commands.h"
@@ -9,6 +10,7 @@
 #include "mesh/errors.h"
 #include "mesh/io/atomic_file.h"
 #include "mesh/io/tet_io.h"
+#include "quality/boundary_angle.h"
 #include "quality/improve.h"
 
 namespace incise::cli {
@@ -64,6 +66,7 @@ void add_improve(CLI::App& app) {
     if (!(opt.max_growth >= 1)) throw InvalidArgument("improve: --max-growth must be at least 1");
     ReadReport read;
     TetMesh mesh = read_tet_mesh(o->in, &read);
+    const std::optional<BoundaryAngle> bound = smallest_boundary_angle(mesh);
     const ImproveReport r = improve(mesh, opt);
     mesh.discard_change();
     write_tet_mesh(mesh, o->out);
@@ -71,11 +74,22 @@ void add_improve(CLI::App& app) {
       nlohmann::json j = improve_report_json(r);
       j["input"] = o->in;
       j["output"] = o->out;
+      j["boundary_angle"] = bound ? nlohmann::json(bound->degrees) : nlohmann::json(nullptr);
       AtomicFile f(o->json);
       f.write(j.dump(2) + "\n");
       f.commit();
     }
     std::cout << o->in << " (" << read.format << ") -> " << o->out << "\n" << format_improve_report(r);
+    // Where the surface itself forbids the target, say so: the tets at its sharpest edge share
+    // that edge's angle.
+    if (bound && bound->degrees < opt.target_dihedral_deg) {
+      char buf[200];
+      std::snprintf(buf, sizeof buf,
+                    "improve: the boundary allows at most %.2f deg (its sharpest edge, vertices %u-%u), below the "
+                    "target %.2f\n",
+                    bound->degrees, bound->a.idx(), bound->b.idx(), opt.target_dihedral_deg);
+      std::cout << buf;
+    }
   });
 }
 

@@ -175,6 +175,7 @@ QualityReport compute_quality_report(const TetMesh& mesh, const QualityOptions& 
   }
 
   r.boundary = boundary_topology(mesh);
+  r.boundary_angle = smallest_boundary_angle(mesh);
   r.components = tet_components(mesh).count;
   SolverEstimateOptions so;
   so.tolerance = options.solver_tolerance;
@@ -226,6 +227,10 @@ std::string format_quality_report(const QualityReport& r) {
        (b.oriented() ? "" : ", MIS-ORIENTED") + " (" + std::to_string(b.open_edges) + " open, " +
        std::to_string(b.non_manifold_edges) + " non-manifold, " + std::to_string(b.misoriented_edges) +
        " mis-oriented edges; " + std::to_string(b.non_manifold_vertices) + " non-manifold vertices)");
+  if (r.boundary_angle)
+    line("boundary: sharpest edge " + fmt("%.2f", r.boundary_angle->degrees) + " deg (vertices " +
+         std::to_string(r.boundary_angle->a.idx()) + "-" + std::to_string(r.boundary_angle->b.idx()) +
+         "): no mesh of this surface has a larger smallest dihedral angle");
   line("elements: " + std::to_string(r.inverted) + " inverted, " + std::to_string(r.degenerate) + " degenerate, " +
        std::to_string(r.slivers) + " slivers (min dihedral < " + num(r.options.sliver_angle) + " deg)");
   line("");

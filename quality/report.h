@@ -11,9 +11,11 @@
 #include <array>
 #include <span>
 #include <string>
+#include <optional>
 #include <vector>
 
 #include "mesh/tet_mesh.h"
+#include "quality/boundary_angle.h"
 #include "quality/components.h"
 #include "quality/conditioning.h"
 #include "quality/metrics.h"
@@ -74,6 +76,9 @@ struct QualityReport {
   std::vector<MetricStats> metrics;    // one per Metric, in enum order
   std::vector<WorstElement> worst;     // worst first, by options.worst_metric
   BoundaryTopology boundary;
+  // The sharpest boundary edge (quality/boundary_angle.h): the worst dihedral angle no
+  // surface-keeping improvement can lift above. Empty without manifold boundary edges.
+  std::optional<BoundaryAngle> boundary_angle;
   std::size_t components = 0;          // of tets through shared faces
   std::vector<LabelStats> labels;      // by increasing label
   SolverEstimate solver;

@@ -76,6 +76,11 @@ json quality_report_json(const QualityReport& r) {
                    {"closed", b.closed()},
                    {"manifold", b.manifold()},
                    {"oriented", b.oriented()}};
+  // The sharpest boundary edge: the bound on the smallest dihedral angle (null without one).
+  j["boundary"]["sharpest_edge"] =
+      r.boundary_angle ? json{{"degrees", r.boundary_angle->degrees},
+                              {"vertices", {r.boundary_angle->a.idx(), r.boundary_angle->b.idx()}}}
+                       : json(nullptr);
   j["components"] = r.components;
   json labels = json::array();
   for (const LabelStats& l : r.labels)

@@ -333,3 +333,31 @@ TEST_CASE("text report shows the essentials", "[quality][report]") {
                              "worst 10 by mean_ratio", "condition number", "0 inverted"})
     CHECK_THAT(s, Catch::Contains(needle));
 }
+
+TEST_CASE("sharpest boundary edge: the bound on the smallest dihedral angle", "[quality][report]") {
+  // A box: every boundary edge is a 90-degree box edge or a flat (180) face diagonal.
+  const TetMesh box = make_box(Vec3(1, 2, 3), {2, 3, 4});
+  const auto a = smallest_boundary_angle(box);
+  REQUIRE(a);
+  CHECK(a->degrees == Approx(90).margin(1e-9));
+  // The edge it names is a box edge: its two ends differ in exactly one coordinate.
+  const Vec3 d = box.rest(a->b) - box.rest(a->a);
+  CHECK(int(std::abs(d.x()) > 1e-12) + int(std::abs(d.y()) > 1e-12) + int(std::abs(d.z()) > 1e-12) == 1);
+  // A single regular tet: each edge's interior angle is the tet's own dihedral angle.
+  TetMesh one;
+  const VertexId p0 = one.add_vertex(Vec3(1, 1, 1)), p1 = one.add_vertex(Vec3(1, -1, -1)),
+                 p2 = one.add_vertex(Vec3(-1, 1, -1)), p3 = one.add_vertex(Vec3(-1, -1, 1));
+  one.add_tet(p0, p1, p2, p3, 1);
+  one.discard_change();
+  REQUIRE(smallest_boundary_angle(one));
+  CHECK(smallest_boundary_angle(one)->degrees == Approx(std::acos(1.0 / 3) * 180 / M_PI));
+  // A wedge made sharper: squash the box in y and the box edges stay 90; shear it and the
+  // sharp edge follows the shear (atan(1/2) from the shear x += 2 y on a unit box).
+  TetMesh sheared = make_box(Vec3(1, 1, 1), {2, 2, 2});
+  for (VertexId v : sheared.vertices()) sheared.set_rest(v, sheared.rest(v) + Vec3(2 * sheared.rest(v).y(), 0, 0));
+  CHECK(smallest_boundary_angle(sheared)->degrees == Approx(std::atan2(1.0, 2.0) * 180 / M_PI));
+  // The report carries it; an empty mesh has none.
+  CHECK(compute_quality_report(box).boundary_angle->degrees == Approx(90));
+  CHECK_FALSE(smallest_boundary_angle(TetMesh{}));
+  CHECK(format_quality_report(compute_quality_report(box)).find("sharpest edge 90.00 deg") != std::string::npos);
+}

@@ -1,0 +1,58 @@
+#include "quality/boundary_angle.h"
+
+#include <cmath>
+#include <unordered_map>
+
+namespace incise {
+
+namespace {
+
+std::uint64_t edge_key(VertexId a, VertexId b) {
+  const std::uint64_t x = std::min(a.idx(), b.idx()), y = std::max(a.idx(), b.idx());
+  return x << 32 | y;
+}
+
+// Dihedral angle of tet p at edge (p[i], p[j]), in degrees.
+double dihedral_at(const std::array<Vec3, 4>& p, int i, int j) {
+  int k = 0;
+  while (k == i || k == j) ++k;
+  const int l = 6 - i - j - k;
+  const Vec3 e = (p[j] - p[i]).normalized();
+  Vec3 u = p[k] - p[i], w = p[l] - p[i];
+  u -= u.dot(e) * e;
+  w -= w.dot(e) * e;
+  return std::atan2(u.cross(w).norm(), u.dot(w)) * 180.0 / 3.14159265358979323846;
+}
+
+}  // namespace
+
+std::optional<BoundaryAngle> smallest_boundary_angle(const TetMesh& mesh) {
+  // Boundary edges with how many boundary faces hold them: only those held by two (manifold)
+  // have one interior angle.
+  struct Edge {
+    int faces = 0;
+    double angle = 0;
+  };
+  std::unordered_map<std::uint64_t, Edge> edges;
+  for (const BoundaryFace& f : mesh.boundary_faces())
+    for (int k = 0; k < 3; ++k) ++edges[edge_key(f.vertices[k], f.vertices[(k + 1) % 3])].faces;
+  if (edges.empty()) return std::nullopt;
+  for (TetId t : mesh.tets()) {
+    const auto& v = mesh.tet_vertices(t);
+    std::array<Vec3, 4> p;
+    for (int k = 0; k < 4; ++k) p[k] = mesh.rest(v[k]);
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j) {
+        const auto it = edges.find(edge_key(v[i], v[j]));
+        if (it != edges.end()) it->second.angle += dihedral_at(p, i, j);
+      }
+  }
+  std::optional<BoundaryAngle> out;
+  for (const auto& [key, e] : edges)
+    if (e.faces == 2 && (!out || e.angle < out->degrees))
+      out = BoundaryAngle{e.angle, VertexId(static_cast<std::uint32_t>(key >> 32)),
+                          VertexId(static_cast<std::uint32_t>(key & 0xffffffffu))};
+  return out;
+}
+
+}  // namespace incise

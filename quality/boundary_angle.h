@@ -1,0 +1,21 @@
+#pragma once
+// What the boundary allows: the smallest interior angle of the domain at a boundary edge,
+// measured as the sum of the dihedral angles of the tets around that edge. Those dihedral
+// angles add up to it in every tet mesh of the same surface, so the smallest of them is at
+// most this angle: no improvement that keeps the surface can lift the worst dihedral angle
+// above it (the sample liver's sharpest edge, 34.98 degrees, caps it just under 35).
+#include <optional>
+
+#include "mesh/tet_mesh.h"
+
+namespace incise {
+
+struct BoundaryAngle {
+  double degrees = 180;       // smallest interior angle at a boundary edge
+  VertexId a, b;              // that edge
+};
+
+// nullopt for a mesh without manifold boundary edges. O(mesh).
+std::optional<BoundaryAngle> smallest_boundary_angle(const TetMesh& mesh);
+
+}  // namespace incise
