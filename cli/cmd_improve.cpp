@@ -34,7 +34,7 @@ void add_improve(CLI::App& app) {
                   "... and its largest is at most this (degrees)")
       ->capture_default_str();
   cmd->add_option("--radius-ratio-floor", o->improve.radius_ratio_floor,
-                  "An operation may lower its tets' radius ratio down to this, never below (1: never lower it)")
+                  "With --insert: an operation may lower its tets' radius ratio down to this, never below (1: never)")
       ->capture_default_str();
   cmd->add_flag("--no-flips", o->no_flips, "Smoothing only (connectivity unchanged)");
   cmd->add_flag("--no-multi-face", o->no_multi_face, "No multi-face removal among the flips (for comparison)");

@@ -18,10 +18,9 @@ struct AngleTargets {
   double max_deg = 135;  // largest dihedral angle wanted
   // q does not see needles (one vertex far from a small triangle: fine dihedral angles, radius
   // ratio near 0), so an operation may not lower the radius ratio of the tets it replaces below
-  // this floor. A stricter guard (never lower it at all) refuses most of the insertions and
-  // smoothing moves that lift the worst angles of organ meshes past 25 degrees: they trade a
-  // nearly regular tet (0.45) for a fair one (0.35). See docs/improve.md.
-  double radius_ratio_floor = 0.1;
+  // this floor (1: not at all). The improvement pass lowers it to
+  // ImproveOptions::radius_ratio_floor when it inserts vertices (see there).
+  double radius_ratio_floor = 1;
 };
 
 // Worst values over a set of tets (or one tet).

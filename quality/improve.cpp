@@ -52,7 +52,9 @@ public:
         has_deadline_(has_deadline),
         region_(region),
         growth_cap_(static_cast<long>((opt.max_growth - 1) * double(base_tets))) {
-    scope_.targets = {opt.target_dihedral_deg, opt.target_max_dihedral_deg, opt.radius_ratio_floor};
+    // The radius-ratio floor is for passes with insertion (ImproveOptions::radius_ratio_floor).
+    scope_.targets = {opt.target_dihedral_deg, opt.target_max_dihedral_deg,
+                      opt.insertion ? opt.radius_ratio_floor : 1.0};
     scope_.region = region;
     for (VertexId v : opt.frozen) frozen_.insert(v.idx());
     flip_.max_ring = opt.max_ring;

@@ -62,3 +62,18 @@ def test_improve_without_flips_keeps_the_connectivity():
     assert r["operations"]["contractions"] == 0
     assert np.array_equal(np.sort(np.sort(m.tets, axis=1), axis=0), tets0)
     assert incise.improve(cut_box(), time_limit=5)["operations"]["contractions"] > 0
+
+
+def test_improve_keywords_for_multi_face_removal_and_the_radius_ratio_floor(source_dir):
+    # multi_face=False is `--no-multi-face`: the sample elephant gets discs of three faces or
+    # more removed by default (47), none without.
+    elephant = str(source_dir / "samples" / "elephant.msh")
+    assert incise.improve(incise.read(elephant), time_limit=5)["operations"]["multi_face_removals"] > 0
+    r = incise.improve(incise.read(elephant), time_limit=5, multi_face=False)
+    assert r["operations"]["multi_face_removals"] == 0
+    # With insertion the floor bounds how far the smallest radius ratio may drop.
+    m = jittered_box()
+    r = incise.improve(m, time_limit=5, insert=True, radius_ratio_floor=0.3)
+    assert r["after"]["min_radius_ratio"] >= min(r["before"]["min_radius_ratio"], 0.3) - 1e-12
+    with pytest.raises(incise.InvalidArgument, match="radius_ratio_floor"):
+        incise.improve(jittered_box(), radius_ratio_floor=0.0)
