@@ -52,9 +52,8 @@ public:
         has_deadline_(has_deadline),
         region_(region),
         growth_cap_(static_cast<long>((opt.max_growth - 1) * double(base_tets))) {
-    // The radius-ratio floor is for passes with insertion (ImproveOptions::radius_ratio_floor).
-    scope_.targets = {opt.target_dihedral_deg, opt.target_max_dihedral_deg,
-                      opt.insertion ? opt.radius_ratio_floor : 1.0};
+    // Strict radius-ratio guard until insertion starts (allow_insertion()).
+    scope_.targets = {opt.target_dihedral_deg, opt.target_max_dihedral_deg, 1.0};
     scope_.region = region;
     for (VertexId v : opt.frozen) frozen_.insert(v.idx());
     flip_.max_ring = opt.max_ring;
@@ -109,8 +108,15 @@ public:
 
   std::unordered_set<std::uint32_t> moved;
   // Insertion adds tets, and the growth cap is shared by the whole pass: global mode first
-  // lets flips, contraction and smoothing converge, then allows insertion for what is left.
+  // lets flips, contraction and smoothing converge, then allows insertion for what is left,
+  // and from then on every operation may trade radius ratio down to the floor
+  // (ImproveOptions::radius_ratio_floor). Starting from the converged strict pass, an
+  // insertion run never ends worse than the default one.
   bool insertion_allowed = true;
+  void allow_insertion() {
+    insertion_allowed = true;
+    scope_.targets.radius_ratio_floor = opt_.radius_ratio_floor;
+  }
 
 private:
   struct Entry {
@@ -290,7 +296,7 @@ ImproveReport improve(TetMesh& mesh, const ImproveOptions& opt) {
   for (int round = 0; round < 8 && !rep.budget_exhausted; ++round, ++pass)
     if (!d.sweep(pass == 0 ? all : mesh.tets(), rep, pass == 0 ? &before : nullptr)) break;
   if (opt.insertion) {
-    d.insertion_allowed = true;
+    d.allow_insertion();
     for (int round = 0; round < 8 && !rep.budget_exhausted; ++round, ++pass)
       if (!d.sweep(pass == 0 ? all : mesh.tets(), rep, pass == 0 ? &before : nullptr)) break;
   }
@@ -328,6 +334,7 @@ ImproveReport improve_local(TetMesh& mesh, std::span<const TetId> seeds, const I
   const auto deadline =
       start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double, std::milli>(opt.time_budget_ms));
   Driver d(mesh, opt, deadline, timed, &region, region.size());
+  if (opt.insertion) d.allow_insertion();  // a local pass has no time to converge first
   Stats before;  // measured by the first sweep as it queues the region
   for (int pass = 0; pass < 4 && !rep.budget_exhausted; ++pass) {
     const std::vector<std::uint32_t> ids(region.begin(), region.end());
