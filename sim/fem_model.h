@@ -63,6 +63,8 @@ class FemModel : public LinearOperator {
 public:
   // O(mesh). Throws InvalidArgument for a bad material and InvalidMesh for a degenerate tet.
   FemModel(const TetMesh& mesh, const MaterialTable& materials, FemKind kind = FemKind::Linear);
+  // The model keeps a pointer to its mesh (local updates read it): a temporary would dangle.
+  FemModel(TetMesh&&, const MaterialTable&, FemKind = FemKind::Linear) = delete;
 
   FemKind kind() const { return kind_; }
   const TetMesh& mesh() const { return *mesh_; }

@@ -6,25 +6,13 @@
 #include <random>
 
 #include "quality/edge_removal.h"
+#include "tests/support/ring.h"
 
 using namespace incise;
 
 namespace {
 
-// Every triangulation of polygon i..j (triangle lists), by the apex of side (i,j).
-std::vector<std::vector<std::array<int, 3>>> all_triangulations(int i, int j) {
-  if (j - i < 2) return {{}};
-  std::vector<std::vector<std::array<int, 3>>> out;
-  for (int k = i + 1; k < j; ++k)
-    for (const auto& l : all_triangulations(i, k))
-      for (const auto& r : all_triangulations(k, j)) {
-        auto t = l;
-        t.insert(t.end(), r.begin(), r.end());
-        t.push_back({i, k, j});
-        out.push_back(std::move(t));
-      }
-  return out;
-}
+using testing::all_triangulations;
 
 AngleQuality worst_of(std::span<const Vec3> ring, const Vec3& a, const Vec3& b,
                       const std::vector<std::array<int, 3>>& tris, const AngleTargets& tg) {
@@ -39,19 +27,14 @@ AngleQuality worst_of(std::span<const Vec3> ring, const Vec3& a, const Vec3& b,
 
 TEST_CASE("edge removal: the dynamic program finds the best ring triangulation", "[improve]") {
   std::mt19937 rng(7);
-  std::uniform_real_distribution<double> u(-1, 1);
   const AngleTargets tg;
   const std::size_t catalan[] = {1, 1, 2, 5, 14, 42, 132, 429};  // C_0..C_7
   for (int n = 3; n <= 8; ++n)
     for (int trial = 0; trial < 20; ++trial) {
       // A ring around the z axis, counter-clockwise seen from b = top, radii and heights jittered.
-      std::vector<Vec3> ring;
-      for (int i = 0; i < n; ++i) {
-        const double th = 2 * M_PI * (i + 0.3 * u(rng)) / n;
-        const double r = 1 + 0.4 * u(rng);
-        ring.emplace_back(r * std::cos(th), r * std::sin(th), 0.3 * u(rng));
-      }
-      const Vec3 a(0.2 * u(rng), 0.2 * u(rng), -1 + 0.3 * u(rng)), b(0.2 * u(rng), 0.2 * u(rng), 1 + 0.3 * u(rng));
+      const testing::JitteredRing jr = testing::jittered_ring(n, rng);
+      const std::vector<Vec3>& ring = jr.ring;
+      const Vec3 &a = jr.below, &b = jr.above;
       const auto all = all_triangulations(0, n - 1);
       REQUIRE(all.size() == catalan[n - 2]);
       double brute = -1e300;

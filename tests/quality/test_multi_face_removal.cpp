@@ -13,6 +13,7 @@
 #include "mesh/errors.h"
 #include "mesh/generate.h"
 #include "quality/improve.h"
+#include "tests/support/ring.h"
 #include "quality/multi_face_removal.h"
 #include "tests/support/mesh_edits.h"
 
@@ -22,20 +23,7 @@ namespace {
 
 using Tri = std::array<int, 3>;
 
-// Every triangulation of polygon i..j (triangle lists), by the apex of side (i,j).
-std::vector<std::vector<Tri>> all_triangulations(int i, int j) {
-  if (j - i < 2) return {{}};
-  std::vector<std::vector<Tri>> out;
-  for (int k = i + 1; k < j; ++k)
-    for (const auto& l : all_triangulations(i, k))
-      for (const auto& r : all_triangulations(k, j)) {
-        auto t = l;
-        t.insert(t.end(), r.begin(), r.end());
-        t.push_back({i, k, j});
-        out.push_back(std::move(t));
-      }
-  return out;
-}
+using testing::all_triangulations;
 
 // What an edge removal leaves: a ring c_0..c_{n-1} counter-clockwise around the z axis seen from
 // w (above), triangulated by `tris`, each triangle with a tet to u (below) and one to w. Every
@@ -131,19 +119,14 @@ std::map<int, double> label_volumes(const TetMesh& m) {
 
 TEST_CASE("multi-face removal: the dynamic program finds the best disc", "[improve][multiface]") {
   std::mt19937 rng(17);
-  std::uniform_real_distribution<double> r(-1, 1);
   const AngleTargets tg;
   ImproveScope scope;
   int applied = 0, meshes = 0;
   for (int n = 3; n <= 8; ++n)
     for (int trial = 0; trial < 12; ++trial) {
-      std::vector<Vec3> ring;
-      for (int i = 0; i < n; ++i) {
-        const double th = 2 * M_PI * (i + 0.3 * r(rng)) / n;
-        const double rad = 1 + 0.4 * r(rng);
-        ring.emplace_back(rad * std::cos(th), rad * std::sin(th), 0.3 * r(rng));
-      }
-      const Vec3 u(0.2 * r(rng), 0.2 * r(rng), -1 + 0.3 * r(rng)), w(0.2 * r(rng), 0.2 * r(rng), 1 + 0.3 * r(rng));
+      const testing::JitteredRing jr = testing::jittered_ring(n, rng);
+      const std::vector<Vec3>& ring = jr.ring;
+      const Vec3 &u = jr.below, &w = jr.above;
       // A triangulation whose tets are all positive (the jittered ring need not be convex).
       const auto all = all_triangulations(0, n - 1);
       std::vector<Tri> tris;
