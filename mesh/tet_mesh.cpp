@@ -222,6 +222,7 @@ void TetMesh::move_vertex(VertexId v, std::span<const VertexId> parents, std::sp
     o.parents[k] = parents[k];
     o.weights[k] = weights[k];
   }
+  batch_origin_.try_emplace(v.idx(), rest_[v.idx()]);
   rest_[v.idx()] = p;
   pending_moved_.push_back(o);
   // The tets' rest shapes changed: consumers must rebuild their per-tet data.
@@ -410,6 +411,7 @@ TopologyChange TetMesh::take_change() {
   pending_moved_.clear();
   pending_removed_vertices_.clear();
   pending_touched_.clear();
+  batch_origin_.clear();
   pending_.any = false;
   return ch;
 }

@@ -16,6 +16,7 @@
 #include <array>
 #include <cstdint>
 #include <span>
+#include <unordered_map>
 #include <vector>
 
 #include <Eigen/Core>
@@ -168,7 +169,10 @@ public:
   // every cavity vertex lies on it (none would be orphaned) and every new tet is clearly
   // positive: the cones of a closed surface from a point that sees each face from inside tile
   // exactly the region the surface bounds. Boundary and interface faces are kept with their
-  // tags. Recorded as an added vertex (parents: normally a cavity tet holding the point).
+  // tags. Recorded as an added vertex (parents: normally a cavity tet holding the point; when
+  // a parent moved earlier in the batch, the cavity tet that holds it best at the positions the
+  // batch started from, since consumers apply added vertices before moves). Same for the
+  // boundary version.
   bool is_cavity_insertion_ok(std::span<const TetId> cavity, const Vec3& p) const;
   VertexId insert_in_cavity(std::span<const TetId> cavity, std::span<const VertexId> parents,
                             std::span<const double> weights);
@@ -231,6 +235,11 @@ private:
   bool multi_face_removal_tets(VertexId u, VertexId w, std::span<const std::array<VertexId, 3>> faces,
                                std::vector<TetId>& old_tets, std::vector<std::array<VertexId, 4>>& new_tets) const;
   double signed_volume(const std::array<VertexId, 4>& v) const;
+  // The pending record of vertex `o` (just added at p) re-expressed, when one of its parents
+  // moved earlier in the batch, in the tet of `around` that best holds p at the positions the
+  // batch started from: consumers apply added vertices before moves, so the record must be
+  // exact there (an improvement pass smooths before it inserts).
+  void express_before_moves(VertexOrigin& o, std::span<const std::array<VertexId, 4>> around, const Vec3& p) const;
 
   std::vector<Vec3> rest_;
   std::vector<std::uint8_t> vertex_alive_;
@@ -252,6 +261,9 @@ private:
   std::vector<VertexOrigin> pending_moved_;
   std::vector<VertexId> pending_removed_vertices_;
   std::vector<VertexId> pending_touched_;
+  // Rest positions before the batch's first move of each vertex moved in it (added vertices:
+  // where they were added).
+  std::unordered_map<std::uint32_t, Vec3> batch_origin_;
   std::vector<std::uint8_t> touched_mark_;  // per vertex: already in pending_touched_
   struct PendingFlag {
     bool empty() const { return !any; }

@@ -7,6 +7,8 @@
 #include <map>
 #include <set>
 
+#include <Eigen/LU>
+
 #include "mesh/errors.h"
 #include "mesh/tet_mesh.h"
 
@@ -396,12 +398,45 @@ VertexId TetMesh::insert_in_cavity(std::span<const TetId> cavity, std::span<cons
                           " tets is not valid");
   const auto faces = cavity_boundary(cavity);
   const std::vector<TetId> old(cavity.begin(), cavity.end());  // cavity may alias mesh data
+  std::vector<std::array<VertexId, 4>> around;
+  for (TetId t : old) around.push_back(tet_v_[t.idx()]);
   const VertexId v = add_vertex_interpolated(parents, weights);
+  express_before_moves(pending_vertices_.back(), around, p);
   std::vector<std::array<VertexId, 4>> q;
   q.reserve(faces.size());
   for (const auto& f : faces) q.push_back({f[0], f[1], f[2], v});
   retriangulate(old, q);
   return v;
+}
+
+void TetMesh::express_before_moves(VertexOrigin& o, std::span<const std::array<VertexId, 4>> around,
+                                   const Vec3& p) const {
+  if (batch_origin_.empty()) return;
+  bool moved = false;
+  for (VertexId x : o.parents) moved = moved || (x.is_valid() && batch_origin_.count(x.idx()));
+  if (!moved) return;
+  const auto origin = [&](VertexId x) {
+    const auto it = batch_origin_.find(x.idx());
+    return it == batch_origin_.end() ? rest_[x.idx()] : it->second;
+  };
+  // The tet whose smallest barycentric coordinate of p is largest (inside if any holds it;
+  // otherwise linear extrapolation, still exact for affine fields). Flat ones are skipped.
+  double best = -1e300;
+  for (const auto& t : around) {
+    const Vec3 x0 = origin(t[0]);
+    Eigen::Matrix3d m;
+    for (int k = 0; k < 3; ++k) m.col(k) = origin(t[k + 1]) - x0;
+    const double l = std::max({m.col(0).norm(), m.col(1).norm(), m.col(2).norm()});
+    if (!(std::abs(m.determinant()) > 1e-9 * l * l * l)) continue;
+    const Vec3 b = m.partialPivLu().solve(p - x0);
+    const std::array<double, 4> w = {1 - b.sum(), b[0], b[1], b[2]};
+    const double lo = *std::min_element(w.begin(), w.end());
+    if (lo > best) {
+      best = lo;
+      o.parents = t;
+      o.weights = w;
+    }
+  }
 }
 
 namespace {
@@ -466,7 +501,10 @@ VertexId TetMesh::insert_in_cavity_on_boundary(std::span<const TetId> cavity, st
             split.push_back({fv, face_tag_[t.idx()][f]});
       }
   const std::vector<TetId> old(cavity.begin(), cavity.end());
+  std::vector<std::array<VertexId, 4>> around;
+  for (TetId t : old) around.push_back(tet_v_[t.idx()]);
   const VertexId v = add_vertex_interpolated(parents, weights);
+  express_before_moves(pending_vertices_.back(), around, rest_[v.idx()]);
   std::vector<std::array<VertexId, 4>> q;
   for (std::size_t i = 0; i < faces.size(); ++i)
     if (std::find(skip.begin(), skip.end(), static_cast<int>(i)) == skip.end())

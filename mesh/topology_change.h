@@ -33,7 +33,8 @@ struct TopologyChange {
   // added_vertices first, then these, each in order, interpolating every per-vertex field
   // (displacement, current position, velocity): the deformed shape then stays where it was.
   // The tets around a moved vertex are listed as removed and added (their rest shape changed).
-  // Editors that both insert and move in one batch insert first (the order above is exact).
+  // A vertex inserted after moves in the same batch is recorded by TetMesh at the positions
+  // the batch started from, so the order above stays exact.
   std::vector<VertexOrigin> moved_vertices;
   // Isolated vertices deleted by the batch. One the batch itself added (an improvement pass
   // contracting a cut's new vertex) is in added_vertices too, since later records may name
