@@ -56,9 +56,9 @@ void bind_improve(py::module_& m) {
         if (mesh.has_pending_change())
           throw InvalidArgument("improve: the mesh has edits not yet taken (call take_change() first)");
         const std::vector<VertexId> fz = frozen.is_none() ? std::vector<VertexId>{} : to_vertices(mesh, frozen);
-        const ImproveReport r = improve(mesh, options(time_limit, 0, 0, target, target_max, flips, multi_face, smoothing,
-                                                      insertion, max_growth, radius_ratio_floor, keep_surface,
-                                                      fixed_boundary, feature_angle, fz));
+        const ImproveReport r =
+            improve(mesh, options(time_limit, 0, 0, target, target_max, flips, multi_face, smoothing, insertion,
+                                  max_growth, radius_ratio_floor, keep_surface, fixed_boundary, feature_angle, fz));
         return result(mesh, r);
       },
       py::arg("mesh"), py::kw_only(), py::arg("time_limit") = 10.0, py::arg("target_dihedral") = 35.0,
@@ -81,7 +81,8 @@ void bind_improve(py::module_& m) {
         }
         const std::vector<VertexId> fz = frozen.is_none() ? std::vector<VertexId>{} : to_vertices(mesh, frozen);
         // Local passes keep the surface exactly, as the cutter's does.
-        ImproveOptions o = options(10, budget_ms, max_work, 35, 135, true, true, true, false, 1.5, 0.1, true, false, 30, fz);
+        ImproveOptions o =
+            options(10, budget_ms, max_work, 35, 135, true, true, true, false, 1.5, 0.1, true, false, 30, fz);
         o.rings = rings;
         return result(mesh, improve_local(mesh, ts, o));
       },
