@@ -14,7 +14,8 @@
 //  4. beam_ratio: a beam clamped at both ends under gravity, cut through at midspan: midspan
 //     sag after / before, against beam theory: 3 (Euler-Bernoulli: two cantilevers of half
 //     the length), 2.78 with shear (Timoshenko) for this beam's L/h = 10.
-// Usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam] [ORGAN]   (default samples/liver.msh)
+// Usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive] [ORGAN]   (default samples/liver.msh)
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -280,6 +281,146 @@ void beam_ratio(bool quick) {
   }
 }
 
+// ---- 5 -------------------------------------------------------------------------------------
+// Parts that share no vertex (a part held by one vertex or edge counts as attached).
+std::size_t vertex_parts(const TetMesh& m) {
+  std::vector<std::uint32_t> parent(m.vertex_capacity());
+  for (std::uint32_t i = 0; i < parent.size(); ++i) parent[i] = i;
+  auto find = [&](std::uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (TetId t : m.tets())
+    for (int k = 1; k < 4; ++k) parent[find(m.tet_vertices(t)[k].idx())] = find(m.tet_vertices(t)[0].idx());
+  std::size_t n = 0;
+  for (VertexId v : m.vertices()) n += !m.incident_tets(v).empty() && find(v.idx()) == v.idx();
+  return n;
+}
+
+double tagged_area(const TetMesh& m) {
+  double a = 0;
+  for (const auto& f : m.boundary_faces())
+    if (f.tag == kTagCut)
+      a += 0.5 * (m.rest(f.vertices[1]) - m.rest(f.vertices[0])).cross(m.rest(f.vertices[2]) - m.rest(f.vertices[0])).norm();
+  return 0.5 * a;  // one side
+}
+
+double mean_edge(const TetMesh& m) {
+  double e = 0;
+  std::size_t n = 0;
+  for (TetId t : m.tets()) {
+    const auto& tv = m.tet_vertices(t);
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j, ++n) e += (m.rest(tv[i]) - m.rest(tv[j])).norm();
+  }
+  return e / double(std::max<std::size_t>(n, 1));
+}
+
+struct Sweep {
+  std::string name;
+  TetMesh mesh;
+  Vec3 a, b, d;
+};
+
+// Tets of the uncut mesh the whole motion's swept quad crosses (vertices strictly on both
+// sides of its plane, and touching the quad): what "per crossed tet" counts.
+std::size_t crossed_tets(const TetMesh& m, const Sweep& s) {
+  const Vec3 a1 = s.a + s.d, b1 = s.b + s.d;
+  const Vec3 n = (s.b - s.a).cross(b1 - s.a);
+  std::size_t c = 0;
+  for (TetId t : m.tets()) {
+    bool plus = false, minus = false;
+    for (VertexId v : m.tet_vertices(t)) {
+      const double d = n.dot(m.rest(v) - s.a);
+      plus |= d > 0;
+      minus |= d < 0;
+    }
+    if (!(plus && minus)) continue;
+    // Crossing points of the tet's edges with the plane, inside the quad (its two triangles).
+    bool in = false;
+    const auto& tv = m.tet_vertices(t);
+    for (int i = 0; i < 4 && !in; ++i)
+      for (int j = i + 1; j < 4 && !in; ++j) {
+        const Vec3 p = m.rest(tv[i]), q = m.rest(tv[j]);
+        const double dp = n.dot(p - s.a), dq = n.dot(q - s.a);
+        if (dp * dq >= 0) continue;
+        const Vec3 x = p + dp / (dp - dq) * (q - p);
+        for (const auto& tri : {std::array<Vec3, 3>{s.a, s.b, b1}, std::array<Vec3, 3>{s.a, b1, a1}}) {
+          const Vec3 e0 = tri[1] - tri[0], e1 = tri[2] - tri[0], w = x - tri[0];
+          const Vec3 nn = e0.cross(e1);
+          const double l1 = nn.dot(w.cross(e1)) / nn.squaredNorm(), l2 = nn.dot(e0.cross(w)) / nn.squaredNorm();
+          in = in || (l1 >= 0 && l2 >= 0 && l1 + l2 <= 1);
+        }
+      }
+    c += in;
+  }
+  return c;
+}
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, std::size_t(p * double(v.size())))];
+}
+
+void progressive(const TetMesh& organ, const std::string& name, bool quick) {
+  std::printf("# progressive (one blade motion in N steps, then finish(): growth per crossed tet, area, parts, "
+              "quality and step times against the single step; default options)\n");
+  std::printf("case,steps,step_over_edge,tets_before,crossed,tets_after,added_per_crossed,cut_area,area_over_1step,"
+              "parts,min_dihedral,below_10deg,ms_median,ms_p95,ms_max,ms_finish\n");
+  std::vector<Sweep> cases;
+  cases.push_back({"box4x1x1 partial", make_box(Vec3(4, 1, 1), {16, 4, 4}), Vec3(2.03, -0.5, 1.1), Vec3(2.03, 1.5, 1.1),
+                   Vec3(0, 0, -0.6)});
+  cases.push_back({"box4x1x1 through", make_box(Vec3(4, 1, 1), {16, 4, 4}), Vec3(2.03, -0.5, 1.1), Vec3(2.03, 1.5, 1.1),
+                   Vec3(0, 0, -1.3)});
+  cases.push_back({"box10^3 oblique", make_box(Vec3(10, 10, 10), {10, 10, 10}), Vec3(-1, -1, 11.3), Vec3(11, 12.1, 10.2),
+                   Vec3(0.9, -1.2, -13)});
+  {
+    // Through the organ's middle, top to bottom, across its whole width.
+    Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+    for (VertexId v : organ.vertices()) {
+      lo = lo.cwiseMin(organ.rest(v));
+      hi = hi.cwiseMax(organ.rest(v));
+    }
+    const Vec3 ext = hi - lo, c = 0.5 * (lo + hi);
+    const double x = c.x() + 0.013 * ext.x();
+    cases.push_back({name + " through", organ, Vec3(x, lo.y() - 0.1 * ext.y(), hi.z() + 0.05 * ext.z()),
+                     Vec3(x + 0.02 * ext.x(), hi.y() + 0.1 * ext.y(), hi.z() + 0.05 * ext.z()), Vec3(0, 0, -1.1 * ext.z())});
+  }
+  for (Sweep& s : cases) {
+    s.mesh.discard_change();
+    const std::size_t crossed = crossed_tets(s.mesh, s);
+    const double h = mean_edge(s.mesh);
+    std::vector<int> counts = {1, 10, 40, 400};
+    if (!quick && s.name.rfind("box4", 0) == 0) counts.push_back(4000);
+    // One tenth of an edge per step (a hand's motion at 60 Hz).
+    const int tenth = int(std::ceil(s.d.norm() / (0.1 * h)));
+    counts.push_back(tenth);
+    double area1 = 0;
+    for (int n : counts) {
+      TetMesh m = s.mesh;
+      Cutter cutter(m);
+      cutter.start({s.a, s.b});
+      std::vector<double> ms;
+      for (int k = 1; k <= n; ++k) {
+        const Vec3 off = s.d * (double(k) / n);
+        ms.push_back(cutter.advance({s.a + off, s.b + off}).ms);
+      }
+      const double fin = cutter.finish().ms;
+      const QualityRange q = quality_range(m, 10.0);
+      const std::size_t below10 = q.below;
+      const double area = tagged_area(m);
+      if (n == 1) area1 = area;
+      std::printf("%s,%d,%.3f,%zu,%zu,%zu,%.2f,%.4g,%.4f,%zu,%.3f,%zu,%.3f,%.3f,%.3f,%.3f\n", s.name.c_str(), n,
+                  s.d.norm() / n / h, s.mesh.num_tets(), crossed, m.num_tets(),
+                  double(m.num_tets() - s.mesh.num_tets()) / double(std::max<std::size_t>(crossed, 1)), area,
+                  area / area1, vertex_parts(m), q.min_dihedral, below10, percentile(ms, 0.5), percentile(ms, 0.95),
+                  percentile(ms, 1.0), fin);
+      std::fflush(stdout);
+    }
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -290,7 +431,7 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--no-1m")) with_1m = false;
     else if (!std::strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
     else if (argv[i][0] == '-') {
-      std::fprintf(stderr, "usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam] [ORGAN]\n");
+      std::fprintf(stderr, "usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive] [ORGAN]\n");
       return 1;
     } else organ_path = argv[i];
   }
@@ -302,5 +443,6 @@ int main(int argc, char** argv) {
   if (want("quality")) quality_after_cuts(organ, name, quick);
   if (want("snap")) snap_trade(organ);
   if (want("beam")) beam_ratio(quick);
+  if (want("progressive")) progressive(organ, name, quick);
   return 0;
 }

@@ -22,7 +22,8 @@ void add_cut(CLI::App& app) {
     std::string in, out, json, mode = "subdivide", surface;
     std::vector<double> blade, sweep, plane;
     int steps = 1;
-    double snap = 0.05, budget_ms = 2.0;
+    double snap = 0.05, budget_ms = 0;
+    int work = CutOptions::kDefaultImproveWork;
     bool no_improve = false, quiet = false;
   };
   auto o = std::make_shared<Opts>();
@@ -43,7 +44,14 @@ void add_cut(CLI::App& app) {
                   "treated as on it (fewer slivers, cut surface up to this far from the blade)")
       ->check(CLI::Range(0.0, 0.49));
   cmd->add_flag("--no-improve", o->no_improve, "No local flips and smoothing after each step");
-  cmd->add_option("--improve-budget-ms", o->budget_ms, "Wall-clock budget of the local improvement per step");
+  cmd->add_option("--improve-work", o->work,
+                  "Operations the local improvement may attempt per step (0: no cap). The default result is "
+                  "reproducible: the same command gives the same mesh on every run")
+      ->check(CLI::Range(0, 100000000));
+  cmd->add_option("--improve-budget-ms", o->budget_ms,
+                  "Wall-clock cap of the local improvement per step, on top of --improve-work (0: none, the "
+                  "default; a time cap makes the output depend on the machine's speed and load)")
+      ->check(CLI::Range(0.0, 1e6));
   cmd->add_option("--json", o->json, "Write the cut report (JSON) here");
   cmd->add_flag("-q,--quiet", o->quiet, "No per-step progress on stderr");
   cmd->callback([o] {
@@ -60,6 +68,7 @@ void add_cut(CLI::App& app) {
     opt.snap = o->snap;
     opt.improve = !o->no_improve;
     opt.improve_budget_ms = o->budget_ms;
+    opt.improve_options.max_work = o->work;
     const QualityRange before = quality_range(mesh);
     const std::size_t tets_before = mesh.num_tets(), verts_before = mesh.num_vertices();
 

@@ -8,8 +8,7 @@
 namespace incise::cut_detail {
 
 int Piece::side(const Vec3& x) const {
-  const CutTriangle& t = triangles[0];
-  return orient3d(t.p[0], t.p[1], t.p[2], x);
+  return orient3d(plane.p[0], plane.p[1], plane.p[2], x);
 }
 
 std::array<double, 3> triangle_barycentric(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& x) {
@@ -27,17 +26,24 @@ bool Piece::contains(const Vec3& x, double rel_tol) const {
   return false;
 }
 
+namespace {
+double segment_distance(const std::array<Vec3, 2>& s, const Vec3& x) {
+  const Vec3 e = s[1] - s[0];
+  const double l2 = e.squaredNorm();
+  const double u = l2 > 0 ? std::clamp(e.dot(x - s[0]) / l2, 0.0, 1.0) : 0.0;
+  return (s[0] + u * e - x).norm();
+}
+}  // namespace
+
 double Piece::boundary_distance(const Vec3& x) const {
   double d = 1e300;
-  for (std::size_t i = 0; i < boundary.size(); ++i) {
-    if (!rim[i]) continue;
-    const auto& s = boundary[i];
-    const Vec3 e = s[1] - s[0];
-    const double l2 = e.squaredNorm();
-    const double u = l2 > 0 ? std::clamp(e.dot(x - s[0]) / l2, 0.0, 1.0) : 0.0;
-    d = std::min(d, (s[0] + u * e - x).norm());
-  }
+  for (std::size_t i = 0; i < boundary.size(); ++i)
+    if (rim[i]) d = std::min(d, segment_distance(boundary[i], x));
   return d;
+}
+
+double Piece::front_distance(const Vec3& x) const {
+  return front >= 0 ? segment_distance(boundary[std::size_t(front)], x) : 1e300;
 }
 
 namespace {
@@ -47,9 +53,12 @@ bool coplanar(const CutTriangle& t, const Vec3& x) {
   return std::abs(n.normalized().dot(x - t.p[0])) <= 1e-9 * scale;
 }
 
-void finish(Piece& p) {
+}  // namespace
+
+void finish_piece(Piece& p) {
   p.rim.assign(p.boundary.size(), true);
-  p.normal = p.triangles[0].normal().normalized();
+  p.plane = p.triangles[0];
+  p.normal = p.plane.normal().normalized();
   p.lo = p.hi = p.triangles[0].p[0];
   for (const CutTriangle& t : p.triangles)
     for (const Vec3& x : t.p) {
@@ -57,7 +66,6 @@ void finish(Piece& p) {
       p.hi = p.hi.cwiseMax(x);
     }
 }
-}  // namespace
 
 std::vector<Piece> make_pieces(std::span<const CutTriangle> triangles) {
   std::vector<Piece> out;
@@ -71,7 +79,7 @@ std::vector<Piece> make_pieces(std::span<const CutTriangle> triangles) {
         Piece p;
         p.triangles = {t, u};
         p.boundary = {{t.p[0], t.p[1]}, {t.p[1], t.p[2]}, {u.p[1], u.p[2]}, {u.p[2], u.p[0]}};
-        finish(p);
+        finish_piece(p);
         out.push_back(std::move(p));
         i += 2;
         continue;
@@ -80,7 +88,7 @@ std::vector<Piece> make_pieces(std::span<const CutTriangle> triangles) {
     Piece p;
     p.triangles = {t};
     p.boundary = {{t.p[0], t.p[1]}, {t.p[1], t.p[2]}, {t.p[2], t.p[0]}};
-    finish(p);
+    finish_piece(p);
     out.push_back(std::move(p));
     ++i;
   }

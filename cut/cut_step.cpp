@@ -51,8 +51,19 @@ bool CutStep::edge_split_ok(VertexId a, VertexId b, double s) const {
   return true;
 }
 
-CutStep::CutStep(TetMesh& mesh, const PositionFn& positions, double snap)
-    : mesh_(mesh), positions_(positions), snap_(std::max(snap, kSnapFloor)) {}
+CutStep::CutStep(TetMesh& mesh, const PositionFn& positions, double snap, CutMemory* memory, bool provisional)
+    : mesh_(mesh), positions_(positions), snap_(std::max(snap, kSnapFloor)), memory_(memory),
+      provisional_(provisional && memory) {}
+
+void CutStep::decide(std::size_t k, VertexId v, int s) {
+  side_cache_[k][v.idx()] = s;
+  if (memory_) memory_->side[v.idx()] = s;
+}
+
+void CutStep::add_candidates(std::span<const TetId> tets) {
+  for (TetId t : tets)
+    if (mesh_.is_alive(t) && in_cand_.insert(t.idx()).second) cand_.push_back(t);
+}
 
 Vec3 CutStep::position(VertexId v) const {
   auto it = created_pos_.find(v.idx());
@@ -66,8 +77,9 @@ std::array<Vec3, 4> CutStep::tet_positions(TetId t) const {
 }
 
 double CutStep::snap_length(VertexId v) {
-  auto it = snap_len_.find(v.idx());
-  if (it != snap_len_.end()) return it->second;
+  auto& cache = memory_ ? memory_->snap_len : snap_len_;
+  auto it = cache.find(v.idx());
+  if (it != cache.end()) return it->second;
   const Vec3 x = position(v);
   // Relative to the mean incident edge: after earlier cuts the shortest edge can be tiny, and
   // a threshold relative to it would stop snapping exactly where slivers pile up.
@@ -80,7 +92,7 @@ double CutStep::snap_length(VertexId v) {
         ++n;
       }
   const double len = snap_ * (n ? sum / n : 0.0);
-  snap_len_[v.idx()] = len;
+  cache[v.idx()] = len;
   return len;
 }
 
@@ -95,16 +107,23 @@ void CutStep::note_new_vertex(VertexId p) {
     born_.insert(t.idx());
     if (in_cand_.insert(t.idx()).second) cand_.push_back(t);
   }
-  // Snap lengths of the neighbours changed (a shorter edge); forget them.
-  for (TetId t : mesh_.incident_tets(p))
+  // Snap lengths of the neighbours changed (a shorter edge); forget them (a progressive sheet
+  // keeps the first measurement: see CutMemory).
+  if (!memory_)
+    for (TetId t : mesh_.incident_tets(p))
     for (VertexId w : mesh_.tet_vertices(t)) snap_len_.erase(w.idx());
 }
 
 double CutStep::star_radius(VertexId v) const {
+  if (memory_) {
+    auto it = memory_->star_radius.find(v.idx());
+    if (it != memory_->star_radius.end()) return it->second;
+  }
   const Vec3 x = position(v);
   double l2 = 0;
   for (TetId t : mesh_.incident_tets(v))
     for (VertexId w : mesh_.tet_vertices(t)) l2 = std::max(l2, (position(w) - x).squaredNorm());
+  if (memory_) memory_->star_radius[v.idx()] = std::sqrt(l2);
   return std::sqrt(l2);
 }
 
@@ -254,6 +273,7 @@ void CutStep::embed_boundary(const Piece& piece) {
   auto mark = [&](VertexId v, std::uint32_t segments) {
     on_segment[v.idx()] |= segments;
     if (on.insert(v.idx()).second) boundary_vertices_.push_back(v);
+    if (memory_) memory_->side[v.idx()] = 0;
   };
   const std::size_t ns = piece.boundary.size();
   // Segments embedded before (by an earlier piece of this step, or the previous step's front)
@@ -358,15 +378,29 @@ int CutStep::side(const Piece& piece, std::size_t k, VertexId v) {
   if (on_piece_[k].count(v.idx())) return 0;
   auto it = side_cache_[k].find(v.idx());
   if (it != side_cache_[k].end()) return it->second;
+  if (memory_) {
+    auto m = memory_->side.find(v.idx());
+    if (m != memory_->side.end()) return side_cache_[k][v.idx()] = m->second;
+  }
   const Vec3 x = position(v);
   int s = piece.side(x);
   // Snap onto the plane only where the vertex's whole star is inside the piece: at the rim the
   // cut surface would otherwise pinch through the snapped vertex (two sheets touching at a
   // point, a non-manifold boundary once opened).
-  if (s != 0 && std::abs(piece.distance(x)) <= snap_length(v) && piece.contains(x, 0) &&
-      piece.boundary_distance(x) > star_radius(v))
+  const bool near = s != 0 && std::abs(piece.distance(x)) <= snap_length(v);
+  if (near && memory_) {
+    // A sheet: the vertex and its whole star project inside the swept polygon. The polygon only
+    // grows, so once this holds it holds for good, and a single step over the whole motion
+    // would say the same; while it does not, a provisional step waits for the blade to pass.
+    bool inside = piece.contains(x, 0);
+    for (TetId t : mesh_.incident_tets(v))
+      for (VertexId w : mesh_.tet_vertices(t)) inside = inside && piece.contains(position(w), 0);
+    if (inside) s = 0;
+    else if (provisional_) return kUndecided;
+  } else if (near && piece.contains(x, 0) && piece.boundary_distance(x) > star_radius(v)) {
     s = 0;
-  side_cache_[k][v.idx()] = s;
+  }
+  decide(k, v, s);
   return s;
 }
 
@@ -401,29 +435,33 @@ void CutStep::split_crossings(const Piece& piece) {
         far = j;
       }
     }
-    if (far >= 0 && pinned.insert(tv[far].idx()).second) side_cache_[k][tv[far].idx()] = piece.side(position(tv[far]));
+    if (far >= 0 && pinned.insert(tv[far].idx()).second) decide(k, tv[far], piece.side(position(tv[far])));
   }
   for (std::size_t i = 0; i < cand_.size(); ++i) {
     const TetId t = cand_[i];
     if (!mesh_.is_alive(t)) continue;
     const auto& tv = mesh_.tet_vertices(t);
     int s[4];
-    bool plus = false, minus = false;
+    bool plus = false, minus = false, undecided = false;
     for (int j = 0; j < 4; ++j) {
       s[j] = side(piece, k, tv[j]);
-      plus |= s[j] > 0;
+      undecided |= s[j] == kUndecided;
+      plus |= s[j] == 1;
       minus |= s[j] < 0;
     }
-    if (!(plus && minus)) continue;
+    if (undecided || !(plus && minus)) continue;
     // The tet's section with the plane; after the boundary is embedded it lies wholly inside
-    // or wholly outside the piece, so its centroid decides.
+    // or wholly outside the piece, so its centroid decides. A provisional step has not
+    // embedded the front: the whole section must be inside (the blade has left the tet).
     Vec3 c = Vec3::Zero();
     int n = 0;
+    bool all_inside = true;
     std::vector<EdgeSplit> crossing;
     for (int a = 0; a < 4; ++a) {
       if (s[a] == 0) {
         c += position(tv[a]);
         ++n;
+        all_inside = all_inside && piece.contains(position(tv[a]), kInsideTol);
       }
       for (int b = a + 1; b < 4; ++b) {
         if (s[a] * s[b] >= 0) continue;
@@ -434,24 +472,25 @@ void CutStep::split_crossings(const Piece& piece) {
         // plane instead (the snap floor, relative to this edge).
         const int near = u < kSnapFloor ? a : (u > 1 - kSnapFloor ? b : -1);
         if (near >= 0 && !on_piece_[k].count(tv[near].idx()) && pinned.insert(tv[near].idx()).second) {
-          side_cache_[k][tv[near].idx()] = 0;
+          decide(k, tv[near], 0);
           changed = true;
         }
         u = std::clamp(u, kSnapFloor, 1 - kSnapFloor);
         if (near < 0 && !edge_split_ok(tv[a], tv[b], u)) {
           const int nv = u < 0.5 ? a : b;
           if (!on_piece_[k].count(tv[nv].idx()) && pinned.insert(tv[nv].idx()).second) {
-            side_cache_[k][tv[nv].idx()] = 0;
+            decide(k, tv[nv], 0);
             changed = true;
           }
           continue;  // not split: this tet's section stays uncut (rare, on near-flat tets only)
         }
         c += (1 - u) * xa + u * xb;
         ++n;
+        all_inside = all_inside && piece.contains((1 - u) * xa + u * xb, kInsideTol);
         crossing.push_back({tv[a], tv[b], u});
       }
     }
-    if (!piece.contains(c / n, kInsideTol)) continue;
+    if (provisional_ ? !all_inside : !piece.contains(c / n, kInsideTol)) continue;
     for (const EdgeSplit& e : crossing) {
       edges.emplace(std::make_pair(std::min(e.a.idx(), e.b.idx()), std::max(e.a.idx(), e.b.idx())), e);
     }
@@ -470,6 +509,7 @@ void CutStep::split_crossings(const Piece& piece) {
     const VertexId p = mesh_.split_edge(e.a, e.b, e.s);
     created_pos_[p.idx()] = (1 - e.s) * position(e.a) + e.s * position(e.b);
     on_piece_[k].insert(p.idx());
+    if (memory_) memory_->side[p.idx()] = 0;
     note_new_vertex(p);
   }
 }
@@ -488,6 +528,10 @@ std::vector<CutFacePair> CutStep::cut_faces(std::span<const Piece> pieces) {
         if (!n.is_valid() || done.count(face_key(t, f))) continue;
         const auto fv = mesh_.face_vertices(t, f);
         if (side(piece, k, fv[0]) != 0 || side(piece, k, fv[1]) != 0 || side(piece, k, fv[2]) != 0) continue;
+        if (provisional_ && !(piece.contains(position(fv[0]), kInsideTol) &&
+                              piece.contains(position(fv[1]), kInsideTol) &&
+                              piece.contains(position(fv[2]), kInsideTol)))
+          continue;
         const int g = [&] {
           for (int j = 0; j < 4; ++j)
             if (mesh_.neighbor(n, j) == t) return j;
@@ -495,7 +539,7 @@ std::vector<CutFacePair> CutStep::cut_faces(std::span<const Piece> pieces) {
         }();
         if (g < 0) continue;
         const int sa = side(piece, k, tv[f]), sb = side(piece, k, mesh_.tet_vertices(n)[g]);
-        if (sa * sb >= 0) continue;  // a flat tet lying in the plane: the cut goes around it
+        if (sa == kUndecided || sb == kUndecided || sa * sb >= 0) continue;  // a flat tet lying in the plane: the cut goes around it
         const Vec3 c = (position(fv[0]) + position(fv[1]) + position(fv[2])) / 3;
         if (!piece.contains(c, kInsideTol)) continue;
         done.insert(face_key(t, f));

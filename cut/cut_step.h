@@ -23,10 +23,33 @@ struct CutFacePair {
   FaceRef a, b;
 };
 
+// What a progressive cut keeps from step to step for one sheet (cut/sheet.h): the side of each
+// vertex once decided, and the snap length and star radius measured when the cut first saw the
+// vertex. Later splits around a vertex shorten its edges; measuring again would make whether
+// it snaps depend on how many steps came before.
+struct CutMemory {
+  std::unordered_map<std::uint32_t, int> side;
+  std::unordered_map<std::uint32_t, double> snap_len, star_radius;
+  void forget(VertexId v) {
+    side.erase(v.idx());
+    snap_len.erase(v.idx());
+    star_radius.erase(v.idx());
+  }
+};
+
+// side() of a vertex near the sheet's plane whose star the blade's front still reaches: whether
+// it snaps is not known yet, so the tets around it wait.
+constexpr int kUndecided = 2;
+
 class CutStep {
 public:
   using PositionFn = std::function<Vec3(VertexId)>;
-  CutStep(TetMesh& mesh, const PositionFn& positions, double snap);
+  // memory: a progressive sheet's decisions (read and extended). provisional: the sheet's front
+  // is where the blade is now, so only tets whose section lies inside the swept polygon and
+  // whose vertices' sides are final are cut (committed); the rest waits for later steps or
+  // for the sheet's finish (provisional = false, which embeds the boundary and cuts the rest).
+  CutStep(TetMesh& mesh, const PositionFn& positions, double snap, CutMemory* memory = nullptr,
+          bool provisional = false);
 
   // Current position of a vertex (created this step, or given by the caller, or rest).
   Vec3 position(VertexId v) const;
@@ -43,6 +66,10 @@ public:
 
   // Live candidate tets (where the next step's walk starts, and the improvement seeds).
   std::vector<TetId> live_candidates() const;
+  // Adds tets to the candidates (a sheet's waiting tets and closed cut faces).
+  void add_candidates(std::span<const TetId> tets);
+  // Side of a vertex w.r.t. piece k as decided (0: on the cut surface; kUndecided).
+  int side_of(const Piece& piece, std::size_t k, VertexId v) { return side(piece, k, v); }
   // Vertices on a piece's boundary (the blade front and the cut's rim): improvement keeps them.
   const std::vector<VertexId>& boundary_vertices() const { return boundary_vertices_; }
   std::size_t tets_cut() const { return destroyed_.size(); }
@@ -70,6 +97,9 @@ private:
   TetMesh& mesh_;
   PositionFn positions_;
   double snap_;
+  CutMemory* memory_;
+  bool provisional_;
+  void decide(std::size_t k, VertexId v, int s);
   std::vector<TetId> cand_;
   std::unordered_set<std::uint32_t> in_cand_;
   std::unordered_map<std::uint32_t, Vec3> created_pos_;

@@ -1,12 +1,14 @@
 #include "cut/cutter.h"
 
 #include <algorithm>
+#include <optional>
 #include <unordered_set>
 
 #include "cut/carve.h"
 #include "cut/cut_step.h"
 #include "cut/fragments.h"
 #include "cut/separate.h"
+#include "cut/sheet.h"
 #include "mesh/errors.h"
 
 namespace incise {
@@ -19,9 +21,34 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
 }
 
 bool finite(const Vec3& x) { return x.allFinite(); }
+
+void add_separation(CutStepReport& rep, const SeparationResult& sep) {
+  rep.vertices_duplicated += sep.vertices_duplicated;
+  rep.cut_faces += sep.faces_opened;
+  rep.cut_area += sep.area;
+}
 }  // namespace
 
-Cutter::Cutter(TetMesh& mesh, CutOptions options) : mesh_(&mesh), opt_(std::move(options)) {
+// The progressive state of a subdivision cut (see advance()).
+struct Cutter::Progress {
+  std::optional<Sheet> sheet;  // the polygon swept in the current plane
+  CutMemory memory;            // its vertices' decided sides
+  // Tets crossing the sheet that are not cut yet (the blade is in them, or their vertices'
+  // snap decisions wait for it to pass), and tets beside cut faces that stayed closed (their
+  // opening would have pinched the boundary): every step offers them again.
+  std::vector<TetId> waiting, closed;
+  // The sheet's back edge when an earlier sheet's front made it a chain of mesh edges.
+  bool back_known = false;
+  BladeSegment back;
+  std::vector<VertexId> back_vertices;
+  bool edited = false;  // this cut changed the mesh (finish() improves only then)
+  // start() was called with a sheet unfinished: the next step (or finish) completes it first,
+  // in the same record (start() itself hands out no change).
+  bool complete_first = false;
+};
+
+Cutter::Cutter(TetMesh& mesh, CutOptions options)
+    : mesh_(&mesh), opt_(std::move(options)), progress_(std::make_unique<Progress>()) {
   if (!(opt_.snap >= 0) || opt_.snap >= 0.5) throw InvalidArgument("cut: snap must be in [0, 0.5)");
   // Room for the cuts' new vertices and tets: the first steps then do not copy the mesh's
   // arrays (an O(mesh) spike); later growth is geometric, so amortized.
@@ -29,6 +56,16 @@ Cutter::Cutter(TetMesh& mesh, CutOptions options) : mesh_(&mesh), opt_(std::move
                mesh.tet_capacity() + mesh.tet_capacity() / 8 + 4096);
   grid_.build(mesh);
   grid_edits_ = mesh.counters().edits;
+}
+
+Cutter::~Cutter() = default;
+Cutter::Cutter(Cutter&&) noexcept = default;
+Cutter& Cutter::operator=(Cutter&&) noexcept = default;
+
+std::size_t Cutter::waiting_tets() const {
+  std::size_t n = 0;
+  for (TetId t : progress_->waiting) n += mesh_->is_alive(t);
+  return n;
 }
 
 void Cutter::notify(const TopologyChange& change) {
@@ -57,14 +94,116 @@ void Cutter::start(const BladeSegment& blade) {
   if (!finite(blade.a) || !finite(blade.b)) throw InvalidArgument("cut: blade endpoints must be finite");
   blade_ = blade;
   started_ = true;
+  const bool unfinished = progress_->sheet.has_value();
+  if (!unfinished) {
+    front_.clear();
+    *progress_ = Progress{};
+  }
+  progress_->complete_first = unfinished;
+  front_vertices_.clear();
+  has_front_ = false;
+}
+
+void Cutter::complete_previous(CutStepReport& rep, const PositionFn& positions) {
+  if (!progress_->complete_first) return;
+  finish_sheet(rep, positions);
+  *progress_ = Progress{};
   front_.clear();
   front_vertices_.clear();
   has_front_ = false;
 }
 
-CutStepReport Cutter::finish() {
+void Cutter::improve_after(CutStepReport& rep, std::vector<TetId> seeds, std::vector<VertexId> frozen) {
+  if (!opt_.improve || seeds.empty() || !mesh_->has_pending_change()) return;
+  const auto ti = std::chrono::steady_clock::now();
+  ImproveOptions io = opt_.improve_options;
+  frozen.insert(frozen.end(), opt_.frozen.begin(), opt_.frozen.end());
+  io.frozen = frozen;
+  io.time_budget_ms = opt_.improve_budget_ms;
+  rep.improve = improve_local(*mesh_, seeds, io);
+  rep.ms_improve += ms_since(ti);
+}
+
+void Cutter::refresh_waiting(const PositionFn& positions, std::span<const TetId> more) {
+  Progress& pr = *progress_;
+  std::vector<TetId> all = std::move(pr.waiting);
+  all.insert(all.end(), more.begin(), more.end());
+  pr.waiting.clear();
+  if (!pr.sheet) return;
+  const Piece& sp = pr.sheet->piece();
+  const double tol = 1e-9 * (sp.hi - sp.lo).norm();
+  auto pos = [&](VertexId v) { return positions ? positions(v) : mesh_->rest(v); };
+  std::unordered_set<std::uint32_t> seen;
+  for (TetId t : all) {
+    if (!mesh_->is_alive(t) || !seen.insert(t.idx()).second) continue;
+    bool plus = false, minus = false;
+    std::array<Vec3, 4> x;
+    for (std::size_t j = 0; j < 4; ++j) {
+      const VertexId v = mesh_->tet_vertices(t)[j];
+      x[j] = pos(v);
+      auto it = pr.memory.side.find(v.idx());
+      const int s = it != pr.memory.side.end() ? it->second : sp.side(x[j]);
+      plus |= s > 0;
+      minus |= s < 0;
+    }
+    if (!(plus && minus)) continue;
+    for (const CutTriangle& tri : sp.triangles)
+      if (tet_may_touch_triangle(x, tri, tol)) {
+        pr.waiting.push_back(t);
+        break;
+      }
+  }
+}
+
+void Cutter::finish_sheet(CutStepReport& rep, const PositionFn& positions) {
+  Progress& pr = *progress_;
+  if (!pr.sheet) return;
+  const Piece sp = pr.sheet->piece();
+  const BladeSegment front = pr.sheet->front();
+  refresh_waiting(positions, {});
+  std::vector<TetId> closed;
+  for (TetId t : pr.closed)
+    if (mesh_->is_alive(t)) closed.push_back(t);
+  has_front_ = false;
+  front_vertices_.clear();
+  // Nothing crosses the sheet: no boundary to embed (a blade grazing a face leaves the mesh as
+  // it was).
+  if (pr.waiting.empty() && closed.empty()) {
+    pr.sheet.reset();
+    return;
+  }
+  CutStep step(*mesh_, positions, opt_.snap, &pr.memory, false);
+  if (pr.back_known) step.add_known_segment(pr.back.a, pr.back.b, pr.back_vertices);
+  step.add_candidates(closed);
+  std::vector<TetId> seeds = pr.waiting;
+  seeds.insert(seeds.end(), front_.begin(), front_.end());
+  step.collect(sp, seeds, {});
+  step.embed_boundary(sp);
+  step.split_crossings(sp);
+  const SeparationResult sep = separate(*mesh_, step.cut_faces(std::span<const Piece>(&sp, 1)));
+  add_separation(rep, sep);
+  rep.tets_cut += step.tets_cut();
+  auto frags = find_fragments(*mesh_, sep.opened_tets, opt_.fragment_search_limit);
+  rep.fragments.insert(rep.fragments.end(), frags.begin(), frags.end());
+  front_ = step.live_candidates();
+  front_vertices_ = step.segment_vertices(front.a, front.b);
+  front_segment_ = front;
+  has_front_ = true;
+  pr.sheet.reset();
+  pr.waiting.clear();
+  pr.closed.clear();
+  pr.memory = CutMemory{};
+  if (mesh_->has_pending_change()) pr.edited = true;
+}
+
+CutStepReport Cutter::finish(const PositionFn& positions) {
   const auto t0 = std::chrono::steady_clock::now();
   CutStepReport rep;
+  if (mesh_->has_pending_change())
+    throw InvalidArgument("cut: the mesh has edits not yet taken (call take_change() before finishing a cut)");
+  const bool grid_stale = mesh_->counters().edits != grid_edits_;
+  finish_sheet(rep, positions);
+  const bool edited = progress_->edited;
   std::vector<TetId> live;
   for (TetId t : front_)
     if (mesh_->is_alive(t)) live.push_back(t);
@@ -72,15 +211,18 @@ CutStepReport Cutter::finish() {
   front_.clear();
   front_vertices_.clear();
   has_front_ = false;
-  if (opt_.mode != CutMode::Subdivide || !opt_.improve || live.empty()) return rep;
-  if (mesh_->has_pending_change())
-    throw InvalidArgument("cut: the mesh has edits not yet taken (call take_change() before finishing a cut)");
-  const bool grid_stale = mesh_->counters().edits != grid_edits_;
-  ImproveOptions io = opt_.improve_options;
-  io.frozen = opt_.frozen;
-  io.time_budget_ms = opt_.improve_budget_ms;
-  rep.improve = improve_local(*mesh_, live, io);
-  rep.ms_improve = ms_since(t0);
+  *progress_ = Progress{};
+  if (opt_.mode == CutMode::Subdivide && opt_.improve && edited && !live.empty()) {
+    // The front need no longer stay where it is: its tets get the improvement with its
+    // vertices free (a step's improvement keeps them frozen, and nothing else revisits them).
+    ImproveOptions io = opt_.improve_options;
+    io.frozen = opt_.frozen;
+    io.time_budget_ms = opt_.improve_budget_ms;
+    const auto ti = std::chrono::steady_clock::now();
+    ImproveReport ir = improve_local(*mesh_, live, io);
+    rep.ms_improve += ms_since(ti);
+    rep.improve = ir;
+  }
   rep.change = mesh_->take_change();
   if (!grid_stale) {
     grid_.update(*mesh_, rep.change);
@@ -98,9 +240,154 @@ CutStepReport Cutter::advance(const BladeSegment& blade, const PositionFn& posit
     return {};
   }
   if (!finite(blade.a) || !finite(blade.b)) throw InvalidArgument("cut: blade endpoints must be finite");
-  const auto tris = swept_triangles(blade_, blade);
+  const BladeSegment from = blade_;
   blade_ = blade;
+  if (opt_.mode == CutMode::Subdivide) return sweep(from, blade, positions, max_displacement);
+  const auto tris = swept_triangles(from, blade);
   return run(tris, positions, max_displacement, true);
+}
+
+CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions,
+                            double max_displacement) {
+  const auto t0 = std::chrono::steady_clock::now();
+  CutStepReport rep;
+  const auto tris = swept_triangles(from, to);
+  if (tris.empty()) return rep;
+  if (mesh_->has_pending_change())
+    throw InvalidArgument("cut: the mesh has edits not yet taken (call take_change() before cutting)");
+  complete_previous(rep, positions);
+  Progress& pr = *progress_;
+  bool grid_stale = mesh_->counters().edits != grid_edits_;
+  // This step's quad: where the walk looks for the tets the blade reached.
+  Piece local;
+  local.triangles = tris;
+  finish_piece(local);
+  auto scan = [&]() {
+    std::vector<TetId> hits = first_contact(local.lo, local.hi, positions, max_displacement, grid_stale);
+    grid_stale = false;
+    return hits;
+  };
+  std::vector<VertexId> frozen;
+  std::vector<TetId> seeds;
+  if (!(pr.sheet && pr.sheet->extend(to))) {
+    // A new plane (the first step, or the blade turned): the old sheet is cut in full, its
+    // front becoming a crease the new sheet starts from.
+    finish_sheet(rep, positions);
+    pr.sheet = Sheet::start(from, to);
+    pr.memory = CutMemory{};
+    pr.waiting.clear();
+    pr.closed.clear();
+    pr.back_known = has_front_ && front_segment_.a == from.a && front_segment_.b == from.b;
+    pr.back = from;
+    pr.back_vertices = pr.back_known ? front_vertices_ : std::vector<VertexId>{};
+    if (pr.sheet && pr.back_known) pr.sheet->set_back_is_crease(true);
+  }
+  if (!pr.sheet) {
+    // The quad is not planar (the blade turned out of its plane within the step): it is cut in
+    // full like a one-shot surface, its front embedded for the next step to continue from.
+    std::vector<Piece> pieces = make_pieces(tris);
+    if (pr.back_known) mark_inner_segment(pieces, from.a, from.b);
+    CutStep step(*mesh_, positions, opt_.snap);
+    if (pr.back_known) step.add_known_segment(from.a, from.b, pr.back_vertices);
+    seeds = front_;
+    for (const Piece& p : pieces) {
+      step.collect(p, seeds, scan);
+      step.embed_boundary(p);
+      step.split_crossings(p);
+      seeds = step.live_candidates();
+    }
+    const SeparationResult sep = separate(*mesh_, step.cut_faces(pieces));
+    add_separation(rep, sep);
+    rep.tets_cut += step.tets_cut();
+    auto frags = find_fragments(*mesh_, sep.opened_tets, opt_.fragment_search_limit);
+    rep.fragments.insert(rep.fragments.end(), frags.begin(), frags.end());
+    front_ = step.live_candidates();
+    front_vertices_ = step.segment_vertices(to.a, to.b);
+    front_segment_ = to;
+    has_front_ = true;
+    frozen = front_vertices_;
+    seeds = front_;
+  } else {
+    const Piece& sp = pr.sheet->piece();
+    CutStep step(*mesh_, positions, opt_.snap, &pr.memory, true);
+    step.add_candidates(pr.waiting);
+    step.add_candidates(pr.closed);
+    step.collect(local, front_, scan);
+    step.split_crossings(sp);
+    const std::vector<CutFacePair> faces = step.cut_faces(std::span<const Piece>(&sp, 1));
+    const SeparationResult sep = separate(*mesh_, faces);
+    for (const auto& [v, copy] : sep.duplicates) {
+      auto it = pr.memory.side.find(v.idx());
+      if (it != pr.memory.side.end()) pr.memory.side[copy.idx()] = it->second;
+    }
+    add_separation(rep, sep);
+    rep.tets_cut += step.tets_cut();
+    auto frags = find_fragments(*mesh_, sep.opened_tets, opt_.fragment_search_limit);
+    rep.fragments.insert(rep.fragments.end(), frags.begin(), frags.end());
+    front_ = step.live_candidates();
+    pr.closed.clear();
+    for (const CutFacePair& f : faces)
+      if (mesh_->neighbor(f.a.tet, f.a.local).is_valid()) {
+        pr.closed.push_back(f.a.tet);
+        pr.closed.push_back(f.b.tet);
+      }
+    refresh_waiting(positions, front_);
+    // The improvement works on what was cut; the tets still waiting (and the closed faces)
+    // keep their vertices, whose sides are decided or about to be.
+    std::unordered_set<std::uint32_t> wait;
+    for (const auto* list : {&pr.waiting, &pr.closed})
+      for (TetId t : *list) {
+        wait.insert(t.idx());
+        for (VertexId v : mesh_->tet_vertices(t)) frozen.push_back(v);
+      }
+    for (TetId t : front_)
+      if (!wait.count(t.idx())) seeds.push_back(t);
+  }
+  if (mesh_->has_pending_change()) pr.edited = true;
+  improve_after(rep, seeds, frozen);
+  rep.change = mesh_->take_change();
+  // Decisions about vertices the improvement moved off the cut surface or removed are void.
+  for (VertexId v : rep.change.removed_vertices) pr.memory.forget(v);
+  for (const VertexOrigin& o : rep.change.moved_vertices) {
+    auto it = pr.memory.side.find(o.vertex.idx());
+    if (it != pr.memory.side.end() && it->second != 0) pr.memory.forget(o.vertex);
+  }
+  if (pr.sheet) {
+    refresh_waiting(positions, rep.change.added_tets);
+    std::erase_if(pr.closed, [&](TetId t) { return !mesh_->is_alive(t); });
+    // A flip of closed cut faces (a 4-4 flip about an edge in the plane) makes new closed faces
+    // in the plane: they wait with the others.
+    for (TetId t : rep.change.added_tets) {
+      if (!mesh_->is_alive(t)) continue;
+      for (int f = 0; f < 4; ++f) {
+        if (!mesh_->neighbor(t, f).is_valid()) continue;
+        bool on = true;
+        for (VertexId v : mesh_->face_vertices(t, f)) {
+          auto it = pr.memory.side.find(v.idx());
+          on = on && it != pr.memory.side.end() && it->second == 0;
+        }
+        if (on) {
+          pr.closed.push_back(t);
+          pr.closed.push_back(mesh_->neighbor(t, f));
+        }
+      }
+    }
+  }
+  if (!grid_stale) {
+    grid_.update(*mesh_, rep.change);
+    grid_edits_ = mesh_->counters().edits;
+  }
+  rep.tets_added = rep.change.added_tets.size();
+  rep.vertices_added = rep.change.added_vertices.size();
+  std::unordered_set<std::uint32_t> in(front_.size());
+  std::vector<TetId> live;
+  for (TetId t : front_)
+    if (mesh_->is_alive(t) && in.insert(t.idx()).second) live.push_back(t);
+  for (TetId t : rep.change.added_tets)
+    if (mesh_->is_alive(t) && in.insert(t.idx()).second) live.push_back(t);
+  front_ = std::move(live);
+  rep.ms = ms_since(t0);
+  return rep;
 }
 
 CutStepReport Cutter::cut_plane(const Vec3& point, const Vec3& normal, const PositionFn& positions,
@@ -136,6 +423,7 @@ CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const Position
   if (triangles.empty()) return rep;
   if (mesh_->has_pending_change())
     throw InvalidArgument("cut: the mesh has edits not yet taken (call take_change() before cutting)");
+  complete_previous(rep, positions);
   std::vector<Piece> pieces = make_pieces(triangles);
   // The previous step's front is where this step's cut continues, not a rim.
   if (use_front && has_front_) mark_inner_segment(pieces, front_segment_.a, front_segment_.b);

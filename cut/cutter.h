@@ -35,6 +35,7 @@
 // exact in O(change), or the next first contact rebuilds it (O(mesh)).
 #include <chrono>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <span>
 #include <vector>
@@ -63,13 +64,19 @@ struct CutOptions {
   // queueing two rings (~8k tets) took more than a 2 ms budget before any operation; with
   // one, 100 random steps leave 2278 tets below 5 deg at 2 ms (2439 with two) and 1211 at
   // 10 ms (1400), and about as many with no budget (347 against 318).
+  // The budget counts operations (max_work: attempted flips, smoothings, contractions), not
+  // time, so the same cut gives the same mesh on every run and machine.
   ImproveOptions improve_options = [] {
     ImproveOptions o;
     o.collapse_tolerance = 0.01;
     o.rings = 1;
+    o.max_work = kDefaultImproveWork;
     return o;
   }();
-  double improve_budget_ms = 2.0;  // wall-clock budget of the local improvement per step
+  static constexpr int kDefaultImproveWork = 200;
+  // Optional wall-clock cap of the local improvement per step, on top of max_work; 0: none.
+  // A time cap makes the result depend on the machine and its load.
+  double improve_budget_ms = 0;
   std::vector<VertexId> frozen;    // vertices improvement must not move (e.g. constrained nodes)
   // Fragments: after a step, the tets on each side of the new cut faces are flood-filled
   // through face neighbours up to this many tets; a side that closes within it is reported
@@ -106,10 +113,19 @@ public:
 
   // Builds the first-contact grid over the mesh (O(mesh), once).
   explicit Cutter(TetMesh& mesh, CutOptions options = {});
+  ~Cutter();
+  Cutter(Cutter&&) noexcept;
+  Cutter& operator=(Cutter&&) noexcept;
 
-  // Positions the blade without cutting (a new cut: forgets the previous front).
+  // Positions the blade without cutting (a new cut). A cut not finish()ed is completed (its
+  // waiting tets cut, without finish()'s improvement) by the next step, in that step's record.
   void start(const BladeSegment& blade);
-  // Cuts what the blade sweeps moving from its last position to `blade`.
+  // Cuts what the blade sweeps moving from its last position to `blade`. Subdivision mode cuts
+  // progressively: steps in one plane grow one swept polygon (cut/sheet.h), and a tet is cut
+  // against that polygon once the blade has left it (its section with the plane lies inside
+  // the polygon, and the snap decisions of its vertices are final); the tets the blade is in
+  // wait. finish() cuts those. So the result does not depend on how a motion is sliced into
+  // steps, and the opening trails the blade by the tets it is in.
   CutStepReport advance(const BladeSegment& blade, const PositionFn& positions = {},
                         double max_displacement = kUnknownDisplacement);
   // One-shot cuts: a plane through the whole mesh, or a triangulated surface.
@@ -122,7 +138,7 @@ public:
   // improvement keeps them frozen, and nothing else revisits them), and the front is
   // forgotten. One record, like a step's; empty when improvement is off or nothing was cut.
   // Call it when a cut ends; start() alone forgets the front without improving it.
-  CutStepReport finish();
+  CutStepReport finish(const PositionFn& positions = {});
   // Edits of the mesh made elsewhere, taken by the first-contact grid in O(change).
   void notify(const TopologyChange& change);
 
@@ -131,8 +147,21 @@ public:
   const BladeSegment& blade() const { return blade_; }
   // Tets near the blade after the last step (where the next step's walk starts).
   const std::vector<TetId>& front_tets() const { return front_; }
+  // Tets the blade's current sheet crosses that are not cut yet (the blade is in them).
+  std::size_t waiting_tets() const;
 
 private:
+  struct Progress;  // the sheet being swept and its waiting tets (cutter.cpp)
+  // Progressive subdivision step from `from` to `to` (advance).
+  CutStepReport sweep(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions,
+                      double max_displacement);
+  // Cuts what the current sheet still has waiting, embedding its boundary; forgets the sheet.
+  void finish_sheet(CutStepReport& rep, const PositionFn& positions);
+  // Local improvement of the region just cut; the waiting tets' vertices stay put.
+  void improve_after(CutStepReport& rep, std::vector<TetId> seeds, std::vector<VertexId> frozen);
+  // A cut start() left unfinished is completed before the next edit (cut/cutter.cpp).
+  void complete_previous(CutStepReport& rep, const PositionFn& positions);
+  void refresh_waiting(const PositionFn& positions, std::span<const TetId> more);
   CutStepReport run(std::span<const CutTriangle> triangles, const PositionFn& positions, double max_displacement,
                     bool use_front);
   // Tets that may touch the pieces' box in the current configuration (first contact).
@@ -147,6 +176,7 @@ private:
   BladeSegment front_segment_;          // where the last step's blade stopped ...
   std::vector<VertexId> front_vertices_;  // ... and the mesh vertices along it
   bool has_front_ = false;
+  std::unique_ptr<Progress> progress_;
   TetGrid grid_;
   std::uint64_t grid_edits_ = 0;  // the mesh's edit counter when the grid was last in sync
 };

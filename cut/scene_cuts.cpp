@@ -56,13 +56,14 @@ SceneCutHook make_scene_cut_hook(const Scene& scene) {
       res.ms += r.ms;
       for (Fragment& fr : r.fragments) res.fragments.push_back(std::move(fr.tets));
       if (f >= 1) {  // the sweep is done: the blade is withdrawn, its front released
-        const CutStepReport fin = st->cutters[i]->finish();
+        CutStepReport fin = st->cutters[i]->finish(current);
         if (!fin.change.empty()) {
           for (std::size_t j = 0; j < cuts.size(); ++j)
             if (j != i) st->cutters[j]->notify(fin.change);
           apply(fin.change);
         }
         res.ms += fin.ms;
+        for (Fragment& fr : fin.fragments) res.fragments.push_back(std::move(fr.tets));
       }
     }
     return res;

@@ -242,6 +242,7 @@ SeparationResult separate(TetMesh& mesh, std::span<const CutFacePair> all_faces)
       const double one[1] = {1.0};
       const VertexId nv = mesh.add_vertex_interpolated(parent, one);
       for (TetId t : comps[c]) mesh.replace_vertex(t, v, nv);
+      r.duplicates.emplace_back(v, nv);
       ++r.vertices_duplicated;
     }
   }

@@ -4,6 +4,7 @@
 // further component, so the two sides separate along the whole cut surface while a vertex on
 // the cut front (one component) stays shared. Opened faces are tagged kTagCut.
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "cut/cut_step.h"
@@ -17,6 +18,7 @@ struct SeparationResult {
   std::size_t faces_dropped = 0;        // left closed: they would have pinched the boundary
   double area = 0;                      // rest area of the opened faces (one side)
   std::vector<TetId> opened_tets;       // one tet on each side of every opened face
+  std::vector<std::pair<VertexId, VertexId>> duplicates;  // (vertex, its new copy)
 };
 
 // `duplicate(v)` is called before v's extra components move to a new vertex (to record its

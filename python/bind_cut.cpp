@@ -1,6 +1,7 @@
 // Cutting: incise.Cutter (progressive blade, plane and surface cuts). Each call returns a dict
 // with the same figures as `incise cut --json` per step, the step's TopologyChange (hand it to
 // FemSimulation.apply / SpringSimulation.apply) and the detached fragments.
+#include <cmath>
 #include "python/bindings.h"
 
 #include "cut/cutter.h"
@@ -18,7 +19,7 @@ struct PyCutter {
 };
 
 std::unique_ptr<PyCutter> make_cutter(const py::object& mesh_obj, const std::string& mode, double snap, bool improve,
-                                      double improve_budget_ms, const py::object& frozen,
+                                      double improve_budget_ms, int improve_work, const py::object& frozen,
                                       std::size_t fragment_search_limit) {
   TetMesh& mesh = mesh_obj.cast<TetMesh&>();
   CutOptions o;
@@ -27,7 +28,11 @@ std::unique_ptr<PyCutter> make_cutter(const py::object& mesh_obj, const std::str
   else throw InvalidArgument("cut: mode: unknown value '" + mode + "' (expected subdivide, remove)");
   o.snap = snap;
   o.improve = improve;
+  if (!(improve_budget_ms >= 0) || !std::isfinite(improve_budget_ms))
+    throw InvalidArgument("cut: improve_budget_ms must be finite and >= 0 (0: no time cap)");
+  if (improve_work < 0) throw InvalidArgument("cut: improve_work must be >= 0 (0: no operation cap)");
   o.improve_budget_ms = improve_budget_ms;
+  o.improve_options.max_work = improve_work;
   if (!frozen.is_none()) o.frozen = to_vertices(mesh, frozen);
   o.fragment_search_limit = fragment_search_limit;
   return std::unique_ptr<PyCutter>(new PyCutter{mesh_obj, mesh, Cutter(mesh, std::move(o))});
@@ -71,17 +76,25 @@ void bind_cut(py::module_& m) {
                        "Cuts a TetMesh in place: a blade segment swept over calls (progressive cuts), a plane, "
                        "or a triangulated surface (cut/cutter.h, docs/cut.md)")
       .def(py::init(&make_cutter), py::arg("mesh"), py::kw_only(), py::arg("mode") = "subdivide",
-           py::arg("snap") = 0.05, py::arg("improve") = true, py::arg("improve_budget_ms") = 2.0,
+           py::arg("snap") = 0.05, py::arg("improve") = true, py::arg("improve_budget_ms") = 0.0,
+           py::arg("improve_work") = CutOptions::kDefaultImproveWork,
            py::arg("frozen") = py::none(), py::arg("fragment_search_limit") = std::size_t(20000))
       .def(
           "start", [](PyCutter& c, const py::object& a, const py::object& b) {
             c.cutter.start({to_vec3(a, "blade a"), to_vec3(b, "blade b")});
           },
-          py::arg("a"), py::arg("b"), "Places the blade (segment a-b) without cutting; forgets the previous front")
+          py::arg("a"), py::arg("b"), "Places the blade (segment a-b) without cutting. A cut not finished is completed by the next step")
       .def(
-          "finish", [](PyCutter& c) { return report(c.cutter.finish()); },
-          "The blade is withdrawn: improves the tets around the last front with its vertices free and "
-          "forgets the front. Returns a step report (its 'change' empty when there was nothing to do)")
+          "finish",
+          [](PyCutter& c, const py::object& positions) {
+            std::vector<Vec3> storage;
+            const auto pos = positions_of(c.mesh, positions, storage);
+            return report(c.cutter.finish(pos));
+          },
+          py::arg("positions") = py::none(),
+          "The blade is withdrawn: cuts the tets the blade was still in (embedding its last front), "
+          "improves around the front with its vertices free, and forgets the cut. Returns a step report "
+          "(its 'change' empty when there was nothing to do)")
       .def(
           "advance",
           [](PyCutter& c, const py::object& a, const py::object& b, const py::object& positions) {
@@ -90,8 +103,9 @@ void bind_cut(py::module_& m) {
             return report(c.cutter.advance({to_vec3(a, "blade a"), to_vec3(b, "blade b")}, pos));
           },
           py::arg("a"), py::arg("b"), py::arg("positions") = py::none(),
-          "Moves the blade to a-b and cuts what it swept; positions: current positions by vertex id "
-          "(the cut is made in that configuration). Returns the step report with its 'change'.")
+          "Moves the blade to a-b and cuts what it swept (tets the blade is still in wait for later "
+          "steps or finish()); positions: current positions by vertex id (the cut is made in that "
+          "configuration). Returns the step report with its 'change'.")
       .def(
           "cut_plane",
           [](PyCutter& c, const py::object& point, const py::object& normal, const py::object& positions) {

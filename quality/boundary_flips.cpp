@@ -103,7 +103,11 @@ std::vector<TetId> remove_boundary_edge(TetMesh& mesh, const BoundaryEdgeRemoval
       if (!mesh.neighbor(t, f).is_valid()) {
         const auto fv = mesh.face_vertices(t, f);
         tags[key(fv[0], fv[1], fv[2])] = mesh.face_tag(t, f);
-        if (mesh.local_index(t, plan.a) >= 0 && mesh.local_index(t, plan.b) >= 0) quad_tag = mesh.face_tag(t, f);
+        // The quad's faces hold the edge itself (every tet of the star holds a and b, but a
+        // tet at a rim also has a face of another tag, e.g. a cut face beside the surface).
+        const bool has_a = fv[0] == plan.a || fv[1] == plan.a || fv[2] == plan.a;
+        const bool has_b = fv[0] == plan.b || fv[1] == plan.b || fv[2] == plan.b;
+        if (has_a && has_b) quad_tag = mesh.face_tag(t, f);
       }
   tags[key(plan.a, c0, cm)] = quad_tag;
   tags[key(plan.b, c0, cm)] = quad_tag;

@@ -1,0 +1,183 @@
+// Progressive cutting at interactive step sizes: the same blade motion sliced into 1 to 4000
+// steps gives the same cut (area opened, parts, tet count), a grazing blade changes nothing,
+// and the result is deterministic.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <numeric>
+
+#include "cut/cutter.h"
+#include "mesh/generate.h"
+#include "quality/metrics.h"
+#include "tests/cut/cut_checks.h"
+
+using namespace incise;
+using namespace incise::testing;
+
+namespace {
+
+// Parts that share no vertex (tets touching at a vertex or an edge are one part: physically
+// still attached there).
+std::size_t vertex_parts(const TetMesh& m) {
+  std::vector<std::uint32_t> parent(m.vertex_capacity());
+  std::iota(parent.begin(), parent.end(), 0u);
+  auto find = [&](std::uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (TetId t : m.tets()) {
+    const auto& tv = m.tet_vertices(t);
+    for (int k = 1; k < 4; ++k) parent[find(tv[std::size_t(k)].idx())] = find(tv[0].idx());
+  }
+  std::size_t n = 0;
+  for (VertexId v : m.vertices()) n += !m.incident_tets(v).empty() && find(v.idx()) == v.idx();
+  return n;
+}
+
+struct Outcome {
+  std::size_t tets = 0, parts = 0;
+  double area = 0;  // cut-tagged area, one side
+  double min_dihedral = 0;
+};
+
+// The blade a-b moves by d in `steps` equal steps (as `incise cut --steps` does), then finish().
+Outcome sweep(TetMesh m, const Vec3& a, const Vec3& b, const Vec3& d, int steps, CutOptions opt, bool check_each = false) {
+  const auto vol0 = label_volumes(m);
+  Cutter cutter(m, opt);
+  cutter.start({a, b});
+  double moved = 0;  // label volume the improvement's tolerance-mode contractions moved
+  for (int k = 1; k <= steps; ++k) {
+    const Vec3 off = d * (double(k) / steps);
+    moved += cutter.advance({a + off, b + off}).improve.volume_change;
+    if (check_each) check_cut_invariants(m, vol0, 1e-9, moved);
+  }
+  moved += cutter.finish().improve.volume_change;
+  check_cut_invariants(m, vol0, 1e-9, moved);
+  const QualityRange q = quality_range(m);
+  return {m.num_tets(), vertex_parts(m), 0.5 * tagged_area(m, kTagCut), q.min_dihedral};
+}
+
+CutOptions no_improve() {
+  CutOptions o;
+  o.improve = false;
+  return o;
+}
+
+TetMesh box4() {
+  TetMesh m = make_box(Vec3(4, 1, 1), {16, 4, 4});
+  m.discard_change();
+  return m;
+}
+
+}  // namespace
+
+TEST_CASE("progressive: a partial cut opens the swept area whatever the step count", "[cut][progressive]") {
+  // The case: box 4x1x1, 0.25 cells, blade 0.6 down from above the top (0.5 inside).
+  const Vec3 a(2.03, -0.5, 1.1), b(2.03, 1.5, 1.1), d(0, 0, -0.6);
+  for (bool improve : {false, true}) {
+    CutOptions o = improve ? CutOptions{} : no_improve();
+    const Outcome one = sweep(box4(), a, b, d, 1, o);
+    CHECK(one.area == Approx(0.5).epsilon(0.01));
+    CHECK(one.parts == 1);
+    for (int steps : {10, 40, 400, 4000}) {
+      INFO("improve " << improve << ", steps " << steps);
+      const Outcome r = sweep(box4(), a, b, d, steps, o, steps == 40);
+      CHECK(r.area == Approx(0.5).epsilon(0.01));
+      CHECK(r.parts == 1);
+      CHECK(std::abs(double(r.tets) - double(one.tets)) <= 0.1 * double(one.tets));
+    }
+  }
+}
+
+TEST_CASE("progressive: a through-cut separates whatever the step count", "[cut][progressive]") {
+  const Vec3 a(2.03, -0.5, 1.1), b(2.03, 1.5, 1.1), d(0, 0, -1.3);
+  const std::size_t tets0 = box4().num_tets();
+  const Outcome one = sweep(box4(), a, b, d, 1, {});
+  CHECK(one.parts == 2);
+  CHECK(one.area == Approx(1.0).epsilon(0.01));
+  for (int steps : {20, 100, 400}) {
+    INFO("steps " << steps);
+    const Outcome r = sweep(box4(), a, b, d, steps, {});
+    CHECK(r.parts == 2);
+    CHECK(r.area == Approx(1.0).epsilon(0.01));
+    CHECK(std::abs(double(r.tets) - double(one.tets)) <= 0.1 * double(one.tets));
+    // A plane adds a handful of tets per tet it crosses, not a number growing with the steps.
+    CHECK(double(r.tets) < 2.0 * double(tets0));
+  }
+}
+
+TEST_CASE("progressive: an oblique through-cut of a cube is step-count independent", "[cut][progressive]") {
+  auto cube = [] {
+    TetMesh m = make_box(Vec3(10, 10, 10), {10, 10, 10});
+    m.discard_change();
+    return m;
+  };
+  // A tilted blade plane (normal not along any axis) swept through the whole cube.
+  const Vec3 a(-1, -1, 11.3), b(11, 12.1, 10.2), d(0.9, -1.2, -13);
+  const Outcome one = sweep(cube(), a, b, d, 1, {});
+  CHECK(one.parts == 2);
+  for (int steps : {10, 100}) {
+    INFO("steps " << steps);
+    const Outcome r = sweep(cube(), a, b, d, steps, {});
+    CHECK(r.parts == 2);
+    CHECK(r.area == Approx(one.area).epsilon(0.01));
+    CHECK(std::abs(double(r.tets) - double(one.tets)) <= 0.1 * double(one.tets));
+  }
+}
+
+TEST_CASE("progressive: tiny steps with any snap threshold leave no swept face shut", "[cut][progressive]") {
+  const Vec3 a(2.03, -0.5, 1.1), b(2.03, 1.5, 1.1), d(0, 0, -0.6);
+  for (double snap : {0.0, 0.05, 0.3, 0.49}) {
+    CutOptions o = no_improve();
+    o.snap = snap;
+    INFO("snap " << snap);
+    // 600 steps: 1/250 of an edge per step.
+    const Outcome r = sweep(box4(), a, b, d, 600, o);
+    CHECK(r.area == Approx(0.5).epsilon(0.01));
+    const Outcome t = sweep(box4(), a, b, Vec3(0, 0, -1.3), 600, o);
+    CHECK(t.parts == 2);
+  }
+}
+
+TEST_CASE("progressive: a blade that grazes a face or misses the body changes nothing", "[cut][progressive]") {
+  for (const auto& [a, b, d] : {std::tuple{Vec3(-1, 0, 1), Vec3(5, 0, 1), Vec3(0, 0.5, 0)},    // in the top face
+                                std::tuple{Vec3(-1, 0, 3), Vec3(5, 0, 3), Vec3(0, 0.5, 0)},    // above the body
+                                std::tuple{Vec3(-1, 0, 1), Vec3(5, 0, 1), Vec3(0, 0, 0.5)}}) {  // touches the top edge
+    for (int steps : {1, 5}) {
+      TetMesh m = box4();
+      const TetMesh before = m;
+      Cutter cutter(m);
+      cutter.start({a, b});
+      for (int k = 1; k <= steps; ++k) {
+        const CutStepReport r = cutter.advance({a + d * (double(k) / steps), b + d * (double(k) / steps)});
+        CHECK(r.change.empty());
+      }
+      CHECK(cutter.finish().change.empty());
+      REQUIRE(m.num_tets() == before.num_tets());
+      REQUIRE(m.num_vertices() == before.num_vertices());
+      bool same = true;
+      for (TetId t : m.tets()) same = same && m.tet_vertices(t) == before.tet_vertices(t);
+      for (VertexId v : m.vertices()) same = same && m.rest(v) == before.rest(v);
+      CHECK(same);
+    }
+  }
+}
+
+TEST_CASE("progressive: two runs of the same cut give the same mesh", "[cut][progressive]") {
+  const Vec3 a(2.03, -0.5, 1.1), b(2.03, 1.5, 1.1), d(0, 0, -0.8);
+  auto run = [&] {
+    TetMesh m = box4();
+    Cutter cutter(m);  // default options: the improvement's budget counts operations
+    cutter.start({a, b});
+    for (int k = 1; k <= 30; ++k) cutter.advance({a + d * (k / 30.0), b + d * (k / 30.0)});
+    cutter.finish();
+    return m;
+  };
+  const TetMesh m1 = run(), m2 = run();
+  REQUIRE(m1.num_tets() == m2.num_tets());
+  REQUIRE(m1.num_vertices() == m2.num_vertices());
+  bool same = true;
+  for (TetId t : m1.tets()) same = same && m2.is_alive(t) && m1.tet_vertices(t) == m2.tet_vertices(t);
+  for (VertexId v : m1.vertices()) same = same && m1.rest(v) == m2.rest(v);
+  CHECK(same);
+}
