@@ -397,9 +397,18 @@ void progressive(const TetMesh& organ, const std::string& name, bool quick) {
     const int tenth = int(std::ceil(s.d.norm() / (0.1 * h)));
     counts.push_back(tenth);
     double area1 = 0;
-    for (int n : counts) {
+    struct Variant {
+      int steps;
+      bool improve;
+    };
+    std::vector<Variant> variants;
+    for (int n : counts) variants.push_back({n, true});
+    variants.push_back({tenth, false});  // the cut's own share, without the improvement
+    for (const auto& [n, improve] : variants) {
       TetMesh m = s.mesh;
-      Cutter cutter(m);
+      CutOptions opt;
+      opt.improve = improve;
+      Cutter cutter(m, opt);
       cutter.start({s.a, s.b});
       std::vector<double> ms;
       for (int k = 1; k <= n; ++k) {
@@ -411,7 +420,8 @@ void progressive(const TetMesh& organ, const std::string& name, bool quick) {
       const std::size_t below10 = q.below;
       const double area = tagged_area(m);
       if (n == 1) area1 = area;
-      std::printf("%s,%d,%.3f,%zu,%zu,%zu,%.2f,%.4g,%.4f,%zu,%.3f,%zu,%.3f,%.3f,%.3f,%.3f\n", s.name.c_str(), n,
+      std::printf("%s%s,%d,%.3f,%zu,%zu,%zu,%.2f,%.4g,%.4f,%zu,%.3f,%zu,%.3f,%.3f,%.3f,%.3f\n", s.name.c_str(),
+                  improve ? "" : " (no improve)", n,
                   s.d.norm() / n / h, s.mesh.num_tets(), crossed, m.num_tets(),
                   double(m.num_tets() - s.mesh.num_tets()) / double(std::max<std::size_t>(crossed, 1)), area,
                   area / area1, vertex_parts(m), q.min_dihedral, below10, percentile(ms, 0.5), percentile(ms, 0.95),

@@ -45,7 +45,16 @@ struct Cutter::Progress {
   // start() was called with a sheet unfinished: the next step (or finish) completes it first,
   // in the same record (start() itself hands out no change).
   bool complete_first = false;
+  // Tets a step cut, with the step that cut them: each step improves them (and what this step
+  // cut) within its operation budget, worst first, so the work a commit needs is spread over
+  // the steps after it instead of falling on the one frame; a tet leaves after kImproveSteps.
+  std::vector<std::pair<TetId, int>> improve_queue;
+  int step = 0;
 };
+
+namespace {
+constexpr int kImproveSteps = 16;
+}
 
 Cutter::Cutter(TetMesh& mesh, CutOptions options)
     : mesh_(&mesh), opt_(std::move(options)), progress_(std::make_unique<Progress>()) {
@@ -114,7 +123,7 @@ void Cutter::complete_previous(CutStepReport& rep, const PositionFn& positions) 
 }
 
 void Cutter::improve_after(CutStepReport& rep, std::vector<TetId> seeds, std::vector<VertexId> frozen) {
-  if (!opt_.improve || seeds.empty() || !mesh_->has_pending_change()) return;
+  if (!opt_.improve || seeds.empty()) return;
   const auto ti = std::chrono::steady_clock::now();
   ImproveOptions io = opt_.improve_options;
   frozen.insert(frozen.end(), opt_.frozen.begin(), opt_.frozen.end());
@@ -202,11 +211,14 @@ CutStepReport Cutter::finish(const PositionFn& positions) {
   if (mesh_->has_pending_change())
     throw InvalidArgument("cut: the mesh has edits not yet taken (call take_change() before finishing a cut)");
   const bool grid_stale = mesh_->counters().edits != grid_edits_;
+  std::vector<TetId> live;
+  for (const auto& e : progress_->improve_queue) live.push_back(e.first);
   finish_sheet(rep, positions);
   const bool edited = progress_->edited;
-  std::vector<TetId> live;
-  for (TetId t : front_)
-    if (mesh_->is_alive(t)) live.push_back(t);
+  live.insert(live.end(), front_.begin(), front_.end());
+  std::erase_if(live, [&](TetId t) { return !mesh_->is_alive(t); });
+  std::sort(live.begin(), live.end(), [](TetId a, TetId b) { return a.idx() < b.idx(); });
+  live.erase(std::unique(live.begin(), live.end()), live.end());
   started_ = false;
   front_.clear();
   front_vertices_.clear();
@@ -218,6 +230,7 @@ CutStepReport Cutter::finish(const PositionFn& positions) {
     ImproveOptions io = opt_.improve_options;
     io.frozen = opt_.frozen;
     io.time_budget_ms = opt_.improve_budget_ms;
+    io.max_work = opt_.finish_improve_work;
     const auto ti = std::chrono::steady_clock::now();
     ImproveReport ir = improve_local(*mesh_, live, io);
     rep.ms_improve += ms_since(ti);
@@ -306,7 +319,7 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
     front_segment_ = to;
     has_front_ = true;
     frozen = front_vertices_;
-    seeds = front_;
+    if (mesh_->has_pending_change()) seeds = front_;
   } else {
     const Piece& sp = pr.sheet->piece();
     CutStep step(*mesh_, positions, opt_.snap, &pr.memory, true);
@@ -340,11 +353,20 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
         wait.insert(t.idx());
         for (VertexId v : mesh_->tet_vertices(t)) frozen.push_back(v);
       }
-    for (TetId t : front_)
-      if (!wait.count(t.idx())) seeds.push_back(t);
+    ++pr.step;
+    if (mesh_->has_pending_change())
+      for (TetId t : front_)
+        if (!wait.count(t.idx())) pr.improve_queue.emplace_back(t, pr.step);
+    std::erase_if(pr.improve_queue, [&](const auto& e) {
+      return !mesh_->is_alive(e.first) || wait.count(e.first.idx()) || e.second + kImproveSteps < pr.step;
+    });
+    std::unordered_set<std::uint32_t> in;
+    for (const auto& e : pr.improve_queue)
+      if (in.insert(e.first.idx()).second) seeds.push_back(e.first);
   }
   if (mesh_->has_pending_change()) pr.edited = true;
   improve_after(rep, seeds, frozen);
+  if (pr.sheet && opt_.improve && !seeds.empty() && !rep.improve.budget_exhausted) pr.improve_queue.clear();
   rep.change = mesh_->take_change();
   // Decisions about vertices the improvement moved off the cut surface or removed are void.
   for (VertexId v : rep.change.removed_vertices) pr.memory.forget(v);
@@ -354,6 +376,8 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
   }
   if (pr.sheet) {
     refresh_waiting(positions, rep.change.added_tets);
+    if (!pr.improve_queue.empty())
+      for (TetId t : rep.change.added_tets) pr.improve_queue.emplace_back(t, pr.step);
     std::erase_if(pr.closed, [&](TetId t) { return !mesh_->is_alive(t); });
     // A flip of closed cut faces (a 4-4 flip about an edge in the plane) makes new closed faces
     // in the plane: they wait with the others.

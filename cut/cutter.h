@@ -73,7 +73,11 @@ struct CutOptions {
     o.max_work = kDefaultImproveWork;
     return o;
   }();
-  static constexpr int kDefaultImproveWork = 200;
+  // 20 operations a step: a step that commits a layer of tets then costs ~1 ms more, and the
+  // work its tets need is spread over the next steps (cutter.cpp, improve queue).
+  static constexpr int kDefaultImproveWork = 8;
+  // Operations of finish()'s improvement (the front released; once per cut, so more).
+  int finish_improve_work = 2000;
   // Optional wall-clock cap of the local improvement per step, on top of max_work; 0: none.
   // A time cap makes the result depend on the machine and its load.
   double improve_budget_ms = 0;
