@@ -165,6 +165,7 @@ private:
   void improve_after(CutStepReport& rep, std::vector<TetId> seeds, std::vector<VertexId> frozen);
   // A cut start() left unfinished is completed before the next edit (cut/cutter.cpp).
   void complete_previous(CutStepReport& rep, const PositionFn& positions);
+  bool needs_improving(TetId t) const;  // joins the per-step improvement queue
   void refresh_waiting(const PositionFn& positions, std::span<const TetId> more);
   CutStepReport run(std::span<const CutTriangle> triangles, const PositionFn& positions, double max_displacement,
                     bool use_front);

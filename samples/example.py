@@ -81,6 +81,9 @@ for k in range(1, 6):
     s = fem.step()
     print(f"cut step {k}: {r['tets_cut']} tets cut, +{r['tets_added']} tets, {r['vertices_duplicated']} vertices "
           f"duplicated, {r['ms']:.1f} ms; then {s['iterations']} CG iterations")
+r = cutter.finish(positions=fem.positions)  # the blade withdrawn: the tets it stopped in are cut
+fem.apply(r["change"])
+fem.step()
 incise.write(mesh, os.path.join(args.out, "cut.vtu"), positions=fem.positions,
              point_data={"displacement": fem.displacement})
 

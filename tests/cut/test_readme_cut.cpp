@@ -23,15 +23,17 @@ incise::TetMesh readme_cut_example() {
   const Vec3 a(2.03, -0.5, 1.1), b(2.03, 1.5, 1.1);
   Cutter cutter(mesh);                      // subdivide, snap 0.05, local improvement
   cutter.start({a, b});
+  auto current = [&](VertexId v) {           // cut the deformed shape
+    return Vec3(mesh.rest(v) + fem.displacement().segment<3>(3 * v.idx()));
+  };
   for (int frame = 1; frame <= 5; ++frame) {
     const Vec3 down(0, 0, -0.12 * frame);
-    const Eigen::VectorXd& u = fem.displacement();
-    CutStepReport r = cutter.advance({a + down, b + down}, [&](VertexId v) {
-      return Vec3(mesh.rest(v) + u.segment<3>(3 * v.idx()));  // cut the deformed shape
-    });
+    CutStepReport r = cutter.advance({a + down, b + down}, current);
     fem.apply(r.change);                    // O(cut), not O(mesh)
     fem.step();
   }
+  fem.apply(cutter.finish(current).change);  // blade withdrawn: the tets it stopped in are cut
+  fem.step();
   return mesh;
 }
 // README cut example ends
@@ -41,4 +43,9 @@ TEST_CASE("the README's cutting example runs and leaves a valid, partially cut m
   REQUIRE_NOTHROW(m.validate({true, true}));
   CHECK(m.num_tets() > 16 * 4 * 4 * 6);
   CHECK(incise::tet_components(m).count == 1);  // a partial cut: still one piece
+  double area = 0;  // ... open over what the blade swept inside the beam: 1 x 0.5, both sides
+  for (const auto& f : m.boundary_faces())
+    if (f.tag == incise::kTagCut)
+      area += 0.5 * (m.rest(f.vertices[1]) - m.rest(f.vertices[0])).cross(m.rest(f.vertices[2]) - m.rest(f.vertices[0])).norm();
+  CHECK(area == Approx(1.0).epsilon(0.01));
 }
