@@ -156,6 +156,47 @@ void write_text_atomic(const std::string& path, const std::string& text) {
   f.commit();
 }
 
+// A vertex moved by more than this many times the body's size (the diagonal of its rest
+// bounding box) means the solution blew up: no scene asks for that, while a free part under a
+// static solve, an explicit step above the stable limit or loads far beyond the material do.
+constexpr double kBlowUpFactor = 1e3;
+
+// Largest vertex displacement in `disp` (3 per vertex slot); NaN when any is NaN (std::max
+// would skip it), infinite when any is infinite.
+double max_displacement(const Eigen::VectorXd& disp) {
+  double d = 0;
+  for (Eigen::Index i = 0; i + 2 < disp.size(); i += 3) {
+    const double n = disp.segment<3>(i).norm();
+    if (std::isnan(n)) return n;
+    d = std::max(d, n);
+  }
+  return d;
+}
+
+// Throws when a frame's solution blew up: a non-finite displacement or residual, or a vertex
+// moved by more than kBlowUpFactor times the body's size. Such a frame is never "converged".
+void check_solution(const Scene& s, int frame, double max_disp, double residual, double size) {
+  if (max_disp <= kBlowUpFactor * size && std::isfinite(residual)) return;  // false for NaN too
+  std::ostringstream m;
+  m << s.path << ": frame " << frame << ": the solution blew up (";
+  if (!std::isfinite(max_disp)) m << "a displacement is NaN or infinite";
+  else if (!std::isfinite(residual)) m << "relative residual " << residual;
+  else {
+    const double times = max_disp / size;
+    m << std::setprecision(2) << "max displacement " << max_disp << ", ";
+    if (times < 1e6) m << std::fixed << std::setprecision(0);
+    m << times << "x the body's size" << std::defaultfloat;
+  }
+  m << "); ";
+  if (s.model == SceneModel::Springs)
+    m << "reduce time.dt or raise time.substeps, or check the loads";
+  else if (s.integrator == "static")
+    m << "check that every part is fixed or probed and that the loads suit the materials";
+  else
+    m << "reduce time.dt, or check the loads";
+  throw Error(m.str());
+}
+
 }  // namespace
 
 double SceneLoad::factor(int frame) const {
@@ -404,7 +445,8 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
     lo = lo.cwiseMin(mesh.rest(v));
     hi = hi.cwiseMax(mesh.rest(v));
   }
-  const double tol = 1e-9 * (hi - lo).norm();
+  const double size = (hi - lo).norm();  // the body's size, for the blow-up check
+  const double tol = 1e-9 * size;
   auto select = [&](const SceneBox& b, const std::string& key) {
     std::vector<VertexId> out;
     for (VertexId v : mesh.vertices())
@@ -607,13 +649,10 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
         disp = Eigen::VectorXd::Zero(Eigen::Index(3 * mesh.vertex_capacity()));
         const auto& x = springs->positions();
         for (VertexId v : mesh.vertices()) disp.segment<3>(3 * v.idx()) = x[v.idx()] - mesh.rest(v);
-        if (!disp.allFinite())
-          throw Error(s.path + ": frame " + std::to_string(frame) +
-                      ": spring model produced NaN/Inf (time step above the stable limit?)");
       }
+      const double maxd = max_displacement(disp);
+      check_solution(s, frame, maxd, st.relative_residual, size);
       if (opt.on_frame) opt.on_frame(frame, disp, st);
-      double maxd = 0;
-      for (Eigen::Index i = 0; i < disp.size(); i += 3) maxd = std::max(maxd, disp.segment<3>(i).norm());
       const double time = dynamic ? (frame + 1) * s.dt * (s.model == SceneModel::Springs ? s.substeps : 1) : frame;
       const bool converged = st.info == SolveInfo::Success;
       csv << frame << "," << time << "," << st.iterations << "," << st.relative_residual << "," << st.solve_ms << ","

@@ -132,7 +132,8 @@ struct SceneRunSummary {
 };
 
 // Loads the mesh, builds the model and plays the frames. Throws Error naming the scene, the
-// frame and the reason on a solver breakdown.
+// frame and the reason on a solver breakdown, and on a solution that blew up (NaN/Inf, or a
+// vertex moved by more than 1000 times the body's size: never reported as converged).
 SceneRunSummary run_scene(const Scene& scene, const SceneRunOptions& options);
 
 }  // namespace incise

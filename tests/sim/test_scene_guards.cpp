@@ -1,13 +1,102 @@
-// Solves that cannot lie: a solve whose residual or solution is not finite is never reported as
-// converged.
+// Scenes that cannot lie: a frame whose solution blew up stops the run naming the frame
+// instead of being counted as converged, and a solve whose residual is not finite is never
+// reported as converged.
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <unistd.h>
 
+#include "mesh/errors.h"
 #include "mesh/generate.h"
 #include "sim/fem_simulation.h"
+#include "sim/scene.h"
 
 using namespace incise;
+namespace fs = std::filesystem;
+
+namespace {
+
+// A 4 x 1 x 1 beam (cells of 0.5) clamped at x = 0, under gravity; `extra` is spliced in as
+// further top-level keys.
+Scene beam(const std::string& extra = "") {
+  return parse_scene(R"({
+  "mesh": {"generate": "box", "size": [4, 1, 1], "cells": [8, 2, 2]},
+  "model": "fem-linear",
+  "materials": {"*": {"young": 1e4, "poisson": 0.3, "density": 1}},
+  "fixed": [{"box": [0, 0, 0, 0, 1, 1]}],
+  "loads": [{"type": "gravity", "g": [0, 0, -1]}],
+  "solver": {"method": "cg", "tolerance": 1e-8, "max_iterations": 5000},
+  "time": {"frames": 4})" + extra + "}",
+                     "scene.json");
+}
+
+fs::path temp_dir(const std::string& name) {
+  fs::path p = fs::temp_directory_path() / ("incise_test_scene_guards_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(p);
+  return p;
+}
+
+// Data rows of DIR/stats.csv: the frames the run computed.
+int stats_rows(const fs::path& dir) {
+  std::ifstream csv(dir / "stats.csv");
+  int rows = -1;  // the header
+  for (std::string line; std::getline(csv, line);) ++rows;
+  return rows;
+}
+
+std::string error_of(const Scene& s, const SceneRunOptions& ro) {
+  try {
+    run_scene(s, ro);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+}  // namespace
+
+TEST_CASE("a frame whose solution blew up stops the run, naming the frame", "[scene][guards]") {
+  const fs::path out = temp_dir("blowup");
+  SceneRunOptions ro;
+  ro.out_dir = out.string();
+  SECTION("static FEM: a tip load far beyond the material, from frame 2") {
+    // CG converges on it (the problem is linear): only the size of the answer shows it.
+    const Scene s = beam(R"(, "loads": [{"type": "force", "box": [4, 0, 0, 4, 1, 1], "total": [0, 0, -1e20],
+                                        "from_frame": 2, "to_frame": 2}])");
+    const std::string e = error_of(s, ro);
+    const std::string head = "scene.json: frame 2: the solution blew up (max displacement ";
+    REQUIRE_THAT(e, Catch::StartsWith(head));
+    CHECK_THAT(e, Catch::Contains("x the body's size)"));
+    // The reported displacement is the tip's: beam theory F L^3 / (3 E I) = 2.6e18 m (the coarse
+    // linear tets are stiffer).
+    const double tip = 1e20 * 64 / (3 * 1e4 * (1.0 / 12));
+    const double reported = std::stod(e.substr(head.size()));
+    CHECK(reported > 0.3 * tip);
+    CHECK(reported < 1.2 * tip);
+    CHECK(stats_rows(out) == 2);
+  }
+  SECTION("static FEM, direct: a load whose residual overflows is not a converged frame") {
+    const Scene s = beam(R"(, "solver": {"method": "direct"},
+      "loads": [{"type": "force", "box": [4, 0, 0, 4, 1, 1], "total": [0, 0, -9e200]}])");
+    CHECK_THAT(error_of(s, ro), Catch::StartsWith("scene.json: frame 0: "));
+    CHECK(stats_rows(out) == 0);
+  }
+  SECTION("springs: an explicit step far above the stable limit") {
+    Scene s = beam();
+    s.model = SceneModel::Springs;
+    s.integrator = "explicit-euler";
+    s.dt = 1;
+    s.frames = 50;
+    const std::string e = error_of(s, ro);
+    CHECK_THAT(e, Catch::StartsWith("scene.json: frame "));
+    CHECK_THAT(e, Catch::Contains(": the solution blew up ("));
+    CHECK_THAT(e, Catch::Contains("time.dt"));
+  }
+  fs::remove_all(out);
+}
 
 TEST_CASE("a solve whose residual is not finite is not converged", "[fem][guards]") {
   // Forces of 1e200 on the tip of a clamped beam: the displacement (~1e200) is finite, but the
