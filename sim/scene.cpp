@@ -197,6 +197,14 @@ void check_solution(const Scene& s, int frame, double max_disp, double residual,
   throw Error(m.str());
 }
 
+// The message for a part a cut detached that holds no fixed or prescribed vertex; `why` ends it.
+std::string detached_part(const Scene& s, int frame, std::size_t tets, const Vec3& near, const std::string& why) {
+  std::ostringstream m;
+  m << s.path << ": frame " << frame << ": a cut detached a part of " << tets << " tets near (" << std::setprecision(3)
+    << near.x() << ", " << near.y() << ", " << near.z() << ") with no fixed vertex" << why;
+  return m.str();
+}
+
 }  // namespace
 
 double SceneLoad::factor(int frame) const {
@@ -573,19 +581,29 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
     for (const auto& part : cr.fragments) {
       std::vector<VertexId> verts;
       bool held = false;
+      std::size_t tets = 0;
+      Vec3 near = Vec3::Zero();  // the rest-space centroid of its tets' corners, for messages
       for (TetId t : part) {
         if (!mesh.is_alive(t)) continue;
+        ++tets;
         for (VertexId v : mesh.tet_vertices(t)) {
           verts.push_back(v);
+          near += mesh.rest(v);
           held = held || (fem ? fem->is_constrained(v) : springs->is_fixed(v));
         }
       }
-      if (held || verts.empty() || policy == FragmentPolicy::Keep) continue;
+      if (held || verts.empty()) continue;
+      near /= double(verts.size());
+      // Keep is for dynamic scenes, where a free part falls; a static solve has no equilibrium
+      // for it (K is singular there) and would return garbage that looks converged.
+      if (policy == FragmentPolicy::Keep && !dynamic)
+        throw Error(detached_part(s, frame, tets, near,
+                                  "; a static solve has no equilibrium for it (set \"fragments\" to \"remove\" or "
+                                  "\"fix\", or use a dynamic integrator)"));
+      if (policy == FragmentPolicy::Keep) continue;
       ++sum.fragments_handled;
       if (policy == FragmentPolicy::Error)
-        throw Error(s.path + ": frame " + std::to_string(frame) + ": a cut detached a part of " +
-                    std::to_string(part.size()) + " tets with no fixed vertex (set \"fragments\" to \"remove\", " +
-                    "\"fix\" or \"keep\")");
+        throw Error(detached_part(s, frame, tets, near, " (set \"fragments\" to \"remove\", \"fix\" or \"keep\")"));
       if (policy == FragmentPolicy::Fix) {
         for (VertexId v : verts) {
           if (fem) fem->fix(v);

@@ -1,6 +1,11 @@
-// Scenes that cannot lie: a frame whose solution blew up stops the run naming the frame
-// instead of being counted as converged, and a solve whose residual is not finite is never
-// reported as converged.
+// Scenes that cannot lie: a static scene told to keep a part a cut freed is refused (a static
+// solve has no equilibrium for it), a frame whose solution blew up stops the run naming the
+// frame instead of being counted as converged, and a solve whose residual is not finite is
+// never reported as converged.
+//
+// The cuts here come from a test-local hook that severs the beam by removing one layer of tets
+// and reports what lies beyond as a fragment, the way the cutter does (test_sim does not link
+// cut/): that is all the runner's fragment rule sees.
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -33,6 +38,30 @@ Scene beam(const std::string& extra = "") {
                      "scene.json");
 }
 
+constexpr std::size_t kBeamTets = 8 * 2 * 2 * 6;
+constexpr std::size_t kLayerTets = 2 * 2 * 6;       // one cell layer across the beam
+constexpr std::size_t kBeyondTets = 3 * 2 * 2 * 6;  // the three cell layers past x = 2.5
+
+// Before `frame`'s solve, removes the tets between x = 2 and x = 2.5 (rest space): the beam's
+// end beyond x = 2.5 is then a separate part with no fixed vertex, reported as a fragment.
+SceneCutHook sever_at(int frame) {
+  return [frame](int f, TetMesh& mesh, const auto&, const auto&,
+                 const std::function<void(const TopologyChange&)>& apply) {
+    SceneCutResult r;
+    if (f != frame) return r;
+    std::vector<TetId> beyond;
+    for (TetId t : mesh.tets()) {
+      Vec3 c = Vec3::Zero();
+      for (VertexId v : mesh.tet_vertices(t)) c += mesh.rest(v) / 4;
+      if (c.x() > 2 && c.x() < 2.5) mesh.remove_tet(t);
+      else if (c.x() > 2.5) beyond.push_back(t);
+    }
+    apply(mesh.take_change());
+    r.fragments.push_back(std::move(beyond));
+    return r;
+  };
+}
+
 fs::path temp_dir(const std::string& name) {
   fs::path p = fs::temp_directory_path() / ("incise_test_scene_guards_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(p);
@@ -57,6 +86,59 @@ std::string error_of(const Scene& s, const SceneRunOptions& ro) {
 }
 
 }  // namespace
+
+TEST_CASE("a static scene that keeps a part a cut freed is refused, naming the frame and the part", "[scene][guards]") {
+  const fs::path out = temp_dir("keep");
+  SceneRunOptions ro;
+  ro.out_dir = out.string();
+  ro.cut_hook = sever_at(2);
+  const std::string e = error_of(beam(R"(, "fragments": "keep")"), ro);
+  // 72 tets between x = 2.5 and 4, centred at (3.25, 0.5, 0.5).
+  CHECK_THAT(e, Catch::StartsWith("scene.json: frame 2: a cut detached a part of " + std::to_string(kBeyondTets) +
+                                  " tets near (3.25, 0.5, 0.5)"));
+  CHECK_THAT(e, Catch::Contains("with no fixed vertex; a static solve has no equilibrium for it"));
+  CHECK_THAT(e, Catch::Contains("\"remove\" or \"fix\", or use a dynamic integrator"));
+  // Refused before frame 2's solve; frames 0 and 1 are kept.
+  CHECK(stats_rows(out) == 2);
+  CHECK(fs::exists(out / "frame_0001.vtu"));
+  CHECK_FALSE(fs::exists(out / "frame_0002.vtu"));
+  fs::remove_all(out);
+}
+
+TEST_CASE("the same severed scene runs with remove, fix, auto, and keeps the part when dynamic", "[scene][guards]") {
+  SceneRunOptions ro;
+  ro.cut_hook = sever_at(2);
+  SECTION("remove (and auto, which is remove for static FEM): the free part goes") {
+    for (const char* policy : {"remove", "auto"}) {
+      const SceneRunSummary sum = run_scene(beam(std::string(R"(, "fragments": ")") + policy + "\""), ro);
+      CHECK(sum.frames == 4);
+      CHECK(sum.frames_not_converged == 0);
+      CHECK(sum.fragments_handled == 1);
+      CHECK(sum.tets == kBeamTets - kLayerTets - kBeyondTets);
+      // What stays is the clamped half: it sags less than the whole beam did.
+      CHECK(sum.max_displacement > 0);
+      CHECK(sum.max_displacement < run_scene(beam(), SceneRunOptions{}).max_displacement);
+    }
+  }
+  SECTION("fix: the part is held where it is") {
+    const SceneRunSummary sum = run_scene(beam(R"(, "fragments": "fix")"), ro);
+    CHECK(sum.frames == 4);
+    CHECK(sum.frames_not_converged == 0);
+    CHECK(sum.tets == kBeamTets - kLayerTets);
+  }
+  SECTION("keep in dynamic FEM and springs: the part falls, legitimately") {
+    Scene s = beam(R"(, "fragments": "keep")");
+    s.integrator = "implicit-euler";
+    SceneRunSummary sum = run_scene(s, ro);
+    CHECK(sum.frames == 4);
+    CHECK(sum.tets == kBeamTets - kLayerTets);
+    CHECK(std::isfinite(sum.max_displacement));
+    s.model = SceneModel::Springs;
+    sum = run_scene(s, ro);
+    CHECK(sum.frames == 4);
+    CHECK(sum.tets == kBeamTets - kLayerTets);
+  }
+}
 
 TEST_CASE("a frame whose solution blew up stops the run, naming the frame", "[scene][guards]") {
   const fs::path out = temp_dir("blowup");
