@@ -45,6 +45,8 @@ enum class SceneModel { FemLinear, FemCorotational, Springs };
 
 // A blade cut over frames: segment a-b moves by `sweep`, linearly from frame `from_frame` to
 // `to_frame` (one cut step per frame; equal frames: the whole sweep before that frame's solve).
+// Before frame k's solve it has swept (k - from + 1) / (to - from + 1) of it, where a probe
+// ramped over the same frames applies (k - from) / (to - from) (docs/scene.md).
 struct SceneCut {
   std::string key;              // "cuts[0]", for messages
   Vec3 a = Vec3::Zero(), b = Vec3::Zero(), sweep = Vec3::Zero();
