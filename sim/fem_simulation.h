@@ -96,7 +96,9 @@ public:
 
   // ---- frames ------------------------------------------------------------------------
   // One frame. Throws InvalidArgument when a static solve is under-constrained; a breakdown
-  // (not positive definite, NaN) is returned in the stats with a message.
+  // (not positive definite, NaN/Inf in the solution or its residual) is returned in the stats
+  // as NotPositiveDefinite or NumericalIssue with a message; the displacement keeps its last
+  // finite value.
   const FrameStats& step();
   const FrameStats& last_stats() const { return stats_; }
   // The static solve's rigid-mode check on its own (O(mesh)); throws InvalidArgument.
@@ -128,6 +130,7 @@ private:
   void body_and_external_forces(Eigen::VectorXd& b) const;
   void solve_system(const LinearOperator& op, double mass_coeff, double stiffness_coeff, const Eigen::VectorXd& b,
                     Eigen::VectorXd& x, double budget_ms, FrameStats& st, std::span<const Eigen::VectorXd> prediction);
+  void check_finite(const Eigen::VectorXd& x, FrameStats& st) const;
   void relinearize();
   void static_rhs_and_guess();
 

@@ -156,6 +156,55 @@ void write_text_atomic(const std::string& path, const std::string& text) {
   f.commit();
 }
 
+// A vertex moved by more than this many times the body's size (the diagonal of its rest
+// bounding box) means the solution blew up: no scene asks for that, while a free part under a
+// static solve, an explicit step above the stable limit or loads far beyond the material do.
+constexpr double kBlowUpFactor = 1e3;
+
+// Largest vertex displacement in `disp` (3 per vertex slot); NaN when any is NaN (std::max
+// would skip it), infinite when any is infinite.
+double max_displacement(const Eigen::VectorXd& disp) {
+  double d = 0;
+  for (Eigen::Index i = 0; i + 2 < disp.size(); i += 3) {
+    const double n = disp.segment<3>(i).norm();
+    if (std::isnan(n)) return n;
+    d = std::max(d, n);
+  }
+  return d;
+}
+
+// Throws when a frame's solution blew up: a non-finite displacement or residual, or a vertex
+// moved by more than kBlowUpFactor times the body's size. Such a frame is never "converged".
+void check_solution(const Scene& s, int frame, double max_disp, double residual, double size) {
+  if (max_disp <= kBlowUpFactor * size && std::isfinite(residual)) return;  // false for NaN too
+  std::ostringstream m;
+  m << s.path << ": frame " << frame << ": the solution blew up (";
+  if (!std::isfinite(max_disp)) m << "a displacement is NaN or infinite";
+  else if (!std::isfinite(residual)) m << "relative residual " << residual;
+  else {
+    const double times = max_disp / size;
+    m << std::setprecision(2) << "max displacement " << max_disp << ", ";
+    if (times < 1e6) m << std::fixed << std::setprecision(0);
+    m << times << "x the body's size" << std::defaultfloat;
+  }
+  m << "); ";
+  if (s.model == SceneModel::Springs)
+    m << "reduce time.dt or raise time.substeps, or check the loads";
+  else if (s.integrator == "static")
+    m << "check that every part is fixed or probed and that the loads suit the materials";
+  else
+    m << "reduce time.dt, or check the loads";
+  throw Error(m.str());
+}
+
+// The message for a part a cut detached that holds no fixed or prescribed vertex; `why` ends it.
+std::string detached_part(const Scene& s, int frame, std::size_t tets, const Vec3& near, const std::string& why) {
+  std::ostringstream m;
+  m << s.path << ": frame " << frame << ": a cut detached a part of " << tets << " tets near (" << std::setprecision(3)
+    << near.x() << ", " << near.y() << ", " << near.z() << ") with no fixed vertex" << why;
+  return m.str();
+}
+
 }  // namespace
 
 double SceneLoad::factor(int frame) const {
@@ -404,7 +453,8 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
     lo = lo.cwiseMin(mesh.rest(v));
     hi = hi.cwiseMax(mesh.rest(v));
   }
-  const double tol = 1e-9 * (hi - lo).norm();
+  const double size = (hi - lo).norm();  // the body's size, for the blow-up check
+  const double tol = 1e-9 * size;
   auto select = [&](const SceneBox& b, const std::string& key) {
     std::vector<VertexId> out;
     for (VertexId v : mesh.vertices())
@@ -531,19 +581,29 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
     for (const auto& part : cr.fragments) {
       std::vector<VertexId> verts;
       bool held = false;
+      std::size_t tets = 0;
+      Vec3 near = Vec3::Zero();  // the rest-space centroid of its tets' corners, for messages
       for (TetId t : part) {
         if (!mesh.is_alive(t)) continue;
+        ++tets;
         for (VertexId v : mesh.tet_vertices(t)) {
           verts.push_back(v);
+          near += mesh.rest(v);
           held = held || (fem ? fem->is_constrained(v) : springs->is_fixed(v));
         }
       }
-      if (held || verts.empty() || policy == FragmentPolicy::Keep) continue;
+      if (held || verts.empty()) continue;
+      near /= double(verts.size());
+      // Keep is for dynamic scenes, where a free part falls; a static solve has no equilibrium
+      // for it (K is singular there) and would return garbage that looks converged.
+      if (policy == FragmentPolicy::Keep && !dynamic)
+        throw Error(detached_part(s, frame, tets, near,
+                                  "; a static solve has no equilibrium for it (set \"fragments\" to \"remove\" or "
+                                  "\"fix\", or use a dynamic integrator)"));
+      if (policy == FragmentPolicy::Keep) continue;
       ++sum.fragments_handled;
       if (policy == FragmentPolicy::Error)
-        throw Error(s.path + ": frame " + std::to_string(frame) + ": a cut detached a part of " +
-                    std::to_string(part.size()) + " tets with no fixed vertex (set \"fragments\" to \"remove\", " +
-                    "\"fix\" or \"keep\")");
+        throw Error(detached_part(s, frame, tets, near, " (set \"fragments\" to \"remove\", \"fix\" or \"keep\")"));
       if (policy == FragmentPolicy::Fix) {
         for (VertexId v : verts) {
           if (fem) fem->fix(v);
@@ -607,13 +667,10 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
         disp = Eigen::VectorXd::Zero(Eigen::Index(3 * mesh.vertex_capacity()));
         const auto& x = springs->positions();
         for (VertexId v : mesh.vertices()) disp.segment<3>(3 * v.idx()) = x[v.idx()] - mesh.rest(v);
-        if (!disp.allFinite())
-          throw Error(s.path + ": frame " + std::to_string(frame) +
-                      ": spring model produced NaN/Inf (time step above the stable limit?)");
       }
+      const double maxd = max_displacement(disp);
+      check_solution(s, frame, maxd, st.relative_residual, size);
       if (opt.on_frame) opt.on_frame(frame, disp, st);
-      double maxd = 0;
-      for (Eigen::Index i = 0; i < disp.size(); i += 3) maxd = std::max(maxd, disp.segment<3>(i).norm());
       const double time = dynamic ? (frame + 1) * s.dt * (s.model == SceneModel::Springs ? s.substeps : 1) : frame;
       const bool converged = st.info == SolveInfo::Success;
       csv << frame << "," << time << "," << st.iterations << "," << st.relative_residual << "," << st.solve_ms << ","

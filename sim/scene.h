@@ -45,6 +45,8 @@ enum class SceneModel { FemLinear, FemCorotational, Springs };
 
 // A blade cut over frames: segment a-b moves by `sweep`, linearly from frame `from_frame` to
 // `to_frame` (one cut step per frame; equal frames: the whole sweep before that frame's solve).
+// Before frame k's solve it has swept (k - from + 1) / (to - from + 1) of it, where a probe
+// ramped over the same frames applies (k - from) / (to - from) (docs/scene.md).
 struct SceneCut {
   std::string key;              // "cuts[0]", for messages
   Vec3 a = Vec3::Zero(), b = Vec3::Zero(), sweep = Vec3::Zero();
@@ -55,6 +57,8 @@ struct SceneCut {
 };
 
 // What a part that a cut detached (and that holds no fixed or prescribed vertex) becomes.
+// Keep is for dynamic scenes (the part falls): a static FEM scene has no equilibrium for a free
+// part, so one that would keep it is refused with an Error naming the frame.
 enum class FragmentPolicy { Auto, Keep, Fix, Remove, Error };
 
 // What a scene's cuts did before one frame. Cutting lives in cut/, which sim does not depend
@@ -132,7 +136,9 @@ struct SceneRunSummary {
 };
 
 // Loads the mesh, builds the model and plays the frames. Throws Error naming the scene, the
-// frame and the reason on a solver breakdown.
+// frame and the reason on a solver breakdown, on a solution that blew up (NaN/Inf, or a vertex
+// moved by more than 1000 times the body's size: never reported as converged), and when a
+// static FEM scene would keep a part a cut freed.
 SceneRunSummary run_scene(const Scene& scene, const SceneRunOptions& options);
 
 }  // namespace incise
