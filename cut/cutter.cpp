@@ -1,8 +1,6 @@
 #include "cut/cutter.h"
 
 #include <algorithm>
-#include <cstdio>
-#include <cstdlib>
 #include <optional>
 #include <unordered_set>
 
@@ -145,7 +143,6 @@ void Cutter::improve_after(CutStepReport& rep, std::vector<TetId> seeds, std::ve
   io.time_budget_ms = opt_.improve_budget_ms;
   rep.improve = improve_local(*mesh_, seeds, io);
   rep.ms_improve += ms_since(ti);
-  if (std::getenv("INCISE_DBG")) std::fprintf(stderr, "improve seeds %zu region %zu ms %.3f work-exhausted %d\n", seeds.size(), rep.improve.tets_before, ms_since(ti), int(rep.improve.budget_exhausted));
 }
 
 void Cutter::refresh_waiting(const PositionFn& positions, std::span<const TetId> more) {
