@@ -395,8 +395,21 @@ int CutStep::side(const Piece& piece, std::size_t k, VertexId v) {
     bool inside = piece.contains(x, 0);
     for (TetId t : mesh_.incident_tets(v))
       for (VertexId w : mesh_.tet_vertices(t)) inside = inside && piece.contains(position(w), 0);
-    if (inside) s = 0;
-    else if (provisional_) return kUndecided;
+    // Snapping must not flatten a tet into the plane (all four vertices on the cut surface: the
+    // faces beside it could then not say which side they are on, and would stay shut). Its
+    // vertices are decided one by one, maybe steps apart, so the last one to decide keeps its side.
+    bool flattens = false;
+    for (TetId t : mesh_.incident_tets(v)) {
+      int zero = 0;
+      for (VertexId w : mesh_.tet_vertices(t)) {
+        if (w == v) continue;
+        auto m = memory_->side.find(w.idx());
+        zero += on_piece_[k].count(w.idx()) || (m != memory_->side.end() && m->second == 0);
+      }
+      flattens = flattens || zero == 3;
+    }
+    if (inside && !flattens) s = 0;
+    else if (!inside && provisional_) return kUndecided;
   } else if (near && piece.contains(x, 0) && piece.boundary_distance(x) > star_radius(v)) {
     s = 0;
   }

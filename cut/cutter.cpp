@@ -145,6 +145,28 @@ void Cutter::improve_after(CutStepReport& rep, std::vector<TetId> seeds, std::ve
   rep.ms_improve += ms_since(ti);
 }
 
+void Cutter::keep_shut(std::vector<TetId>& tets) const {
+  const CutMemory& mem = progress_->memory;
+  auto on_sheet = [&](VertexId v) {
+    auto it = mem.side.find(v.idx());
+    return it != mem.side.end() && it->second == 0;
+  };
+  std::vector<TetId> out;
+  std::unordered_set<std::uint32_t> seen;
+  for (TetId t : tets) {
+    if (!mesh_->is_alive(t) || seen.count(t.idx())) continue;
+    for (int f = 0; f < 4; ++f) {
+      const TetId n = mesh_->neighbor(t, f);
+      if (!n.is_valid()) continue;
+      const auto fv = mesh_->face_vertices(t, f);
+      if (!(on_sheet(fv[0]) && on_sheet(fv[1]) && on_sheet(fv[2]))) continue;
+      for (TetId x : {t, n})
+        if (seen.insert(x.idx()).second) out.push_back(x);
+    }
+  }
+  tets = std::move(out);
+}
+
 void Cutter::refresh_waiting(const PositionFn& positions, std::span<const TetId> more) {
   Progress& pr = *progress_;
   std::vector<TetId> all = std::move(pr.waiting);
@@ -350,12 +372,14 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
     auto frags = find_fragments(*mesh_, sep.opened_tets, opt_.fragment_search_limit);
     rep.fragments.insert(rep.fragments.end(), frags.begin(), frags.end());
     front_ = step.live_candidates();
-    pr.closed.clear();
+    // Closed cut faces wait: those this step left closed, and earlier ones it did not list (a
+    // tet beside one may have an apex whose side waits for the blade).
     for (const CutFacePair& f : faces)
       if (mesh_->neighbor(f.a.tet, f.a.local).is_valid()) {
         pr.closed.push_back(f.a.tet);
         pr.closed.push_back(f.b.tet);
       }
+    keep_shut(pr.closed);
     refresh_waiting(positions, front_);
     // The improvement works on what was cut; the tets still waiting (and the closed faces)
     // keep their vertices, whose sides are decided or about to be.
@@ -391,24 +415,10 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
     if (!pr.improve_queue.empty())
       for (TetId t : rep.change.added_tets)
         if (mesh_->is_alive(t) && needs_improving(t)) pr.improve_queue.emplace_back(t, pr.step);
-    std::erase_if(pr.closed, [&](TetId t) { return !mesh_->is_alive(t); });
     // A flip of closed cut faces (a 4-4 flip about an edge in the plane) makes new closed faces
     // in the plane: they wait with the others.
-    for (TetId t : rep.change.added_tets) {
-      if (!mesh_->is_alive(t)) continue;
-      for (int f = 0; f < 4; ++f) {
-        if (!mesh_->neighbor(t, f).is_valid()) continue;
-        bool on = true;
-        for (VertexId v : mesh_->face_vertices(t, f)) {
-          auto it = pr.memory.side.find(v.idx());
-          on = on && it != pr.memory.side.end() && it->second == 0;
-        }
-        if (on) {
-          pr.closed.push_back(t);
-          pr.closed.push_back(mesh_->neighbor(t, f));
-        }
-      }
-    }
+    pr.closed.insert(pr.closed.end(), rep.change.added_tets.begin(), rep.change.added_tets.end());
+    keep_shut(pr.closed);
   }
   if (!grid_stale) {
     grid_.update(*mesh_, rep.change);

@@ -166,6 +166,8 @@ private:
   // A cut start() left unfinished is completed before the next edit (cut/cutter.cpp).
   void complete_previous(CutStepReport& rep, const PositionFn& positions);
   bool needs_improving(TetId t) const;  // joins the per-step improvement queue
+  // Keeps the live tets with a face in the sheet's plane still shut (and adds their partner).
+  void keep_shut(std::vector<TetId>& tets) const;
   void refresh_waiting(const PositionFn& positions, std::span<const TetId> more);
   CutStepReport run(std::span<const CutTriangle> triangles, const PositionFn& positions, double max_displacement,
                     bool use_front);

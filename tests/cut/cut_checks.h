@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <iostream>
 #include <map>
+#include <vector>
 
 #include "cut/cutter.h"
 #include "mesh/tet_mesh.h"
@@ -37,6 +38,28 @@ inline void check_cut_invariants(const TetMesh& m, const std::map<int, double>& 
   const auto vol = label_volumes(m);
   REQUIRE(vol.size() == vol0.size());
   for (const auto& [l, v] : vol0) REQUIRE(std::abs(vol.at(l) - v) <= rel * total + moved);
+}
+
+// Area of the parallelogram swept by segment a-b moving by d, clipped to the box [lo, hi]
+// (Sutherland-Hodgman against the six sides): the area a straight cut must open in a box.
+inline double swept_area_in_box(const Vec3& a, const Vec3& b, const Vec3& d, const Vec3& lo, const Vec3& hi) {
+  std::vector<Vec3> poly = {a, b, b + d, a + d};
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side = 0; side < 2; ++side) {
+      auto inside = [&](const Vec3& x) { return side == 0 ? x[axis] >= lo[axis] : x[axis] <= hi[axis]; };
+      const double bound = side == 0 ? lo[axis] : hi[axis];
+      std::vector<Vec3> out;
+      for (std::size_t i = 0; i < poly.size(); ++i) {
+        const Vec3 &p = poly[i], &q = poly[(i + 1) % poly.size()];
+        if (inside(p)) out.push_back(p);
+        if (inside(p) != inside(q)) out.push_back(p + (bound - p[axis]) / (q[axis] - p[axis]) * (q - p));
+      }
+      poly = std::move(out);
+      if (poly.empty()) return 0;
+    }
+  Vec3 n = Vec3::Zero();
+  for (std::size_t i = 1; i + 1 < poly.size(); ++i) n += (poly[i] - poly[0]).cross(poly[i + 1] - poly[0]);
+  return 0.5 * n.norm();
 }
 
 }  // namespace incise::testing

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <numeric>
+#include <random>
 
 #include "cut/cutter.h"
 #include "mesh/generate.h"
@@ -180,4 +181,44 @@ TEST_CASE("progressive: two runs of the same cut give the same mesh", "[cut][pro
   for (TetId t : m1.tets()) same = same && m2.is_alive(t) && m1.tet_vertices(t) == m2.tet_vertices(t);
   for (VertexId v : m1.vertices()) same = same && m1.rest(v) == m2.rest(v);
   CHECK(same);
+}
+
+// Known gaps, run on every build and reported, not yet required (docs/cut.md, "Known gaps"):
+// random straight cuts of a box, each in a few steps then finish(), must open exactly the area
+// they swept inside it. Most do; some oblique ones leave cut faces shut (their opening would
+// pinch the boundary, and the pinch rule keeps them closed), and a blade in a plane of mesh
+// faces opens whole faces.
+TEST_CASE("progressive: random straight cuts of a box open exactly their swept area", "[cut][progressive][!mayfail]") {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u01(0, 1);
+  std::normal_distribution<double> nd;
+  auto unit = [&] { return Vec3(nd(rng), nd(rng), nd(rng)).normalized(); };
+  const Vec3 lo(0, 0, 0), hi(1, 0.8, 0.6);
+  int exact = 0, total = 0;
+  for (int i = 0; i < 60; ++i) {
+    TetMesh m = make_box(hi, {6, 5, 4});
+    m.discard_change();
+    const Vec3 dir = unit();
+    Vec3 sweep = unit();
+    sweep = (sweep - sweep.dot(dir) * dir).normalized();
+    const double diag = hi.norm(), len = diag * (0.3 + 1.2 * u01(rng)), travel = diag * (0.2 + 0.9 * u01(rng));
+    const Vec3 c = lo + Vec3(u01(rng), u01(rng), u01(rng)).cwiseProduct(hi - lo);
+    const Vec3 start = c - 0.5 * travel * sweep, a = start - 0.5 * len * dir, b = start + 0.5 * len * dir;
+    const double swept = swept_area_in_box(a, b, travel * sweep, lo, hi);
+    if (swept < 1e-3) continue;
+    CutOptions o;
+    o.improve = false;
+    o.snap = 0.02;
+    const int steps = 2 + int(rng() % 7);
+    Cutter cutter(m, o);
+    cutter.start({a, b});
+    for (int k = 1; k <= steps; ++k) cutter.advance({a + travel * sweep * (double(k) / steps), b + travel * sweep * (double(k) / steps)});
+    cutter.finish();
+    const double opened = 0.5 * tagged_area(m, kTagCut);
+    ++total;
+    exact += std::abs(opened - swept) <= 0.01 * swept;
+    INFO("cut " << i << ": swept " << swept << ", opened " << opened << ", " << steps << " steps");
+    CHECK(opened == Approx(swept).epsilon(0.01));
+  }
+  WARN(exact << " of " << total << " random straight box cuts opened their swept area to 1%");
 }

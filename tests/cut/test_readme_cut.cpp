@@ -43,9 +43,11 @@ TEST_CASE("the README's cutting example runs and leaves a valid, partially cut m
   REQUIRE_NOTHROW(m.validate({true, true}));
   CHECK(m.num_tets() > 16 * 4 * 4 * 6);
   CHECK(incise::tet_components(m).count == 1);  // a partial cut: still one piece
-  double area = 0;  // ... open over what the blade swept inside the beam: 1 x 0.5, both sides
+  // ... open over what the blade swept inside the beam, 1 x 0.5 on both sides (measured at rest:
+  // the cut was made in the sagging shape, which moves it by a few percent).
+  double area = 0;
   for (const auto& f : m.boundary_faces())
     if (f.tag == incise::kTagCut)
       area += 0.5 * (m.rest(f.vertices[1]) - m.rest(f.vertices[0])).cross(m.rest(f.vertices[2]) - m.rest(f.vertices[0])).norm();
-  CHECK(area == Approx(1.0).epsilon(0.01));
+  CHECK(area == Approx(1.0).epsilon(0.05));
 }
