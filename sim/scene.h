@@ -129,7 +129,7 @@ struct SceneRunSummary {
   int frames_budget_exhausted = 0;
   int frames_not_converged = 0;
   double total_cut_ms = 0;
-  std::size_t fragments_handled = 0;  // detached parts fixed, removed or kept by the policy
+  std::size_t fragments_handled = 0;  // detached parts the policy fixed or removed (kept ones are not counted)
   double max_displacement = 0;        // at the last frame
   std::size_t vertices = 0, tets = 0;
   std::vector<std::string> files;     // written, relative to out_dir

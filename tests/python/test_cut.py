@@ -89,3 +89,25 @@ def test_scene_with_cuts_runs_from_python(tmp_path):
     }""")
     s = incise.run_scene(str(scene), str(tmp_path / "out"))
     assert s["frames"] == 3 and s["tets"] > 8 * 2 * 2 * 6 and s["total_cut_ms"] > 0
+
+
+def test_progressive_cut_is_step_count_independent_and_reproducible():
+    def run(steps, **kw):
+        mesh = incise.generate_box((4.0, 1.0, 1.0), (16, 4, 4))
+        mesh.take_change()
+        cutter = incise.Cutter(mesh, **kw)
+        a, b = np.array([2.03, -0.5, 1.1]), np.array([2.03, 1.5, 1.1])
+        cutter.start(a, b)
+        for k in range(1, steps + 1):
+            cutter.advance(a + [0, 0, -0.6 * k / steps], b + [0, 0, -0.6 * k / steps])
+        r = cutter.finish(positions=mesh.points)
+        assert "change" in r
+        mesh.validate(check_manifold_boundary=True)
+        return mesh
+
+    one, many = run(1, improve=False), run(40, improve=False)
+    assert one.num_tets == many.num_tets
+    m1, m2 = run(30), run(30)
+    assert m1.num_tets == m2.num_tets and np.array_equal(m1.points, m2.points)
+    with pytest.raises(Exception, match="improve_work"):
+        incise.Cutter(incise.generate_box((1.0, 1.0, 1.0), (2, 2, 2)), improve_work=-1)
