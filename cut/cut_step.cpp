@@ -509,8 +509,36 @@ void CutStep::split_crossings(const Piece& piece) {
     }
   }
   }
+  // A provisional step splits an edge only when every tet around it is committable: a split
+  // point made for one tet lands in all the others, and one near the sheet's rim, in a tet that
+  // still straddles the rim, keeps a single star component there for good (its cut faces then
+  // pinch and stay shut; a single step over the motion splits such edges only after the rim
+  // is embedded).
+  auto section_inside = [&](TetId t) {
+    const auto& tv = mesh_.tet_vertices(t);
+    int sd[4];
+    for (int j = 0; j < 4; ++j)
+      if ((sd[j] = side(piece, k, tv[j])) == kUndecided) return false;
+    for (int a = 0; a < 4; ++a) {
+      if (sd[a] == 0 && !piece.contains(position(tv[a]), kInsideTol)) return false;
+      for (int b = a + 1; b < 4; ++b) {
+        if (sd[a] * sd[b] >= 0) continue;
+        const Vec3 xa = position(tv[a]), xb = position(tv[b]);
+        const double da = piece.distance(xa), db = piece.distance(xb);
+        const double u = std::clamp((da - db) != 0 ? da / (da - db) : 0.5, 0.0, 1.0);
+        if (!piece.contains((1 - u) * xa + u * xb, kInsideTol)) return false;
+      }
+    }
+    return true;
+  };
   for (const auto& [key, e] : edges) {
     if (!mesh_.is_alive(e.a) || !mesh_.is_alive(e.b)) continue;
+    if (provisional_) {
+      bool all = true;
+      for (TetId x : mesh_.incident_tets(e.a))
+        if (mesh_.local_index(x, e.b) >= 0) all = all && section_inside(x);
+      if (!all) continue;
+    }
     bool exists = false;
     for (TetId x : mesh_.incident_tets(e.a))
       if (mesh_.local_index(x, e.b) >= 0) {
