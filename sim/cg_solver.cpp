@@ -286,6 +286,13 @@ void ConjugateGradient::iterate(Eigen::VectorXd& x, double t0) {
       stats_.message = "cg: residual became NaN/Inf at iteration " + std::to_string(k);
       break;
     }
+    // Converged: stop before the preconditioner, whose application would only serve a next
+    // iteration (with a Cholesky factor, one application costs 20x a block-Jacobi iteration).
+    if (rnorm <= target) {
+      stats_.relative_residual = rnorm / bnorm_;
+      stats_.info = SolveInfo::Success;
+      break;
+    }
     pc_->apply(r_, z_);
     project(z_);
     const double rz_new = r_.dot(z_);
