@@ -10,6 +10,7 @@ PACKAGES=(
   libopenvdb-dev libtbb-dev libassimp-dev zlib1g-dev libgmp-dev libmpfr-dev libboost-dev
   catch2 libcli11-dev nlohmann-json3-dev libbenchmark-dev
   libsuitesparse-dev                     # CHOLMOD: the Cholesky preconditioner's factorization
+  libopenblas0-pthread                   # optimized BLAS under CHOLMOD (Debian's default is the reference one)
   tetgen gmsh                            # peers: cross-format tests and benchmarks
   python3 python3-meshio python3-numpy   # meshio cross-check of every written format
   pybind11-dev python3-dev python3-pytest # Python bindings and their tests

@@ -1,6 +1,9 @@
 #include "sim/async_cholesky.h"
 
 #include <chrono>
+#include <mutex>
+
+#include <dlfcn.h>
 #include <cmath>
 
 #include <Eigen/SVD>
@@ -24,6 +27,20 @@ using FactorType = Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Low
 
 double now_ms() {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// CHOLMOD runs on whatever libblas.so.3 Debian's alternatives select. The optimized one
+// (OpenBLAS, libopenblas0-pthread, installed by scripts/install-deps.sh) starts a thread per
+// core for every factorization and triangular solve by default; beside the frame's own
+// threads (TBB) and the background factorization that made a cut organ's frame 445 ms instead
+// of 42 (64 with the reference BLAS). One BLAS thread, set once through the symbol when that
+// library is the one loaded (the reference BLAS has none).
+void single_threaded_blas() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    using SetThreads = void (*)(int);
+    if (void* f = dlsym(RTLD_DEFAULT, "openblas_set_num_threads")) reinterpret_cast<SetThreads>(f)(1);
+  });
 }
 }  // namespace
 
@@ -80,7 +97,9 @@ std::shared_ptr<AsyncCholesky::Factor> factorize(const FemElements& e, const Eig
 }  // namespace
 
 AsyncCholesky::AsyncCholesky(const FemModel& model, const AsyncCholeskyOptions& options)
-    : model_(&model), opt_(options) {}
+    : model_(&model), opt_(options) {
+  single_threaded_blas();
+}
 
 AsyncCholesky::~AsyncCholesky() {
   if (job_.valid()) job_.wait();
