@@ -122,6 +122,7 @@ void AsyncCholesky::start(const std::vector<std::uint8_t>& free, double a, doubl
   }
   changed_since_snapshot_.clear();
   added_since_snapshot_.clear();
+  touched_since_snapshot_.clear();
   // The snapshot is taken here, on the frame thread (a copy of the per-tet arrays); the job
   // owns it, so later edits and rotations never race with the factorization.
   FemElements elements = model_->elements();
@@ -154,7 +155,13 @@ void AsyncCholesky::adopt() {
     if (v < nv) uncovered_[v] = 1;
   changed_since_snapshot_.clear();
   mapped_.clear();
+  // The new factor's rows are those of its snapshot: vertices an edit touched after it are
+  // stale there and keep their block-Jacobi correction (they were dropped before).
+  for (std::uint32_t v : touched_) touched_mark_[v] = 0;
   touched_.clear();
+  for (std::uint32_t v : touched_since_snapshot_)
+    if (v < nv && !uncovered_[v]) touch(v);
+  touched_since_snapshot_.clear();
   for (const VertexOrigin& o : added_since_snapshot_) map_added(o);
   added_since_snapshot_.clear();
   ++version_;
@@ -197,6 +204,14 @@ void AsyncCholesky::map_added(const VertexOrigin& o) {
   if (!row.empty()) mapped_.emplace(v, std::move(row));
 }
 
+void AsyncCholesky::touch(std::uint32_t v) {
+  // Once per vertex: a vertex touched by several edits got its correction added as often.
+  if (touched_mark_.size() <= v) touched_mark_.resize(std::max<std::size_t>(uncovered_.size(), v + 1), 0);
+  if (touched_mark_[v]) return;
+  touched_mark_[v] = 1;
+  touched_.push_back(v);
+}
+
 void AsyncCholesky::apply(const TopologyChange& change) {
   if (change.empty()) return;
   stale_ = true;
@@ -206,8 +221,10 @@ void AsyncCholesky::apply(const TopologyChange& change) {
     mapped_.erase(v.idx());
     if (job_.valid()) changed_since_snapshot_.push_back(v.idx());
   };
-  for (VertexId v : change.touched_vertices)
-    if (v.idx() < uncovered_.size() && !uncovered_[v.idx()]) touched_.push_back(v.idx());
+  for (VertexId v : change.touched_vertices) {
+    if (v.idx() < uncovered_.size() && !uncovered_[v.idx()]) touch(v.idx());
+    if (job_.valid()) touched_since_snapshot_.push_back(v.idx());
+  }
   for (const VertexOrigin& o : change.added_vertices) {
     uncover(o.vertex);
     map_added(o);

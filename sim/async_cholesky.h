@@ -87,7 +87,10 @@ private:
   // P: added vertex -> (covered vertex, weight) pairs.
   std::unordered_map<std::uint32_t, std::vector<std::pair<std::uint32_t, double>>> mapped_;
   std::vector<std::uint8_t> uncovered_;                // per vertex, for the current factor
-  std::vector<std::uint32_t> touched_;                 // covered vertices whose rows an edit changed
+  std::vector<std::uint32_t> touched_;                 // covered vertices whose rows an edit changed, once each
+  std::vector<std::uint8_t> touched_mark_;             // per vertex: in touched_
+  std::vector<std::uint32_t> touched_since_snapshot_;  // their rows are stale in the job's factor too
+  void touch(std::uint32_t v);
   bool too_large_ = false, stale_ = false, failed_ = false;
   double snapshot_a_ = -1, snapshot_c_ = -1;
   BlockJacobi fallback_;
