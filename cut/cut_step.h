@@ -78,6 +78,8 @@ public:
   void add_known_segment(const Vec3& a, const Vec3& b, std::vector<VertexId> vertices);
   // Vertices on an embedded boundary segment (e.g. this step's front).
   std::vector<VertexId> segment_vertices(const Vec3& a, const Vec3& b) const;
+  // Current positions of the vertices this step created.
+  const std::unordered_map<std::uint32_t, Vec3>& created_positions() const { return created_pos_; }
   // Records the current position of a vertex created outside (duplicates).
   void set_position(VertexId v, const Vec3& x) { created_pos_[v.idx()] = x; }
 

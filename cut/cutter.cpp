@@ -89,6 +89,23 @@ std::size_t Cutter::waiting_tets() const {
   return n;
 }
 
+Cutter::PositionFn Cutter::with_fresh(const PositionFn& positions) {
+  fresh_.clear();
+  if (!positions) return {};
+  // The caller's positions know the vertices of the mesh it has seen; the ones this call
+  // makes (split points, duplicates) are known here until the caller applies the change.
+  return [this, positions](VertexId v) {
+    auto it = fresh_.find(v.idx());
+    return it != fresh_.end() ? it->second : positions(v);
+  };
+}
+
+void Cutter::remember_fresh(const CutStep& step, const SeparationResult& sep, const PositionFn& positions) {
+  if (!positions) return;
+  for (const auto& [v, x] : step.created_positions()) fresh_[v] = x;
+  for (const auto& [v, copy] : sep.duplicates) fresh_[copy.idx()] = positions(v);
+}
+
 void Cutter::notify(const TopologyChange& change) {
   if (mesh_->counters().edits == grid_edits_) return;  // nothing new (or already taken)
   grid_.update(*mesh_, change);
@@ -224,6 +241,7 @@ void Cutter::finish_sheet(CutStepReport& rep, const PositionFn& positions) {
   step.embed_boundary(sp);
   step.split_crossings(sp);
   const SeparationResult sep = separate(*mesh_, step.cut_faces(std::span<const Piece>(&sp, 1)));
+  remember_fresh(step, sep, positions);
   add_separation(rep, sep);
   rep.tets_cut += step.tets_cut();
   auto frags = find_fragments(*mesh_, sep.opened_tets, opt_.fragment_search_limit);
@@ -239,8 +257,9 @@ void Cutter::finish_sheet(CutStepReport& rep, const PositionFn& positions) {
   if (mesh_->has_pending_change()) pr.edited = true;
 }
 
-CutStepReport Cutter::finish(const PositionFn& positions) {
+CutStepReport Cutter::finish(const PositionFn& caller_positions) {
   const auto t0 = std::chrono::steady_clock::now();
+  const PositionFn positions = with_fresh(caller_positions);
   CutStepReport rep;
   if (mesh_->has_pending_change())
     throw InvalidArgument("cut: the mesh has edits not yet taken (call take_change() before finishing a cut)");
@@ -281,7 +300,8 @@ CutStepReport Cutter::finish(const PositionFn& positions) {
   return rep;
 }
 
-CutStepReport Cutter::advance(const BladeSegment& blade, const PositionFn& positions, double max_displacement) {
+CutStepReport Cutter::advance(const BladeSegment& blade, const PositionFn& caller_positions, double max_displacement) {
+  const PositionFn positions = with_fresh(caller_positions);
   if (!started_) {
     start(blade);
     return {};
@@ -344,6 +364,7 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
       seeds = step.live_candidates();
     }
     const SeparationResult sep = separate(*mesh_, step.cut_faces(pieces));
+    remember_fresh(step, sep, positions);
     add_separation(rep, sep);
     rep.tets_cut += step.tets_cut();
     auto frags = find_fragments(*mesh_, sep.opened_tets, opt_.fragment_search_limit);
@@ -363,6 +384,7 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
     step.split_crossings(sp);
     const std::vector<CutFacePair> faces = step.cut_faces(std::span<const Piece>(&sp, 1));
     const SeparationResult sep = separate(*mesh_, faces);
+    remember_fresh(step, sep, positions);
     for (const auto& [v, copy] : sep.duplicates) {
       auto it = pr.memory.side.find(v.idx());
       if (it != pr.memory.side.end()) pr.memory.side[copy.idx()] = it->second;
@@ -437,8 +459,9 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
   return rep;
 }
 
-CutStepReport Cutter::cut_plane(const Vec3& point, const Vec3& normal, const PositionFn& positions,
+CutStepReport Cutter::cut_plane(const Vec3& point, const Vec3& normal, const PositionFn& caller_positions,
                                 double max_displacement) {
+  const PositionFn positions = with_fresh(caller_positions);
   if (!finite(point) || !finite(normal)) throw InvalidArgument("cut: plane point and normal must be finite");
   // The plane's extent: the mesh's box (a one-off O(mesh) cut by nature: it crosses everything).
   Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
@@ -452,8 +475,9 @@ CutStepReport Cutter::cut_plane(const Vec3& point, const Vec3& normal, const Pos
   return run(tris, positions, max_displacement, false);
 }
 
-CutStepReport Cutter::cut_surface(std::span<const CutTriangle> triangles, const PositionFn& positions,
+CutStepReport Cutter::cut_surface(std::span<const CutTriangle> triangles, const PositionFn& caller_positions,
                                   double max_displacement) {
+  const PositionFn positions = with_fresh(caller_positions);
   std::vector<CutTriangle> tris;
   for (const CutTriangle& t : triangles) {
     for (const Vec3& x : t.p)

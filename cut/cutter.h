@@ -37,6 +37,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <unordered_map>
 #include <span>
 #include <vector>
 
@@ -46,6 +47,11 @@
 #include "quality/improve.h"
 
 namespace incise {
+
+namespace cut_detail {
+class CutStep;
+struct SeparationResult;
+}  // namespace cut_detail
 
 enum class CutMode { Subdivide, Remove };
 
@@ -156,6 +162,11 @@ public:
 
 private:
   struct Progress;  // the sheet being swept and its waiting tets (cutter.cpp)
+  // The caller's positions, plus the vertices this call made (cleared at each public call).
+  PositionFn with_fresh(const PositionFn& positions);
+  void remember_fresh(const cut_detail::CutStep& step, const cut_detail::SeparationResult& sep,
+                      const PositionFn& positions);
+  std::unordered_map<std::uint32_t, Vec3> fresh_;
   // Progressive subdivision step from `from` to `to` (advance).
   CutStepReport sweep(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions,
                       double max_displacement);
