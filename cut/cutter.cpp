@@ -106,6 +106,24 @@ void Cutter::remember_fresh(const CutStep& step, const SeparationResult& sep, co
   for (const auto& [v, copy] : sep.duplicates) fresh_[copy.idx()] = positions(v);
 }
 
+SeparationResult Cutter::open_faces(const CutStep& step, std::span<const CutFacePair> faces, CutStepReport& rep,
+                                    const PositionFn& positions) {
+  SeparationResult sep = separate(*mesh_, faces);
+  remember_fresh(step, sep, positions);
+  add_separation(rep, sep);
+  rep.tets_cut += step.tets_cut();
+  auto frags = find_fragments(*mesh_, sep.opened_tets, opt_.fragment_search_limit);
+  rep.fragments.insert(rep.fragments.end(), frags.begin(), frags.end());
+  return sep;
+}
+
+void Cutter::set_front(const CutStep& step, const BladeSegment& front) {
+  front_ = step.live_candidates();
+  front_vertices_ = step.segment_vertices(front.a, front.b);
+  front_segment_ = front;
+  has_front_ = true;
+}
+
 void Cutter::notify(const TopologyChange& change) {
   if (mesh_->counters().edits == grid_edits_) return;  // nothing new (or already taken)
   grid_.update(*mesh_, change);
@@ -240,16 +258,8 @@ void Cutter::finish_sheet(CutStepReport& rep, const PositionFn& positions) {
   step.collect(sp, seeds, {});
   step.embed_boundary(sp);
   step.split_crossings(sp);
-  const SeparationResult sep = separate(*mesh_, step.cut_faces(std::span<const Piece>(&sp, 1)));
-  remember_fresh(step, sep, positions);
-  add_separation(rep, sep);
-  rep.tets_cut += step.tets_cut();
-  auto frags = find_fragments(*mesh_, sep.opened_tets, opt_.fragment_search_limit);
-  rep.fragments.insert(rep.fragments.end(), frags.begin(), frags.end());
-  front_ = step.live_candidates();
-  front_vertices_ = step.segment_vertices(front.a, front.b);
-  front_segment_ = front;
-  has_front_ = true;
+  open_faces(step, step.cut_faces(std::span<const Piece>(&sp, 1)), rep, positions);
+  set_front(step, front);
   pr.sheet.reset();
   pr.waiting.clear();
   pr.closed.clear();
@@ -363,16 +373,8 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
       step.split_crossings(p);
       seeds = step.live_candidates();
     }
-    const SeparationResult sep = separate(*mesh_, step.cut_faces(pieces));
-    remember_fresh(step, sep, positions);
-    add_separation(rep, sep);
-    rep.tets_cut += step.tets_cut();
-    auto frags = find_fragments(*mesh_, sep.opened_tets, opt_.fragment_search_limit);
-    rep.fragments.insert(rep.fragments.end(), frags.begin(), frags.end());
-    front_ = step.live_candidates();
-    front_vertices_ = step.segment_vertices(to.a, to.b);
-    front_segment_ = to;
-    has_front_ = true;
+    open_faces(step, step.cut_faces(pieces), rep, positions);
+    set_front(step, to);
     frozen = front_vertices_;
     if (mesh_->has_pending_change()) seeds = front_;
   } else {
@@ -383,16 +385,11 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
     step.collect(local, front_, scan);
     step.split_crossings(sp);
     const std::vector<CutFacePair> faces = step.cut_faces(std::span<const Piece>(&sp, 1));
-    const SeparationResult sep = separate(*mesh_, faces);
-    remember_fresh(step, sep, positions);
+    const SeparationResult sep = open_faces(step, faces, rep, positions);
     for (const auto& [v, copy] : sep.duplicates) {
       auto it = pr.memory.side.find(v.idx());
       if (it != pr.memory.side.end()) pr.memory.side[copy.idx()] = it->second;
     }
-    add_separation(rep, sep);
-    rep.tets_cut += step.tets_cut();
-    auto frags = find_fragments(*mesh_, sep.opened_tets, opt_.fragment_search_limit);
-    rep.fragments.insert(rep.fragments.end(), frags.begin(), frags.end());
     front_ = step.live_candidates();
     // Closed cut faces wait: those this step left closed, and earlier ones it did not list (a
     // tet beside one may have an apex whose side waits for the blade).

@@ -50,6 +50,7 @@ namespace incise {
 
 namespace cut_detail {
 class CutStep;
+struct CutFacePair;
 struct SeparationResult;
 }  // namespace cut_detail
 
@@ -167,6 +168,11 @@ private:
   void remember_fresh(const cut_detail::CutStep& step, const cut_detail::SeparationResult& sep,
                       const PositionFn& positions);
   std::unordered_map<std::uint32_t, Vec3> fresh_;
+  // Separates the step's cut faces and adds what it did to the report.
+  cut_detail::SeparationResult open_faces(const cut_detail::CutStep& step, std::span<const cut_detail::CutFacePair> faces,
+                                          CutStepReport& rep, const PositionFn& positions);
+  // The step's tets and its embedded front segment are where the next step continues.
+  void set_front(const cut_detail::CutStep& step, const BladeSegment& front);
   // Progressive subdivision step from `from` to `to` (advance).
   CutStepReport sweep(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions,
                       double max_displacement);
