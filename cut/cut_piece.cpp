@@ -42,10 +42,6 @@ double Piece::boundary_distance(const Vec3& x) const {
   return d;
 }
 
-double Piece::front_distance(const Vec3& x) const {
-  return front >= 0 ? segment_distance(boundary[std::size_t(front)], x) : 1e300;
-}
-
 namespace {
 bool coplanar(const CutTriangle& t, const Vec3& x) {
   const Vec3 n = t.normal();

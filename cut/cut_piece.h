@@ -17,8 +17,6 @@ struct Piece {
   std::vector<std::array<Vec3, 2>> boundary;      // segments to embed
   std::vector<bool> rim;                          // per segment: an edge of the whole cut so far
                                                   // (not shared with another piece or step)
-  int front = -1;                                 // boundary segment where the blade is now (a
-                                                  // progressive sheet), -1: none
   Vec3 normal = Vec3::Zero();                     // unit normal of the plane
   // Exact side of x: the sign of orient3d over `plane`.
   int side(const Vec3& x) const;
@@ -29,8 +27,6 @@ struct Piece {
   bool contains(const Vec3& x, double rel_tol) const;
   // Distance from x to the nearest rim segment.
   double boundary_distance(const Vec3& x) const;
-  // Distance from x to the front segment (infinite without one).
-  double front_distance(const Vec3& x) const;
   Vec3 lo, hi;  // bounding box
 };
 

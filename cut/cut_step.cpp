@@ -115,15 +115,10 @@ void CutStep::note_new_vertex(VertexId p) {
 }
 
 double CutStep::star_radius(VertexId v) const {
-  if (memory_) {
-    auto it = memory_->star_radius.find(v.idx());
-    if (it != memory_->star_radius.end()) return it->second;
-  }
   const Vec3 x = position(v);
   double l2 = 0;
   for (TetId t : mesh_.incident_tets(v))
     for (VertexId w : mesh_.tet_vertices(t)) l2 = std::max(l2, (position(w) - x).squaredNorm());
-  if (memory_) memory_->star_radius[v.idx()] = std::sqrt(l2);
   return std::sqrt(l2);
 }
 

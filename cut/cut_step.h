@@ -24,16 +24,15 @@ struct CutFacePair {
 };
 
 // What a progressive cut keeps from step to step for one sheet (cut/sheet.h): the side of each
-// vertex once decided, and the snap length and star radius measured when the cut first saw the
-// vertex. Later splits around a vertex shorten its edges; measuring again would make whether
-// it snaps depend on how many steps came before.
+// vertex once decided, and the snap length measured when the cut first saw the vertex. Later
+// splits around a vertex shorten its edges; measuring again would make whether it snaps depend
+// on how many steps came before.
 struct CutMemory {
   std::unordered_map<std::uint32_t, int> side;
-  std::unordered_map<std::uint32_t, double> snap_len, star_radius;
+  std::unordered_map<std::uint32_t, double> snap_len;
   void forget(VertexId v) {
     side.erase(v.idx());
     snap_len.erase(v.idx());
-    star_radius.erase(v.idx());
   }
 };
 
@@ -68,8 +67,7 @@ public:
   std::vector<TetId> live_candidates() const;
   // Adds tets to the candidates (a sheet's waiting tets and closed cut faces).
   void add_candidates(std::span<const TetId> tets);
-  // Side of a vertex w.r.t. piece k as decided (0: on the cut surface; kUndecided).
-  int side_of(const Piece& piece, std::size_t k, VertexId v) { return side(piece, k, v); }
+
   // Vertices on a piece's boundary (the blade front and the cut's rim): improvement keeps them.
   const std::vector<VertexId>& boundary_vertices() const { return boundary_vertices_; }
   std::size_t tets_cut() const { return destroyed_.size(); }

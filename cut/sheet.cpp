@@ -131,7 +131,6 @@ void Sheet::rebuild_piece() {
   finish_piece(p);
   p.plane = plane_;
   p.normal = normal_;
-  p.front = int(front_);
   if (back_crease_) p.rim[0] = false;
   piece_ = std::move(p);
 }

@@ -31,7 +31,6 @@ public:
   BladeSegment front() const;
   // The back edge (where the sheet started) is a crease shared with an earlier sheet: not a rim.
   void set_back_is_crease(bool crease);
-  std::size_t ring_size() const { return ring_.size(); }
 
 private:
   void rebuild_piece();

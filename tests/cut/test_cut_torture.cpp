@@ -145,7 +145,6 @@ TEST_CASE("torture: random progressive cuts keep every invariant after every ste
         // Counted, not required here: test_cut_progressive's "[!mayfail]" case holds the known
         // gaps (docs/cut.md) to the exact area; this run's validity checks above stay strict.
         if (swept > 1e-3 * diag * diag) {
-          (void)in_layer;
           (std::abs(opened - swept) <= 0.01 * swept ? exact_area : short_area)++;
         }
         ++area_checks;
