@@ -63,6 +63,8 @@ public:
   void setup(const LinearOperator& a, const std::vector<std::uint8_t>* free) override;
   void apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const override;
   std::uint64_t version() const override { return version_; }
+  // Block-Jacobi: for budgets that cannot afford a triangular solve.
+  CgPreconditioner* cheaper() override { return &fallback_; }
 
   bool has_factor() const;
   bool factorizing() const { return job_.valid(); }

@@ -53,12 +53,33 @@ void ConjugateGradient::set_preconditioner(Preconditioner p) {
   const bool attached = pc_ && pc_ != builtin_.get();
   if (!builtin_ || p != opt_.preconditioner) builtin_ = make_preconditioner(p);
   opt_.preconditioner = p;
-  if (!attached) pc_ = builtin_.get();
+  if (!attached) {
+    pc_ = builtin_.get();
+    pc_apply_ms_ = pc_setup_ms_ = cheap_apply_ms_ = cheap_setup_ms_ = 0;
+  }
   resumable_ = false;
 }
 void ConjugateGradient::set_preconditioner(CgPreconditioner* pc) {
   pc_ = pc ? pc : builtin_.get();
   resumable_ = false;
+  pc_apply_ms_ = pc_setup_ms_ = cheap_apply_ms_ = cheap_setup_ms_ = 0;
+}
+
+namespace {
+// Running average of a measured cost; the first measurement sets it.
+void average_in(double& avg, double ms) { avg = avg > 0 ? 0.75 * avg + 0.25 * ms : ms; }
+}  // namespace
+
+void ConjugateGradient::multiply(const Eigen::VectorXd& v, Eigen::VectorXd& out) {
+  const double t = now_ms();
+  A_->multiply(v, out);
+  average_in(kx_ms_, now_ms() - t);
+}
+
+void ConjugateGradient::precondition(const Eigen::VectorXd& r, Eigen::VectorXd& z) {
+  const double t = now_ms();
+  active_->apply(r, z);
+  average_in(active_ == pc_ ? pc_apply_ms_ : cheap_apply_ms_, now_ms() - t);
 }
 
 void ConjugateGradient::compute(const LinearOperator& A, const std::vector<std::uint8_t>* free) {
@@ -89,7 +110,7 @@ Eigen::VectorXd ConjugateGradient::solve(const Eigen::VectorXd& b) {
 }
 
 bool ConjugateGradient::can_resume(const Eigen::VectorXd& b, const Eigen::VectorXd& x) const {
-  return resumable_ && A_ && pc_ && pc_->version() == pc_version_ && b.size() == b_last_.size() &&
+  return resumable_ && A_ && active_ && active_->version() == pc_version_ && b.size() == b_last_.size() &&
          x.size() == x_last_.size() && b == b_last_ && x == x_last_;
 }
 
@@ -109,7 +130,7 @@ void ConjugateGradient::predict(Eigen::VectorXd& x, std::span<const Eigen::Vecto
       continue;
     }
     qd_.emplace_back();
-    A_->multiply(pd_.back(), qd_.back());
+    multiply(pd_.back(), qd_.back());
     ++stats_.products;
     project(qd_.back());
   }
@@ -145,7 +166,10 @@ void ConjugateGradient::predict(Eigen::VectorXd& x, std::span<const Eigen::Vecto
   if (!take(g, h)) take(gr, hr);
 }
 
-bool ConjugateGradient::start(const Eigen::VectorXd& b, Eigen::VectorXd& x, std::span<const Eigen::VectorXd> d) {
+bool ConjugateGradient::start(const Eigen::VectorXd& b, Eigen::VectorXd& x, std::span<const Eigen::VectorXd> d,
+                              double t0) {
+  const bool budgeted = opt_.budget_ms > 0;
+  auto left = [&] { return opt_.budget_ms - (now_ms() - t0); };
   const Eigen::Index n = A_->rows();
   // Split the guess: z_ = kept part, p_ = free part.
   z_ = x;
@@ -159,7 +183,7 @@ bool ConjugateGradient::start(const Eigen::VectorXd& b, Eigen::VectorXd& x, std:
     kept_last_.setZero(n);
     akept_valid_ = true;
   } else if (!(akept_valid_ && kept_last_.size() == n && z_ == kept_last_)) {
-    A_->multiply(z_, akept_);
+    multiply(z_, akept_);
     ++stats_.products;
     project(akept_);
     kept_last_ = z_;
@@ -180,7 +204,7 @@ bool ConjugateGradient::start(const Eigen::VectorXd& b, Eigen::VectorXd& x, std:
     return false;
   }
   if (!p_.isZero(0)) {
-    A_->multiply(p_, q_);
+    multiply(p_, q_);
     ++stats_.products;
     project(q_);
     r_ -= q_;
@@ -192,6 +216,8 @@ bool ConjugateGradient::start(const Eigen::VectorXd& b, Eigen::VectorXd& x, std:
     return false;
   }
   stats_.guess_relative_residual = r_.norm() / bnorm_;
+  // A prediction costs a product per direction: not worth half of what the budget leaves.
+  if (budgeted && kx_ms_ > 0 && double(d.size()) * kx_ms_ > 0.5 * left()) d = {};
   predict(x, d);
   stats_.initial_relative_residual = r_.norm() / bnorm_;
   if (stats_.initial_relative_residual <= opt_.tolerance) {  // converged at the start point
@@ -199,9 +225,20 @@ bool ConjugateGradient::start(const Eigen::VectorXd& b, Eigen::VectorXd& x, std:
     return false;
   }
   if (log_) *log_ = {};
-  pc_->setup(*A_, free_);
-  pc_version_ = pc_->version();
-  pc_->apply(r_, z_);
+  // The preconditioner's setup and application must fit the budget with a product to spare;
+  // otherwise this solve uses the cheaper one (unknown costs are measured by trying).
+  active_ = pc_;
+  CgPreconditioner* cheap = pc_->cheaper();
+  const double pc_ms = pc_setup_ms_ + pc_apply_ms_, cheap_ms = cheap_setup_ms_ + cheap_apply_ms_;
+  if (budgeted && cheap && pc_apply_ms_ > 0 && pc_ms + kx_ms_ > left() && (cheap_ms == 0 || pc_ms > 1.5 * cheap_ms)) {
+    active_ = cheap;
+    stats_.cheaper_preconditioner = true;
+  }
+  const double ts = now_ms();
+  active_->setup(*A_, free_);
+  average_in(active_ == pc_ ? pc_setup_ms_ : cheap_setup_ms_, now_ms() - ts);
+  pc_version_ = active_->version();
+  precondition(r_, z_);
   project(z_);
   p_ = z_;
   rz_ = r_.dot(z_);
@@ -220,8 +257,9 @@ void ConjugateGradient::solve_with_guess(const Eigen::VectorXd& b, Eigen::Vector
   stats_ = SolveStats{};
   stats_.resumed = resume;
   if (resume) {
+    stats_.cheaper_preconditioner = active_ != pc_;
     stats_.guess_relative_residual = stats_.initial_relative_residual = r_.norm() / bnorm_;
-  } else if (!start(b, x, d)) {
+  } else if (!start(b, x, d, t0)) {
     resumable_ = false;
     stats_.solve_ms = now_ms() - t0;
     return;
@@ -254,12 +292,15 @@ void ConjugateGradient::iterate(Eigen::VectorXd& x, double t0) {
       stats_.message = m.str();
       break;
     }
-    if (k > 0 && opt_.budget_ms > 0 && now_ms() - t0 >= opt_.budget_ms) {
+    // Stop before an iteration that would end past the budget (a product and an application
+    // at their measured costs); the first one always runs, so budgeted solves progress.
+    if (k > 0 && opt_.budget_ms > 0 &&
+        now_ms() - t0 + kx_ms_ + (active_ == pc_ ? pc_apply_ms_ : cheap_apply_ms_) > opt_.budget_ms) {
       stats_.info = SolveInfo::BudgetExhausted;
       stats_.budget_exhausted = true;
       break;
     }
-    A_->multiply(p_, q_);
+    multiply(p_, q_);
     project(q_);
     const double pq = p_.dot(q_);
     if (!std::isfinite(pq)) {
@@ -293,7 +334,7 @@ void ConjugateGradient::iterate(Eigen::VectorXd& x, double t0) {
       stats_.info = SolveInfo::Success;
       break;
     }
-    pc_->apply(r_, z_);
+    precondition(r_, z_);
     project(z_);
     const double rz_new = r_.dot(z_);
     if (log_) {

@@ -17,6 +17,14 @@
 // iteration cap continues its own iteration (no product, same iterates as one uninterrupted
 // solve) when called again with the same right-hand side and the x it returned, on the same
 // operator (no compute()/invalidate() since) and the same preconditioner version.
+//
+// Budget: a solve with budget_ms > 0 plans with the measured cost of a product and of a
+// preconditioner application (running averages). It skips the prediction when its products
+// would take more than half of the budget, preconditions with pc->cheaper() when one setup and
+// application of the preconditioner plus a product do not fit and the cheaper one is cheaper by
+// half again (stats: cheaper_preconditioner),
+// and stops before an iteration that would end past the budget. At least one iteration runs,
+// so a budgeted solve ends within about one cheap iteration of its budget and still progresses.
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -49,6 +57,9 @@ struct SolveStats {
   double solve_ms = 0;             // wall time of the solve
   bool budget_exhausted = false;   // the budget stopped it
   bool resumed = false;            // continued the previous interrupted solve
+  // The budget left could not afford one application of the preconditioner: the solve used
+  // its cheaper() one (a resumed solve keeps the one it started with).
+  bool cheaper_preconditioner = false;
   SolveInfo info = SolveInfo::Success;
   std::string message;             // empty on success; one line otherwise
   bool converged() const { return info == SolveInfo::Success; }
@@ -112,15 +123,21 @@ public:
 
 private:
   void project(Eigen::VectorXd& v) const;
-  bool start(const Eigen::VectorXd& b, Eigen::VectorXd& x, std::span<const Eigen::VectorXd> d);  // false: done
+  bool start(const Eigen::VectorXd& b, Eigen::VectorXd& x, std::span<const Eigen::VectorXd> d, double t0_ms);  // false: done
   void predict(Eigen::VectorXd& x, std::span<const Eigen::VectorXd> d);
   void iterate(Eigen::VectorXd& x, double t0_ms);
+  void multiply(const Eigen::VectorXd& v, Eigen::VectorXd& out);    // A v, timed
+  void precondition(const Eigen::VectorXd& r, Eigen::VectorXd& z);  // z = M^-1 r with active_, timed
 
   CgOptions opt_;
   const LinearOperator* A_ = nullptr;
   const std::vector<std::uint8_t>* free_ = nullptr;
   std::unique_ptr<CgPreconditioner> builtin_;
   CgPreconditioner* pc_ = nullptr;  // builtin_ or the attached one
+  CgPreconditioner* active_ = nullptr;  // of the current solve: pc_ or pc_->cheaper()
+  // Measured costs (running averages, ms) that let a budgeted solve plan its next step: one
+  // product, one setup and one application of pc_ and of its cheaper one.
+  double kx_ms_ = 0, pc_apply_ms_ = 0, pc_setup_ms_ = 0, cheap_apply_ms_ = 0, cheap_setup_ms_ = 0;
   CgCoefficients* log_ = nullptr;
   SolveStats stats_;
   Eigen::VectorXd r_, z_, p_, q_;  // kept between solves: resume state and no reallocation

@@ -222,6 +222,7 @@ void FemSimulation::body_and_external_forces(Eigen::VectorXd& b) const {
 void FemSimulation::solve_system(const LinearOperator& k, double a, double c, const Eigen::VectorXd& b,
                                  Eigen::VectorXd& x, double budget_ms, FrameStats& st,
                                  std::span<const Eigen::VectorXd> prediction) {
+  if (st.products == 0 && st.solve_ms == 0) st.setup_ms = ms_since(frame_start_);
   if (opt_.method == SolverMethod::Direct) {
     const auto t0 = std::chrono::steady_clock::now();
     if (direct_dirty_ || model_.kind() == FemKind::Corotational || a != direct_mass_coeff_ || c != direct_stiffness_coeff_) {
@@ -279,6 +280,7 @@ void FemSimulation::solve_system(const LinearOperator& k, double a, double c, co
   st.relative_residual = s.relative_residual;
   st.solve_ms += s.solve_ms;
   st.budget_exhausted = st.budget_exhausted || s.budget_exhausted;
+  st.cheaper_preconditioner = st.cheaper_preconditioner || s.cheaper_preconditioner;
   st.info = s.info;
   st.message = s.message;
   check_finite(x, st);
@@ -315,8 +317,10 @@ void FemSimulation::static_rhs_and_guess() {
 }
 
 const FrameStats& FemSimulation::step() {
-  const auto t0 = std::chrono::steady_clock::now();
-  const int last_iterations = stats_.iterations;
+  const auto t0 = frame_start_ = std::chrono::steady_clock::now();
+  // Iterations on the cheaper preconditioner say nothing of the factor's staleness: a budget
+  // that cannot afford the factor must not keep a core busy refreshing it.
+  const int last_iterations = stats_.cheaper_preconditioner ? 0 : stats_.iterations;
   stats_ = FrameStats{};
   grow();
   // Under-constrained static problems are refused before anything else, so no factorization of
@@ -329,7 +333,10 @@ const FrameStats& FemSimulation::step() {
   // below decides whether CG resumes (a new factor means a restart).
   if (opt_.method == SolverMethod::Cg && cg_.options().preconditioner == Preconditioner::Cholesky) {
     if (!cholesky_) {
-      cholesky_ = std::make_unique<AsyncCholesky>(model_, opt_.cholesky);
+      // A budgeted frame never waits for the first factor: block-Jacobi until it lands.
+      AsyncCholeskyOptions co = opt_.cholesky;
+      if (opt_.cg.budget_ms > 0) co.wait_for_first = false;
+      cholesky_ = std::make_unique<AsyncCholesky>(model_, co);
       cg_.set_preconditioner(cholesky_.get());
     }
     if (opt_.dynamic) cholesky_->frame(free_, 1 + opt_.dt * opt_.damping, opt_.dt * opt_.dt, last_iterations);

@@ -23,6 +23,7 @@
 // Topology changes: apply(change) after every mesh edit batch. Per-tet data, diagonal and
 // masses are updated locally; new vertices get interpolated displacement and velocity, and are
 // constrained (with interpolated values) when all their parents are.
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -74,7 +75,11 @@ struct FrameStats {
   bool resumed = false;                  // CG continued the previous frame's interrupted solve
   double solve_ms = 0;
   double frame_ms = 0;                   // the whole step(): rotations, right-hand side, solves
+  // Before the first solve started: factor adoption, rotations, right-hand side. A budgeted
+  // frame's solve gets only what this left of budget_ms (at least one iteration runs).
+  double setup_ms = 0;
   bool budget_exhausted = false;
+  bool cheaper_preconditioner = false;   // the budget could not afford the preconditioner (CG used its cheaper one)
   SolveInfo info = SolveInfo::Success;
   std::string message;
 };
@@ -124,6 +129,7 @@ public:
   ConjugateGradient& cg() { return cg_; }
 
 private:
+  std::chrono::steady_clock::time_point frame_start_;  // of the current step()
   void grow();
   void update_free(std::uint32_t v);
   void check_rigid_modes() const;

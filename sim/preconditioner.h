@@ -31,6 +31,9 @@ public:
   virtual void setup(const LinearOperator& a, const std::vector<std::uint8_t>* free) = 0;
   virtual void apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const = 0;
   virtual std::uint64_t version() const { return 0; }
+  // A cheaper preconditioner CG uses instead for a solve whose wall-clock budget cannot
+  // afford one application of this one (nullptr: none). It must stay valid as long as this.
+  virtual CgPreconditioner* cheaper() { return nullptr; }
 };
 
 // None, Jacobi or BlockJacobi (Cholesky gives BlockJacobi, see above).

@@ -533,7 +533,8 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
   sum.vertices = mesh.num_vertices();
   sum.tets = mesh.num_tets();
   std::ostringstream csv, pvd;
-  csv << "frame,time,iterations,relative_residual,solve_ms,budget_exhausted,converged,max_displacement"
+  csv << "frame,time,iterations,relative_residual,solve_ms,budget_exhausted,converged,max_displacement,frame_ms,"
+         "setup_ms,cheaper_preconditioner"
       << (s.cuts.empty() ? "" : ",cut_ms,tets") << "\n";
   csv << std::setprecision(9);
   pvd << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
@@ -674,7 +675,8 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
       const double time = dynamic ? (frame + 1) * s.dt * (s.model == SceneModel::Springs ? s.substeps : 1) : frame;
       const bool converged = st.info == SolveInfo::Success;
       csv << frame << "," << time << "," << st.iterations << "," << st.relative_residual << "," << st.solve_ms << ","
-          << (st.budget_exhausted ? 1 : 0) << "," << (converged ? 1 : 0) << "," << maxd;
+          << (st.budget_exhausted ? 1 : 0) << "," << (converged ? 1 : 0) << "," << maxd << "," << st.frame_ms << ","
+          << st.setup_ms << "," << (st.cheaper_preconditioner ? 1 : 0);
       if (!s.cuts.empty()) csv << "," << cut_ms << "," << mesh.num_tets();
       csv << "\n";
       sum.total_iterations += st.iterations;

@@ -3,7 +3,9 @@
 // every frame still converges while the stale factor preconditions.
 #include <catch2/catch.hpp>
 
+#include <chrono>
 #include <random>
+#include <thread>
 
 #include "mesh/generate.h"
 #include "sim/async_cholesky.h"
@@ -247,6 +249,74 @@ TEST_CASE("CG applies the preconditioner once per iteration, not once more after
   // One application for the start, one per iteration that continues: the converged last
   // residual needs none (it cost a whole Cholesky solve per frame).
   CHECK(pc.applications == cg.iterations());
+}
+
+TEST_CASE("a budget that cannot afford the preconditioner's application uses its cheaper one", "[cg][preconditioner][budget]") {
+  // A 1D Laplacian; the "expensive" preconditioner is exact-ish Jacobi that sleeps 20 ms per
+  // application, its cheaper one plain Jacobi. With a 2 ms budget, once the cost is measured,
+  // fresh solves start on the cheaper one, resumes keep it, and the run still converges.
+  struct Laplacian : LinearOperator {
+    Eigen::VectorXd d = Eigen::VectorXd::Constant(200, 2.0);
+    Eigen::Index rows() const override { return d.size(); }
+    void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const override {
+      y = 2 * x;
+      y.tail(x.size() - 1) -= x.head(x.size() - 1);
+      y.head(x.size() - 1) -= x.tail(x.size() - 1);
+    }
+    const Eigen::VectorXd& diagonal() const override { return d; }
+  } a;
+  struct Counting : CgPreconditioner {
+    const LinearOperator* op = nullptr;
+    mutable int applications = 0;
+    int sleep_ms = 0;
+    Counting* cheap = nullptr;
+    void setup(const LinearOperator& o, const std::vector<std::uint8_t>*) override { op = &o; }
+    void apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const override {
+      ++applications;
+      if (sleep_ms) std::this_thread::sleep_for(std::chrono::milliseconds(sleep_ms));
+      z = r.cwiseQuotient(op->diagonal());
+    }
+    CgPreconditioner* cheaper() override { return cheap; }
+  } slow, fast;
+  slow.sleep_ms = 20;
+  slow.cheap = &fast;
+  ConjugateGradient cg;
+  cg.set_tolerance(1e-8);
+  cg.set_preconditioner(&slow);
+  cg.compute(a);
+  const Eigen::VectorXd b = Eigen::VectorXd::Ones(200);
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(200);
+  // No budget: the preconditioner is used (and its cost measured).
+  cg.set_max_iterations(2);
+  cg.solve_with_guess(b, x);
+  CHECK_FALSE(cg.stats().cheaper_preconditioner);
+  CHECK(slow.applications > 0);
+  CHECK(fast.applications == 0);
+  // A fresh budgeted solve: 20 ms does not fit 2 ms, so the cheaper one runs; resumes keep it.
+  cg.set_max_iterations(10000);
+  cg.set_budget_ms(2);
+  cg.invalidate();
+  const int slow_before = slow.applications;
+  int frames = 0;
+  x.setZero();
+  do {
+    cg.solve_with_guess(b, x);
+    CHECK(cg.stats().cheaper_preconditioner);
+    CHECK(cg.iterations() >= 1);  // every budgeted solve progresses
+    CHECK((frames == 0 || cg.stats().resumed));
+  } while (cg.info() == SolveInfo::BudgetExhausted && ++frames < 100000);
+  REQUIRE(cg.info() == SolveInfo::Success);
+  CHECK(slow.applications == slow_before);
+  CHECK(fast.applications > 0);
+  Eigen::VectorXd ax;
+  a.multiply(x, ax);
+  CHECK((ax - b).norm() <= 1e-7 * b.norm());
+  // A budget that affords it gets the preconditioner back.
+  cg.set_budget_ms(1000);
+  x.setZero();
+  cg.solve_with_guess(b, x);
+  CHECK_FALSE(cg.stats().cheaper_preconditioner);
+  CHECK(slow.applications > slow_before);
 }
 
 TEST_CASE("Cholesky: a vertex touched by several edits gets its stale-row correction once", "[cholesky][preconditioner]") {
