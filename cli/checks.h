@@ -33,6 +33,6 @@ inline CLI::Validator finite_range(double lo, double hi, const std::string& note
 
 // A time limit in seconds or milliseconds: finite, >= 0, at most `max` (a larger one would
 // overflow the clock's duration); 0 means no limit.
-inline CLI::Validator time_limit(double max) { return finite_range(0, max, "0: no limit"); }
+inline CLI::Validator time_limit_range(double max) { return finite_range(0, max, "0: no limit"); }
 
 }  // namespace incise::cli

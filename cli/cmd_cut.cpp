@@ -54,7 +54,7 @@ void add_cut(CLI::App& app) {
   cmd->add_option("--improve-budget-ms", o->budget_ms,
                   "Wall-clock cap of the local improvement per step, on top of --improve-work (0: none, the "
                   "default; a time cap makes the output depend on the machine's speed and load)")
-      ->check(time_limit(1e6));
+      ->check(time_limit_range(1e6));
   cmd->add_option("--json", o->json, "Write the cut report (JSON) here");
   cmd->add_flag("-q,--quiet", o->quiet, "No per-step progress on stderr");
   cmd->callback([o, steps_opt] {

@@ -28,7 +28,7 @@ void add_improve(CLI::App& app) {
   cmd->add_option("-o,--output", o->out, "Improved mesh (format by extension)")->required();
   cmd->add_option("--json", o->json, "Write the before/after report (JSON) to this file");
   cmd->add_option("--time-limit", o->improve.time_limit_s, "Wall-clock limit in seconds")
-      ->check(time_limit(1e6))
+      ->check(time_limit_range(1e6))
       ->capture_default_str();
   cmd->add_option("--target-dihedral", o->improve.target_dihedral_deg,
                   "Stop improving a tet once its smallest dihedral angle reaches this (degrees)")

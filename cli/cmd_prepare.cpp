@@ -112,7 +112,7 @@ void add_prepare(CLI::App& app) {
   c->add_option("--report", *report_file, "Quality report JSON path (default: OUT with .quality.json)");
   c->add_flag("--no-improve", *no_improve, "Skip the quality improvement (flips and smoothing) after meshing");
   c->add_option("--improve-time-limit", *improve_seconds, "Wall-clock limit of the improvement, seconds")
-      ->check(time_limit(1e6))
+      ->check(time_limit_range(1e6))
       ->capture_default_str();
 }
 

@@ -116,7 +116,7 @@ CLI::App* add_pipeline_command(CLI::App& app, const std::string& name, const std
   c->add_option("--optimize", o->optimize, "Optimizers: odt,lloyd,perturb,exude in any subset, or none")
       ->capture_default_str();
   c->add_option("--optimize-time", o->optimize_time, "Time limit per optimizer, seconds")
-      ->check(time_limit(1e6))
+      ->check(time_limit_range(1e6))
       ->capture_default_str();
   c->add_option("--sliver-bound", o->sliver_bound, "perturb/exude target minimum dihedral, degrees (0: best effort)")
       ->check(finite_range(0, 70.5))

@@ -20,7 +20,13 @@ const std::string kSentinel = "sentinel: must survive a failed command\n";
 
 void put_sentinel(const fs::path& p) { std::ofstream(p) << kSentinel; }
 
-std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
+// Quoted for the shell (appended, not operator+: GCC 12 warns falsely on that, PR105329).
+std::string q(const fs::path& p) {
+  std::string s(1, '\'');
+  s += p.string();
+  s += '\'';
+  return s;
+}
 
 // A failed run: exit 1, one line with the prefix, naming `expect`.
 void check_failed(const Run& r, const std::string& expect) {
