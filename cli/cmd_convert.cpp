@@ -4,6 +4,7 @@
 
 #include "cli/commands.h"
 #include "mesh/errors.h"
+#include "mesh/io/atomic_file.h"
 #include "mesh/io/surface.h"
 #include "mesh/io/tet_io.h"
 
@@ -27,6 +28,23 @@ void add_convert(CLI::App& app) {
   cmd->add_flag("--no-boundary", o->no_boundary, "Do not write tagged boundary triangles (.msh, .mesh)");
   cmd->callback([o] {
     const bool in_tet = is_tet_mesh_path(o->in), out_tet = is_tet_mesh_path(o->out);
+    // An option the output format has no use for is refused, not ignored: the user asked for
+    // something the file will not have.
+    const TetFormat f = format_from_path(o->out);
+    auto refuse = [&](bool given, const char* option, bool applies, const char* where) {
+      if (given && !applies)
+        throw InvalidArgument("convert: " + std::string(option) + " applies to " + where + " output only, not " + o->out);
+    };
+    refuse(o->binary, "--binary", f == TetFormat::VtkLegacy || f == TetFormat::Vtu, ".vtk and .vtu");
+    refuse(o->big_endian, "--big-endian", f == TetFormat::Vtu, ".vtu");
+    refuse(o->header64, "--header64", f == TetFormat::Vtu && (o->binary || o->big_endian),
+           "binary .vtu (with --binary or --big-endian)");
+    refuse(o->no_boundary, "--no-boundary", f == TetFormat::Gmsh22 || f == TetFormat::Medit, ".msh and .mesh");
+    OutputTransaction tx;  // the output is checked before reading; a .node/.ele pair is written whole
+    if (out_tet)
+      reserve_tet_mesh_output(tx, o->out);
+    else
+      check_output_path(o->out);
     if (in_tet) {
       ReadReport report;
       TetMesh m = read_tet_mesh(o->in, &report);
@@ -36,7 +54,8 @@ void add_convert(CLI::App& app) {
         w.big_endian = o->big_endian;
         w.header_uint64 = o->header64;
         w.write_boundary = !o->no_boundary;
-        write_tet_mesh(m, o->out, w);
+        write_tet_mesh(m, o->out, w, tx);
+        tx.commit();
         std::cerr << "convert: " << o->in << " (" << report.format << ") -> " << o->out << ": " << m.num_vertices()
                   << " vertices, " << m.num_tets() << " tets\n";
       } else {

@@ -3,14 +3,17 @@
 // Cut faces carry boundary tag 2 where the format keeps tags (.msh, .mesh). The JSON report's
 // times cover the cut steps only, not reading or writing.
 #include <algorithm>
+#include <cmath>
 #include <iostream>
 
 #include <nlohmann/json.hpp>
 
+#include "cli/checks.h"
 #include "cli/commands.h"
 #include "cut/cutter.h"
 #include "mesh/errors.h"
 #include "mesh/io/atomic_file.h"
+#include "mesh/io/input_checks.h"
 #include "mesh/io/surface.h"
 #include "mesh/io/tet_io.h"
 #include "quality/metrics.h"
@@ -32,7 +35,7 @@ void add_cut(CLI::App& app) {
   cmd->add_option("-o,--output", o->out, "Cut mesh (by extension; cut faces tagged 2 in .msh/.mesh)")->required();
   cmd->add_option("--blade", o->blade, "Blade segment A-B: AX AY AZ BX BY BZ")->expected(6);
   cmd->add_option("--sweep", o->sweep, "Blade motion D over the whole cut: DX DY DZ")->expected(3);
-  cmd->add_option("--steps", o->steps, "Progressive steps: the blade moves D/N per step (N cuts)")
+  auto* steps_opt = cmd->add_option("--steps", o->steps, "Progressive steps: the blade moves D/N per step (N cuts)")
       ->check(CLI::Range(1, 100000));
   cmd->add_option("--plane", o->plane, "Instead of a blade: plane through P with normal N: PX PY PZ NX NY NZ")
       ->expected(6);
@@ -42,7 +45,7 @@ void add_cut(CLI::App& app) {
   cmd->add_option("--snap", o->snap,
                   "Snap threshold relative to the local edge length: vertices this close to the blade are "
                   "treated as on it (fewer slivers, cut surface up to this far from the blade)")
-      ->check(CLI::Range(0.0, 0.49));
+      ->check(finite_range(0.0, 0.49));
   cmd->add_flag("--no-improve", o->no_improve, "No local flips and smoothing after each step");
   cmd->add_option("--improve-work", o->work,
                   "Operations the local improvement may attempt per step (0: no cap). The default result is "
@@ -51,13 +54,30 @@ void add_cut(CLI::App& app) {
   cmd->add_option("--improve-budget-ms", o->budget_ms,
                   "Wall-clock cap of the local improvement per step, on top of --improve-work (0: none, the "
                   "default; a time cap makes the output depend on the machine's speed and load)")
-      ->check(CLI::Range(0.0, 1e6));
+      ->check(time_limit_range(1e6));
   cmd->add_option("--json", o->json, "Write the cut report (JSON) here");
   cmd->add_flag("-q,--quiet", o->quiet, "No per-step progress on stderr");
-  cmd->callback([o] {
+  cmd->callback([o, steps_opt] {
     const int kinds = int(!o->blade.empty()) + int(!o->plane.empty()) + int(!o->surface.empty());
     if (kinds != 1) throw InvalidArgument("cut: give exactly one of --blade (with --sweep), --plane, --surface");
     if (!o->blade.empty() && o->sweep.empty()) throw InvalidArgument("cut: --blade needs --sweep DX DY DZ");
+    // A plane or a surface cut is one step with nothing swept: the options would be ignored.
+    if (o->blade.empty() && (!o->sweep.empty() || steps_opt->count() > 0))
+      throw InvalidArgument("cut: --sweep and --steps go with --blade only");
+    for (const auto* v : {&o->blade, &o->sweep, &o->plane})
+      for (double x : *v)
+        if (!std::isfinite(x) || std::abs(x) > 1e15)
+          throw InvalidArgument("cut: coordinates must be finite numbers of magnitude at most 1e15, got " +
+                                number_text(x));
+    if (!o->blade.empty()) {
+      const std::string why = degenerate_sweep(Vec3(o->blade[0], o->blade[1], o->blade[2]),
+                                               Vec3(o->blade[3], o->blade[4], o->blade[5]),
+                                               Vec3(o->sweep[0], o->sweep[1], o->sweep[2]));
+      if (!why.empty()) throw InvalidArgument("cut: --blade/--sweep: " + why);
+    }
+    OutputTransaction tx;  // the mesh and the report: both written or neither
+    reserve_tet_mesh_output(tx, o->out);
+    if (!o->json.empty()) tx.reserve(o->json, "--json");
     TetMesh mesh = read_tet_mesh(o->in);
     mesh.discard_change();
     SurfaceMesh surface;
@@ -119,8 +139,13 @@ void add_cut(CLI::App& app) {
         tris.push_back({{surface.vertices[t[0]], surface.vertices[t[1]], surface.vertices[t[2]]}});
       record(cutter.cut_surface(tris), 1);
     }
+    // Remove mode can carve the whole body: a mesh without tets is no mesh (readers refuse it).
+    if (mesh.num_tets() == 0) throw InvalidArgument("cut: the cut removes every tet of " + o->in + "; nothing written");
+    if (tets_cut == 0)
+      std::cerr << "cut: warning: the " << (o->blade.empty() ? (o->plane.empty() ? "surface" : "plane") : "blade")
+                << " does not reach the mesh; " << o->out << " is the input unchanged\n";
     const QualityRange after = quality_range(mesh);
-    write_tet_mesh(mesh, o->out);
+    write_tet_mesh(mesh, o->out, {}, tx);
     std::cerr << "cut: " << o->in << " -> " << o->out << ": " << tets_before << " -> " << mesh.num_tets() << " tets, "
               << verts_before << " -> " << mesh.num_vertices() << " vertices; " << tets_cut << " tets cut, "
               << duplicated << " vertices duplicated, " << fragments << " fragment(s); min dihedral " << before.min_dihedral
@@ -148,10 +173,9 @@ void add_cut(CLI::App& app) {
                           {"ms_total", ms_total},
                           {"ms_max_step", ms_max},
                           {"steps", steps}};
-      AtomicFile f(o->json);
-      f.write(j.dump(2) + "\n");
-      f.commit();
+      tx.write_text(o->json, j.dump(2) + "\n");
     }
+    tx.commit();
   });
 }
 

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <iostream>
 
+#include "cli/checks.h"
 #include "cli/commands.h"
 #include "quality/improve_report.h"
 #include "mesh/errors.h"
@@ -26,7 +27,9 @@ void add_improve(CLI::App& app) {
   cmd->add_option("input", o->in, "Tet mesh (.msh .mesh .vtk .vtu .node/.ele)")->required();
   cmd->add_option("-o,--output", o->out, "Improved mesh (format by extension)")->required();
   cmd->add_option("--json", o->json, "Write the before/after report (JSON) to this file");
-  cmd->add_option("--time-limit", o->improve.time_limit_s, "Wall-clock limit in seconds")->capture_default_str();
+  cmd->add_option("--time-limit", o->improve.time_limit_s, "Wall-clock limit in seconds")
+      ->check(time_limit_range(1e6))
+      ->capture_default_str();
   cmd->add_option("--target-dihedral", o->improve.target_dihedral_deg,
                   "Stop improving a tet once its smallest dihedral angle reaches this (degrees)")
       ->capture_default_str();
@@ -48,6 +51,7 @@ void add_improve(CLI::App& app) {
                 "by default they also slide on smooth curved parts, staying on the old surface");
   cmd->add_option("--feature-angle", o->improve.feature_angle_deg,
                   "Surface edges bent more than this (degrees) are features: their vertices stay")
+      ->check(finite_range(0, 180))
       ->capture_default_str();
   cmd->callback([o] {
     if (!(o->improve.target_dihedral_deg > 0 && o->improve.target_dihedral_deg < 70.5 &&
@@ -64,21 +68,23 @@ void add_improve(CLI::App& app) {
     opt.slide_curved = !o->keep_surface;
     opt.insertion = o->insert;
     if (!(opt.max_growth >= 1)) throw InvalidArgument("improve: --max-growth must be at least 1");
+    OutputTransaction tx;  // the mesh and the report: both written or neither
+    reserve_tet_mesh_output(tx, o->out);
+    if (!o->json.empty()) tx.reserve(o->json, "--json");
     ReadReport read;
     TetMesh mesh = read_tet_mesh(o->in, &read);
     const std::optional<BoundaryAngle> bound = smallest_boundary_angle(mesh);
     const ImproveReport r = improve(mesh, opt);
     mesh.discard_change();
-    write_tet_mesh(mesh, o->out);
+    write_tet_mesh(mesh, o->out, {}, tx);
     if (!o->json.empty()) {
       nlohmann::json j = improve_report_json(r);
       j["input"] = o->in;
       j["output"] = o->out;
       j["boundary_angle"] = bound ? nlohmann::json(bound->degrees) : nlohmann::json(nullptr);
-      AtomicFile f(o->json);
-      f.write(j.dump(2) + "\n");
-      f.commit();
+      tx.write_text(o->json, j.dump(2) + "\n");
     }
+    tx.commit();
     std::cout << o->in << " (" << read.format << ") -> " << o->out << "\n" << format_improve_report(r);
     // Where the surface itself forbids the target, say so: the tets at its sharpest edge share
     // that edge's angle.

@@ -5,12 +5,13 @@
 // region labels and boundary tags.
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 #include <iostream>
 
+#include "cli/checks.h"
 #include "cli/commands.h"
 #include "mesh/errors.h"
+#include "mesh/io/atomic_file.h"
 #include "mesh/io/tet_io.h"
 
 #ifdef INCISE_HAVE_TETRA
@@ -60,6 +61,11 @@ void add_prepare(CLI::App& app) {
         auto log = [&](const std::string& m) {
           if (!quiet) std::cerr << "prepare: " << m << "\n";
         };
+        // The mesh and the report: both paths checked before meshing, both written or neither.
+        const std::string json_path = report_file->empty() ? report_path(out) : *report_file;
+        OutputTransaction tx;
+        reserve_tet_mesh_output(tx, out);
+        tx.reserve(json_path, report_file->empty() ? "the quality report" : "--report");
         PipelineReport rep;
         TetMesh mesh = mesh_file(pipeline_input(cli), opt, &rep, log);
         ImproveReport imp;
@@ -72,8 +78,7 @@ void add_prepare(CLI::App& app) {
           if (!quiet) std::cerr << format_improve_report(imp);
         }
         const QualityReport q = compute_quality_report(mesh);
-        write_tet_mesh(mesh, out);
-        const std::string json_path = report_file->empty() ? report_path(out) : *report_file;
+        write_tet_mesh(mesh, out, {}, tx);
         {
           nlohmann::json j = quality_report_json(q);
           nlohmann::json prep;
@@ -94,14 +99,9 @@ void add_prepare(CLI::App& app) {
           prep["messages"] = rep.messages;
           if (!*no_improve) prep["improve"] = improve_report_json(imp);
           j["prepare"] = prep;
-          const std::string tmp = json_path + ".tmp";
-          {
-            std::ofstream f(tmp);
-            f << j.dump(2) << "\n";
-            if (!f) throw IoError(tmp, 0, "cannot write the quality report");
-          }
-          std::filesystem::rename(tmp, json_path);
+          tx.write_text(json_path, j.dump(2) + "\n");
         }
+        tx.commit();
         std::cout << format_quality_report(q);
         for (const std::string& m : rep.messages) std::cout << "prepare: " << m << "\n";
         // The meshing figures, then what was written (after the improvement).
@@ -112,6 +112,7 @@ void add_prepare(CLI::App& app) {
   c->add_option("--report", *report_file, "Quality report JSON path (default: OUT with .quality.json)");
   c->add_flag("--no-improve", *no_improve, "Skip the quality improvement (flips and smoothing) after meshing");
   c->add_option("--improve-time-limit", *improve_seconds, "Wall-clock limit of the improvement, seconds")
+      ->check(time_limit_range(1e6))
       ->capture_default_str();
 }
 

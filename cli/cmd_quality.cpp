@@ -93,7 +93,7 @@ void add_quality(CLI::App& app) {
       ->check(CLI::IsMember({"measured", "formula"}))
       ->capture_default_str();
   cmd->add_option("--lanczos-iterations", o->lanczos_iterations, "CG iterations of the measured estimate")
-      ->check(CLI::PositiveNumber)
+      ->check(CLI::Range(1, 1000000))
       ->capture_default_str();
   cmd->callback([o] {
     QualityOptions q;

@@ -2,11 +2,14 @@
 // The options are shared with `incise prepare` (cmd_prepare.cpp) through
 // add_pipeline_command().
 #include <functional>
+#include <limits>
 #include <iostream>
 #include <memory>
 
+#include "cli/checks.h"
 #include "cli/commands.h"
 #include "mesh/errors.h"
+#include "mesh/io/atomic_file.h"
 #include "mesh/io/tet_io.h"
 
 #ifdef INCISE_HAVE_TETRA
@@ -95,14 +98,28 @@ CLI::App* add_pipeline_command(CLI::App& app, const std::string& name, const std
                 "Target size: tet circumradius bound; absolute (0.05) or % of the bounding-box diagonal (3%)")
       ->capture_default_str();
   c->add_option("--facet-distance", o->facet_distance, "Surface approximation bound (absolute or %); default size/6");
-  c->add_option("--facet-angle", o->facet_angle, "Minimum surface triangle angle, degrees (<= 30)")->capture_default_str();
-  c->add_option("--radius-edge", o->radius_edge, "Tet circumradius / shortest edge bound (>= 2)")->capture_default_str();
+  c->add_option("--facet-angle", o->facet_angle, "Minimum surface triangle angle, degrees (<= 30)")
+      ->check(finite_range(0, 30))
+      ->capture_default_str();
+  c->add_option("--radius-edge", o->radius_edge, "Tet circumradius / shortest edge bound (>= 2)")
+      ->check(finite_range(2, 1e6))
+      ->capture_default_str();
   c->add_option("--features", o->features, "Crease angle between face normals for sharp features, degrees (0: off, -1: auto, on for CAD-like creases)")
+      ->check(CLI::Validator(
+          [](std::string& s) -> std::string {
+            double v = 0;
+            if (CLI::detail::lexical_cast(s, v) && (v == -1 || (v >= 0 && v <= 180))) return {};
+            return "expected -1 (auto), 0 (off) or an angle in [0, 180], got " + s;
+          },
+          "-1, or in [0, 180]"))
       ->capture_default_str();
   c->add_option("--optimize", o->optimize, "Optimizers: odt,lloyd,perturb,exude in any subset, or none")
       ->capture_default_str();
-  c->add_option("--optimize-time", o->optimize_time, "Time limit per optimizer, seconds")->capture_default_str();
+  c->add_option("--optimize-time", o->optimize_time, "Time limit per optimizer, seconds")
+      ->check(time_limit_range(1e6))
+      ->capture_default_str();
   c->add_option("--sliver-bound", o->sliver_bound, "perturb/exude target minimum dihedral, degrees (0: best effort)")
+      ->check(finite_range(0, 70.5))
       ->capture_default_str();
   c->add_option("--edge-size", o->edge_size, "Sampling along sharp features (absolute or %); default: --size");
   c->add_option("--seed", o->seed, "Random seed (same seed, same mesh)")->capture_default_str();
@@ -111,7 +128,8 @@ CLI::App* add_pipeline_command(CLI::App& app, const std::string& name, const std
   c->add_flag("--repair", o->repair, "Rebuild a dirty surface (holes, self-intersections, non-manifold) via a level set");
   c->add_option("--voxel", o->voxel, "Level-set voxel size for --repair and the stuffing engine (absolute or %)")
       ->capture_default_str();
-  c->add_option("--close", o->close, "Hole-closing radius for --repair (absolute; default: largest hole + 2 voxels)");
+  c->add_option("--close", o->close, "Hole-closing radius for --repair (absolute; default: largest hole + 2 voxels)")
+      ->check(finite_range(0, std::numeric_limits<double>::max(), "0: no closing"));
   c->add_flag("-q,--quiet", o->quiet, "No progress on stderr (the summary line stays)");
   c->callback([o, run] { run(*o, o->resolve()); });
   return c;
@@ -124,12 +142,15 @@ bool pipeline_quiet(const PipelineCli& cli) { return cli.quiet; }
 void add_tetra(CLI::App& app) {
   add_pipeline_command(app, "tetra", "Tetrahedralize a closed surface or a labeled 3D image",
                        [](const PipelineCli& cli, const PipelineOptions& opt) {
+                         OutputTransaction tx;  // the path is checked before meshing
+                         reserve_tet_mesh_output(tx, cli.out);
                          PipelineReport rep;
                          auto log = [&](const std::string& m) {
                            if (!cli.quiet) std::cerr << "tetra: " << m << "\n";
                          };
                          TetMesh mesh = mesh_file(cli.in, opt, &rep, log);
-                         write_tet_mesh(mesh, cli.out);
+                         write_tet_mesh(mesh, cli.out, {}, tx);
+                         tx.commit();
                          std::cerr << "tetra: " << rep.stats.summary() << " -> " << cli.out << "\n";
                        });
 }

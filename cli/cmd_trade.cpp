@@ -21,12 +21,6 @@ SceneModel parse_model(const std::string& m) {
   throw InvalidArgument("trade: --models: expected fem-linear, fem-corotational or springs, got \"" + m + "\"");
 }
 
-void write_atomic(const std::filesystem::path& p, const std::string& text) {
-  AtomicFile f(p.string());
-  f.write(text);
-  f.commit();
-}
-
 }  // namespace
 
 void add_trade(CLI::App& app) {
@@ -43,7 +37,8 @@ void add_trade(CLI::App& app) {
   auto* cmd = app.add_subcommand("trade", "Speed against accuracy of a scene under a grid of solver settings");
   cmd->add_option("scene", o->scene, "Scene file (.json, see docs/scene.md)")->required();
   cmd->add_option("-o,--output", o->out, "Output directory: trade.csv, trade.svg")->required();
-  cmd->add_option("--frames", o->frames, "Override the scene's number of frames");
+  cmd->add_option("--frames", o->frames, "Override the scene's number of frames (at least 1)")
+      ->check(CLI::Range(1, 1000000000));
   cmd->add_option("--models", o->models, "Models to run")->capture_default_str();
   cmd->add_option("--preconditioners", o->preconditioners, "CG preconditioners")->capture_default_str();
   cmd->add_option("--tolerances", o->tolerances, "CG relative tolerances")->capture_default_str();
@@ -71,14 +66,20 @@ void add_trade(CLI::App& app) {
     to.budgets_ms = o->budgets;
     to.direct = !o->no_direct;
     to.progress = o->quiet ? nullptr : &std::cerr;
+    // The directory is checked now and created only when there is something to put in it: a
+    // scene error leaves no empty directory behind.
+    check_output_dir(o->out);
     const Scene scene = load_scene(o->scene);
+    const std::vector<TradeRow> rows = run_trade(scene, to);
     std::error_code ec;
     std::filesystem::create_directories(o->out, ec);
     if (ec) throw IoError(o->out, 0, "cannot create output directory: " + ec.message());
-    const std::vector<TradeRow> rows = run_trade(scene, to);
     const std::filesystem::path dir(o->out);
-    write_atomic(dir / "trade.csv", trade_csv(rows));
-    write_atomic(dir / "trade.svg", trade_svg(rows, "incise trade: " + std::filesystem::path(o->scene).filename().string()));
+    OutputTransaction tx;  // both files or neither
+    tx.write_text((dir / "trade.csv").string(), trade_csv(rows));
+    tx.write_text((dir / "trade.svg").string(),
+                  trade_svg(rows, "incise trade: " + std::filesystem::path(o->scene).filename().string()));
+    tx.commit();
     std::cout << "trade: " << rows.size() << " runs of " << o->scene << "; Pareto frontier (fastest first):\n";
     std::vector<const TradeRow*> front;
     for (const TradeRow& r : rows)

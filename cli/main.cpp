@@ -1,10 +1,36 @@
 // incise: one executable, one subcommand per job. Exit codes: 0 success, 1 bad input or
 // failure (one line on stderr naming the file and, where it applies, the line).
+#include <cctype>
 #include <cstdio>
+#include <cstring>
 #include <iostream>
+#include <string>
 
 #include "cli/commands.h"
 #include "mesh/errors.h"
+
+namespace {
+
+// CLI11 reads "-inf" and "-nan" as an option name, so `--sweep 0 0 -inf` would say "at least 3
+// required but received 2". No option of incise is spelled like that: name the value instead.
+void refuse_non_finite_words(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i) {
+    std::string a = argv[i];
+    for (char& c : a) c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (a == "-inf" || a == "-infinity" || a == "-nan")
+      throw incise::InvalidArgument(std::string("'") + argv[i] + "': numbers must be finite");
+  }
+}
+
+// One line like every other error (CLI11 prints its message and a "Run with --help" hint).
+std::string one_line(std::string s) {
+  for (char& c : s)
+    if (c == '\n' || c == '\r') c = ' ';
+  while (!s.empty() && s.back() == ' ') s.pop_back();
+  return s;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"incise: tetrahedral meshes for surgical simulation: prepare, cut, simulate"};
@@ -21,6 +47,7 @@ int main(int argc, char** argv) {
   incise::cli::add_improve(app);
   incise::cli::add_trade(app);
   try {
+    refuse_non_finite_words(argc, argv);
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
@@ -29,7 +56,7 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    app.exit(e);
+    std::cerr << "incise: error: " << one_line(e.what()) << " (see --help)\n";
     return 1;  // usage errors are bad input too
   } catch (const incise::Error& e) {
     std::cerr << "incise: error: " << e.what() << "\n";

@@ -15,6 +15,7 @@
 #include "mesh/errors.h"
 #include "mesh/generate.h"
 #include "mesh/io/atomic_file.h"
+#include "mesh/io/input_checks.h"
 #include "mesh/io/tet_io.h"
 #include "sim/integrator.h"
 #include "sim/spring_model.h"
@@ -224,6 +225,11 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     std::string what = e.what();
     const auto p = what.find("parse error");
     throw IoError(path, line, "invalid JSON: " + (p == std::string::npos ? what : what.substr(p)));
+  } catch (const json::exception& e) {
+    // A number too large for a double (1e999) is an out_of_range error without a position.
+    std::string what = e.what();
+    const auto p = what.find("] ");
+    throw IoError(path, 0, "invalid JSON: " + (p == std::string::npos ? what : what.substr(p + 2)));
   }
   const Reader rd(path);
   rd.keys(j, "", {"mesh", "model", "materials", "fixed", "loads", "solver", "time", "output", "cuts", "fragments"});
@@ -391,9 +397,15 @@ Scene parse_scene(const std::string& text, const std::string& path) {
       cut.b = rd.vec3(c["blade"][1], key + ".blade[1]");
       if (!c.contains("sweep")) rd.fail(key + ".sweep", "missing; expected [dx,dy,dz]");
       cut.sweep = rd.vec3(c["sweep"], key + ".sweep");
+      if (const std::string why = degenerate_sweep(cut.a, cut.b, cut.sweep); !why.empty()) rd.fail(key, why);
       if (c.contains("from_frame")) cut.from_frame = rd.integer(c["from_frame"], key + ".from_frame", 0);
       cut.to_frame = cut.from_frame;
       if (c.contains("to_frame")) cut.to_frame = rd.integer(c["to_frame"], key + ".to_frame", cut.from_frame);
+      // A blade that would move after the last frame never cuts (or stops halfway): say so.
+      if (cut.to_frame >= s.frames)
+        rd.fail(key + (c.contains("to_frame") ? ".to_frame" : ".from_frame"),
+                "frame " + std::to_string(cut.to_frame) + " is after the run's last frame (" +
+                    std::to_string(s.frames - 1) + ", time.frames " + std::to_string(s.frames) + ")");
       if (c.contains("mode")) {
         cut.mode = rd.string(c["mode"], key + ".mode");
         if (cut.mode != "subdivide" && cut.mode != "remove")

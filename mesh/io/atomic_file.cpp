@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 
 #include "mesh/errors.h"
 #include "mesh/io/parse_util.h"
@@ -63,8 +64,9 @@ void AtomicFile::write(std::string_view data) {
   }
 }
 
-void AtomicFile::commit() {
-  if (fd_ < 0) io::throw_io(path_, 0, "commit without an open file");
+void AtomicFile::close() {
+  if (closed_) return;
+  if (fd_ < 0) io::throw_io(path_, 0, "close without an open file");
   if (::close(fd_) != 0) {
     int err = errno;
     fd_ = -1;
@@ -72,12 +74,78 @@ void AtomicFile::commit() {
     io::throw_io(path_, 0, std::string("close failed: ") + std::strerror(err));
   }
   fd_ = -1;
+  closed_ = true;
+}
+
+void AtomicFile::commit() {
+  if (committed_) io::throw_io(path_, 0, "committed twice");
+  close();
   if (std::rename(temp_.c_str(), path_.c_str()) != 0) {
     int err = errno;
     discard();
     io::throw_io(path_, 0, std::string("cannot rename temporary into place: ") + std::strerror(err));
   }
   committed_ = true;
+}
+
+void check_output_path(const std::string& path) {
+  namespace fs = std::filesystem;
+  if (path.empty()) io::throw_io("<empty path>", 0, "no output file name");
+  if (path.back() == '/') io::throw_io(path, 0, "output path names a directory");
+  std::error_code ec;
+  const fs::path p(path);
+  if (fs::is_directory(p, ec)) io::throw_io(path, 0, "output path is a directory");
+  fs::path parent = p.parent_path();
+  if (parent.empty()) parent = ".";
+  if (!fs::exists(parent, ec)) io::throw_io(path, 0, "cannot write here: directory " + parent.string() + " does not exist");
+  if (!fs::is_directory(parent, ec)) io::throw_io(path, 0, "cannot write here: " + parent.string() + " is not a directory");
+  if (::access(parent.c_str(), W_OK) != 0)
+    io::throw_io(path, 0, "cannot write here: directory " + parent.string() + ": " + std::strerror(errno));
+}
+
+void check_output_dir(const std::string& path) {
+  namespace fs = std::filesystem;
+  if (path.empty()) io::throw_io("<empty path>", 0, "no output directory name");
+  std::error_code ec;
+  fs::path p = fs::absolute(path).lexically_normal();
+  if (fs::exists(p, ec) && !fs::is_directory(p, ec)) io::throw_io(path, 0, "output path exists and is not a directory");
+  while (!fs::exists(p, ec) && p.has_parent_path() && p.parent_path() != p) p = p.parent_path();
+  if (!fs::is_directory(p, ec)) io::throw_io(path, 0, "cannot create the output directory: " + p.string() + " is not a directory");
+  if (::access(p.c_str(), W_OK) != 0)
+    io::throw_io(path, 0, "cannot create the output directory under " + p.string() + ": " + std::strerror(errno));
+}
+
+void OutputTransaction::reserve(const std::string& path, const std::string& role) {
+  check_output_path(path);
+  // Two roles naming one file (a report path equal to the mesh, "./a" and "a") would leave only
+  // the last one written: compare the resolved paths.
+  std::error_code ec;
+  std::filesystem::path key = std::filesystem::weakly_canonical(std::filesystem::absolute(path), ec);
+  if (ec) key = std::filesystem::absolute(path).lexically_normal();
+  for (const Reserved& r : reserved_) {
+    if (r.key != key.string()) continue;
+    if (r.path == path && r.role == role) return;
+    io::throw_io(path, 0, role + " names the same file as " + r.role);
+  }
+  reserved_.push_back({path, key.string(), role});
+}
+
+AtomicFile& OutputTransaction::open(const std::string& path) {
+  bool known = false;
+  for (const Reserved& r : reserved_) known = known || r.path == path;
+  if (!known) reserve(path, path);
+  for (const auto& f : files_)
+    if (f->path() == path) io::throw_io(path, 0, "staged twice");
+  files_.push_back(std::make_unique<AtomicFile>(path));
+  return *files_.back();
+}
+
+void OutputTransaction::write_text(const std::string& path, std::string_view text) { open(path).write(text); }
+
+void OutputTransaction::commit() {
+  for (auto& f : files_) f->close();
+  for (auto& f : files_) f->commit();
+  files_.clear();
 }
 
 }  // namespace incise

@@ -6,6 +6,7 @@
 #include <sys/stat.h>
 
 #include <cctype>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 
@@ -63,6 +64,55 @@ void check_ply_header(const std::string& path) {
   fail("no end_header");
 }
 
+// assimp's OFF importer clamps a face index past the vertex count to the last vertex (`3 0 1 9`
+// becomes a valid triangle) and goes on; the OBJ importer refuses the same mistake. The face
+// lines are checked here so both formats fail alike, naming the line. Anything this simple
+// reading does not follow (another header, counts missing) is left to assimp.
+void check_off_faces(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  long n = 0;
+  // The next line with content, its '#' comment stripped.
+  auto next = [&](std::istringstream& ss) {
+    while (std::getline(in, line)) {
+      ++n;
+      const auto hash = line.find('#');
+      if (hash != std::string::npos) line.resize(hash);
+      if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+      ss.clear();
+      ss.str(line);
+      return true;
+    }
+    return false;
+  };
+  std::istringstream ss;
+  if (!next(ss)) return;
+  std::string head;
+  ss >> head;
+  if (head != "OFF") return;
+  long nv = -1, nf = -1;
+  if (!(ss >> nv >> nf)) {
+    if (!next(ss) || !(ss >> nv >> nf)) return;
+  }
+  if (nv < 0 || nf < 0) return;
+  for (long v = 0; v < nv; ++v)
+    if (!next(ss)) return;
+  for (long f = 0; f < nf; ++f) {
+    if (!next(ss)) return;
+    long k = 0;
+    if (!(ss >> k) || k < 0) return;
+    for (long i = 0; i < k; ++i) {
+      std::string tok;
+      if (!(ss >> tok)) io::throw_io(path, n, "face has " + std::to_string(i) + " of its " + std::to_string(k) + " vertex indices");
+      char* end = nullptr;
+      const long idx = std::strtol(tok.c_str(), &end, 10);
+      if (*end != '\0') io::throw_io(path, n, "face vertex index '" + io::Cursor::shorten(tok) + "' is not an integer");
+      if (idx < 0 || idx >= nv)
+        io::throw_io(path, n, "face vertex index " + tok + " out of range (" + std::to_string(nv) + " vertices)");
+    }
+  }
+}
+
 }  // namespace
 
 SurfaceMesh read_surface(const std::string& path) {
@@ -71,6 +121,7 @@ SurfaceMesh read_surface(const std::string& path) {
   if (S_ISDIR(st.st_mode)) io::throw_io(path, 0, "is a directory, not a file");
   if (st.st_size == 0) io::throw_io(path, 0, "empty file");
   if (io::lower_extension(path) == "ply") check_ply_header(path);
+  if (io::lower_extension(path) == "off") check_off_faces(path);
   if (is_tet_mesh_path(path))
     io::throw_io(path, 0, "is a tetrahedral mesh format; a surface is needed here (OBJ, STL, PLY, OFF, glTF, ...)");
   Assimp::Importer importer;

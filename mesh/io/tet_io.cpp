@@ -236,7 +236,7 @@ std::string tetgen_base(const std::string& path) {
   return path;
 }
 
-void write_impl(const TetMesh& mesh, const std::string& path, const MeshFields* fields, const WriteOptions& options) {
+TetFormat output_format(const std::string& path, const WriteOptions& options) {
   TetFormat format = options.format == TetFormat::Auto ? format_from_path(path) : options.format;
   if (format == TetFormat::Auto) {
     std::string ext = lower_extension(path);
@@ -244,45 +244,50 @@ void write_impl(const TetMesh& mesh, const std::string& path, const MeshFields* 
       io::throw_io(path, 0, "." + ext + " is a surface format; write the boundary with write_surface");
     io::throw_io(path, 0, "unknown tet mesh format '." + ext + "' (use .msh, .mesh, .vtk, .vtu, .node or .ele)");
   }
+  return format;
+}
+
+std::vector<std::string> output_files(const std::string& path, TetFormat format) {
+  if (format != TetFormat::TetGen) return {path};
+  const std::string base = tetgen_base(path);
+  return {base + ".node", base + ".ele"};
+}
+
+// Every write goes through a transaction: a TetGen pair is written whole or not at all.
+void write_impl(const TetMesh& mesh, const std::string& path, const MeshFields* fields, const WriteOptions& options,
+                OutputTransaction& tx) {
+  const TetFormat format = output_format(path, options);
   if (fields && format != TetFormat::Vtu && format != TetFormat::VtkLegacy)
     throw InvalidArgument("fields can only be written to .vtu or .vtk, not " + path);
+  const std::vector<std::string> files = output_files(path, format);
   FlatMesh flat = flatten(mesh, fields);
   switch (format) {
-    case TetFormat::Gmsh22: {
-      AtomicFile out(path);
-      write_gmsh22(flat, out, options);
-      out.commit();
+    case TetFormat::Gmsh22:
+      write_gmsh22(flat, tx.open(files[0]), options);
       break;
-    }
-    case TetFormat::Medit: {
-      AtomicFile out(path);
-      write_medit(flat, out, options);
-      out.commit();
+    case TetFormat::Medit:
+      write_medit(flat, tx.open(files[0]), options);
       break;
-    }
-    case TetFormat::VtkLegacy: {
-      AtomicFile out(path);
-      write_vtk_legacy(flat, out, options);
-      out.commit();
+    case TetFormat::VtkLegacy:
+      write_vtk_legacy(flat, tx.open(files[0]), options);
       break;
-    }
-    case TetFormat::Vtu: {
-      AtomicFile out(path);
-      write_vtu(flat, out, options);
-      out.commit();
+    case TetFormat::Vtu:
+      write_vtu(flat, tx.open(files[0]), options);
       break;
-    }
     case TetFormat::TetGen: {
-      std::string base = tetgen_base(path);
-      AtomicFile node(base + ".node"), ele(base + ".ele");
-      write_tetgen(flat, node, ele, options);
-      node.commit();
-      ele.commit();
+      AtomicFile& node = tx.open(files[0]);
+      write_tetgen(flat, node, tx.open(files[1]), options);
       break;
     }
     case TetFormat::Auto:
       break;
   }
+}
+
+void write_impl(const TetMesh& mesh, const std::string& path, const MeshFields* fields, const WriteOptions& options) {
+  OutputTransaction tx;
+  write_impl(mesh, path, fields, options, tx);
+  tx.commit();
 }
 
 }  // namespace
@@ -333,6 +338,14 @@ TetMesh read_tet_mesh(const std::string& path, ReadReport* report) {
 
 void write_tet_mesh(const TetMesh& mesh, const std::string& path, const WriteOptions& options) {
   io::write_impl(mesh, path, nullptr, options);
+}
+
+void write_tet_mesh(const TetMesh& mesh, const std::string& path, const WriteOptions& options, OutputTransaction& tx) {
+  io::write_impl(mesh, path, nullptr, options, tx);
+}
+
+void reserve_tet_mesh_output(OutputTransaction& tx, const std::string& path, const std::string& role) {
+  for (const std::string& f : io::output_files(path, io::output_format(path, {}))) tx.reserve(f, role);
 }
 
 void write_tet_mesh_with_fields(const TetMesh& mesh, const std::string& path, const MeshFields& fields,

@@ -22,6 +22,8 @@
 
 namespace incise {
 
+class OutputTransaction;  // mesh/io/atomic_file.h
+
 enum class TetFormat { Auto, Gmsh22, Medit, VtkLegacy, Vtu, TetGen };
 
 struct ReadReport {
@@ -59,6 +61,11 @@ struct MeshFields {
 // Throws IoError("FILE:LINE: reason") on malformed input.
 TetMesh read_tet_mesh(const std::string& path, ReadReport* report = nullptr);
 void write_tet_mesh(const TetMesh& mesh, const std::string& path, const WriteOptions& options = {});
+// The same, staged in a command's transaction (written by tx.commit(), with its other outputs).
+void write_tet_mesh(const TetMesh& mesh, const std::string& path, const WriteOptions& options, OutputTransaction& tx);
+// Reserves in `tx` the files a mesh written to `path` consists of (base.node and base.ele for
+// TetGen), before any work: throws IoError for an unknown extension or an unwritable path.
+void reserve_tet_mesh_output(OutputTransaction& tx, const std::string& path, const std::string& role = "the output mesh");
 // VTU (or VTK legacy, by extension) with current positions and fields; atomic.
 void write_tet_mesh_with_fields(const TetMesh& mesh, const std::string& path, const MeshFields& fields,
                                 const WriteOptions& options = {});

@@ -125,9 +125,10 @@ TEST_CASE("incise cut fails with one line naming the problem, and writes nothing
     CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
     CHECK(!fs::exists(out));
   }
-  // Option values out of range are caught by the option parser (its message, then a hint).
+  // Option values out of range are caught by the option parser: one line like every error.
   Run r = run_incise("cut '" + box + "' -o '" + out + "' --plane 0 0 0 1 0 0 --snap 0.7", dir);
-  CHECK(r.code != 0);
-  CHECK(r.err.find("--snap") == 0);
+  CHECK(r.code == 1);
+  CHECK(r.err.find("incise: error: --snap") == 0);
+  CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
   CHECK(!fs::exists(out));
 }

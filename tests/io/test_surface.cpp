@@ -183,9 +183,47 @@ TEST_CASE("writes are atomic", "[io][atomic]") {
   CHECK(read_text(dest) == "new content");
   CHECK(leftovers() == 0);
   // Unwritable destinations.
-  CHECK_THROWS_WITH(write_tet_mesh(m, dir / "no/such/dir/x.msh"), Catch::Contains("cannot create output file"));
+  CHECK_THROWS_WITH(write_tet_mesh(m, dir / "no/such/dir/x.msh"), Catch::Contains("does not exist"));
   CHECK_THROWS_AS(write_tet_mesh(m, dir.path.string() + "/"), IoError);
   write_tet_mesh(m, dest);
   CHECK(read_tet_mesh(dest).num_tets() == 6);
   CHECK(leftovers() == 0);
+}
+
+TEST_CASE("an output transaction writes all of its files or none", "[io][atomic]") {
+  ScratchDir dir("transaction");
+  const std::string a = dir / "a.msh", b = dir / "b.json";
+  write_text(a, "old a");
+  write_text(b, "old b");
+  TetMesh m = make_box(Vec3(1, 1, 1), {1, 1, 1});
+  {
+    // Staged but never committed (the command failed after writing the mesh): both stay.
+    OutputTransaction tx;
+    reserve_tet_mesh_output(tx, a);
+    tx.reserve(b, "--json");
+    write_tet_mesh(m, a, {}, tx);
+    tx.write_text(b, "new b");
+  }
+  CHECK(read_text(a) == "old a");
+  CHECK(read_text(b) == "old b");
+  {
+    OutputTransaction tx;
+    write_tet_mesh(m, a, {}, tx);
+    tx.write_text(b, "new b");
+    tx.commit();
+  }
+  CHECK(read_tet_mesh(a).num_tets() == 6);
+  CHECK(read_text(b) == "new b");
+  // Two roles naming one file, however spelled, and outputs that cannot be written: refused
+  // when reserved, before any work.
+  OutputTransaction tx;
+  reserve_tet_mesh_output(tx, a);
+  CHECK_THROWS_WITH(tx.reserve(dir.path.string() + "/./a.msh", "--json"),
+                    Catch::Contains("--json names the same file as the output mesh"));
+  CHECK_THROWS_WITH(tx.reserve(dir.path.string(), "--json"), Catch::Contains("is a directory"));
+  CHECK_THROWS_WITH(tx.reserve(dir / "nodir/r.json", "--json"), Catch::Contains("does not exist"));
+  CHECK_THROWS_WITH(reserve_tet_mesh_output(tx, dir / "x.off"), Catch::Contains("surface format"));
+  OutputTransaction pair;
+  reserve_tet_mesh_output(pair, dir / "p.node");
+  CHECK_THROWS_WITH(pair.reserve(dir / "p.ele", "--json"), Catch::Contains("same file"));
 }

@@ -1,0 +1,38 @@
+#pragma once
+// Option checks shared by the subcommands: one rule, one wording. CLI11's Range lets NaN
+// through (every comparison with NaN is false) and prints its bounds with std::to_string (a
+// 300-digit number for DBL_MAX); these do neither. Failures reach main() as CLI11 validation
+// errors, printed as one line naming the option.
+#include <cmath>
+#include <sstream>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+namespace incise::cli {
+
+inline std::string number_text(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+// A finite number in [lo, hi]; `note` (e.g. "0: no limit") is shown in --help.
+inline CLI::Validator finite_range(double lo, double hi, const std::string& note = "") {
+  const std::string range = "[" + number_text(lo) + ", " + number_text(hi) + "]";
+  return CLI::Validator(
+      [lo, hi, range](std::string& s) -> std::string {
+        double v = 0;
+        if (!CLI::detail::lexical_cast(s, v)) return "'" + s + "' is not a number";
+        if (!std::isfinite(v)) return "'" + s + "': expected a finite number in " + range;
+        if (v < lo || v > hi) return s + " is out of range " + range;
+        return {};
+      },
+      "in " + range + (note.empty() ? "" : "; " + note));
+}
+
+// A time limit in seconds or milliseconds: finite, >= 0, at most `max` (a larger one would
+// overflow the clock's duration); 0 means no limit.
+inline CLI::Validator time_limit_range(double max) { return finite_range(0, max, "0: no limit"); }
+
+}  // namespace incise::cli

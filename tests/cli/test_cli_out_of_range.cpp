@@ -1,0 +1,165 @@
+// Issue 18, part 2: a value out of range is an error naming the option (one line, exit 1,
+// nothing written), never a different meaning (unlimited, disabled, a clamped index).
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "cli_run.h"
+#include "mesh/io/tet_io.h"
+
+namespace fs = std::filesystem;
+using namespace incise::testing;
+
+namespace {
+
+// Quoted for the shell (appended, not operator+: GCC 12 warns falsely on that, PR105329).
+std::string q(const fs::path& p) {
+  std::string s(1, '\'');
+  s += p.string();
+  s += '\'';
+  return s;
+}
+
+void check_failed(const Run& r, const std::string& expect) {
+  INFO(r.err);
+  CHECK(r.code == 1);
+  CHECK(r.err.rfind("incise: error: ", 0) == 0);
+  CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+  CHECK(r.err.find(expect) != std::string::npos);
+}
+
+struct Case {
+  std::string args, expect;
+};
+
+}  // namespace
+
+TEST_CASE("improve and cut: time limits out of range are errors", "[cli][options]") {
+  const fs::path dir = scratch_dir("cli_range_time");
+  const fs::path box = dir / "box.msh", out = dir / "out.msh";
+  REQUIRE(run_incise("generate box --cells 1 1 1 -o " + q(box), dir).code == 0);
+  const std::string improve = "improve " + q(box) + " -o " + q(out) + " --time-limit ";
+  const std::string cut = "cut " + q(box) + " -o " + q(out) + " -q --plane 0.5 0.5 0.5 1 0 0 --improve-budget-ms ";
+  for (const std::string v : {"-1", "nan", "inf", "1e300"}) {
+    check_failed(run_incise(improve + v, dir), "--time-limit");
+    check_failed(run_incise(cut + v, dir), "--improve-budget-ms");
+  }
+  check_failed(run_incise(cut + "-5", dir), "--improve-budget-ms");
+  CHECK(!fs::exists(out));
+  // 0 is documented as "no limit".
+  CHECK(run_incise(improve + "0", dir).code == 0);
+  CHECK(run_incise("improve --help", dir).out.find("0: no limit") != std::string::npos);
+}
+
+TEST_CASE("cut: degenerate blades are errors, a blade that misses is a warning", "[cli][options][cut]") {
+  const fs::path dir = scratch_dir("cli_range_blade");
+  const fs::path box = dir / "box.msh", out = dir / "out.msh";
+  REQUIRE(run_incise("generate box --cells 2 2 2 -o " + q(box), dir).code == 0);
+  const std::string cut = "cut " + q(box) + " -q -o " + q(out) + " ";
+  const Case cases[] = {
+      {"--blade 0.5 0.5 2 0.5 0.5 2 --sweep 0 0 -3", "same point"},
+      {"--blade 0.3 -1 2 0.3 2 2 --sweep 0 0 0", "does not move"},
+      {"--blade 0.3 -1 2 0.3 2 2 --sweep 0 2 0", "parallel"},
+      {"--blade 0.3 -1 1e200 0.3 2 2 --sweep 0 0 -3", "1e15"},
+      {"--plane 0.5 0 0 1 0 0 --sweep 0 0 1", "--sweep and --steps go with --blade only"},
+      {"--plane 0.5 0 0 1 0 0 --steps 3", "--sweep and --steps go with --blade only"},
+      {"--blade 0.3 -1 2 0.3 2 2 --sweep 0 0 -inf", "'-inf': numbers must be finite"},
+  };
+  for (const Case& c : cases) {
+    INFO(c.args);
+    check_failed(run_incise(cut + c.args, dir), c.expect);
+    CHECK(!fs::exists(out));
+  }
+  // Entirely outside the body: a warning, and the mesh written unchanged.
+  Run r = run_incise(cut + "--blade 5 -1 2 5 2 2 --sweep 0 0 -3", dir);
+  INFO(r.err);
+  CHECK(r.code == 0);
+  CHECK(r.err.find("cut: warning: the blade does not reach the mesh") != std::string::npos);
+  CHECK(incise::read_tet_mesh(out.string()).num_tets() == incise::read_tet_mesh(box.string()).num_tets());
+}
+
+TEST_CASE("cut: remove mode that would carve every tet writes nothing", "[cli][options][cut]") {
+  const fs::path dir = scratch_dir("cli_range_remove_all");
+  const fs::path box = dir / "box.msh", out = dir / "out.msh";
+  REQUIRE(run_incise("generate box --cells 1 1 1 -o " + q(box), dir).code == 0);
+  std::ofstream(out) << "sentinel\n";
+  check_failed(run_incise("cut " + q(box) + " -q --mode remove --plane 0.5 0.5 0.5 1 0 0 -o " + q(out), dir),
+               "removes every tet");
+  CHECK(slurp(out) == "sentinel\n");
+}
+
+TEST_CASE("tetra, prepare, improve, quality: option ranges", "[cli][options]") {
+  const fs::path dir = scratch_dir("cli_range_options");
+  const fs::path box = dir / "box.msh", surf = dir / "box.off", out = dir / "out.msh";
+  REQUIRE(run_incise("generate box --cells 1 1 1 -o " + q(box), dir).code == 0);
+  REQUIRE(run_incise("convert " + q(box) + " " + q(surf), dir).code == 0);
+  const Case cases[] = {
+      {"tetra " + q(surf) + " -o " + q(out) + " --sliver-bound -5", "--sliver-bound"},
+      {"prepare " + q(surf) + " -o " + q(out) + " --optimize-time -1", "--optimize-time"},
+      {"prepare " + q(surf) + " -o " + q(out) + " --features 500", "--features"},
+      {"prepare " + q(surf) + " -o " + q(out) + " --close -1", "--close"},
+      {"prepare " + q(surf) + " -o " + q(out) + " --improve-time-limit nan", "--improve-time-limit"},
+      {"tetra " + q(surf) + " -o " + q(out) + " --facet-angle nan", "--facet-angle"},
+      {"improve " + q(box) + " -o " + q(out) + " --feature-angle -5", "--feature-angle"},
+      {"improve " + q(box) + " -o " + q(out) + " --feature-angle 400", "--feature-angle"},
+      {"quality " + q(box) + " --lanczos-iterations 0", "--lanczos-iterations"},
+  };
+  for (const Case& c : cases) {
+    INFO(c.args);
+    Run r = run_incise(c.args, dir);
+    if (r.err.find("without CGAL") != std::string::npos) continue;
+    check_failed(r, c.expect);
+    CHECK(r.err.size() < 200);  // no 300-digit bound
+    CHECK(!fs::exists(out));
+  }
+}
+
+TEST_CASE("usage errors are one line with the prefix", "[cli][options]") {
+  const fs::path dir = scratch_dir("cli_usage_errors");
+  check_failed(run_incise("info", dir), "required");
+  check_failed(run_incise("info x.msh --no-such-option", dir), "no-such-option");
+  check_failed(run_incise("frobnicate", dir), "subcommand");
+}
+
+TEST_CASE("the OFF reader rejects a face index out of range, naming the line", "[cli][io]") {
+  const fs::path dir = scratch_dir("cli_off_index");
+  std::ofstream(dir / "bad.off") << "OFF\n# a tetrahedron with one bad index\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+                                    "3 0 2 1\n3 0 1 9\n3 0 3 2\n3 1 2 3\n";
+  const fs::path box = dir / "box.msh";
+  REQUIRE(run_incise("generate box --cells 1 1 1 -o " + q(box), dir).code == 0);
+  check_failed(run_incise("convert " + q(dir / "bad.off") + " " + q(dir / "out.obj"), dir),
+               "bad.off:9: face vertex index 9 out of range (4 vertices)");
+  check_failed(run_incise("cut " + q(box) + " -o " + q(dir / "out.msh") + " --surface " + q(dir / "bad.off"), dir),
+               "bad.off:9:");
+  CHECK(!fs::exists(dir / "out.obj"));
+  CHECK(!fs::exists(dir / "out.msh"));
+}
+
+TEST_CASE("scene cuts: degenerate blades and frames after the run are errors naming the key", "[cli][options][scene]") {
+  const fs::path dir = scratch_dir("cli_scene_cuts");
+  auto scene = [](const std::string& cut, const std::string& frames = "4") {
+    return R"({"mesh": {"generate": "box", "size": [4, 1, 1], "cells": [4, 1, 1]}, "model": "fem-linear",
+      "materials": {"*": {"young": 1e5, "poisson": 0.3}},
+      "fixed": [{"box": [-0.01, -0.01, -0.01, 0.01, 1.01, 1.01]}],
+      "cuts": [)" + cut + R"(], "time": {"frames": )" + frames + "}}";
+  };
+  const Case cases[] = {
+      {scene(R"({"blade": [[2, -1, 2], [2, 2, 2]], "sweep": [0, 0, -3], "from_frame": 4, "to_frame": 4})"),
+       "cuts[0].to_frame: frame 4 is after the run's last frame (3, time.frames 4)"},
+      {scene(R"({"blade": [[2, -1, 2], [2, 2, 2]], "sweep": [0, 0, -3], "from_frame": 7})"), "cuts[0].from_frame: frame 7"},
+      {scene(R"({"blade": [[2, -1, 2], [2, 2, 2]], "sweep": [0, 0, -3], "from_frame": 1, "to_frame": 9})"),
+       "cuts[0].to_frame: frame 9"},
+      {scene(R"({"blade": [[2, 0, 2], [2, 0, 2]], "sweep": [0, 0, -3]})"), "cuts[0]: the blade's two ends are the same point"},
+      {scene(R"({"blade": [[2, -1, 2], [2, 2, 2]], "sweep": [0, 0, 0]})"), "cuts[0]: the sweep is zero"},
+      {scene(R"({"blade": [[2, -1, 2], [2, 2, 2]], "sweep": [0, 1e999, 0]})"), "scene.json: invalid JSON"},
+  };
+  for (const Case& c : cases) {
+    INFO(c.args);
+    std::ofstream(dir / "scene.json") << c.args;
+    check_failed(run_incise("simulate -q " + q(dir / "scene.json") + " -o " + q(dir / "out"), dir), c.expect);
+    CHECK(!fs::exists(dir / "out"));
+  }
+}
