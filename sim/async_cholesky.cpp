@@ -123,6 +123,7 @@ void AsyncCholesky::start(const std::vector<std::uint8_t>& free, double a, doubl
   changed_since_snapshot_.clear();
   added_since_snapshot_.clear();
   touched_since_snapshot_.clear();
+  job_changes_ = changes_;
   // The snapshot is taken here, on the frame thread (a copy of the per-tet arrays); the job
   // owns it, so later edits and rotations never race with the factorization.
   FemElements elements = model_->elements();
@@ -144,6 +145,7 @@ void AsyncCholesky::adopt() {
   }
   failed_ = false;
   factor_ = std::move(f);
+  factor_changes_ = job_changes_;
   snap_rot_ = std::move(pending_rot_);
   q_.clear();
   const std::size_t nv = factor_->index.size() / 3;
@@ -175,15 +177,26 @@ bool AsyncCholesky::frame(const std::vector<std::uint8_t>& free, double a, doubl
     adopted = true;
   }
   if (a != snapshot_a_ || c != snapshot_c_) stale_ = true;
+  // Settle policy: no factorization while the blade moves (it would be stale before it lands
+  // and would take a core from the frame).
+  const bool moving = opt_.settle_frames > 0 && quiet_frames_ < opt_.settle_frames;
   const bool want = stale_ || (!factor_ && !failed_ && !too_large_) ||
                     (factor_ && last_iterations > opt_.refactor_iterations);
-  if (want && !job_.valid()) {
+  if (want && !moving && !job_.valid()) {
     start(free, a, c);
     if (job_.valid() && (!opt_.background || (!factor_ && opt_.wait_for_first))) {
       adopt();
       adopted = true;
     }
   }
+  // Block-Jacobi alone until a factor of the settled topology is in use. A switch changes
+  // the preconditioner, so CG restarts (version).
+  const bool settling = opt_.settle_frames > 0 && factor_ && (moving || factor_changes_ != changes_);
+  if (settling != settling_) {
+    settling_ = settling;
+    ++version_;
+  }
+  if (quiet_frames_ < (1 << 30)) ++quiet_frames_;
   return adopted;
 }
 
@@ -215,6 +228,8 @@ void AsyncCholesky::touch(std::uint32_t v) {
 void AsyncCholesky::apply(const TopologyChange& change) {
   if (change.empty()) return;
   stale_ = true;
+  quiet_frames_ = 0;
+  ++changes_;
   failed_ = false;
   auto uncover = [&](VertexId v) {
     if (v.idx() < uncovered_.size()) uncovered_[v.idx()] = 1;
@@ -237,7 +252,7 @@ void AsyncCholesky::apply(const TopologyChange& change) {
 void AsyncCholesky::setup(const LinearOperator& a, const std::vector<std::uint8_t>* free) {
   free_ = free;
   fallback_.setup(a, free);
-  update_rotation_change();
+  if (!settling_) update_rotation_change();
 }
 
 namespace {
@@ -287,7 +302,7 @@ void AsyncCholesky::update_rotation_change() {
 }
 
 void AsyncCholesky::apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
-  if (!factor_) {
+  if (!factor_ || settling_) {
     fallback_.apply(r, z);
     return;
   }

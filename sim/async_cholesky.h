@@ -43,6 +43,11 @@ struct AsyncCholeskyOptions {
   int refactor_iterations = 10;    // a frame needing more CG iterations asks for a fresh factor
   std::size_t max_unknowns = 150000;  // above this many free unknowns no factor is built (block-Jacobi)
   bool rotate = true;              // corotational: rotate the stale factor by the vertices' rotation change
+  // > 0: while the topology changes (a blade moving), precondition with block-Jacobi alone and
+  // start no factorization; once `settle_frames` frames passed without a change, factorize,
+  // and use the factor again when one of the settled topology lands. 0: keep preconditioning
+  // with the stale factor (with block-Jacobi corrections) and refactor after every change.
+  int settle_frames = 0;
 };
 
 class AsyncCholesky : public CgPreconditioner {
@@ -67,6 +72,7 @@ public:
   CgPreconditioner* cheaper() override { return &fallback_; }
 
   bool has_factor() const;
+  bool settling() const { return settling_; }  // block-Jacobi alone (settle_frames policy)
   bool factorizing() const { return job_.valid(); }
   int factorizations() const { return factorizations_; }  // adopted so far
   double last_factorize_ms() const { return last_ms_; }    // snapshot-to-factor time of the last adopted one
@@ -94,6 +100,11 @@ private:
   std::vector<std::uint32_t> touched_since_snapshot_;  // their rows are stale in the job's factor too
   void touch(std::uint32_t v);
   bool too_large_ = false, stale_ = false, failed_ = false;
+  // settle_frames policy: frames since the last topology change, change batches so far, the
+  // batch count at the snapshot of the running job and of the current factor.
+  int quiet_frames_ = 1 << 30;
+  std::uint64_t changes_ = 0, job_changes_ = 0, factor_changes_ = 0;
+  bool settling_ = false;
   double snapshot_a_ = -1, snapshot_c_ = -1;
   BlockJacobi fallback_;
   const std::vector<std::uint8_t>* free_ = nullptr;
