@@ -12,5 +12,5 @@ cmake --build "$BUILD_DIR" -j "${JOBS:-$(nproc)}"
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 # The cut torture test runs 10,000 steps in Release; fewer instrumented.
-export INCISE_TORTURE_STEPS=${INCISE_TORTURE_STEPS:-1500}
+export INCISE_TORTURE_STEPS=${INCISE_TORTURE_STEPS:-500}
 ctest --test-dir "$BUILD_DIR" --output-on-failure -j "${JOBS:-$(nproc)}" --timeout 1200
