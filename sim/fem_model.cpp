@@ -1,10 +1,10 @@
 #include "sim/fem_model.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 #include <Eigen/LU>
-#include <Eigen/SVD>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -23,35 +23,6 @@ inline Eigen::Vector3d shape_gradient(const Eigen::Matrix3d& bm, int j) {
 inline Eigen::Matrix3d stress_of(const Eigen::Matrix3d& h, double mu, double lambda) {
   const Eigen::Matrix3d eps = 0.5 * (h + h.transpose());
   return 2 * mu * eps + lambda * eps.trace() * Eigen::Matrix3d::Identity();
-}
-
-// The rotation of the polar decomposition F = R S. Well-shaped, uninverted F (the common case
-// every frame): scaled Newton iteration R <- (g R + R^-T / g) / 2 (Higham), a few 3x3
-// inverses, many times cheaper than an SVD. Inverted or nearly degenerate F: the SVD, with the
-// column of the smallest singular value flipped to get the closest proper rotation.
-Eigen::Matrix3d rotation_of(const Eigen::Matrix3d& f) {
-  const double det = f.determinant(), fn = f.norm();
-  if (det > 1e-3 * fn * fn * fn) {
-    Eigen::Matrix3d r = f;
-    for (int it = 0; it < 20; ++it) {
-      const Eigen::Matrix3d rit = r.inverse().transpose();
-      const double g = std::sqrt(std::sqrt(rit.squaredNorm() / r.squaredNorm()));
-      const Eigen::Matrix3d next = 0.5 * (g * r + rit / g);
-      const double change = (next - r).squaredNorm();
-      r = next;
-      if (change < 1e-28) break;
-    }
-    if ((r.transpose() * r - Eigen::Matrix3d::Identity()).squaredNorm() < 1e-24 && r.determinant() > 0) return r;
-  }
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(f, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d uu = svd.matrixU();
-  const Eigen::Matrix3d& vv = svd.matrixV();
-  Eigen::Matrix3d r = uu * vv.transpose();
-  if (r.determinant() < 0) {  // inverted (or reflected) element: nearest proper rotation
-    uu.col(2) = -uu.col(2);
-    r = uu * vv.transpose();
-  }
-  return r;
 }
 
 template <class F>
@@ -109,6 +80,8 @@ void FemModel::grow() {
     lambda_.reserve(room);
     rho_.reserve(room);
     rot_.reserve(room);
+    quat_.reserve(room);
+    corner_dir_.reserve(room);
     force_.reserve(room);
   }
   if (nt > tet_capacity_) {
@@ -120,6 +93,8 @@ void FemModel::grow() {
     lambda_.resize(nt, 0);
     rho_.resize(nt, 0);
     rot_.resize(nt, Eigen::Matrix3d::Identity());
+    quat_.resize(nt, Eigen::Quaterniond::Identity());
+    corner_dir_.resize(nt, Eigen::Matrix<double, 3, 4>::Zero());
     force_.resize(nt);
     tet_capacity_ = nt;
   }
@@ -134,6 +109,7 @@ void FemModel::grow() {
     mass_.tail(mass_.size() - old).setZero();
     corner_slots_.resize(cap);
     blocks_.resize(cap, Eigen::Matrix3d::Zero());
+    iso_.resize(cap, 0.0);
     vertex_capacity_ = cap;
   }
 }
@@ -161,13 +137,19 @@ void FemModel::compute_tet(std::uint32_t ti) {
   mu_[ti] = m.mu();
   lambda_[ti] = m.lambda();
   rho_[ti] = m.density;
-  rot_[ti].setIdentity();
+  store_rotation(ti, Eigen::Quaterniond::Identity());  // the kernel's add() starts at identity too
   alive_[ti] = 1;
 }
 
+void FemModel::store_rotation(std::uint32_t ti, const Eigen::Quaterniond& q) {
+  quat_[ti] = q;
+  rot_[ti] = q.toRotationMatrix();
+  const double s = std::sqrt(vol_[ti] * (mu_[ti] + lambda_[ti]));
+  for (int j = 0; j < 4; ++j) corner_dir_[ti].col(j) = s * (rot_[ti] * shape_gradient(bm_[ti], j));
+}
+
 void FemModel::compute_vertex(std::uint32_t vi) {
-  Eigen::Matrix3d blk = Eigen::Matrix3d::Zero();
-  double m = 0;
+  double m = 0, iso = 0;
   const VertexId v(vi);
   auto& slots = corner_slots_[vi];
   slots.clear();
@@ -177,16 +159,26 @@ void FemModel::compute_vertex(std::uint32_t vi) {
       int j = 0;
       while (verts_[ti][j] != vi) ++j;
       slots.push_back(4 * ti + std::uint32_t(j));
-      const Eigen::Vector3d g = shape_gradient(bm_[ti], j);
-      const Eigen::Vector3d rg = rot_[ti] * g;
-      // Block (i, i) of the element matrix: V (mu |g|^2 I + (mu + lambda) (R g)(R g)^T).
-      blk += vol_[ti] * (mu_[ti] * g.squaredNorm() * Eigen::Matrix3d::Identity() + (mu_[ti] + lambda_[ti]) * rg * rg.transpose());
+      iso += vol_[ti] * mu_[ti] * shape_gradient(bm_[ti], j).squaredNorm();
       m += rho_[ti] * vol_[ti] / 4;
     }
   }
+  iso_[vi] = iso;
+  mass_.segment<3>(3 * vi).setConstant(m);
+  vertex_block(vi);
+}
+
+// Block (i, i) of the element matrix, V (mu |g|^2 I + (mu + lambda) (R g)(R g)^T), summed over the
+// vertex's corners: the rotation-free part is iso_, the rest the corners' c c^T.
+void FemModel::vertex_block(std::uint32_t vi) {
+  Eigen::Matrix3d blk = iso_[vi] * Eigen::Matrix3d::Identity();
+  const double* c = corner_dir_.data()->data();  // Matrix<double,3,4> is column-major: corner j at 3j
+  for (std::uint32_t slot : corner_slots_[vi]) {
+    const Eigen::Map<const Eigen::Vector3d> cj(c + 3 * std::size_t(slot));
+    blk.noalias() += cj * cj.transpose();
+  }
   blocks_[vi] = blk;
   diag_.segment<3>(3 * vi) = blk.diagonal();
-  mass_.segment<3>(3 * vi).setConstant(m);
 }
 
 void FemModel::apply(const TopologyChange& change) {
@@ -204,6 +196,7 @@ void FemModel::apply(const TopologyChange& change) {
   }
   for (VertexId v : change.removed_vertices) {
     corner_slots_[v.idx()].clear();
+    iso_[v.idx()] = 0;
     blocks_[v.idx()].setZero();
     diag_.segment<3>(3 * v.idx()).setZero();
     mass_.segment<3>(3 * v.idx()).setZero();
@@ -274,23 +267,95 @@ void FemModel::internal_forces(const Eigen::VectorXd& u, Eigen::VectorXd& f) con
 void FemModel::update_rotations(const Eigen::VectorXd& u) {
   if (kind_ != FemKind::Corotational) return;
   if (u.size() != rows()) throw InvalidArgument("fem: rotations from a vector of the wrong size");
+  if (warm_rotations_) update_rotations_warm(u);
+  else update_rotations_exact(u);
+}
+
+namespace {
+
+// F = I + D B of tet t from displacement u (D: edge differences of u, B: inverse rest edges).
+inline Eigen::Matrix3d deformation_gradient(const std::array<std::uint32_t, 4>& v, const Eigen::Matrix3d& bm,
+                                            const Eigen::VectorXd& u) {
+  const Eigen::Vector3d u0 = u.segment<3>(3 * v[0]);
+  Eigen::Matrix3d d;
+  for (int j = 0; j < 3; ++j) d.col(j) = u.segment<3>(3 * v[j + 1]) - u0;
+  return Eigen::Matrix3d::Identity() + d * bm;
+}
+
+}  // namespace
+
+// Every tet from scratch, then every vertex from its incident tets.
+void FemModel::update_rotations_exact(const Eigen::VectorXd& u) {
   parallel_range(tet_capacity_, [&](std::size_t ti) {
     if (!alive_[ti]) return;
-    const auto& v = verts_[ti];
-    const Eigen::Vector3d u0 = u.segment<3>(3 * v[0]);
-    Eigen::Matrix3d d;
-    for (int j = 0; j < 3; ++j) d.col(j) = u.segment<3>(3 * v[j + 1]) - u0;
-    const Eigen::Matrix3d f = Eigen::Matrix3d::Identity() + d * bm_[ti];
-    if (!f.allFinite()) {
-      rot_[ti].setIdentity();
-      kernel_.set_rotation(std::uint32_t(ti), rot_[ti]);
-      return;
-    }
-    const Eigen::Matrix3d r = rotation_of(f);
-    rot_[ti] = r;
-    kernel_.set_rotation(std::uint32_t(ti), r);  // no two threads write the same slot
+    const Eigen::Matrix3d f = deformation_gradient(verts_[ti], bm_[ti], u);
+    const Eigen::Quaterniond q =
+        f.allFinite() ? Eigen::Quaterniond(polar_rotation(f)).normalized() : Eigen::Quaterniond::Identity();
+    store_rotation(std::uint32_t(ti), q);
+    kernel_.set_rotation(std::uint32_t(ti), q);  // no two threads write the same slot
   });
   parallel_range(vertex_capacity_, [&](std::size_t v) { compute_vertex(std::uint32_t(v)); });
+  rotation_stats_ = {mesh_->num_tets(), mesh_->num_tets(), 0};
+}
+
+// Packets of RotationLanes::kLanes consecutive tets: Newton steps from the stored quaternions,
+// vectorized across the packet; the exact decomposition for lanes that did not converge. Then
+// the diagonal blocks from the corner terms (slots and the rotation-free part are current
+// since the last apply()).
+void FemModel::update_rotations_warm(const Eigen::VectorXd& u) {
+  constexpr std::size_t L = RotationLanes::kLanes;
+  const std::size_t packets = (tet_capacity_ + L - 1) / L;
+  std::atomic<std::size_t> exact{0};
+  std::atomic<int> most_steps{0};
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, packets, 64), [&](const tbb::blocked_range<std::size_t>& r) {
+    RotationLanes l;
+    Eigen::Matrix3d f[L];
+    bool live[L];
+    std::size_t fallbacks = 0;
+    int steps = 0;
+    for (std::size_t p = r.begin(); p != r.end(); ++p) {
+      for (std::size_t k = 0; k < L; ++k) {
+        const std::size_t ti = p * L + k;
+        live[k] = ti < tet_capacity_ && alive_[ti];
+        Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+        f[k].setIdentity();
+        if (live[k]) {
+          f[k] = deformation_gradient(verts_[ti], bm_[ti], u);
+          if (f[k].allFinite()) {
+            q = quat_[ti];
+          } else {  // identity, as the exact path gives
+            live[k] = false;
+            f[k].setIdentity();
+            store_rotation(std::uint32_t(ti), q);
+            kernel_.set_rotation(std::uint32_t(ti), q);
+          }
+        }
+        for (int i = 0; i < 9; ++i) l.f[i][k] = f[k](i / 3, i % 3);
+        l.q[0][k] = q.w();
+        l.q[1][k] = q.x();
+        l.q[2][k] = q.y();
+        l.q[3][k] = q.z();
+      }
+      steps = std::max(steps, refine_rotations(l, refinement_.max_steps, refinement_.tolerance));
+      for (std::size_t k = 0; k < L; ++k) {
+        if (!live[k]) continue;
+        const std::uint32_t ti = std::uint32_t(p * L + k);
+        Eigen::Quaterniond q(l.q[0][k], l.q[1][k], l.q[2][k], l.q[3][k]);
+        if (!(l.step[k] <= refinement_.tolerance)) {
+          q = Eigen::Quaterniond(polar_rotation(f[k])).normalized();
+          ++fallbacks;
+        }
+        store_rotation(ti, q);
+        kernel_.set_rotation(ti, q);
+      }
+    }
+    exact += fallbacks;
+    int prev = most_steps.load();
+    while (prev < steps && !most_steps.compare_exchange_weak(prev, steps)) {
+    }
+  });
+  parallel_range(vertex_capacity_, [&](std::size_t v) { vertex_block(std::uint32_t(v)); });
+  rotation_stats_ = {mesh_->num_tets(), exact.load(), most_steps.load()};
 }
 
 std::vector<double> FemModel::von_mises(const Eigen::VectorXd& u) const {

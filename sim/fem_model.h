@@ -19,7 +19,10 @@
 // F = I + H_t(u), refreshed by update_rotations(u); with R fixed, K_R = R K R^T and the
 // internal force is f_int(u) = -(K_R u - b_R) (see rotation_rhs). Inverted elements (det F <= 0)
 // get the closest proper rotation (the SVD column of the smallest singular value is flipped),
-// never NaN. For Linear, R = I and b_R = 0.
+// never NaN (sim/rotation_extraction.h). Each frame's rotations are Newton steps from the
+// previous frame's (kept as quaternions), the exact decomposition where they do not converge;
+// the diagonal blocks are then a gather of per-corner terms (the rotation-free part of each
+// vertex's block is kept from the last apply()). For Linear, R = I and b_R = 0.
 #include <cstdint>
 #include <vector>
 
@@ -29,6 +32,7 @@
 #include "mesh/tet_mesh.h"
 #include "sim/linear_operator.h"
 #include "sim/material.h"
+#include "sim/rotation_extraction.h"
 #include "sim/stiffness_kernel.h"
 
 namespace incise {
@@ -53,6 +57,13 @@ struct FemElements {
 };
 
 // Work done by local updates (counted, not timed, so tests can check locality).
+// The last update_rotations(): how many tets it refreshed and how many of them needed the exact
+// decomposition (the warm-started iteration did not converge, or the exact path was chosen).
+struct RotationStats {
+  std::size_t tets = 0, exact = 0;
+  int max_steps = 0;  // Newton steps of the slowest packet
+};
+
 struct FemWork {
   std::uint64_t updates = 0;           // apply() calls
   std::uint64_t tets_recomputed = 0;   // per-tet precomputations
@@ -93,6 +104,11 @@ public:
   // Corotational: per-tet rotations from displacement u (O(mesh), parallel); also refreshes
   // the diagonal. No-op for Linear.
   void update_rotations(const Eigen::VectorXd& u);
+  // Off: every tet's rotation from scratch (polar_rotation) and every vertex recomputed from its
+  // incident tets, the path before warm starts (benchmarks and tests compare the two).
+  void set_warm_started_rotations(bool on) { warm_rotations_ = on; }
+  void set_rotation_refinement(const RotationRefinement& r) { refinement_ = r; }
+  const RotationStats& rotation_stats() const { return rotation_stats_; }
   // b_R = sum_t V R sigma(sym(I - R^T)) g: the right-hand side term of the linearized
   // corotational force (zero for Linear). Adds into b.
   void add_rotation_rhs(Eigen::VectorXd& b) const;
@@ -114,7 +130,11 @@ public:
 private:
   void grow();
   void compute_tet(std::uint32_t t);
-  void compute_vertex(std::uint32_t v);  // diagonal and mass from incident tets
+  void compute_vertex(std::uint32_t v);  // corner slots, mass, diagonal from incident tets
+  void vertex_block(std::uint32_t v);    // the diagonal block from the corner terms
+  void store_rotation(std::uint32_t t, const Eigen::Quaterniond& q);
+  void update_rotations_exact(const Eigen::VectorXd& u);
+  void update_rotations_warm(const Eigen::VectorXd& u);
   Eigen::Matrix3d tet_stress(std::uint32_t t, const Eigen::VectorXd& x, bool subtract_rotation) const;
   void gather(Eigen::VectorXd& y, bool accumulate) const;
 
@@ -129,6 +149,13 @@ private:
   std::vector<Eigen::Matrix3d> bm_;   // inverse rest edge matrix: row j-1 is grad N_j (j=1..3)
   std::vector<double> vol_, mu_, lambda_, rho_;
   std::vector<Eigen::Matrix3d> rot_;  // identity for Linear
+  std::vector<Eigen::Quaterniond> quat_;  // rot_ as a unit quaternion: the next frame's start
+  // Column j: sqrt(V (mu + lambda)) R grad N_j, so block (j, j) of the element matrix is
+  // V mu |grad N_j|^2 I + c c^T (the first term is constant: iso_).
+  std::vector<Eigen::Matrix<double, 3, 4>> corner_dir_;
+  bool warm_rotations_ = true;
+  RotationRefinement refinement_;
+  RotationStats rotation_stats_;
   mutable std::vector<Eigen::Matrix<double, 3, 4>> force_;  // pass-1 scratch: per-corner force
 
   // The product's own copy of the per-tet data, coloured for a conflict-free scatter.
@@ -141,6 +168,7 @@ private:
   // Per unknown.
   Eigen::VectorXd diag_, mass_;
   std::vector<Eigen::Matrix3d> blocks_;  // per vertex
+  std::vector<double> iso_;              // per vertex: sum of V mu |grad N|^2 over its corners
   FemWork work_;
 };
 
