@@ -9,6 +9,7 @@
 #include <tbb/parallel_for.h>
 
 #include "mesh/errors.h"
+#include "sim/simd_clones.h"
 
 namespace incise {
 
@@ -137,15 +138,12 @@ void FemModel::compute_tet(std::uint32_t ti) {
   mu_[ti] = m.mu();
   lambda_[ti] = m.lambda();
   rho_[ti] = m.density;
-  store_rotation(ti, Eigen::Quaterniond::Identity());  // the kernel's add() starts at identity too
+  // R = I, as the kernel's add() starts; the corner terms with R = I (see corner_terms()).
+  quat_[ti].setIdentity();
+  rot_[ti].setIdentity();
+  const double s = std::sqrt(vol * (mu_[ti] + lambda_[ti]));
+  for (int j = 0; j < 4; ++j) corner_dir_[ti].col(j) = s * shape_gradient(bm_[ti], j);
   alive_[ti] = 1;
-}
-
-void FemModel::store_rotation(std::uint32_t ti, const Eigen::Quaterniond& q) {
-  quat_[ti] = q;
-  rot_[ti] = q.toRotationMatrix();
-  const double s = std::sqrt(vol_[ti] * (mu_[ti] + lambda_[ti]));
-  for (int j = 0; j < 4; ++j) corner_dir_[ti].col(j) = s * (rot_[ti] * shape_gradient(bm_[ti], j));
 }
 
 void FemModel::compute_vertex(std::uint32_t vi) {
@@ -273,89 +271,133 @@ void FemModel::update_rotations(const Eigen::VectorXd& u) {
 
 namespace {
 
-// F = I + D B of tet t from displacement u (D: edge differences of u, B: inverse rest edges).
-inline Eigen::Matrix3d deformation_gradient(const std::array<std::uint32_t, 4>& v, const Eigen::Matrix3d& bm,
-                                            const Eigen::VectorXd& u) {
-  const Eigen::Vector3d u0 = u.segment<3>(3 * v[0]);
-  Eigen::Matrix3d d;
-  for (int j = 0; j < 3; ++j) d.col(j) = u.segment<3>(3 * v[j + 1]) - u0;
-  return Eigen::Matrix3d::Identity() + d * bm;
+constexpr std::size_t kLanes = RotationLanes::kLanes;
+
+// A packet of tets besides F and q (sim/rotation_extraction.h): what F and the corner terms are
+// made of, and the results, as a struct of arrays so the loops over lanes vectorize.
+struct TetLanes {
+  alignas(64) double d[9][kLanes];   // d[3c+j]: component c of u_{j+1} - u_0
+  alignas(64) double b[9][kLanes];   // b[3j+m]: B(j, m), row j = grad N_{j+1}
+  alignas(64) double vml[kLanes];    // V (mu + lambda)
+  alignas(64) double r[9][kLanes];   // out: r[3a+c] = R(a, c)
+  alignas(64) double c[12][kLanes];  // out: c[3j+a]: component a of corner j's term
+};
+
+// F = I + D B.
+INCISE_SIMD_CLONES void deformation_gradients(const TetLanes& __restrict t, RotationLanes& __restrict l) {
+  for (std::size_t k = 0; k < kLanes; ++k)
+    for (int c = 0; c < 3; ++c)
+      for (int m = 0; m < 3; ++m)
+        l.f[3 * c + m][k] = (c == m ? 1.0 : 0.0) + t.d[3 * c][k] * t.b[m][k] + t.d[3 * c + 1][k] * t.b[3 + m][k] +
+                            t.d[3 * c + 2][k] * t.b[6 + m][k];
+}
+
+// R from q, and corner j's term sqrt(V (mu + lambda)) R grad N_j (see corner_dir_).
+INCISE_SIMD_CLONES void corner_terms(const RotationLanes& __restrict l, TetLanes& __restrict t) {
+  for (std::size_t k = 0; k < kLanes; ++k) {
+    const double w = l.q[0][k], x = l.q[1][k], y = l.q[2][k], z = l.q[3][k];
+    const double x2 = x + x, y2 = y + y, z2 = z + z;
+    const double xx = x * x2, yy = y * y2, zz = z * z2, xy = x * y2, xz = x * z2, yz = y * z2;
+    const double wx = w * x2, wy = w * y2, wz = w * z2;
+    const double r[9] = {1 - (yy + zz), xy - wz, xz + wy, xy + wz, 1 - (xx + zz), yz - wx, xz - wy, yz + wx, 1 - (xx + yy)};
+    for (int i = 0; i < 9; ++i) t.r[i][k] = r[i];
+    const double s = std::sqrt(t.vml[k]);
+    for (int a = 0; a < 3; ++a) {
+      double sum = 0;
+      for (int j = 1; j < 4; ++j) {
+        const double cj = s * (r[3 * a] * t.b[3 * (j - 1)][k] + r[3 * a + 1] * t.b[3 * (j - 1) + 1][k] +
+                               r[3 * a + 2] * t.b[3 * (j - 1) + 2][k]);
+        t.c[3 * j + a][k] = cj;
+        sum += cj;
+      }
+      t.c[a][k] = -sum;  // grad N_0 = -(grad N_1 + grad N_2 + grad N_3)
+    }
+  }
 }
 
 }  // namespace
 
 // Every tet from scratch, then every vertex from its incident tets.
 void FemModel::update_rotations_exact(const Eigen::VectorXd& u) {
-  parallel_range(tet_capacity_, [&](std::size_t ti) {
-    if (!alive_[ti]) return;
-    const Eigen::Matrix3d f = deformation_gradient(verts_[ti], bm_[ti], u);
-    const Eigen::Quaterniond q =
-        f.allFinite() ? Eigen::Quaterniond(polar_rotation(f)).normalized() : Eigen::Quaterniond::Identity();
-    store_rotation(std::uint32_t(ti), q);
-    kernel_.set_rotation(std::uint32_t(ti), q);  // no two threads write the same slot
-  });
+  update_rotation_packets(u, true);
   parallel_range(vertex_capacity_, [&](std::size_t v) { compute_vertex(std::uint32_t(v)); });
-  rotation_stats_ = {mesh_->num_tets(), mesh_->num_tets(), 0};
 }
 
-// Packets of RotationLanes::kLanes consecutive tets: Newton steps from the stored quaternions,
-// vectorized across the packet; the exact decomposition for lanes that did not converge. Then
-// the diagonal blocks from the corner terms (slots and the rotation-free part are current
-// since the last apply()).
+// Newton steps from the stored quaternions, then the diagonal blocks from the corner terms
+// (slots and the rotation-free part are current since the last apply()).
 void FemModel::update_rotations_warm(const Eigen::VectorXd& u) {
-  constexpr std::size_t L = RotationLanes::kLanes;
-  const std::size_t packets = (tet_capacity_ + L - 1) / L;
-  std::atomic<std::size_t> exact{0};
+  update_rotation_packets(u, false);
+  parallel_range(vertex_capacity_, [&](std::size_t v) { vertex_block(std::uint32_t(v)); });
+}
+
+// Packets of kLanes consecutive tet ids, in parallel: gather, F, the rotation (warm-started
+// Newton steps, vectorized across the packet, and the exact decomposition for lanes that did not
+// converge; or the exact one for all), the corner terms, scatter.
+void FemModel::update_rotation_packets(const Eigen::VectorXd& u, bool exact) {
+  const std::size_t packets = (tet_capacity_ + kLanes - 1) / kLanes;
+  std::atomic<std::size_t> fallbacks{0};
   std::atomic<int> most_steps{0};
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, packets, 64), [&](const tbb::blocked_range<std::size_t>& r) {
+  const double* up = u.data();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, packets, 64), [&](const tbb::blocked_range<std::size_t>& range) {
     RotationLanes l;
-    Eigen::Matrix3d f[L];
-    bool live[L];
-    std::size_t fallbacks = 0;
+    TetLanes t;
+    bool live[kLanes];
+    std::size_t polar = 0;
     int steps = 0;
-    for (std::size_t p = r.begin(); p != r.end(); ++p) {
-      for (std::size_t k = 0; k < L; ++k) {
-        const std::size_t ti = p * L + k;
+    for (std::size_t p = range.begin(); p != range.end(); ++p) {
+      for (std::size_t k = 0; k < kLanes; ++k) {
+        const std::size_t ti = p * kLanes + k;
         live[k] = ti < tet_capacity_ && alive_[ti];
         Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
-        f[k].setIdentity();
+        double check = 0;
         if (live[k]) {
-          f[k] = deformation_gradient(verts_[ti], bm_[ti], u);
-          if (f[k].allFinite()) {
-            q = quat_[ti];
-          } else {  // identity, as the exact path gives
-            live[k] = false;
-            f[k].setIdentity();
-            store_rotation(std::uint32_t(ti), q);
-            kernel_.set_rotation(std::uint32_t(ti), q);
+          const auto& v = verts_[ti];
+          const double* u0 = up + 3 * std::size_t(v[0]);
+          for (int j = 0; j < 3; ++j) {
+            const double* uj = up + 3 * std::size_t(v[j + 1]);
+            for (int c = 0; c < 3; ++c) check += t.d[3 * c + j][k] = uj[c] - u0[c];
           }
+          const Eigen::Matrix3d& bm = bm_[ti];
+          for (int i = 0; i < 9; ++i) t.b[i][k] = bm(i / 3, i % 3);
+          t.vml[k] = vol_[ti] * (mu_[ti] + lambda_[ti]);
+          q = quat_[ti];
         }
-        for (int i = 0; i < 9; ++i) l.f[i][k] = f[k](i / 3, i % 3);
-        l.q[0][k] = q.w();
-        l.q[1][k] = q.x();
-        l.q[2][k] = q.y();
-        l.q[3][k] = q.z();
+        if (!live[k] || !std::isfinite(check)) {  // F = I and R = I (what a NaN displacement gets)
+          for (int i = 0; i < 9; ++i) t.d[i][k] = 0;
+          q = Eigen::Quaterniond::Identity();
+          if (!live[k])
+            for (int i = 0; i < 9; ++i) t.b[i][k] = 0;
+          if (!live[k]) t.vml[k] = 0;
+        }
+        l.q[0][k] = q.w(), l.q[1][k] = q.x(), l.q[2][k] = q.y(), l.q[3][k] = q.z();
       }
-      steps = std::max(steps, refine_rotations(l, refinement_.max_steps, refinement_.tolerance));
-      for (std::size_t k = 0; k < L; ++k) {
+      deformation_gradients(t, l);
+      if (!exact) steps = std::max(steps, refine_rotations(l, refinement_.max_steps, refinement_.tolerance));
+      for (std::size_t k = 0; k < kLanes; ++k) {
+        if (!live[k] || (!exact && l.step[k] <= refinement_.tolerance)) continue;
+        Eigen::Matrix3d f;
+        for (int i = 0; i < 9; ++i) f(i / 3, i % 3) = l.f[i][k];
+        const Eigen::Quaterniond q = Eigen::Quaterniond(polar_rotation(f)).normalized();
+        l.q[0][k] = q.w(), l.q[1][k] = q.x(), l.q[2][k] = q.y(), l.q[3][k] = q.z();
+        ++polar;
+      }
+      corner_terms(l, t);
+      for (std::size_t k = 0; k < kLanes; ++k) {
         if (!live[k]) continue;
-        const std::uint32_t ti = std::uint32_t(p * L + k);
-        Eigen::Quaterniond q(l.q[0][k], l.q[1][k], l.q[2][k], l.q[3][k]);
-        if (!(l.step[k] <= refinement_.tolerance)) {
-          q = Eigen::Quaterniond(polar_rotation(f[k])).normalized();
-          ++fallbacks;
-        }
-        store_rotation(ti, q);
-        kernel_.set_rotation(ti, q);
+        const std::uint32_t ti = std::uint32_t(p * kLanes + k);
+        const Eigen::Quaterniond q(l.q[0][k], l.q[1][k], l.q[2][k], l.q[3][k]);
+        quat_[ti] = q;
+        for (int i = 0; i < 9; ++i) rot_[ti](i / 3, i % 3) = t.r[i][k];
+        for (int i = 0; i < 12; ++i) corner_dir_[ti](i % 3, i / 3) = t.c[i][k];
+        kernel_.set_rotation(ti, q);  // no two threads write the same slot
       }
     }
-    exact += fallbacks;
+    fallbacks += polar;
     int prev = most_steps.load();
     while (prev < steps && !most_steps.compare_exchange_weak(prev, steps)) {
     }
   });
-  parallel_range(vertex_capacity_, [&](std::size_t v) { vertex_block(std::uint32_t(v)); });
-  rotation_stats_ = {mesh_->num_tets(), exact.load(), most_steps.load()};
+  rotation_stats_ = {mesh_->num_tets(), fallbacks.load(), most_steps.load()};
 }
 
 std::vector<double> FemModel::von_mises(const Eigen::VectorXd& u) const {

@@ -132,9 +132,9 @@ private:
   void compute_tet(std::uint32_t t);
   void compute_vertex(std::uint32_t v);  // corner slots, mass, diagonal from incident tets
   void vertex_block(std::uint32_t v);    // the diagonal block from the corner terms
-  void store_rotation(std::uint32_t t, const Eigen::Quaterniond& q);
   void update_rotations_exact(const Eigen::VectorXd& u);
   void update_rotations_warm(const Eigen::VectorXd& u);
+  void update_rotation_packets(const Eigen::VectorXd& u, bool exact);
   Eigen::Matrix3d tet_stress(std::uint32_t t, const Eigen::VectorXd& x, bool subtract_rotation) const;
   void gather(Eigen::VectorXd& y, bool accumulate) const;
 

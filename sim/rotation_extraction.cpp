@@ -43,12 +43,11 @@ Eigen::Matrix3d polar_rotation(const Eigen::Matrix3d& f) {
 namespace {
 
 constexpr std::size_t kLanes = RotationLanes::kLanes;
+constexpr double kNotConverged = 1e300;  // the step of a lane whose M is not positive definite
 
-// One Newton step on every lane (plain loops over the lanes, no branches: the compiler
-// vectorizes them). Returns the largest |delta| (infinity if a lane's M is not safely positive
-// definite).
-INCISE_SIMD_CLONES double newton_step(RotationLanes& __restrict l) {
-  double worst = 0;
+// One Newton step on every lane (plain loops over the lanes, selects instead of branches: the
+// compiler vectorizes them; sqrt needs -fno-math-errno, see sim/CMakeLists.txt).
+INCISE_SIMD_CLONES void newton_step(RotationLanes& __restrict l) {
   for (std::size_t k = 0; k < kLanes; ++k) {
     const double w = l.q[0][k], x = l.q[1][k], y = l.q[2][k], z = l.q[3][k];
     // R of the unit quaternion, r[3a+c] = R(a, c).
@@ -72,15 +71,15 @@ INCISE_SIMD_CLONES double newton_step(RotationLanes& __restrict l) {
     // Positive definite (Sylvester) and not nearly singular relative to its size: otherwise
     // the start is not in the maximum's basin, or the rotation is ill-determined.
     const double tm = 2 * t;
-    const bool ok = m00 > 0 && c22 > 0 && det > 1e-9 * tm * tm * tm;
-    const double inv = ok ? 2 / det : 0.0;
+    // As 0 or 1 and arithmetic instead of selects: the loop has no branch to vectorize.
+    const double ok = double((m00 > 0) & (c22 > 0) & (det > 1e-9 * tm * tm * tm));
+    const double inv = ok * 2 / (ok * det + (1 - ok));
     const double d0 = inv * (c00 * a0 + c01 * a1 + c02 * a2);
     const double d1 = inv * (c01 * a0 + c11 * a1 + c12 * a2);
     const double d2 = inv * (c02 * a0 + c12 * a1 + c22 * a2);
     const double norm = std::sqrt(d0 * d0 + d1 * d1 + d2 * d2);
-    const double step = ok ? norm : std::numeric_limits<double>::infinity();
+    const double step = norm + (1 - ok) * kNotConverged;
     l.step[k] = step;
-    worst = std::max(worst, step);
     // q <- q (x) (1, delta / 2), normalized (exp to second order; the error is the next step's).
     const double v0 = 0.5 * d0, v1 = 0.5 * d1, v2 = 0.5 * d2;
     const double nw = w - (x * v0 + y * v1 + z * v2);
@@ -93,7 +92,6 @@ INCISE_SIMD_CLONES double newton_step(RotationLanes& __restrict l) {
     l.q[2][k] = ny * sc;
     l.q[3][k] = nz * sc;
   }
-  return worst;
 }
 
 }  // namespace
@@ -102,7 +100,10 @@ int refine_rotations(RotationLanes& lanes, int max_steps, double tolerance) {
   int steps = 0;
   while (steps < max_steps) {
     ++steps;
-    if (newton_step(lanes) <= tolerance) break;
+    newton_step(lanes);
+    double worst = 0;  // NaN for a NaN F
+    for (std::size_t k = 0; k < kLanes; ++k) worst = std::max(worst, std::isnan(lanes.step[k]) ? kNotConverged : lanes.step[k]);
+    if (worst <= tolerance) break;
   }
   return steps;
 }

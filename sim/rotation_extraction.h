@@ -35,7 +35,7 @@ struct RotationLanes {
   alignas(64) double f[9][kLanes];  // f[3r+c][k]: F(r, c) of lane k
   alignas(64) double q[4][kLanes];  // (w, x, y, z), unit: the start in, the result out
   // Out: |delta| of the last step taken, the error of the iterate before it (radians, to first
-  // order); +infinity where M was not safely positive definite (not converged).
+  // order); 1e300 where M was not safely positive definite (not converged).
   alignas(64) double step[kLanes];
 };
 
