@@ -64,6 +64,17 @@ FemModel::FemModel(const TetMesh& mesh, const MaterialTable& materials, FemKind 
   std::sort(order.begin(), order.end());
   kernel_.configure(*mesh_);
   for (const auto& [v, t] : order) kernel_.add(*mesh_, t, verts_[t], bm_[t], vol_[t] * mu_[t], vol_[t] * lambda_[t]);
+  // Each vertex's room for its corner terms, in order, so that compute_vertex never moves one
+  // (it runs in parallel here).
+  std::size_t at = corner_dir_.size();
+  for (std::size_t v = 0; v < mesh_->vertex_capacity(); ++v)
+    if (mesh_->is_alive(VertexId(std::uint32_t(v)))) {
+      const std::size_t n = mesh_->incident_tets(VertexId(std::uint32_t(v))).size();
+      corner_begin_[v] = std::uint32_t(at);
+      corner_room_[v] = std::uint32_t(n + 4);
+      at += n + 4;
+    }
+  corner_dir_.resize(at, Eigen::Vector3d::Zero());
   parallel_range(vertex_capacity_, [&](std::size_t v) { compute_vertex(std::uint32_t(v)); });
 }
 
@@ -82,7 +93,8 @@ void FemModel::grow() {
     rho_.reserve(room);
     rot_.reserve(room);
     quat_.reserve(room);
-    corner_dir_.reserve(room);
+    corner_at_.reserve(4 * room);
+    corner_dir_.reserve(4 * room + 4 * mesh_->vertex_capacity());
     force_.reserve(room);
   }
   if (nt > tet_capacity_) {
@@ -95,7 +107,7 @@ void FemModel::grow() {
     rho_.resize(nt, 0);
     rot_.resize(nt, Eigen::Matrix3d::Identity());
     quat_.resize(nt, Eigen::Quaterniond::Identity());
-    corner_dir_.resize(nt, Eigen::Matrix<double, 3, 4>::Zero());
+    corner_at_.resize(4 * nt, 0);
     force_.resize(nt);
     tet_capacity_ = nt;
   }
@@ -111,6 +123,8 @@ void FemModel::grow() {
     corner_slots_.resize(cap);
     blocks_.resize(cap, Eigen::Matrix3d::Zero());
     iso_.resize(cap, 0.0);
+    corner_begin_.resize(cap, 0);
+    corner_room_.resize(cap, 0);
     vertex_capacity_ = cap;
   }
 }
@@ -138,11 +152,8 @@ void FemModel::compute_tet(std::uint32_t ti) {
   mu_[ti] = m.mu();
   lambda_[ti] = m.lambda();
   rho_[ti] = m.density;
-  // R = I, as the kernel's add() starts; the corner terms with R = I (see corner_terms()).
-  quat_[ti].setIdentity();
+  quat_[ti].setIdentity();  // R = I, as the kernel's add() starts
   rot_[ti].setIdentity();
-  const double s = std::sqrt(vol * (mu_[ti] + lambda_[ti]));
-  for (int j = 0; j < 4; ++j) corner_dir_[ti].col(j) = s * shape_gradient(bm_[ti], j);
   alive_[ti] = 1;
 }
 
@@ -163,6 +174,17 @@ void FemModel::compute_vertex(std::uint32_t vi) {
   }
   iso_[vi] = iso;
   mass_.segment<3>(3 * vi).setConstant(m);
+  if (slots.size() > corner_room_[vi]) {  // moves to the end: only serial callers get here
+    corner_begin_[vi] = std::uint32_t(corner_dir_.size());
+    corner_room_[vi] = std::uint32_t(slots.size() + 4);
+    corner_dir_.resize(corner_dir_.size() + corner_room_[vi], Eigen::Vector3d::Zero());
+  }
+  for (std::size_t i = 0; i < slots.size(); ++i) {
+    const std::uint32_t ti = slots[i] / 4, j = slots[i] % 4, at = corner_begin_[vi] + std::uint32_t(i);
+    corner_at_[slots[i]] = at;
+    // The corner term (as corner_terms() computes it for a packet).
+    corner_dir_[at] = std::sqrt(vol_[ti] * (mu_[ti] + lambda_[ti])) * (rot_[ti] * shape_gradient(bm_[ti], int(j)));
+  }
   vertex_block(vi);
 }
 
@@ -170,11 +192,8 @@ void FemModel::compute_vertex(std::uint32_t vi) {
 // vertex's corners: the rotation-free part is iso_, the rest the corners' c c^T.
 void FemModel::vertex_block(std::uint32_t vi) {
   Eigen::Matrix3d blk = iso_[vi] * Eigen::Matrix3d::Identity();
-  const double* c = corner_dir_.data()->data();  // Matrix<double,3,4> is column-major: corner j at 3j
-  for (std::uint32_t slot : corner_slots_[vi]) {
-    const Eigen::Map<const Eigen::Vector3d> cj(c + 3 * std::size_t(slot));
-    blk.noalias() += cj * cj.transpose();
-  }
+  const Eigen::Vector3d* c = corner_dir_.data() + corner_begin_[vi];
+  for (std::size_t i = 0, n = corner_slots_[vi].size(); i < n; ++i) blk.noalias() += c[i] * c[i].transpose();
   blocks_[vi] = blk;
   diag_.segment<3>(3 * vi) = blk.diagonal();
 }
@@ -292,7 +311,8 @@ INCISE_SIMD_CLONES void deformation_gradients(const TetLanes& __restrict t, Rota
                             t.d[3 * c + 2][k] * t.b[6 + m][k];
 }
 
-// R from q, and corner j's term sqrt(V (mu + lambda)) R grad N_j (see corner_dir_).
+// R from q, and corner j's term sqrt(V (mu + lambda)) R grad N_j (see corner_dir_; compute_vertex
+// has the same for one corner).
 INCISE_SIMD_CLONES void corner_terms(const RotationLanes& __restrict l, TetLanes& __restrict t) {
   for (std::size_t k = 0; k < kLanes; ++k) {
     const double w = l.q[0][k], x = l.q[1][k], y = l.q[2][k], z = l.q[3][k];
@@ -388,7 +408,8 @@ void FemModel::update_rotation_packets(const Eigen::VectorXd& u, bool exact) {
         const Eigen::Quaterniond q(l.q[0][k], l.q[1][k], l.q[2][k], l.q[3][k]);
         quat_[ti] = q;
         for (int i = 0; i < 9; ++i) rot_[ti](i / 3, i % 3) = t.r[i][k];
-        for (int i = 0; i < 12; ++i) corner_dir_[ti](i % 3, i / 3) = t.c[i][k];
+        for (int j = 0; j < 4; ++j)
+          corner_dir_[corner_at_[4 * std::size_t(ti) + j]] = Eigen::Vector3d(t.c[3 * j][k], t.c[3 * j + 1][k], t.c[3 * j + 2][k]);
         kernel_.set_rotation(ti, q);  // no two threads write the same slot
       }
     }

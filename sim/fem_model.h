@@ -150,9 +150,14 @@ private:
   std::vector<double> vol_, mu_, lambda_, rho_;
   std::vector<Eigen::Matrix3d> rot_;  // identity for Linear
   std::vector<Eigen::Quaterniond> quat_;  // rot_ as a unit quaternion: the next frame's start
-  // Column j: sqrt(V (mu + lambda)) R grad N_j, so block (j, j) of the element matrix is
-  // V mu |grad N_j|^2 I + c c^T (the first term is constant: iso_).
-  std::vector<Eigen::Matrix<double, 3, 4>> corner_dir_;
+  // Corner terms c = sqrt(V (mu + lambda)) R grad N_j, so block (j, j) of the element matrix is
+  // V mu |grad N_j|^2 I + c c^T (the first term is constant: iso_). Stored vertex by vertex, so
+  // the per-vertex sum reads them in order (a gather by tet missed the cache on every corner):
+  // vertex v's corners from corner_begin_[v] (room for corner_room_[v]); the per-tet pass writes
+  // corner slot 4t+j at corner_at_[4t+j]. A vertex whose corners outgrow their room moves to the
+  // end (apply() stays local; the hole is left).
+  std::vector<Eigen::Vector3d> corner_dir_;
+  std::vector<std::uint32_t> corner_at_;  // by corner slot 4t+j
   bool warm_rotations_ = true;
   RotationRefinement refinement_;
   RotationStats rotation_stats_;
@@ -169,6 +174,7 @@ private:
   Eigen::VectorXd diag_, mass_;
   std::vector<Eigen::Matrix3d> blocks_;  // per vertex
   std::vector<double> iso_;              // per vertex: sum of V mu |grad N|^2 over its corners
+  std::vector<std::uint32_t> corner_begin_, corner_room_;  // per vertex, in corner_dir_
   FemWork work_;
 };
 
