@@ -91,7 +91,6 @@ void FemModel::grow() {
     mu_.reserve(room);
     lambda_.reserve(room);
     rho_.reserve(room);
-    rot_.reserve(room);
     quat_.reserve(room);
     corner_at_.reserve(4 * room);
     corner_dir_.reserve(4 * room + 4 * mesh_->vertex_capacity());
@@ -105,7 +104,6 @@ void FemModel::grow() {
     mu_.resize(nt, 0);
     lambda_.resize(nt, 0);
     rho_.resize(nt, 0);
-    rot_.resize(nt, Eigen::Matrix3d::Identity());
     quat_.resize(nt, Eigen::Quaterniond::Identity());
     corner_at_.resize(4 * nt, 0);
     force_.resize(nt);
@@ -153,7 +151,6 @@ void FemModel::compute_tet(std::uint32_t ti) {
   lambda_[ti] = m.lambda();
   rho_[ti] = m.density;
   quat_[ti].setIdentity();  // R = I, as the kernel's add() starts
-  rot_[ti].setIdentity();
   alive_[ti] = 1;
 }
 
@@ -183,7 +180,7 @@ void FemModel::compute_vertex(std::uint32_t vi) {
     const std::uint32_t ti = slots[i] / 4, j = slots[i] % 4, at = corner_begin_[vi] + std::uint32_t(i);
     corner_at_[slots[i]] = at;
     // The corner term (as corner_terms() computes it for a packet).
-    corner_dir_[at] = std::sqrt(vol_[ti] * (mu_[ti] + lambda_[ti])) * (rot_[ti] * shape_gradient(bm_[ti], int(j)));
+    corner_dir_[at] = std::sqrt(vol_[ti] * (mu_[ti] + lambda_[ti])) * (quat_[ti] * shape_gradient(bm_[ti], int(j)));
   }
   vertex_block(vi);
 }
@@ -225,15 +222,16 @@ void FemModel::apply(const TopologyChange& change) {
   }
 }
 
-inline Eigen::Matrix3d FemModel::tet_stress(std::uint32_t ti, const Eigen::VectorXd& x, bool subtract_rotation) const {
+inline Eigen::Matrix3d FemModel::tet_stress(std::uint32_t ti, const Eigen::VectorXd& x, bool subtract_rotation,
+                                            const Eigen::Matrix3d& r) const {
   const auto& v = verts_[ti];
   const Eigen::Vector3d x0 = x.segment<3>(3 * v[0]);
   Eigen::Matrix3d d;
   for (int j = 0; j < 3; ++j) d.col(j) = x.segment<3>(3 * v[j + 1]) - x0;
   Eigen::Matrix3d h = d * bm_[ti];
   if (kind_ == FemKind::Corotational) {
-    h = rot_[ti].transpose() * h;
-    if (subtract_rotation) h += rot_[ti].transpose() - Eigen::Matrix3d::Identity();  // R^T F - I
+    h = r.transpose() * h;
+    if (subtract_rotation) h += r.transpose() - Eigen::Matrix3d::Identity();  // R^T F - I
   }
   return stress_of(h, mu_[ti], lambda_[ti]);
 }
@@ -258,7 +256,7 @@ void FemModel::add_rotation_rhs(Eigen::VectorXd& b) const {
   if (b.size() != rows()) throw InvalidArgument("fem: rotation rhs with a vector of the wrong size");
   parallel_range(tet_capacity_, [&](std::size_t ti) {
     if (!alive_[ti]) return;
-    const Eigen::Matrix3d& r = rot_[ti];
+    const Eigen::Matrix3d r = quat_[ti].toRotationMatrix();
     const Eigen::Matrix3d p =
         vol_[ti] * r * stress_of(Eigen::Matrix3d::Identity() - r.transpose(), mu_[ti], lambda_[ti]);
     const Eigen::Matrix3d f = p * bm_[ti].transpose();
@@ -272,7 +270,8 @@ void FemModel::internal_forces(const Eigen::VectorXd& u, Eigen::VectorXd& f) con
   if (u.size() != rows()) throw InvalidArgument("fem: internal forces with a vector of the wrong size");
   parallel_range(tet_capacity_, [&](std::size_t ti) {
     if (!alive_[ti]) return;
-    const Eigen::Matrix3d p = vol_[ti] * rot_[ti] * tet_stress(std::uint32_t(ti), u, true);
+    const Eigen::Matrix3d r = quat_[ti].toRotationMatrix();
+    const Eigen::Matrix3d p = vol_[ti] * r * tet_stress(std::uint32_t(ti), u, true, r);
     const Eigen::Matrix3d g = p * bm_[ti].transpose();
     force_[ti].rightCols<3>() = -g;
     force_[ti].col(0) = g.rowwise().sum();
@@ -298,7 +297,6 @@ struct TetLanes {
   alignas(64) double d[9][kLanes];   // d[3c+j]: component c of u_{j+1} - u_0
   alignas(64) double b[9][kLanes];   // b[3j+m]: B(j, m), row j = grad N_{j+1}
   alignas(64) double vml[kLanes];    // V (mu + lambda)
-  alignas(64) double r[9][kLanes];   // out: r[3a+c] = R(a, c)
   alignas(64) double c[12][kLanes];  // out: c[3j+a]: component a of corner j's term
 };
 
@@ -311,7 +309,7 @@ INCISE_SIMD_CLONES void deformation_gradients(const TetLanes& __restrict t, Rota
                             t.d[3 * c + 2][k] * t.b[6 + m][k];
 }
 
-// R from q, and corner j's term sqrt(V (mu + lambda)) R grad N_j (see corner_dir_; compute_vertex
+// Corner j's term sqrt(V (mu + lambda)) R grad N_j (see corner_dir_; compute_vertex
 // has the same for one corner).
 INCISE_SIMD_CLONES void corner_terms(const RotationLanes& __restrict l, TetLanes& __restrict t) {
   for (std::size_t k = 0; k < kLanes; ++k) {
@@ -320,7 +318,6 @@ INCISE_SIMD_CLONES void corner_terms(const RotationLanes& __restrict l, TetLanes
     const double xx = x * x2, yy = y * y2, zz = z * z2, xy = x * y2, xz = x * z2, yz = y * z2;
     const double wx = w * x2, wy = w * y2, wz = w * z2;
     const double r[9] = {1 - (yy + zz), xy - wz, xz + wy, xy + wz, 1 - (xx + zz), yz - wx, xz - wy, yz + wx, 1 - (xx + yy)};
-    for (int i = 0; i < 9; ++i) t.r[i][k] = r[i];
     const double s = std::sqrt(t.vml[k]);
     for (int a = 0; a < 3; ++a) {
       double sum = 0;
@@ -407,7 +404,6 @@ void FemModel::update_rotation_packets(const Eigen::VectorXd& u, bool exact) {
         const std::uint32_t ti = std::uint32_t(p * kLanes + k);
         const Eigen::Quaterniond q(l.q[0][k], l.q[1][k], l.q[2][k], l.q[3][k]);
         quat_[ti] = q;
-        for (int i = 0; i < 9; ++i) rot_[ti](i / 3, i % 3) = t.r[i][k];
         for (int j = 0; j < 4; ++j)
           corner_dir_[corner_at_[4 * std::size_t(ti) + j]] = Eigen::Vector3d(t.c[3 * j][k], t.c[3 * j + 1][k], t.c[3 * j + 2][k]);
         kernel_.set_rotation(ti, q);  // no two threads write the same slot
@@ -424,9 +420,16 @@ void FemModel::update_rotation_packets(const Eigen::VectorXd& u, bool exact) {
 std::vector<double> FemModel::von_mises(const Eigen::VectorXd& u) const {
   std::vector<double> out(tet_capacity_, 0.0);
   parallel_range(tet_capacity_, [&](std::size_t ti) {
-    if (alive_[ti]) out[ti] = von_mises_of(tet_stress(std::uint32_t(ti), u, true));
+    if (alive_[ti]) out[ti] = von_mises_of(tet_stress(std::uint32_t(ti), u, true, quat_[ti].toRotationMatrix()));
   });
   return out;
+}
+
+FemElements FemModel::elements() const {
+  FemElements e{alive_, verts_, bm_, {}, vol_, mu_, lambda_};
+  e.rot.resize(quat_.size());
+  for (std::size_t t = 0; t < quat_.size(); ++t) e.rot[t] = quat_[t].toRotationMatrix();
+  return e;
 }
 
 Eigen::SparseMatrix<double> FemModel::assemble() const {
@@ -470,10 +473,11 @@ Eigen::SparseMatrix<double> FemModel::assemble() const {
     for (TetId t : mesh_->incident_tets(VertexId(std::uint32_t(vi)))) {
       const std::uint32_t ti = t.idx();
       const auto& tv = verts_[ti];
+      const Eigen::Matrix3d r = quat_[ti].toRotationMatrix();
       int i = 0;
       while (tv[i] != vi) ++i;
       for (int j = 0; j < 4; ++j) {
-        const Eigen::Matrix3d blk = element_block(bm_[ti], vol_[ti], mu_[ti], lambda_[ti], rot_[ti], i, j);
+        const Eigen::Matrix3d blk = element_block(bm_[ti], vol_[ti], mu_[ti], lambda_[ti], r, i, j);
         const std::size_t c = std::size_t(std::lower_bound(nb.begin(), nb.end(), tv[j]) - nb.begin());
         for (int a = 0; a < 3; ++a)
           for (int b = 0; b < 3; ++b) val[start[vi] + a * per_row + std::int64_t(3 * c + b)] += blk(a, b);

@@ -45,7 +45,8 @@ Eigen::Matrix3d element_block(const Eigen::Matrix3d& bm, double vol, double mu, 
                               int i, int j);
 
 // A copy of the per-tet data K depends on (by TetId, dead slots flagged), for work done off
-// the frame thread, such as a background factorization. Taking it is a memcpy of the arrays.
+// the frame thread, such as a background factorization. Taking it copies the arrays (the
+// rotations rebuilt from their quaternions).
 struct FemElements {
   std::vector<std::uint8_t> alive;
   std::vector<std::array<std::uint32_t, 4>> verts;
@@ -120,12 +121,12 @@ public:
   // The assembled K (K_R) as a sparse matrix of num_dofs() rows; O(mesh). The assembled
   // backend and the direct solver use it.
   Eigen::SparseMatrix<double> assemble() const;
-  FemElements elements() const { return {alive_, verts_, bm_, rot_, vol_, mu_, lambda_}; }
+  FemElements elements() const;
 
   // Per-tet access (tests, benchmarks).
   bool tet_alive(TetId t) const { return t.idx() < alive_.size() && alive_[t.idx()]; }
   double tet_volume(TetId t) const { return vol_[t.idx()]; }
-  const Eigen::Matrix3d& rotation(TetId t) const { return rot_[t.idx()]; }
+  Eigen::Matrix3d rotation(TetId t) const { return quat_[t.idx()].toRotationMatrix(); }
 
 private:
   void grow();
@@ -135,7 +136,8 @@ private:
   void update_rotations_exact(const Eigen::VectorXd& u);
   void update_rotations_warm(const Eigen::VectorXd& u);
   void update_rotation_packets(const Eigen::VectorXd& u, bool exact);
-  Eigen::Matrix3d tet_stress(std::uint32_t t, const Eigen::VectorXd& x, bool subtract_rotation) const;
+  Eigen::Matrix3d tet_stress(std::uint32_t t, const Eigen::VectorXd& x, bool subtract_rotation,
+                             const Eigen::Matrix3d& r) const;  // r: the tet's rotation
   void gather(Eigen::VectorXd& y, bool accumulate) const;
 
   const TetMesh* mesh_;
@@ -148,8 +150,9 @@ private:
   std::vector<std::array<std::uint32_t, 4>> verts_;
   std::vector<Eigen::Matrix3d> bm_;   // inverse rest edge matrix: row j-1 is grad N_j (j=1..3)
   std::vector<double> vol_, mu_, lambda_, rho_;
-  std::vector<Eigen::Matrix3d> rot_;  // identity for Linear
-  std::vector<Eigen::Quaterniond> quat_;  // rot_ as a unit quaternion: the next frame's start
+  // R as a unit quaternion (identity for Linear): 32 bytes a tet to write each frame instead of
+  // 72, the next frame's start; the passes that need R rebuild it (a few flops).
+  std::vector<Eigen::Quaterniond> quat_;
   // Corner terms c = sqrt(V (mu + lambda)) R grad N_j, so block (j, j) of the element matrix is
   // V mu |grad N_j|^2 I + c c^T (the first term is constant: iso_). Stored vertex by vertex, so
   // the per-vertex sum reads them in order (a gather by tet missed the cache on every corner):
