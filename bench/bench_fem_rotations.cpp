@@ -1,14 +1,16 @@
-// The corotational relinearization, FemModel::update_rotations: warm-started quaternion Newton
-// steps plus the diagonal from per-corner terms (new) against every tet's polar decomposition
-// from scratch plus every vertex recomputed from its incident tets (old), in the same run on the
-// same sequence of displacements. Two sequences: a corotational simulation of the organ scene
+// The corotational relinearization, FemModel::update_rotations then add_rotation_rhs (b_R), as a
+// frame does it: warm-started quaternion Newton steps, the diagonal and b_R from per-corner
+// terms (new) against every tet's polar decomposition from scratch and every vertex recomputed
+// from its incident tets (old: set_warm_started_rotations(false), which also recomputes b_R per
+// vertex there; before this change b_R was a separate per-tet pass and gather of 1.4-1.6 ms),
+// in the same run on the same sequence of displacements. Two sequences: a corotational simulation of the organ scene
 // (bottom fixed, a probe pressing the top, as in bench_fem_precond), recorded frame by frame,
 // and a fast twist (the mesh twisted about its long axis by 90 degrees over the frames and bent,
 // ~0.03 rad per frame at the far end). Per sequence: ms per frame (median, max) old and new,
 // their ratio, the largest angle between the new and the exact rotation over all tets and
-// frames, the tets that fell back to the exact decomposition, and add_rotation_rhs (the rest of
-// a frame's relinearization) for reference.
-//   bench_fem_rotations [--mesh MESH] [--cells 30,15,10] [--frames 60] [--threads 2] [--out DIR]
+// frames, the tets that fell back to the exact decomposition, the most Newton steps a packet
+// took, and the new add_rotation_rhs alone (now a vector addition).
+//   bench_fem_rotations [--mesh MESH] [--cells 30,15,10] [--frames 60] [--threads 2] [--new-only] [--out DIR]
 #include <cmath>
 #include <ctime>
 
@@ -105,10 +107,10 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-void run(const char* name, const TetMesh& m, const std::vector<Eigen::VectorXd>& seq, Csv& csv) {
+void run(const char* name, const TetMesh& m, const std::vector<Eigen::VectorXd>& seq, bool new_only, Csv& csv) {
   const MaterialTable mats(Material{});
   FemModel old_model(m, mats, FemKind::Corotational), new_model(m, mats, FemKind::Corotational);
-  old_model.set_warm_started_rotations(false);
+  old_model.set_warm_started_rotations(new_only);  // --new-only: both new (for profiling the new path)
   std::vector<double> t_old, t_new, t_rhs, c_old, c_new;
   double worst = 0;
   std::size_t exact = 0;
@@ -117,21 +119,23 @@ void run(const char* name, const TetMesh& m, const std::vector<Eigen::VectorXd>&
   for (const Eigen::VectorXd& u0 : seq) {
     Eigen::VectorXd u = u0;
     u.conservativeResize(new_model.rows());  // the simulation's vectors may be longer
+    // A frame's relinearization, as FemSimulation does it: rotations, then b_R.
+    b.setZero();
     double t0 = now_ms(), c0 = cpu_ms();
-    if (getenv("H17R_NEW_ONLY")) old_model.set_warm_started_rotations(true);
     old_model.update_rotations(u);
+    old_model.add_rotation_rhs(b);
     t_old.push_back(now_ms() - t0);
     c_old.push_back(cpu_ms() - c0);
+    b.setZero();
     t0 = now_ms(), c0 = cpu_ms();
     new_model.update_rotations(u);
+    const double t1 = now_ms();
+    new_model.add_rotation_rhs(b);
     t_new.push_back(now_ms() - t0);
     c_new.push_back(cpu_ms() - c0);
+    t_rhs.push_back(now_ms() - t1);
     exact += new_model.rotation_stats().exact;
     steps = std::max(steps, new_model.rotation_stats().max_steps);
-    b.setZero();
-    t0 = now_ms();
-    new_model.add_rotation_rhs(b);
-    t_rhs.push_back(now_ms() - t0);
     for (TetId t : m.tets())
       worst = std::max(worst, Eigen::AngleAxisd(old_model.rotation(t).transpose() * new_model.rotation(t)).angle());
   }
@@ -166,15 +170,17 @@ int main(int argc, char** argv) {
           "max_steps,rotation_rhs_median_ms");
   std::printf("update_rotations per frame, %d threads, %s (%zu tets, %zu vertices)\n", threads,
               path.empty() ? "box" : path.c_str(), m.num_tets(), m.num_vertices());
-  std::printf("old: polar decomposition of every tet + every vertex from its tets; new: warm-started Newton steps\n");
+  std::printf("relinearization (update_rotations + add_rotation_rhs); old: polar decomposition of every tet + every\n"
+              "vertex from its tets; new: warm-started Newton steps, per-vertex sums of per-corner terms\n");
   std::printf("%-7s %7s %6s %10s %10s %10s %10s %7s %10s %10s %7s %10s %9s %6s %9s\n", "seq", "tets", "frames", "old med",
               "old max", "new med", "new max", "ratio", "old cpu", "new cpu", "cpu rat", "max angle", "fallbacks", "steps",
               "rhs med");
   const FemModel sizing(m, MaterialTable(Material{}), FemKind::Linear);
-  run("probe", m, probe_sequence(m, frames), csv);
-  run("twist", m, twist_sequence(m, sizing.rows(), frames), csv);
+  const bool new_only = args.flag("--new-only");
+  run("probe", m, probe_sequence(m, frames), new_only, csv);
+  run("twist", m, twist_sequence(m, sizing.rows(), frames), new_only, csv);
   std::printf("ms per frame (wall median and max; cpu: median CPU time of all threads); ratio = old / new; max angle:\n"
-              "new vs exact over all tets and frames (rad); rhs: add_rotation_rhs, the rest of a relinearization.\n"
+              "new vs exact over all tets and frames (rad); rhs: the new add_rotation_rhs alone.\n"
               "CSV: %s\n",
               csv.path().c_str());
   return 0;

@@ -66,7 +66,7 @@ FemModel::FemModel(const TetMesh& mesh, const MaterialTable& materials, FemKind 
   for (const auto& [v, t] : order) kernel_.add(*mesh_, t, verts_[t], bm_[t], vol_[t] * mu_[t], vol_[t] * lambda_[t]);
   // Each vertex's room for its corner terms, in order, so that compute_vertex never moves one
   // (it runs in parallel here).
-  std::size_t at = corner_dir_.size();
+  std::size_t at = corner_.size();
   for (std::size_t v = 0; v < mesh_->vertex_capacity(); ++v)
     if (mesh_->is_alive(VertexId(std::uint32_t(v)))) {
       const std::size_t n = mesh_->incident_tets(VertexId(std::uint32_t(v))).size();
@@ -74,7 +74,7 @@ FemModel::FemModel(const TetMesh& mesh, const MaterialTable& materials, FemKind 
       corner_room_[v] = std::uint32_t(n + 4);
       at += n + 4;
     }
-  corner_dir_.resize(at, Eigen::Vector3d::Zero());
+  corner_.resize(at, Corner::Zero());
   parallel_range(vertex_capacity_, [&](std::size_t v) { compute_vertex(std::uint32_t(v)); });
 }
 
@@ -93,7 +93,7 @@ void FemModel::grow() {
     rho_.reserve(room);
     quat_.reserve(room);
     corner_at_.reserve(4 * room);
-    corner_dir_.reserve(4 * room + 4 * mesh_->vertex_capacity());
+    corner_.reserve(4 * room + 4 * mesh_->vertex_capacity());
     force_.reserve(room);
   }
   if (nt > tet_capacity_) {
@@ -115,6 +115,8 @@ void FemModel::grow() {
     const std::size_t cap = vertex_capacity_ == 0 ? nv : std::max(nv, vertex_capacity_ + vertex_capacity_ / 2);
     const Eigen::Index old = diag_.size();
     diag_.conservativeResize(Eigen::Index(3 * cap));
+    rhs_.conservativeResize(Eigen::Index(3 * cap));
+    rhs_.tail(rhs_.size() - old).setZero();
     mass_.conservativeResize(Eigen::Index(3 * cap));
     diag_.tail(diag_.size() - old).setZero();
     mass_.tail(mass_.size() - old).setZero();
@@ -172,15 +174,18 @@ void FemModel::compute_vertex(std::uint32_t vi) {
   iso_[vi] = iso;
   mass_.segment<3>(3 * vi).setConstant(m);
   if (slots.size() > corner_room_[vi]) {  // moves to the end: only serial callers get here
-    corner_begin_[vi] = std::uint32_t(corner_dir_.size());
+    corner_begin_[vi] = std::uint32_t(corner_.size());
     corner_room_[vi] = std::uint32_t(slots.size() + 4);
-    corner_dir_.resize(corner_dir_.size() + corner_room_[vi], Eigen::Vector3d::Zero());
+    corner_.resize(corner_.size() + corner_room_[vi], Corner::Zero());
   }
   for (std::size_t i = 0; i < slots.size(); ++i) {
     const std::uint32_t ti = slots[i] / 4, j = slots[i] % 4, at = corner_begin_[vi] + std::uint32_t(i);
     corner_at_[slots[i]] = at;
-    // The corner term (as corner_terms() computes it for a packet).
-    corner_dir_[at] = std::sqrt(vol_[ti] * (mu_[ti] + lambda_[ti])) * (quat_[ti] * shape_gradient(bm_[ti], int(j)));
+    // The corner's terms (as corner_terms() computes them for a packet).
+    const Eigen::Matrix3d r = quat_[ti].toRotationMatrix();
+    const Eigen::Vector3d g = shape_gradient(bm_[ti], int(j));
+    corner_[at].col(0) = std::sqrt(vol_[ti] * (mu_[ti] + lambda_[ti])) * (r * g);
+    corner_[at].col(1) = vol_[ti] * r * stress_of(Eigen::Matrix3d::Identity() - r.transpose(), mu_[ti], lambda_[ti]) * g;
   }
   vertex_block(vi);
 }
@@ -189,8 +194,13 @@ void FemModel::compute_vertex(std::uint32_t vi) {
 // vertex's corners: the rotation-free part is iso_, the rest the corners' c c^T.
 void FemModel::vertex_block(std::uint32_t vi) {
   Eigen::Matrix3d blk = iso_[vi] * Eigen::Matrix3d::Identity();
-  const Eigen::Vector3d* c = corner_dir_.data() + corner_begin_[vi];
-  for (std::size_t i = 0, n = corner_slots_[vi].size(); i < n; ++i) blk.noalias() += c[i] * c[i].transpose();
+  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+  const Corner* c = corner_.data() + corner_begin_[vi];
+  for (std::size_t i = 0, n = corner_slots_[vi].size(); i < n; ++i) {
+    blk.noalias() += c[i].col(0) * c[i].col(0).transpose();
+    rhs += c[i].col(1);
+  }
+  rhs_.segment<3>(3 * vi) = rhs;
   blocks_[vi] = blk;
   diag_.segment<3>(3 * vi) = blk.diagonal();
 }
@@ -213,6 +223,7 @@ void FemModel::apply(const TopologyChange& change) {
     iso_[v.idx()] = 0;
     blocks_[v.idx()].setZero();
     diag_.segment<3>(3 * v.idx()).setZero();
+    rhs_.segment<3>(3 * v.idx()).setZero();
     mass_.segment<3>(3 * v.idx()).setZero();
     ++work_.vertices_updated;
   }
@@ -254,16 +265,7 @@ void FemModel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
 void FemModel::add_rotation_rhs(Eigen::VectorXd& b) const {
   if (kind_ != FemKind::Corotational) return;
   if (b.size() != rows()) throw InvalidArgument("fem: rotation rhs with a vector of the wrong size");
-  parallel_range(tet_capacity_, [&](std::size_t ti) {
-    if (!alive_[ti]) return;
-    const Eigen::Matrix3d r = quat_[ti].toRotationMatrix();
-    const Eigen::Matrix3d p =
-        vol_[ti] * r * stress_of(Eigen::Matrix3d::Identity() - r.transpose(), mu_[ti], lambda_[ti]);
-    const Eigen::Matrix3d f = p * bm_[ti].transpose();
-    force_[ti].rightCols<3>() = f;
-    force_[ti].col(0) = -f.rowwise().sum();
-  });
-  gather(b, true);
+  b += rhs_;  // summed per vertex with the diagonal (vertex_block)
 }
 
 void FemModel::internal_forces(const Eigen::VectorXd& u, Eigen::VectorXd& f) const {
@@ -296,8 +298,9 @@ constexpr std::size_t kLanes = RotationLanes::kLanes;
 struct TetLanes {
   alignas(64) double d[9][kLanes];   // d[3c+j]: component c of u_{j+1} - u_0
   alignas(64) double b[9][kLanes];   // b[3j+m]: B(j, m), row j = grad N_{j+1}
-  alignas(64) double vml[kLanes];    // V (mu + lambda)
-  alignas(64) double c[12][kLanes];  // out: c[3j+a]: component a of corner j's term
+  alignas(64) double vmu[kLanes], vlam[kLanes];  // V mu, V lambda
+  alignas(64) double c[12][kLanes];  // out: c[3j+a]: component a of corner j's diagonal term
+  alignas(64) double f[12][kLanes];  // out: f[3j+a]: component a of corner j's b_R force
 };
 
 // F = I + D B.
@@ -309,8 +312,9 @@ INCISE_SIMD_CLONES void deformation_gradients(const TetLanes& __restrict t, Rota
                             t.d[3 * c + 2][k] * t.b[6 + m][k];
 }
 
-// Corner j's term sqrt(V (mu + lambda)) R grad N_j (see corner_dir_; compute_vertex
-// has the same for one corner).
+// Corner j's terms (see corner_; compute_vertex has the same for one corner): the diagonal's
+// sqrt(V (mu + lambda)) R grad N_j, and b_R's force P grad N_j with
+// P = V R sigma(I - R^T) = V R (2 mu (I - sym R) + lambda (3 - tr R) I).
 INCISE_SIMD_CLONES void corner_terms(const RotationLanes& __restrict l, TetLanes& __restrict t) {
   for (std::size_t k = 0; k < kLanes; ++k) {
     const double w = l.q[0][k], x = l.q[1][k], y = l.q[2][k], z = l.q[3][k];
@@ -318,7 +322,23 @@ INCISE_SIMD_CLONES void corner_terms(const RotationLanes& __restrict l, TetLanes
     const double xx = x * x2, yy = y * y2, zz = z * z2, xy = x * y2, xz = x * z2, yz = y * z2;
     const double wx = w * x2, wy = w * y2, wz = w * z2;
     const double r[9] = {1 - (yy + zz), xy - wz, xz + wy, xy + wz, 1 - (xx + zz), yz - wx, xz - wy, yz + wx, 1 - (xx + yy)};
-    const double s = std::sqrt(t.vml[k]);
+    const double s = std::sqrt(t.vmu[k] + t.vlam[k]);
+    const double mu = t.vmu[k], diag = 2 * mu + t.vlam[k] * (3 - (r[0] + r[4] + r[8]));
+    double sig[9], pm[9];
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) sig[3 * a + b] = -mu * (r[3 * a + b] + r[3 * b + a]) + (a == b ? diag : 0.0);
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) pm[3 * a + b] = r[3 * a] * sig[b] + r[3 * a + 1] * sig[3 + b] + r[3 * a + 2] * sig[6 + b];
+    for (int a = 0; a < 3; ++a) {
+      double sum = 0;
+      for (int j = 1; j < 4; ++j) {
+        const double fj = pm[3 * a] * t.b[3 * (j - 1)][k] + pm[3 * a + 1] * t.b[3 * (j - 1) + 1][k] +
+                          pm[3 * a + 2] * t.b[3 * (j - 1) + 2][k];
+        t.f[3 * j + a][k] = fj;
+        sum += fj;
+      }
+      t.f[a][k] = -sum;
+    }
     for (int a = 0; a < 3; ++a) {
       double sum = 0;
       for (int j = 1; j < 4; ++j) {
@@ -376,7 +396,8 @@ void FemModel::update_rotation_packets(const Eigen::VectorXd& u, bool exact) {
           }
           const Eigen::Matrix3d& bm = bm_[ti];
           for (int i = 0; i < 9; ++i) t.b[i][k] = bm(i / 3, i % 3);
-          t.vml[k] = vol_[ti] * (mu_[ti] + lambda_[ti]);
+          t.vmu[k] = vol_[ti] * mu_[ti];
+          t.vlam[k] = vol_[ti] * lambda_[ti];
           q = quat_[ti];
         }
         if (!live[k] || !std::isfinite(check)) {  // F = I and R = I (what a NaN displacement gets)
@@ -384,7 +405,7 @@ void FemModel::update_rotation_packets(const Eigen::VectorXd& u, bool exact) {
           q = Eigen::Quaterniond::Identity();
           if (!live[k])
             for (int i = 0; i < 9; ++i) t.b[i][k] = 0;
-          if (!live[k]) t.vml[k] = 0;
+          if (!live[k]) t.vmu[k] = t.vlam[k] = 0;
         }
         l.q[0][k] = q.w(), l.q[1][k] = q.x(), l.q[2][k] = q.y(), l.q[3][k] = q.z();
       }
@@ -405,7 +426,8 @@ void FemModel::update_rotation_packets(const Eigen::VectorXd& u, bool exact) {
         const Eigen::Quaterniond q(l.q[0][k], l.q[1][k], l.q[2][k], l.q[3][k]);
         quat_[ti] = q;
         for (int j = 0; j < 4; ++j)
-          corner_dir_[corner_at_[4 * std::size_t(ti) + j]] = Eigen::Vector3d(t.c[3 * j][k], t.c[3 * j + 1][k], t.c[3 * j + 2][k]);
+          corner_[corner_at_[4 * std::size_t(ti) + j]] << t.c[3 * j][k], t.f[3 * j][k], t.c[3 * j + 1][k],
+              t.f[3 * j + 1][k], t.c[3 * j + 2][k], t.f[3 * j + 2][k];
         kernel_.set_rotation(ti, q);  // no two threads write the same slot
       }
     }

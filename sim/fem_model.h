@@ -111,7 +111,8 @@ public:
   void set_rotation_refinement(const RotationRefinement& r) { refinement_ = r; }
   const RotationStats& rotation_stats() const { return rotation_stats_; }
   // b_R = sum_t V R sigma(sym(I - R^T)) g: the right-hand side term of the linearized
-  // corotational force (zero for Linear). Adds into b.
+  // corotational force (zero for Linear). Adds into b: O(vertices), it is summed by
+  // update_rotations (and apply()) with the diagonal.
   void add_rotation_rhs(Eigen::VectorXd& b) const;
   // f_int(u) with the current rotations (call update_rotations(u) first for corotational).
   void internal_forces(const Eigen::VectorXd& u, Eigen::VectorXd& f) const;
@@ -153,13 +154,15 @@ private:
   // R as a unit quaternion (identity for Linear): 32 bytes a tet to write each frame instead of
   // 72, the next frame's start; the passes that need R rebuild it (a few flops).
   std::vector<Eigen::Quaterniond> quat_;
-  // Corner terms c = sqrt(V (mu + lambda)) R grad N_j, so block (j, j) of the element matrix is
-  // V mu |grad N_j|^2 I + c c^T (the first term is constant: iso_). Stored vertex by vertex, so
-  // the per-vertex sum reads them in order (a gather by tet missed the cache on every corner):
-  // vertex v's corners from corner_begin_[v] (room for corner_room_[v]); the per-tet pass writes
-  // corner slot 4t+j at corner_at_[4t+j]. A vertex whose corners outgrow their room moves to the
-  // end (apply() stays local; the hole is left).
-  std::vector<Eigen::Vector3d> corner_dir_;
+  // Per tet corner, what depends on R: column 0 c = sqrt(V (mu + lambda)) R grad N_j, so block
+  // (j, j) of the element matrix is V mu |grad N_j|^2 I + c c^T (the first term is constant:
+  // iso_); column 1 the corner's force in b_R. Stored vertex by vertex, so the per-vertex sums
+  // read them in order (a gather by tet missed the cache on nearly every corner): vertex v's
+  // corners from corner_begin_[v] (room for corner_room_[v]); the per-tet pass writes corner
+  // slot 4t+j at corner_at_[4t+j]. A vertex whose corners outgrow their room moves to the end
+  // (apply() stays local; the hole is left).
+  using Corner = Eigen::Matrix<double, 3, 2>;
+  std::vector<Corner> corner_;
   std::vector<std::uint32_t> corner_at_;  // by corner slot 4t+j
   bool warm_rotations_ = true;
   RotationRefinement refinement_;
@@ -177,7 +180,8 @@ private:
   Eigen::VectorXd diag_, mass_;
   std::vector<Eigen::Matrix3d> blocks_;  // per vertex
   std::vector<double> iso_;              // per vertex: sum of V mu |grad N|^2 over its corners
-  std::vector<std::uint32_t> corner_begin_, corner_room_;  // per vertex, in corner_dir_
+  std::vector<std::uint32_t> corner_begin_, corner_room_;  // per vertex, in corner_
+  Eigen::VectorXd rhs_;  // b_R, summed per vertex with the diagonal blocks
   FemWork work_;
 };
 

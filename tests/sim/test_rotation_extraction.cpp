@@ -185,6 +185,24 @@ TEST_CASE("warm-started and exact rotation updates give the same corotational mo
     warm.multiply(x, yw);
     exact.multiply(x, ye);
     CHECK((yw - ye).norm() <= 1e-10 * ye.norm());
+    // b_R (summed per vertex in the rotation pass) against the per-tet formula.
+    Eigen::VectorXd bw = Eigen::VectorXd::Zero(warm.rows()), be = Eigen::VectorXd::Zero(warm.rows());
+    warm.add_rotation_rhs(bw);
+    for (TetId t : m.tets()) {
+      const Eigen::Matrix3d r = exact.rotation(t), h = Eigen::Matrix3d::Identity() - r.transpose();
+      const double mu = Material{}.mu(), lambda = Material{}.lambda();
+      const Eigen::Matrix3d eps = 0.5 * (h + h.transpose());
+      const Eigen::Matrix3d p = exact.tet_volume(t) * r * (2 * mu * eps + lambda * eps.trace() * Eigen::Matrix3d::Identity());
+      const auto& tv = m.tet_vertices(t);
+      Eigen::Matrix3d dm;
+      for (int j = 0; j < 3; ++j) dm.col(j) = m.rest(tv[j + 1]) - m.rest(tv[0]);
+      const Eigen::Matrix3d g = dm.inverse();  // row j: grad N_{j+1}
+      for (int j = 0; j < 3; ++j) {
+        be.segment<3>(3 * tv[j + 1].idx()) += p * g.row(j).transpose();
+        be.segment<3>(3 * tv[0].idx()) -= p * g.row(j).transpose();
+      }
+    }
+    CHECK((bw - be).norm() <= 1e-9 * (1 + be.norm()));
     if (n > 0 && n < 50) CHECK(warm.rotation_stats().exact == 0);  // smooth frames: no fallback
   }
 }
