@@ -191,7 +191,8 @@ void FemModel::compute_vertex(std::uint32_t vi) {
 }
 
 // Block (i, i) of the element matrix, V (mu |g|^2 I + (mu + lambda) (R g)(R g)^T), summed over the
-// vertex's corners: the rotation-free part is iso_, the rest the corners' c c^T.
+// vertex's corners (the rotation-free part is iso_, the rest the corners' c c^T), and the
+// vertex's b_R: the sum of its corners' forces.
 void FemModel::vertex_block(std::uint32_t vi) {
   Eigen::Matrix3d blk = iso_[vi] * Eigen::Matrix3d::Identity();
   Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
