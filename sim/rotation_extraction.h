@@ -11,7 +11,7 @@
 //   Mueller, Bender, Chentanez & Macklin 2016 ("A robust method to extract the rotational part of
 //   deformations"): q <- q (x) exp(delta / 2), delta from the skew part of S = R^T F. Mueller et
 //   al. scale the step by 1 / tr(S) (linear convergence, each step shrinks the error by about
-//   sigma_max / tr(S), ~1/3 per step at small strain, so ~13 steps for 1e-6 from 0.05 rad);
+//   sigma_max / tr(S), ~1/3 per step at small strain: 11-13 steps to 1e-6 from 0.05 rad);
 //   here the step is the Newton step of tr(R^T F) on SO(3): delta = 2 M^-1 a with a the axial
 //   vector of skew(S) and M = tr(S) I - sym(S) (quadratic convergence: a frame's rotation
 //   change of 0.05 rad is at 1e-10 after 3 steps). |delta| of the last step estimates the
