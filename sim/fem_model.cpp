@@ -1,14 +1,15 @@
 #include "sim/fem_model.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 
 #include <Eigen/LU>
-#include <Eigen/SVD>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include "mesh/errors.h"
+#include "sim/simd_clones.h"
 
 namespace incise {
 
@@ -23,35 +24,6 @@ inline Eigen::Vector3d shape_gradient(const Eigen::Matrix3d& bm, int j) {
 inline Eigen::Matrix3d stress_of(const Eigen::Matrix3d& h, double mu, double lambda) {
   const Eigen::Matrix3d eps = 0.5 * (h + h.transpose());
   return 2 * mu * eps + lambda * eps.trace() * Eigen::Matrix3d::Identity();
-}
-
-// The rotation of the polar decomposition F = R S. Well-shaped, uninverted F (the common case
-// every frame): scaled Newton iteration R <- (g R + R^-T / g) / 2 (Higham), a few 3x3
-// inverses, many times cheaper than an SVD. Inverted or nearly degenerate F: the SVD, with the
-// column of the smallest singular value flipped to get the closest proper rotation.
-Eigen::Matrix3d rotation_of(const Eigen::Matrix3d& f) {
-  const double det = f.determinant(), fn = f.norm();
-  if (det > 1e-3 * fn * fn * fn) {
-    Eigen::Matrix3d r = f;
-    for (int it = 0; it < 20; ++it) {
-      const Eigen::Matrix3d rit = r.inverse().transpose();
-      const double g = std::sqrt(std::sqrt(rit.squaredNorm() / r.squaredNorm()));
-      const Eigen::Matrix3d next = 0.5 * (g * r + rit / g);
-      const double change = (next - r).squaredNorm();
-      r = next;
-      if (change < 1e-28) break;
-    }
-    if ((r.transpose() * r - Eigen::Matrix3d::Identity()).squaredNorm() < 1e-24 && r.determinant() > 0) return r;
-  }
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(f, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d uu = svd.matrixU();
-  const Eigen::Matrix3d& vv = svd.matrixV();
-  Eigen::Matrix3d r = uu * vv.transpose();
-  if (r.determinant() < 0) {  // inverted (or reflected) element: nearest proper rotation
-    uu.col(2) = -uu.col(2);
-    r = uu * vv.transpose();
-  }
-  return r;
 }
 
 template <class F>
@@ -92,6 +64,17 @@ FemModel::FemModel(const TetMesh& mesh, const MaterialTable& materials, FemKind 
   std::sort(order.begin(), order.end());
   kernel_.configure(*mesh_);
   for (const auto& [v, t] : order) kernel_.add(*mesh_, t, verts_[t], bm_[t], vol_[t] * mu_[t], vol_[t] * lambda_[t]);
+  // Each vertex's room for its corner terms, in order, so that compute_vertex never moves one
+  // (it runs in parallel here).
+  std::size_t at = corner_.size();
+  for (std::size_t v = 0; v < mesh_->vertex_capacity(); ++v)
+    if (mesh_->is_alive(VertexId(std::uint32_t(v)))) {
+      const std::size_t n = mesh_->incident_tets(VertexId(std::uint32_t(v))).size();
+      corner_begin_[v] = std::uint32_t(at);
+      corner_room_[v] = std::uint32_t(n + 4);
+      at += n + 4;
+    }
+  corner_.resize(at, Corner::Zero());
   parallel_range(vertex_capacity_, [&](std::size_t v) { compute_vertex(std::uint32_t(v)); });
 }
 
@@ -108,7 +91,9 @@ void FemModel::grow() {
     mu_.reserve(room);
     lambda_.reserve(room);
     rho_.reserve(room);
-    rot_.reserve(room);
+    quat_.reserve(room);
+    corner_at_.reserve(4 * room);
+    corner_.reserve(4 * room + 4 * mesh_->vertex_capacity());
     force_.reserve(room);
   }
   if (nt > tet_capacity_) {
@@ -119,7 +104,8 @@ void FemModel::grow() {
     mu_.resize(nt, 0);
     lambda_.resize(nt, 0);
     rho_.resize(nt, 0);
-    rot_.resize(nt, Eigen::Matrix3d::Identity());
+    quat_.resize(nt, Eigen::Quaterniond::Identity());
+    corner_at_.resize(4 * nt, 0);
     force_.resize(nt);
     tet_capacity_ = nt;
   }
@@ -129,11 +115,16 @@ void FemModel::grow() {
     const std::size_t cap = vertex_capacity_ == 0 ? nv : std::max(nv, vertex_capacity_ + vertex_capacity_ / 2);
     const Eigen::Index old = diag_.size();
     diag_.conservativeResize(Eigen::Index(3 * cap));
+    rhs_.conservativeResize(Eigen::Index(3 * cap));
+    rhs_.tail(rhs_.size() - old).setZero();
     mass_.conservativeResize(Eigen::Index(3 * cap));
     diag_.tail(diag_.size() - old).setZero();
     mass_.tail(mass_.size() - old).setZero();
     corner_slots_.resize(cap);
     blocks_.resize(cap, Eigen::Matrix3d::Zero());
+    iso_.resize(cap, 0.0);
+    corner_begin_.resize(cap, 0);
+    corner_room_.resize(cap, 0);
     vertex_capacity_ = cap;
   }
 }
@@ -161,13 +152,12 @@ void FemModel::compute_tet(std::uint32_t ti) {
   mu_[ti] = m.mu();
   lambda_[ti] = m.lambda();
   rho_[ti] = m.density;
-  rot_[ti].setIdentity();
+  quat_[ti].setIdentity();  // R = I, as the kernel's add() starts
   alive_[ti] = 1;
 }
 
 void FemModel::compute_vertex(std::uint32_t vi) {
-  Eigen::Matrix3d blk = Eigen::Matrix3d::Zero();
-  double m = 0;
+  double m = 0, iso = 0;
   const VertexId v(vi);
   auto& slots = corner_slots_[vi];
   slots.clear();
@@ -177,16 +167,43 @@ void FemModel::compute_vertex(std::uint32_t vi) {
       int j = 0;
       while (verts_[ti][j] != vi) ++j;
       slots.push_back(4 * ti + std::uint32_t(j));
-      const Eigen::Vector3d g = shape_gradient(bm_[ti], j);
-      const Eigen::Vector3d rg = rot_[ti] * g;
-      // Block (i, i) of the element matrix: V (mu |g|^2 I + (mu + lambda) (R g)(R g)^T).
-      blk += vol_[ti] * (mu_[ti] * g.squaredNorm() * Eigen::Matrix3d::Identity() + (mu_[ti] + lambda_[ti]) * rg * rg.transpose());
+      iso += vol_[ti] * mu_[ti] * shape_gradient(bm_[ti], j).squaredNorm();
       m += rho_[ti] * vol_[ti] / 4;
     }
   }
+  iso_[vi] = iso;
+  mass_.segment<3>(3 * vi).setConstant(m);
+  if (slots.size() > corner_room_[vi]) {  // moves to the end: only serial callers get here
+    corner_begin_[vi] = std::uint32_t(corner_.size());
+    corner_room_[vi] = std::uint32_t(slots.size() + 4);
+    corner_.resize(corner_.size() + corner_room_[vi], Corner::Zero());
+  }
+  for (std::size_t i = 0; i < slots.size(); ++i) {
+    const std::uint32_t ti = slots[i] / 4, j = slots[i] % 4, at = corner_begin_[vi] + std::uint32_t(i);
+    corner_at_[slots[i]] = at;
+    // The corner's terms (as corner_terms() computes them for a packet).
+    const Eigen::Matrix3d r = quat_[ti].toRotationMatrix();
+    const Eigen::Vector3d g = shape_gradient(bm_[ti], int(j));
+    corner_[at].col(0) = std::sqrt(vol_[ti] * (mu_[ti] + lambda_[ti])) * (r * g);
+    corner_[at].col(1) = vol_[ti] * r * stress_of(Eigen::Matrix3d::Identity() - r.transpose(), mu_[ti], lambda_[ti]) * g;
+  }
+  vertex_block(vi);
+}
+
+// Block (i, i) of the element matrix, V (mu |g|^2 I + (mu + lambda) (R g)(R g)^T), summed over the
+// vertex's corners (the rotation-free part is iso_, the rest the corners' c c^T), and the
+// vertex's b_R: the sum of its corners' forces.
+void FemModel::vertex_block(std::uint32_t vi) {
+  Eigen::Matrix3d blk = iso_[vi] * Eigen::Matrix3d::Identity();
+  Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+  const Corner* c = corner_.data() + corner_begin_[vi];
+  for (std::size_t i = 0, n = corner_slots_[vi].size(); i < n; ++i) {
+    blk.noalias() += c[i].col(0) * c[i].col(0).transpose();
+    rhs += c[i].col(1);
+  }
+  rhs_.segment<3>(3 * vi) = rhs;
   blocks_[vi] = blk;
   diag_.segment<3>(3 * vi) = blk.diagonal();
-  mass_.segment<3>(3 * vi).setConstant(m);
 }
 
 void FemModel::apply(const TopologyChange& change) {
@@ -204,8 +221,10 @@ void FemModel::apply(const TopologyChange& change) {
   }
   for (VertexId v : change.removed_vertices) {
     corner_slots_[v.idx()].clear();
+    iso_[v.idx()] = 0;
     blocks_[v.idx()].setZero();
     diag_.segment<3>(3 * v.idx()).setZero();
+    rhs_.segment<3>(3 * v.idx()).setZero();
     mass_.segment<3>(3 * v.idx()).setZero();
     ++work_.vertices_updated;
   }
@@ -215,15 +234,16 @@ void FemModel::apply(const TopologyChange& change) {
   }
 }
 
-inline Eigen::Matrix3d FemModel::tet_stress(std::uint32_t ti, const Eigen::VectorXd& x, bool subtract_rotation) const {
+inline Eigen::Matrix3d FemModel::tet_stress(std::uint32_t ti, const Eigen::VectorXd& x, bool subtract_rotation,
+                                            const Eigen::Matrix3d& r) const {
   const auto& v = verts_[ti];
   const Eigen::Vector3d x0 = x.segment<3>(3 * v[0]);
   Eigen::Matrix3d d;
   for (int j = 0; j < 3; ++j) d.col(j) = x.segment<3>(3 * v[j + 1]) - x0;
   Eigen::Matrix3d h = d * bm_[ti];
   if (kind_ == FemKind::Corotational) {
-    h = rot_[ti].transpose() * h;
-    if (subtract_rotation) h += rot_[ti].transpose() - Eigen::Matrix3d::Identity();  // R^T F - I
+    h = r.transpose() * h;
+    if (subtract_rotation) h += r.transpose() - Eigen::Matrix3d::Identity();  // R^T F - I
   }
   return stress_of(h, mu_[ti], lambda_[ti]);
 }
@@ -246,23 +266,15 @@ void FemModel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
 void FemModel::add_rotation_rhs(Eigen::VectorXd& b) const {
   if (kind_ != FemKind::Corotational) return;
   if (b.size() != rows()) throw InvalidArgument("fem: rotation rhs with a vector of the wrong size");
-  parallel_range(tet_capacity_, [&](std::size_t ti) {
-    if (!alive_[ti]) return;
-    const Eigen::Matrix3d& r = rot_[ti];
-    const Eigen::Matrix3d p =
-        vol_[ti] * r * stress_of(Eigen::Matrix3d::Identity() - r.transpose(), mu_[ti], lambda_[ti]);
-    const Eigen::Matrix3d f = p * bm_[ti].transpose();
-    force_[ti].rightCols<3>() = f;
-    force_[ti].col(0) = -f.rowwise().sum();
-  });
-  gather(b, true);
+  b += rhs_;  // summed per vertex with the diagonal (vertex_block)
 }
 
 void FemModel::internal_forces(const Eigen::VectorXd& u, Eigen::VectorXd& f) const {
   if (u.size() != rows()) throw InvalidArgument("fem: internal forces with a vector of the wrong size");
   parallel_range(tet_capacity_, [&](std::size_t ti) {
     if (!alive_[ti]) return;
-    const Eigen::Matrix3d p = vol_[ti] * rot_[ti] * tet_stress(std::uint32_t(ti), u, true);
+    const Eigen::Matrix3d r = quat_[ti].toRotationMatrix();
+    const Eigen::Matrix3d p = vol_[ti] * r * tet_stress(std::uint32_t(ti), u, true, r);
     const Eigen::Matrix3d g = p * bm_[ti].transpose();
     force_[ti].rightCols<3>() = -g;
     force_[ti].col(0) = g.rowwise().sum();
@@ -274,31 +286,173 @@ void FemModel::internal_forces(const Eigen::VectorXd& u, Eigen::VectorXd& f) con
 void FemModel::update_rotations(const Eigen::VectorXd& u) {
   if (kind_ != FemKind::Corotational) return;
   if (u.size() != rows()) throw InvalidArgument("fem: rotations from a vector of the wrong size");
-  parallel_range(tet_capacity_, [&](std::size_t ti) {
-    if (!alive_[ti]) return;
-    const auto& v = verts_[ti];
-    const Eigen::Vector3d u0 = u.segment<3>(3 * v[0]);
-    Eigen::Matrix3d d;
-    for (int j = 0; j < 3; ++j) d.col(j) = u.segment<3>(3 * v[j + 1]) - u0;
-    const Eigen::Matrix3d f = Eigen::Matrix3d::Identity() + d * bm_[ti];
-    if (!f.allFinite()) {
-      rot_[ti].setIdentity();
-      kernel_.set_rotation(std::uint32_t(ti), rot_[ti]);
-      return;
+  if (warm_rotations_) update_rotations_warm(u);
+  else update_rotations_exact(u);
+}
+
+namespace {
+
+constexpr std::size_t kLanes = RotationLanes::kLanes;
+
+// A packet of tets besides F and q (sim/rotation_extraction.h): what F and the corner terms are
+// made of, and the results, as a struct of arrays so the loops over lanes vectorize.
+struct TetLanes {
+  alignas(64) double d[9][kLanes];   // d[3c+j]: component c of u_{j+1} - u_0
+  alignas(64) double b[9][kLanes];   // b[3j+m]: B(j, m), row j = grad N_{j+1}
+  alignas(64) double vmu[kLanes], vlam[kLanes];  // V mu, V lambda
+  alignas(64) double c[12][kLanes];  // out: c[3j+a]: component a of corner j's diagonal term
+  alignas(64) double f[12][kLanes];  // out: f[3j+a]: component a of corner j's b_R force
+};
+
+// F = I + D B.
+INCISE_SIMD_CLONES void deformation_gradients(const TetLanes& __restrict t, RotationLanes& __restrict l) {
+  for (std::size_t k = 0; k < kLanes; ++k)
+    for (int c = 0; c < 3; ++c)
+      for (int m = 0; m < 3; ++m)
+        l.f[3 * c + m][k] = (c == m ? 1.0 : 0.0) + t.d[3 * c][k] * t.b[m][k] + t.d[3 * c + 1][k] * t.b[3 + m][k] +
+                            t.d[3 * c + 2][k] * t.b[6 + m][k];
+}
+
+// Corner j's terms (see corner_; compute_vertex has the same for one corner): the diagonal's
+// sqrt(V (mu + lambda)) R grad N_j, and b_R's force P grad N_j with
+// P = V R sigma(I - R^T) = V R (2 mu (I - sym R) + lambda (3 - tr R) I).
+INCISE_SIMD_CLONES void corner_terms(const RotationLanes& __restrict l, TetLanes& __restrict t) {
+  for (std::size_t k = 0; k < kLanes; ++k) {
+    const double w = l.q[0][k], x = l.q[1][k], y = l.q[2][k], z = l.q[3][k];
+    const double x2 = x + x, y2 = y + y, z2 = z + z;
+    const double xx = x * x2, yy = y * y2, zz = z * z2, xy = x * y2, xz = x * z2, yz = y * z2;
+    const double wx = w * x2, wy = w * y2, wz = w * z2;
+    const double r[9] = {1 - (yy + zz), xy - wz, xz + wy, xy + wz, 1 - (xx + zz), yz - wx, xz - wy, yz + wx, 1 - (xx + yy)};
+    const double s = std::sqrt(t.vmu[k] + t.vlam[k]);
+    const double mu = t.vmu[k], diag = 2 * mu + t.vlam[k] * (3 - (r[0] + r[4] + r[8]));
+    double sig[9], pm[9];
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) sig[3 * a + b] = -mu * (r[3 * a + b] + r[3 * b + a]) + (a == b ? diag : 0.0);
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) pm[3 * a + b] = r[3 * a] * sig[b] + r[3 * a + 1] * sig[3 + b] + r[3 * a + 2] * sig[6 + b];
+    for (int a = 0; a < 3; ++a) {
+      double sum = 0;
+      for (int j = 1; j < 4; ++j) {
+        const double fj = pm[3 * a] * t.b[3 * (j - 1)][k] + pm[3 * a + 1] * t.b[3 * (j - 1) + 1][k] +
+                          pm[3 * a + 2] * t.b[3 * (j - 1) + 2][k];
+        t.f[3 * j + a][k] = fj;
+        sum += fj;
+      }
+      t.f[a][k] = -sum;
     }
-    const Eigen::Matrix3d r = rotation_of(f);
-    rot_[ti] = r;
-    kernel_.set_rotation(std::uint32_t(ti), r);  // no two threads write the same slot
-  });
+    for (int a = 0; a < 3; ++a) {
+      double sum = 0;
+      for (int j = 1; j < 4; ++j) {
+        const double cj = s * (r[3 * a] * t.b[3 * (j - 1)][k] + r[3 * a + 1] * t.b[3 * (j - 1) + 1][k] +
+                               r[3 * a + 2] * t.b[3 * (j - 1) + 2][k]);
+        t.c[3 * j + a][k] = cj;
+        sum += cj;
+      }
+      t.c[a][k] = -sum;  // grad N_0 = -(grad N_1 + grad N_2 + grad N_3)
+    }
+  }
+}
+
+}  // namespace
+
+// Every tet from scratch, then every vertex from its incident tets.
+void FemModel::update_rotations_exact(const Eigen::VectorXd& u) {
+  update_rotation_packets(u, true);
   parallel_range(vertex_capacity_, [&](std::size_t v) { compute_vertex(std::uint32_t(v)); });
+}
+
+// Newton steps from the stored quaternions, then the diagonal blocks from the corner terms
+// (slots and the rotation-free part are current since the last apply()).
+void FemModel::update_rotations_warm(const Eigen::VectorXd& u) {
+  update_rotation_packets(u, false);
+  parallel_range(vertex_capacity_, [&](std::size_t v) { vertex_block(std::uint32_t(v)); });
+}
+
+// Packets of kLanes consecutive tet ids, in parallel: gather, F, the rotation (warm-started
+// Newton steps, vectorized across the packet, and the exact decomposition for lanes that did not
+// converge; or the exact one for all), the corner terms, scatter.
+void FemModel::update_rotation_packets(const Eigen::VectorXd& u, bool exact) {
+  const std::size_t packets = (tet_capacity_ + kLanes - 1) / kLanes;
+  std::atomic<std::size_t> fallbacks{0};
+  std::atomic<int> most_steps{0};
+  const double* up = u.data();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, packets, 64), [&](const tbb::blocked_range<std::size_t>& range) {
+    RotationLanes l;
+    TetLanes t;
+    bool live[kLanes];
+    std::size_t polar = 0;
+    int steps = 0;
+    for (std::size_t p = range.begin(); p != range.end(); ++p) {
+      for (std::size_t k = 0; k < kLanes; ++k) {
+        const std::size_t ti = p * kLanes + k;
+        live[k] = ti < tet_capacity_ && alive_[ti];
+        Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+        double check = 0;
+        if (live[k]) {
+          const auto& v = verts_[ti];
+          const double* u0 = up + 3 * std::size_t(v[0]);
+          for (int j = 0; j < 3; ++j) {
+            const double* uj = up + 3 * std::size_t(v[j + 1]);
+            for (int c = 0; c < 3; ++c) check += t.d[3 * c + j][k] = uj[c] - u0[c];
+          }
+          const Eigen::Matrix3d& bm = bm_[ti];
+          for (int i = 0; i < 9; ++i) t.b[i][k] = bm(i / 3, i % 3);
+          t.vmu[k] = vol_[ti] * mu_[ti];
+          t.vlam[k] = vol_[ti] * lambda_[ti];
+          q = quat_[ti];
+        }
+        if (!live[k] || !std::isfinite(check)) {  // F = I and R = I (what a NaN displacement gets)
+          for (int i = 0; i < 9; ++i) t.d[i][k] = 0;
+          q = Eigen::Quaterniond::Identity();
+          if (!live[k])
+            for (int i = 0; i < 9; ++i) t.b[i][k] = 0;
+          if (!live[k]) t.vmu[k] = t.vlam[k] = 0;
+        }
+        l.q[0][k] = q.w(), l.q[1][k] = q.x(), l.q[2][k] = q.y(), l.q[3][k] = q.z();
+      }
+      deformation_gradients(t, l);
+      if (!exact) steps = std::max(steps, refine_rotations(l, refinement_.max_steps, refinement_.tolerance));
+      for (std::size_t k = 0; k < kLanes; ++k) {
+        if (!live[k] || (!exact && l.step[k] <= refinement_.tolerance)) continue;
+        Eigen::Matrix3d f;
+        for (int i = 0; i < 9; ++i) f(i / 3, i % 3) = l.f[i][k];
+        const Eigen::Quaterniond q = Eigen::Quaterniond(polar_rotation(f)).normalized();
+        l.q[0][k] = q.w(), l.q[1][k] = q.x(), l.q[2][k] = q.y(), l.q[3][k] = q.z();
+        ++polar;
+      }
+      corner_terms(l, t);
+      for (std::size_t k = 0; k < kLanes; ++k) {
+        if (!live[k]) continue;
+        const std::uint32_t ti = std::uint32_t(p * kLanes + k);
+        const Eigen::Quaterniond q(l.q[0][k], l.q[1][k], l.q[2][k], l.q[3][k]);
+        quat_[ti] = q;
+        for (int j = 0; j < 4; ++j)
+          corner_[corner_at_[4 * std::size_t(ti) + j]] << t.c[3 * j][k], t.f[3 * j][k], t.c[3 * j + 1][k],
+              t.f[3 * j + 1][k], t.c[3 * j + 2][k], t.f[3 * j + 2][k];
+        kernel_.set_rotation(ti, q);  // no two threads write the same slot
+      }
+    }
+    fallbacks += polar;
+    int prev = most_steps.load();
+    while (prev < steps && !most_steps.compare_exchange_weak(prev, steps)) {
+    }
+  });
+  rotation_stats_ = {mesh_->num_tets(), fallbacks.load(), most_steps.load()};
 }
 
 std::vector<double> FemModel::von_mises(const Eigen::VectorXd& u) const {
   std::vector<double> out(tet_capacity_, 0.0);
   parallel_range(tet_capacity_, [&](std::size_t ti) {
-    if (alive_[ti]) out[ti] = von_mises_of(tet_stress(std::uint32_t(ti), u, true));
+    if (alive_[ti]) out[ti] = von_mises_of(tet_stress(std::uint32_t(ti), u, true, quat_[ti].toRotationMatrix()));
   });
   return out;
+}
+
+FemElements FemModel::elements() const {
+  FemElements e{alive_, verts_, bm_, {}, vol_, mu_, lambda_};
+  e.rot.resize(quat_.size());
+  for (std::size_t t = 0; t < quat_.size(); ++t) e.rot[t] = quat_[t].toRotationMatrix();
+  return e;
 }
 
 Eigen::SparseMatrix<double> FemModel::assemble() const {
@@ -342,10 +496,11 @@ Eigen::SparseMatrix<double> FemModel::assemble() const {
     for (TetId t : mesh_->incident_tets(VertexId(std::uint32_t(vi)))) {
       const std::uint32_t ti = t.idx();
       const auto& tv = verts_[ti];
+      const Eigen::Matrix3d r = quat_[ti].toRotationMatrix();
       int i = 0;
       while (tv[i] != vi) ++i;
       for (int j = 0; j < 4; ++j) {
-        const Eigen::Matrix3d blk = element_block(bm_[ti], vol_[ti], mu_[ti], lambda_[ti], rot_[ti], i, j);
+        const Eigen::Matrix3d blk = element_block(bm_[ti], vol_[ti], mu_[ti], lambda_[ti], r, i, j);
         const std::size_t c = std::size_t(std::lower_bound(nb.begin(), nb.end(), tv[j]) - nb.begin());
         for (int a = 0; a < 3; ++a)
           for (int b = 0; b < 3; ++b) val[start[vi] + a * per_row + std::int64_t(3 * c + b)] += blk(a, b);

@@ -19,7 +19,10 @@
 // F = I + H_t(u), refreshed by update_rotations(u); with R fixed, K_R = R K R^T and the
 // internal force is f_int(u) = -(K_R u - b_R) (see rotation_rhs). Inverted elements (det F <= 0)
 // get the closest proper rotation (the SVD column of the smallest singular value is flipped),
-// never NaN. For Linear, R = I and b_R = 0.
+// never NaN (sim/rotation_extraction.h). Each frame's rotations are Newton steps from the
+// previous frame's (kept as quaternions), the exact decomposition where they do not converge;
+// the diagonal blocks and b_R are then per-vertex sums of per-corner terms (the rotation-free
+// part of each vertex's block is kept from the last apply()). For Linear, R = I and b_R = 0.
 #include <cstdint>
 #include <vector>
 
@@ -29,6 +32,7 @@
 #include "mesh/tet_mesh.h"
 #include "sim/linear_operator.h"
 #include "sim/material.h"
+#include "sim/rotation_extraction.h"
 #include "sim/stiffness_kernel.h"
 
 namespace incise {
@@ -41,7 +45,8 @@ Eigen::Matrix3d element_block(const Eigen::Matrix3d& bm, double vol, double mu, 
                               int i, int j);
 
 // A copy of the per-tet data K depends on (by TetId, dead slots flagged), for work done off
-// the frame thread, such as a background factorization. Taking it is a memcpy of the arrays.
+// the frame thread, such as a background factorization. Taking it copies the arrays (the
+// rotations rebuilt from their quaternions).
 struct FemElements {
   std::vector<std::uint8_t> alive;
   std::vector<std::array<std::uint32_t, 4>> verts;
@@ -53,6 +58,13 @@ struct FemElements {
 };
 
 // Work done by local updates (counted, not timed, so tests can check locality).
+// The last update_rotations(): how many tets it refreshed and how many of them needed the exact
+// decomposition (the warm-started iteration did not converge, or the exact path was chosen).
+struct RotationStats {
+  std::size_t tets = 0, exact = 0;
+  int max_steps = 0;  // Newton steps of the slowest packet
+};
+
 struct FemWork {
   std::uint64_t updates = 0;           // apply() calls
   std::uint64_t tets_recomputed = 0;   // per-tet precomputations
@@ -93,8 +105,14 @@ public:
   // Corotational: per-tet rotations from displacement u (O(mesh), parallel); also refreshes
   // the diagonal. No-op for Linear.
   void update_rotations(const Eigen::VectorXd& u);
+  // Off: every tet's rotation from scratch (polar_rotation) and every vertex recomputed from its
+  // incident tets, the path before warm starts (benchmarks and tests compare the two).
+  void set_warm_started_rotations(bool on) { warm_rotations_ = on; }
+  void set_rotation_refinement(const RotationRefinement& r) { refinement_ = r; }
+  const RotationStats& rotation_stats() const { return rotation_stats_; }
   // b_R = sum_t V R sigma(sym(I - R^T)) g: the right-hand side term of the linearized
-  // corotational force (zero for Linear). Adds into b.
+  // corotational force (zero for Linear). Adds into b: O(vertices), it is summed by
+  // update_rotations (and apply()) with the diagonal.
   void add_rotation_rhs(Eigen::VectorXd& b) const;
   // f_int(u) with the current rotations (call update_rotations(u) first for corotational).
   void internal_forces(const Eigen::VectorXd& u, Eigen::VectorXd& f) const;
@@ -104,18 +122,23 @@ public:
   // The assembled K (K_R) as a sparse matrix of num_dofs() rows; O(mesh). The assembled
   // backend and the direct solver use it.
   Eigen::SparseMatrix<double> assemble() const;
-  FemElements elements() const { return {alive_, verts_, bm_, rot_, vol_, mu_, lambda_}; }
+  FemElements elements() const;
 
   // Per-tet access (tests, benchmarks).
   bool tet_alive(TetId t) const { return t.idx() < alive_.size() && alive_[t.idx()]; }
   double tet_volume(TetId t) const { return vol_[t.idx()]; }
-  const Eigen::Matrix3d& rotation(TetId t) const { return rot_[t.idx()]; }
+  Eigen::Matrix3d rotation(TetId t) const { return quat_[t.idx()].toRotationMatrix(); }
 
 private:
   void grow();
   void compute_tet(std::uint32_t t);
-  void compute_vertex(std::uint32_t v);  // diagonal and mass from incident tets
-  Eigen::Matrix3d tet_stress(std::uint32_t t, const Eigen::VectorXd& x, bool subtract_rotation) const;
+  void compute_vertex(std::uint32_t v);  // corner slots, mass, diagonal from incident tets
+  void vertex_block(std::uint32_t v);    // the diagonal block from the corner terms
+  void update_rotations_exact(const Eigen::VectorXd& u);
+  void update_rotations_warm(const Eigen::VectorXd& u);
+  void update_rotation_packets(const Eigen::VectorXd& u, bool exact);
+  Eigen::Matrix3d tet_stress(std::uint32_t t, const Eigen::VectorXd& x, bool subtract_rotation,
+                             const Eigen::Matrix3d& r) const;  // r: the tet's rotation
   void gather(Eigen::VectorXd& y, bool accumulate) const;
 
   const TetMesh* mesh_;
@@ -128,7 +151,22 @@ private:
   std::vector<std::array<std::uint32_t, 4>> verts_;
   std::vector<Eigen::Matrix3d> bm_;   // inverse rest edge matrix: row j-1 is grad N_j (j=1..3)
   std::vector<double> vol_, mu_, lambda_, rho_;
-  std::vector<Eigen::Matrix3d> rot_;  // identity for Linear
+  // R as a unit quaternion (identity for Linear): 32 bytes a tet to write each frame instead of
+  // 72, the next frame's start; the passes that need R rebuild it (a few flops).
+  std::vector<Eigen::Quaterniond> quat_;
+  // Per tet corner, what depends on R: column 0 c = sqrt(V (mu + lambda)) R grad N_j, so block
+  // (j, j) of the element matrix is V mu |grad N_j|^2 I + c c^T (the first term is constant:
+  // iso_); column 1 the corner's force in b_R. Stored vertex by vertex, so the per-vertex sums
+  // read them in order (a gather by tet missed the cache on nearly every corner): vertex v's
+  // corners from corner_begin_[v] (room for corner_room_[v]); the per-tet pass writes corner
+  // slot 4t+j at corner_at_[4t+j]. A vertex whose corners outgrow their room moves to the end
+  // (apply() stays local; the hole is left).
+  using Corner = Eigen::Matrix<double, 3, 2>;
+  std::vector<Corner> corner_;
+  std::vector<std::uint32_t> corner_at_;  // by corner slot 4t+j
+  bool warm_rotations_ = true;
+  RotationRefinement refinement_;
+  RotationStats rotation_stats_;
   mutable std::vector<Eigen::Matrix<double, 3, 4>> force_;  // pass-1 scratch: per-corner force
 
   // The product's own copy of the per-tet data, coloured for a conflict-free scatter.
@@ -141,6 +179,9 @@ private:
   // Per unknown.
   Eigen::VectorXd diag_, mass_;
   std::vector<Eigen::Matrix3d> blocks_;  // per vertex
+  std::vector<double> iso_;              // per vertex: sum of V mu |grad N|^2 over its corners
+  std::vector<std::uint32_t> corner_begin_, corner_room_;  // per vertex, in corner_
+  Eigen::VectorXd rhs_;  // b_R, summed per vertex with the diagonal blocks
   FemWork work_;
 };
 

@@ -8,6 +8,8 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "sim/simd_clones.h"
+
 #if defined(__GNUC__) && defined(__x86_64__)
 #include <immintrin.h>
 #define INCISE_KERNEL_AVX2 1
@@ -20,13 +22,6 @@ namespace {
 constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 constexpr std::size_t kSerialBelow = 8000;  // tets: below this, threads cost more than they give
 constexpr std::size_t kLanes = StiffnessKernel::kLanes;
-
-// An AVX2+FMA clone next to the baseline one, picked at load time by the CPU (GCC on x86-64).
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__gnu_linux__)
-#define INCISE_SIMD_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
-#else
-#define INCISE_SIMD_CLONES
-#endif
 
 // Per packet scratch: gathered edge differences in, corner forces out.
 struct Scratch {
@@ -347,11 +342,13 @@ void StiffnessKernel::remove(std::uint32_t t) {
 }
 
 void StiffnessKernel::set_rotation(std::uint32_t t, const Eigen::Matrix3d& r) {
+  set_rotation(t, Eigen::Quaterniond(r).normalized());  // r is a proper rotation
+}
+
+void StiffnessKernel::set_rotation(std::uint32_t t, const Eigen::Quaterniond& q) {
   if (!corot_ || t >= block_.size() || block_[t] == kNone) return;
   Block& blk = blocks_[block_[t]];
   const std::size_t s = slot_[t];
-  Eigen::Quaterniond q(r);  // r is a proper rotation (FemModel's polar decomposition)
-  q.normalize();
   Rotations& dst = blk.rotations[s / kLanes];
   dst.q[0][s % kLanes] = q.w();
   dst.q[1][s % kLanes] = q.x();

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "mesh/tet_mesh.h"
 
@@ -38,6 +39,7 @@ public:
            double vmu, double vlambda);
   void remove(std::uint32_t t);  // no-op for a tet not in the kernel
   void set_rotation(std::uint32_t t, const Eigen::Matrix3d& r);
+  void set_rotation(std::uint32_t t, const Eigen::Quaterniond& q);  // unit
 
   // y = K x over `rows` unknowns (y is resized and overwritten). Not reentrant: one kernel
   // multiplies for one caller at a time (it keeps padded copies of x and y).

@@ -1,0 +1,275 @@
+// Warm-started rotation extraction (sim/rotation_extraction.h) against the exact polar
+// decomposition: random deformations with large rotations, near-inverted and inverted
+// elements, sequences of frames, and the corotational model and simulation built on it.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <random>
+
+#include "mesh/generate.h"
+#include "sim/fem_model.h"
+#include "sim/fem_simulation.h"
+#include "sim/rotation_extraction.h"
+#include "tests/sim/fem_test_util.h"
+
+using namespace incise;
+using namespace incise::testing;
+
+namespace {
+
+Eigen::Quaterniond random_rotation(std::mt19937& rng) {
+  std::normal_distribution<double> nd;
+  return Eigen::Quaterniond(nd(rng), nd(rng), nd(rng), nd(rng)).normalized();
+}
+
+// A rotation by `angle` about a random axis.
+Eigen::Quaterniond random_turn(std::mt19937& rng, double angle) {
+  std::normal_distribution<double> nd;
+  return Eigen::Quaterniond(Eigen::AngleAxisd(angle, Eigen::Vector3d(nd(rng), nd(rng), nd(rng)).normalized()));
+}
+
+// F = Q U diag(s) V^T: a rotation Q times a stretch with singular values s (a negative one
+// inverts the element).
+Eigen::Matrix3d deformation(std::mt19937& rng, const Eigen::Vector3d& s) {
+  const Eigen::Matrix3d q = random_rotation(rng).toRotationMatrix(), uu = random_rotation(rng).toRotationMatrix();
+  return q * uu * s.asDiagonal() * uu.transpose();
+}
+
+double angle_between(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  return Eigen::AngleAxisd(a.transpose() * b).angle();
+}
+
+bool proper_rotation(const Eigen::Matrix3d& r) {
+  return r.allFinite() && (r.transpose() * r - Eigen::Matrix3d::Identity()).norm() < 1e-12 &&
+         std::abs(r.determinant() - 1) < 1e-12;
+}
+
+// Runs the lane iteration alone (no fallback) on one F from `start`: converged, and the result.
+std::pair<bool, Eigen::Matrix3d> iterate(const Eigen::Matrix3d& f, const Eigen::Quaterniond& start, int steps = 8) {
+  RotationLanes l;
+  for (std::size_t k = 0; k < RotationLanes::kLanes; ++k) {
+    for (int i = 0; i < 9; ++i) l.f[i][k] = f(i / 3, i % 3);
+    l.q[0][k] = start.w(), l.q[1][k] = start.x(), l.q[2][k] = start.y(), l.q[3][k] = start.z();
+  }
+  refine_rotations(l, steps, 1e-6);
+  const Eigen::Quaterniond q(l.q[0][0], l.q[1][0], l.q[2][0], l.q[3][0]);
+  return {l.step[0] <= 1e-6, q.toRotationMatrix()};
+}
+
+}  // namespace
+
+TEST_CASE("warm-started rotations agree with the exact polar decomposition on random deformations",
+          "[fem][rotation]") {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> stretch(0.3, 3.0), unit(0, 1);
+  struct Family {
+    const char* name;
+    std::function<Eigen::Vector3d()> sigma;
+  };
+  const std::vector<Family> families{
+      {"well-shaped", [&] { return Eigen::Vector3d(stretch(rng), stretch(rng), stretch(rng)); }},
+      {"near-inverted", [&] { return Eigen::Vector3d(stretch(rng), stretch(rng), 1e-3 + 0.01 * unit(rng)); }},
+      // Inverted with the flipped singular value well below the others: the closest proper
+      // rotation is well determined.
+      {"inverted", [&] {
+         const double a = 0.5 + unit(rng), b = 0.5 + unit(rng);
+         return Eigen::Vector3d(a, b, -0.4 * std::min(a, b) * unit(rng));
+       }},
+  };
+  for (const Family& fam : families) {
+    int converged = 0, cases = 0;
+    double worst = 0;
+    for (int i = 0; i < 400; ++i) {
+      const Eigen::Matrix3d f = deformation(rng, fam.sigma());
+      const Eigen::Matrix3d exact = polar_rotation(f);
+      REQUIRE(proper_rotation(exact));
+      // Starts: near the answer (a previous frame), far from it, and the identity (a new tet).
+      for (double off : {1e-3, 0.05, 0.5, -1.0}) {
+        const Eigen::Quaterniond start =
+            off < 0 ? Eigen::Quaterniond::Identity() : Eigen::Quaterniond(exact) * random_turn(rng, off);
+        bool used_exact = false;
+        const Eigen::Matrix3d r = refine_rotation(f, start, {}, &used_exact).toRotationMatrix();
+        INFO(fam.name << " case " << i << " start offset " << off << ": F =\n" << f);
+        CHECK(proper_rotation(r));
+        worst = std::max(worst, angle_between(r, exact));
+        // The iteration alone (no fallback) converges to the same rotation wherever it says so.
+        const auto [ok, it] = iterate(f, start);
+        if (ok) CHECK(angle_between(it, exact) < 1e-9);
+        ++cases;
+        converged += ok;
+      }
+    }
+    INFO(fam.name << ": " << converged << " of " << cases << " converged without the fallback");
+    CHECK(worst < 1e-9);
+    // Warm starts (two of the four starts) converge on their own nearly always.
+    CHECK(converged >= cases / 2);
+  }
+}
+
+TEST_CASE("rotation extraction of ambiguous and degenerate deformations is a proper rotation maximizing tr(R^T F)",
+          "[fem][rotation]") {
+  std::mt19937 rng(3);
+  std::vector<Eigen::Matrix3d> fs{Eigen::Matrix3d::Zero(), Eigen::Matrix3d::Identity() * 1e-300,
+                                  deformation(rng, Eigen::Vector3d(1, 0, 0)),           // a line
+                                  deformation(rng, Eigen::Vector3d(1, 1, 0)),           // flat
+                                  deformation(rng, Eigen::Vector3d(1, 0.5, -0.5)),      // inverted, ambiguous
+                                  deformation(rng, Eigen::Vector3d(-1, -1, -1)),        // point-reflected
+                                  Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix()};
+  for (const Eigen::Matrix3d& f : fs) {
+    for (const Eigen::Quaterniond& start : {Eigen::Quaterniond::Identity(), random_rotation(rng)}) {
+      const Eigen::Matrix3d r = refine_rotation(f, start).toRotationMatrix(), exact = polar_rotation(f);
+      INFO("F =\n" << f);
+      CHECK(proper_rotation(r));
+      CHECK((r.transpose() * f).trace() >= (exact.transpose() * f).trace() - 1e-9 * (1 + f.norm()));
+    }
+  }
+}
+
+TEST_CASE("the warm-started iteration tracks the exact rotation over a sequence of frames", "[fem][rotation]") {
+  std::mt19937 rng(8);
+  for (int seq = 0; seq < 20; ++seq) {
+    // A smoothly turning, stretching and at the end inverting element, 200 frames.
+    const Eigen::Vector3d axis = random_rotation(rng).vec().normalized();
+    const Eigen::Matrix3d u = random_rotation(rng).toRotationMatrix();
+    const double speed = 0.01 + 0.05 * seq / 20.0;  // radians per frame
+    Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+    int fallbacks = 0;
+    for (int n = 0; n < 200; ++n) {
+      const double t = n / 200.0;
+      const Eigen::Vector3d s(1 + 0.5 * std::sin(7 * t), 1 - 0.4 * t, 1 - 1.3 * t * t);  // s3 < 0 after t ~ 0.88
+      const Eigen::Matrix3d f =
+          Eigen::AngleAxisd(speed * n, axis).toRotationMatrix() * u * s.asDiagonal() * u.transpose();
+      bool used_exact = false;
+      q = refine_rotation(f, q, {}, &used_exact);
+      fallbacks += used_exact;
+      INFO("sequence " << seq << " frame " << n);
+      CHECK(angle_between(q.toRotationMatrix(), polar_rotation(f)) < 1e-9);
+    }
+    CHECK(fallbacks <= 2);  // s3 crossing zero: the rotation jumps there
+  }
+}
+
+TEST_CASE("warm-started and exact rotation updates give the same corotational model", "[fem][rotation]") {
+  TetMesh m = make_box(Vec3(3, 1, 1), {9, 3, 3});
+  jitter(m, 0.2, 4);
+  FemModel warm(m, table(1e6, 0.3), FemKind::Corotational), exact(m, table(1e6, 0.3), FemKind::Corotational);
+  exact.set_warm_started_rotations(false);
+  std::mt19937 rng(2);
+  std::normal_distribution<double> nd;
+  Eigen::VectorXd x(warm.rows()), yw, ye;
+  for (Eigen::Index i = 0; i < x.size(); ++i) x[i] = nd(rng);
+  // Twisted about x by up to 3 turns, bent, and at the end crushed (inverted elements).
+  for (int n = 0; n <= 60; ++n) {
+    const double t = n / 60.0;
+    Eigen::VectorXd u = Eigen::VectorXd::Zero(warm.rows());
+    for (VertexId v : m.vertices()) {
+      const Vec3 p = m.rest(v);
+      const Eigen::Matrix3d twist = Eigen::AngleAxisd(6 * M_PI * t * p.x() / 3, Vec3::UnitX()).toRotationMatrix();
+      Vec3 d = twist * (p - Vec3(0, 0.5, 0.5)) + Vec3(0, 0.5, 0.5) - p + Vec3(0, 0, 0.3 * t * p.x() * p.x());
+      if (n > 50) d.x() -= (n - 50) * 0.25 * p.x();  // crushed along x past inversion
+      u.segment<3>(3 * v.idx()) = d;
+    }
+    warm.update_rotations(u);
+    exact.update_rotations(u);
+    INFO("frame " << n);
+    double worst = 0;
+    for (TetId t : m.tets()) {
+      CHECK(proper_rotation(warm.rotation(t)));
+      worst = std::max(worst, (warm.rotation(t) - exact.rotation(t)).norm());
+    }
+    CHECK(worst < 1e-9);
+    CHECK((warm.diagonal() - exact.diagonal()).norm() <= 1e-12 * exact.diagonal().norm());
+    for (VertexId v : m.vertices())
+      CHECK((warm.diagonal_blocks()[v.idx()] - exact.diagonal_blocks()[v.idx()]).norm() <=
+            1e-11 * exact.diagonal_blocks()[v.idx()].norm());
+    warm.multiply(x, yw);
+    exact.multiply(x, ye);
+    CHECK((yw - ye).norm() <= 1e-10 * ye.norm());
+    // b_R (summed per vertex in the rotation pass) against the per-tet formula.
+    Eigen::VectorXd bw = Eigen::VectorXd::Zero(warm.rows()), be = Eigen::VectorXd::Zero(warm.rows());
+    warm.add_rotation_rhs(bw);
+    for (TetId t : m.tets()) {
+      const Eigen::Matrix3d r = exact.rotation(t), h = Eigen::Matrix3d::Identity() - r.transpose();
+      const double mu = Material{}.mu(), lambda = Material{}.lambda();
+      const Eigen::Matrix3d eps = 0.5 * (h + h.transpose());
+      const Eigen::Matrix3d p = exact.tet_volume(t) * r * (2 * mu * eps + lambda * eps.trace() * Eigen::Matrix3d::Identity());
+      const auto& tv = m.tet_vertices(t);
+      Eigen::Matrix3d dm;
+      for (int j = 0; j < 3; ++j) dm.col(j) = m.rest(tv[j + 1]) - m.rest(tv[0]);
+      const Eigen::Matrix3d g = dm.inverse();  // row j: grad N_{j+1}
+      for (int j = 0; j < 3; ++j) {
+        be.segment<3>(3 * tv[j + 1].idx()) += p * g.row(j).transpose();
+        be.segment<3>(3 * tv[0].idx()) -= p * g.row(j).transpose();
+      }
+    }
+    CHECK((bw - be).norm() <= 1e-9 * (1 + be.norm()));
+    if (n > 0 && n < 50) CHECK(warm.rotation_stats().exact == 0);  // smooth frames: no fallback
+  }
+}
+
+TEST_CASE("a corotational simulation gives the same result with warm-started and exact rotations", "[fem][rotation]") {
+  TetMesh m = make_box(Vec3(4, 1, 1), {16, 4, 4});
+  auto run = [&](bool warm) {
+    FemSimulationOptions opt;
+    opt.kind = FemKind::Corotational;
+    opt.cg.tolerance = 1e-10;
+    opt.cg.preconditioner = Preconditioner::BlockJacobi;
+    opt.nonlinear_iterations = 2;
+    FemSimulation sim(m, table(1e5, 0.3), opt);
+    sim.model().set_warm_started_rotations(warm);
+    std::vector<VertexId> tip;
+    for (VertexId v : m.vertices()) {
+      if (m.rest(v).x() < 1e-9) sim.fix(v);
+      if (m.rest(v).x() > 4 - 1e-9) tip.push_back(v);
+    }
+    for (int frame = 1; frame <= 30; ++frame) {  // the tip swept down and around: large rotations
+      const double a = 0.05 * frame;
+      for (VertexId v : tip) sim.prescribe(v, Vec3(-4 * (1 - std::cos(a)), 0, -4 * std::sin(a)));
+      sim.step();
+    }
+    return Eigen::VectorXd(sim.displacement());
+  };
+  const Eigen::VectorXd uw = run(true), ue = run(false);
+  CHECK((uw - ue).norm() <= 1e-7 * ue.norm());
+}
+
+TEST_CASE("tets added by edits start from the identity and reach the exact rotation; the others stay warm",
+          "[fem][rotation][local]") {
+  TetMesh m = make_box(Vec3(2, 1, 1), {8, 4, 4});
+  jitter(m, 0.2, 6);
+  m.discard_change();
+  const MaterialTable mats = table(1e6, 0.3);
+  FemModel model(m, mats, FemKind::Corotational);
+  // Rigidly turned by 2.5 rad and slightly stretched: from the identity, the Newton steps cannot
+  // reach it (M is not positive definite there), so new tets need the exact decomposition.
+  const Eigen::Matrix3d q = Eigen::AngleAxisd(2.5, Vec3(1, 2, 3).normalized()).toRotationMatrix();
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(model.rows());
+  for (VertexId v : m.vertices()) {
+    const Vec3 p = m.rest(v);
+    u.segment<3>(3 * v.idx()) = q * Vec3(1.05 * p.x(), p.y(), p.z()) - p;
+  }
+  model.update_rotations(u);
+  model.update_rotations(u);  // warm: nothing left to refine
+  CHECK(model.rotation_stats().exact == 0);
+  std::mt19937 rng(12);
+  int edits = 0;
+  while (edits < 20) edits += random_edit(m, rng, true);
+  const TopologyChange change = m.take_change();
+  model.apply(change);
+  interpolate_added_vertices(change, model.vertex_slots(), u);
+  model.update_rotations(u);
+  const std::size_t fresh = change.added_tets.size();
+  INFO(fresh << " tets added, " << model.rotation_stats().exact << " exact");
+  CHECK(model.rotation_stats().exact > 0);
+  CHECK(model.rotation_stats().exact <= fresh);  // only the new tets
+  FemModel scratch(m, mats, FemKind::Corotational);
+  scratch.set_warm_started_rotations(false);
+  Eigen::VectorXd us = u.head(scratch.rows());
+  scratch.update_rotations(us);
+  double worst = 0;
+  for (TetId t : m.tets()) worst = std::max(worst, (model.rotation(t) - scratch.rotation(t)).norm());
+  CHECK(worst < 1e-9);
+  for (VertexId v : m.vertices())
+    CHECK((model.diagonal_blocks()[v.idx()] - scratch.diagonal_blocks()[v.idx()]).norm() <=
+          1e-11 * scratch.diagonal_blocks()[v.idx()].norm());
+}
