@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <sstream>
 #include <fstream>
@@ -330,7 +331,7 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
               "frames 10-50, tolerance 1e-4; over frames 10-50: frame = cut + step (ms), its parts (median), CG "
               "iterations median/max, worst residual, factorizations started while cutting show as a busy core\n",
               organ_file.c_str(), organ.num_tets());
-  std::printf("  %-22s %8s %8s %8s %8s %8s %8s %10s %10s\n", "preconditioner", "median", "p95", "max", "cut",
+  std::printf("  %-28s %8s %8s %8s %8s %8s %8s %10s %10s\n", "preconditioner", "median", "p95", "max", "cut",
               "setup", "solve", "iterations", "residual");
   struct Config {
     const char* name;
@@ -338,7 +339,7 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
     int settle;
   };
   const Config configs[] = {{"cholesky (stale factor)", Preconditioner::Cholesky, 0},
-                            {"cholesky settle 3", Preconditioner::Cholesky, 3},
+                            {"cholesky settle 3 (default)", Preconditioner::Cholesky, 3},
                             {"block-jacobi", Preconditioner::BlockJacobi, 0},
                             {"jacobi", Preconditioner::Jacobi, 0}};
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "incise-bench-cut-scene";
@@ -351,6 +352,9 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
     ro.out_dir = dir.string();
     ro.cut_hook = make_scene_cut_hook(sc);
     run_scene(sc, ro);
+    if (std::getenv("INCISE_BENCH_KEEP"))  // inspect a configuration's per-frame stats
+      std::filesystem::copy_file(dir / "stats.csv", std::string(std::getenv("INCISE_BENCH_KEEP")) + "-" +
+                                 std::to_string(&cfg - configs) + ".csv", std::filesystem::copy_options::overwrite_existing);
     // stats.csv: frame,...,frame_ms,setup_ms,cheaper_preconditioner,cut_ms,tets
     std::ifstream in(dir / "stats.csv");
     std::string line;
@@ -380,7 +384,7 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
       std::sort(x.begin(), x.end());
       return x[std::min(x.size() - 1, std::size_t(q * double(x.size() - 1) + 0.5))];
     };
-    std::printf("  %-22s %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %5.0f/%-4.0f %10.1e\n", cfg.name, pct(frame, 0.5),
+    std::printf("  %-28s %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %5.0f/%-4.0f %10.1e\n", cfg.name, pct(frame, 0.5),
                 pct(frame, 0.95), pct(frame, 1.0), pct(cutms, 0.5), pct(setup, 0.5), pct(solve, 0.5), pct(iters, 0.5),
                 pct(iters, 1.0), worst);
     csv.row("cut-scene", cfg.name, organ.num_tets(), pct(frame, 0.5), pct(frame, 0.95), pct(frame, 1.0), pct(cutms, 0.5),
