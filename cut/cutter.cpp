@@ -108,8 +108,8 @@ void Cutter::remember_fresh(const CutStep& step, const SeparationResult& sep, co
 }
 
 SeparationResult Cutter::open_faces(const CutStep& step, std::span<const CutFacePair> faces, CutStepReport& rep,
-                                    const PositionFn& positions) {
-  SeparationResult sep = separate(*mesh_, faces);
+                                    const PositionFn& positions, bool split_chords) {
+  SeparationResult sep = separate(*mesh_, faces, split_chords);
   remember_fresh(step, sep, positions);
   add_separation(rep, sep);
   rep.tets_cut += step.tets_cut();
@@ -386,7 +386,7 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
     step.collect(local, front_, scan);
     step.split_crossings(sp);
     const std::vector<CutFacePair> faces = step.cut_faces(std::span<const Piece>(&sp, 1));
-    const SeparationResult sep = open_faces(step, faces, rep, positions);
+    const SeparationResult sep = open_faces(step, faces, rep, positions, false);
     for (const SeparationResult::Split& s : sep.splits) pr.memory.side[s.mid.idx()] = 0;  // on the sheet
     for (const auto& [v, copy] : sep.duplicates) {
       auto it = pr.memory.side.find(v.idx());

@@ -293,7 +293,7 @@ std::vector<CutFacePair> refind_faces(const TetMesh& mesh, const std::vector<std
   return out;
 }
 
-SeparationResult separate(TetMesh& mesh, std::span<const CutFacePair> all_faces) {
+SeparationResult separate(TetMesh& mesh, std::span<const CutFacePair> all_faces, bool split_chords) {
   SeparationResult r;
   // A cut face opens only if one of its vertices ends up with its two tets in different star
   // components; faces along the front (all three vertices undivided) stay closed. The pinch
@@ -331,7 +331,7 @@ SeparationResult separate(TetMesh& mesh, std::span<const CutFacePair> all_faces)
         for (TetId t : comps[c]) comp_index[(std::uint64_t(v.idx()) << 32) | t.idx()] = int(c);
       comps_of[v.idx()] = std::move(comps);
     }
-    {
+    if (split_chords) {
       const auto all_t = triples(all), faces_t = triples(faces);
       const ChordSplit s = split_a_chord(mesh, faces, blocked, comps_of, unsplittable);
       if (s.mid.is_valid()) {
