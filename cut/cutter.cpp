@@ -103,12 +103,13 @@ Cutter::PositionFn Cutter::with_fresh(const PositionFn& positions) {
 void Cutter::remember_fresh(const CutStep& step, const SeparationResult& sep, const PositionFn& positions) {
   if (!positions) return;
   for (const auto& [v, x] : step.created_positions()) fresh_[v] = x;
+  for (const SeparationResult::Split& s : sep.splits) fresh_[s.mid.idx()] = 0.5 * (positions(s.a) + positions(s.b));
   for (const auto& [v, copy] : sep.duplicates) fresh_[copy.idx()] = positions(v);
 }
 
 SeparationResult Cutter::open_faces(const CutStep& step, std::span<const CutFacePair> faces, CutStepReport& rep,
-                                    const PositionFn& positions) {
-  SeparationResult sep = separate(*mesh_, faces);
+                                    const PositionFn& positions, bool split_chords) {
+  SeparationResult sep = separate(*mesh_, faces, split_chords);
   remember_fresh(step, sep, positions);
   add_separation(rep, sep);
   rep.tets_cut += step.tets_cut();
@@ -385,7 +386,8 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
     step.collect(local, front_, scan);
     step.split_crossings(sp);
     const std::vector<CutFacePair> faces = step.cut_faces(std::span<const Piece>(&sp, 1));
-    const SeparationResult sep = open_faces(step, faces, rep, positions);
+    const SeparationResult sep = open_faces(step, faces, rep, positions, false);
+    for (const SeparationResult::Split& s : sep.splits) pr.memory.side[s.mid.idx()] = 0;  // on the sheet
     for (const auto& [v, copy] : sep.duplicates) {
       auto it = pr.memory.side.find(v.idx());
       if (it != pr.memory.side.end()) pr.memory.side[copy.idx()] = it->second;
@@ -393,11 +395,10 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
     front_ = step.live_candidates();
     // Closed cut faces wait: those this step left closed, and earlier ones it did not list (a
     // tet beside one may have an apex whose side waits for the blade).
-    for (const CutFacePair& f : faces)
-      if (mesh_->neighbor(f.a.tet, f.a.local).is_valid()) {
-        pr.closed.push_back(f.a.tet);
-        pr.closed.push_back(f.b.tet);
-      }
+    for (const CutFacePair& f : sep.shut) {
+      pr.closed.push_back(f.a.tet);
+      pr.closed.push_back(f.b.tet);
+    }
     keep_shut(pr.closed);
     refresh_waiting(positions, front_);
     // The improvement works on what was cut; the tets still waiting (and the closed faces)

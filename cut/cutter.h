@@ -170,7 +170,7 @@ private:
   std::unordered_map<std::uint32_t, Vec3> fresh_;
   // Separates the step's cut faces and adds what it did to the report.
   cut_detail::SeparationResult open_faces(const cut_detail::CutStep& step, std::span<const cut_detail::CutFacePair> faces,
-                                          CutStepReport& rep, const PositionFn& positions);
+                                          CutStepReport& rep, const PositionFn& positions, bool split_chords = true);
   // The step's tets and its embedded front segment are where the next step continues.
   void set_front(const cut_detail::CutStep& step, const BladeSegment& front);
   // Progressive subdivision step from `from` to `to` (advance).

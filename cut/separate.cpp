@@ -1,7 +1,9 @@
 #include "cut/separate.h"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
+#include <optional>
 #include <unordered_map>
 #include <unordered_set>
 
@@ -44,6 +46,85 @@ std::vector<std::vector<TetId>> star_components(const TetMesh& mesh, VertexId v,
     }
   }
   return out;
+}
+
+// The cut face with vertices x, y, z (an interior face), both sides; nullopt when gone.
+std::optional<CutFacePair> find_face(const TetMesh& mesh, const std::array<VertexId, 3>& xyz) {
+  for (TetId t : mesh.incident_tets(xyz[0])) {
+    const int ly = mesh.local_index(t, xyz[1]), lz = mesh.local_index(t, xyz[2]);
+    if (ly < 0 || lz < 0) continue;
+    const int f = 6 - mesh.local_index(t, xyz[0]) - ly - lz;
+    const TetId n = mesh.neighbor(t, f);
+    if (!n.is_valid()) return std::nullopt;
+    for (int g = 0; g < 4; ++g)
+      if (mesh.neighbor(n, g) == t) return CutFacePair{{t, f}, {n, g}};
+    return std::nullopt;
+  }
+  return std::nullopt;
+}
+
+// The tets around edge v-w, grouped into arcs: runs of tets joined across faces of the edge
+// that are neither blocked nor boundary.
+struct EdgeArcs {
+  std::vector<TetId> ring;
+  std::vector<int> arc;
+  int arcs = 0;
+};
+EdgeArcs edge_arcs(const TetMesh& mesh, VertexId v, VertexId w, const std::unordered_set<std::uint32_t>& blocked) {
+  EdgeArcs e;
+  for (TetId t : mesh.incident_tets(v))
+    if (mesh.local_index(t, w) >= 0) e.ring.push_back(t);
+  e.arc.assign(e.ring.size(), -1);
+  for (std::size_t i = 0; i < e.ring.size(); ++i) {
+    if (e.arc[i] >= 0) continue;
+    std::vector<std::size_t> stack{i};
+    e.arc[i] = e.arcs;
+    while (!stack.empty()) {
+      const TetId t = e.ring[stack.back()];
+      stack.pop_back();
+      const int lv = mesh.local_index(t, v), lw = mesh.local_index(t, w);
+      for (int f = 0; f < 4; ++f) {
+        if (f == lv || f == lw || blocked.count(face_key(t, f))) continue;
+        const TetId n = mesh.neighbor(t, f);
+        for (std::size_t j = 0; j < e.ring.size(); ++j)
+          if (e.ring[j] == n && e.arc[j] < 0) {
+            e.arc[j] = e.arcs;
+            stack.push_back(j);
+          }
+      }
+    }
+    ++e.arcs;
+  }
+  return e;
+}
+
+// Smallest angle of triangle abc, in degrees.
+double min_angle(const Vec3& a, const Vec3& b, const Vec3& c) {
+  auto angle = [](const Vec3& p, const Vec3& q, const Vec3& r) {
+    return std::atan2((q - p).cross(r - p).norm(), (q - p).dot(r - p)) * 180 / 3.14159265358979323846;
+  };
+  return std::min({angle(a, b, c), angle(b, c, a), angle(c, a, b)});
+}
+// A chord is split only where the halves of the cut faces through it keep this angle.
+constexpr double kMinChordAngle = 10;
+
+// Whether splitting edge a-b at its midpoint gives children of clearly positive rest volume.
+bool midpoint_split_ok(const TetMesh& mesh, VertexId a, VertexId b) {
+  const Vec3 p = 0.5 * (mesh.rest(a) + mesh.rest(b));
+  for (TetId t : mesh.incident_tets(a)) {
+    if (mesh.local_index(t, b) < 0) continue;
+    const auto& tv = mesh.tet_vertices(t);
+    double l2 = 0;
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j) l2 = std::max(l2, (mesh.rest(tv[i]) - mesh.rest(tv[j])).squaredNorm());
+    const double margin = 1e-13 * l2 * std::sqrt(l2);
+    for (VertexId moved : {a, b}) {
+      std::array<Vec3, 4> x;
+      for (int i = 0; i < 4; ++i) x[i] = tv[i] == moved ? p : mesh.rest(tv[i]);
+      if (!((x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0])) > margin)) return false;
+    }
+  }
+  return true;
 }
 }  // namespace
 
@@ -137,16 +218,100 @@ std::vector<CutFacePair> drop_pinches(const TetMesh& mesh, std::span<const CutFa
   return out;
 }
 
-SeparationResult separate(TetMesh& mesh, std::span<const CutFacePair> all_faces) {
+// A chord: an edge of the cut surface whose two vertices both keep a single star component
+// (both on the rim: a corner of the blade inside the body and a vertex on each of the two
+// segments meeting there, or two rim vertices across a strip of the cut narrower than an
+// element) with cut faces on both sides of it. Opening those faces would give the edge four
+// boundary faces, so they stayed shut, which left their other vertices undivided and closed
+// their neighbours in turn (a third of a swept area on a box). Split at its midpoint, the
+// chord becomes two edges to a vertex inside the cut surface, which separates: the rim is then
+// the only place where the two sides stay joined.
+struct ChordSplit {
+  VertexId v, w, mid;  // mid invalid: no chord left
+};
+ChordSplit split_a_chord(TetMesh& mesh, std::span<const CutFacePair> faces,
+                         const std::unordered_set<std::uint32_t>& blocked,
+                         const std::unordered_map<std::uint32_t, std::vector<std::vector<TetId>>>& comps_of,
+                         std::unordered_set<std::uint64_t>& unsplittable) {
+  auto single = [&](VertexId x) {
+    auto it = comps_of.find(x.idx());
+    return it != comps_of.end() && it->second.size() == 1;
+  };
+  std::unordered_set<std::uint64_t> tried;
+  for (const CutFacePair& p : faces) {
+    const auto fv = mesh.face_vertices(p.a.tet, p.a.local);
+    for (int k = 0; k < 3; ++k) {
+      const VertexId v = fv[std::size_t(k)], w = fv[std::size_t((k + 1) % 3)];
+      if (!single(v) || !single(w)) continue;
+      const std::uint64_t key = (std::uint64_t(std::min(v.idx(), w.idx())) << 32) | std::max(v.idx(), w.idx());
+      if (unsplittable.count(key) || !tried.insert(key).second) continue;
+      if (edge_arcs(mesh, v, w, blocked).arcs < 2) continue;  // a rim edge: cut faces on one side only
+      // A face through the chord that cannot open otherwise (its third vertex on the rim too)
+      // and whose third vertex lies near the chord's line would leave a sliver half (and a flat
+      // tet beside it that no later pass repairs): that face, a sliver of little area, stays
+      // shut instead, and the faces that open do not need the split (only opening faces count
+      // around an edge, below).
+      bool thin = false;
+      for (const CutFacePair& q : faces) {
+        const auto qv = mesh.face_vertices(q.a.tet, q.a.local);
+        if (std::find(qv.begin(), qv.end(), v) == qv.end() || std::find(qv.begin(), qv.end(), w) == qv.end()) continue;
+        VertexId x;
+        for (VertexId y : qv)
+          if (y != v && y != w) x = y;
+        if (!single(x)) continue;  // a face that opens anyway: the chord must go
+        const Vec3 a = mesh.rest(v), b = mesh.rest(w), m = 0.5 * (a + b), c = mesh.rest(x);
+        thin = thin || min_angle(a, m, c) < kMinChordAngle || min_angle(m, b, c) < kMinChordAngle;
+      }
+      if (thin || !midpoint_split_ok(mesh, v, w)) {  // it stays a chord
+        unsplittable.insert(key);
+        continue;
+      }
+      return {v, w, mesh.split_edge(v, w, 0.5)};
+    }
+  }
+  return {};
+}
+
+// Finds the faces (given by their vertices) again after a chord split replaced tets; a face
+// through the chord is now its two halves.
+std::vector<CutFacePair> refind_faces(const TetMesh& mesh, const std::vector<std::array<VertexId, 3>>& triples,
+                                      const ChordSplit& s) {
+  std::vector<CutFacePair> out;
+  for (const auto& xyz : triples) {
+    const bool hv = std::find(xyz.begin(), xyz.end(), s.v) != xyz.end();
+    const bool hw = std::find(xyz.begin(), xyz.end(), s.w) != xyz.end();
+    if (hv && hw) {
+      VertexId x;
+      for (VertexId y : xyz)
+        if (y != s.v && y != s.w) x = y;
+      for (const std::array<VertexId, 3>& half : {std::array<VertexId, 3>{x, s.v, s.mid}, std::array<VertexId, 3>{x, s.mid, s.w}})
+        if (auto f = find_face(mesh, half)) out.push_back(*f);
+    } else if (auto f = find_face(mesh, xyz)) {
+      out.push_back(*f);
+    }
+  }
+  return out;
+}
+
+SeparationResult separate(TetMesh& mesh, std::span<const CutFacePair> all_faces, bool split_chords) {
   SeparationResult r;
   // A cut face opens only if one of its vertices ends up with its two tets in different star
   // components; faces along the front (all three vertices undivided) stay closed. The pinch
   // analysis must see only the faces that open, and dropping faces changes components, so the
-  // two alternate until nothing changes (faces only ever leave the set).
-  std::vector<CutFacePair> faces(all_faces.begin(), all_faces.end());
+  // two alternate until nothing changes (faces only ever leave the set; a chord split halves
+  // the faces through the chord, and chords only get fewer).
+  std::vector<CutFacePair> all(all_faces.begin(), all_faces.end());  // the input, through chord splits
+  std::vector<CutFacePair> faces = all;
   std::unordered_set<std::uint32_t> blocked;
   std::vector<VertexId> verts;
   std::unordered_map<std::uint32_t, std::vector<std::vector<TetId>>> comps_of;
+  std::unordered_set<std::uint64_t> unsplittable;
+  auto triples = [&](const std::vector<CutFacePair>& list) {
+    std::vector<std::array<VertexId, 3>> out;
+    out.reserve(list.size());
+    for (const CutFacePair& p : list) out.push_back(mesh.face_vertices(p.a.tet, p.a.local));
+    return out;
+  };
   for (;;) {
     faces = drop_pinches(mesh, faces, r.faces_dropped);
     blocked.clear();
@@ -166,6 +331,16 @@ SeparationResult separate(TetMesh& mesh, std::span<const CutFacePair> all_faces)
         for (TetId t : comps[c]) comp_index[(std::uint64_t(v.idx()) << 32) | t.idx()] = int(c);
       comps_of[v.idx()] = std::move(comps);
     }
+    if (split_chords) {
+      const auto all_t = triples(all), faces_t = triples(faces);
+      const ChordSplit s = split_a_chord(mesh, faces, blocked, comps_of, unsplittable);
+      if (s.mid.is_valid()) {
+        all = refind_faces(mesh, all_t, s);
+        faces = refind_faces(mesh, faces_t, s);
+        r.splits.push_back({s.mid, s.v, s.w});
+        continue;
+      }
+    }
     std::vector<CutFacePair> opening;
     for (const CutFacePair& p : faces) {
       bool opens = false;
@@ -175,8 +350,9 @@ SeparationResult separate(TetMesh& mesh, std::span<const CutFacePair> all_faces)
       if (opens) opening.push_back(p);
     }
     // Edges: the tets around an edge with opening cut faces fall into arcs between them (and
-    // the boundary faces already there); two arcs that keep the same copies of both edge vertices would give the edge four
-    // boundary faces (two sheets touching along it). Those faces stay closed.
+    // the boundary faces already there); two arcs that keep the same copies of both edge
+    // vertices would give the edge four boundary faces (two sheets touching along it). Those
+    // faces stay closed.
     std::unordered_map<std::uint64_t, std::vector<std::size_t>> around;  // edge -> opening faces
     for (std::size_t i = 0; i < opening.size(); ++i) {
       const auto fv = mesh.face_vertices(opening[i].a.tet, opening[i].a.local);
@@ -185,42 +361,26 @@ SeparationResult separate(TetMesh& mesh, std::span<const CutFacePair> all_faces)
         around[(std::uint64_t(std::min(a, b)) << 32) | std::max(a, b)].push_back(i);
       }
     }
+    // Faces that do not open stay joined whatever the set says: only opening faces (and the
+    // boundary) cut the ring around an edge. (Counting a face that stays shut, e.g. one with
+    // all three vertices on the rim, made its edge look like two sheets meeting.)
+    std::unordered_set<std::uint32_t> opened;
+    for (const CutFacePair& p : opening) {
+      opened.insert(face_key(p.a.tet, p.a.local));
+      opened.insert(face_key(p.b.tet, p.b.local));
+    }
     std::vector<char> drop(opening.size(), 0);
     for (const auto& [key, list] : around) {
       // (A single new face also counts: the edge may already be the tip of an earlier cut.)
       const VertexId v(std::uint32_t(key >> 32)), w(std::uint32_t(key & 0xffffffffu));
-      std::vector<TetId> ring;
-      for (TetId t : mesh.incident_tets(v))
-        if (mesh.local_index(t, w) >= 0) ring.push_back(t);
-      std::vector<int> arc(ring.size(), -1);
-      int arcs = 0;
-      for (std::size_t i = 0; i < ring.size(); ++i) {
-        if (arc[i] >= 0) continue;
-        std::vector<std::size_t> stack{i};
-        arc[i] = arcs;
-        while (!stack.empty()) {
-          const TetId t = ring[stack.back()];
-          stack.pop_back();
-          for (int f = 0; f < 4; ++f) {
-            const int lv = mesh.local_index(t, v), lw = mesh.local_index(t, w);
-            if (f == lv || f == lw || blocked.count(face_key(t, f))) continue;
-            const TetId n = mesh.neighbor(t, f);
-            for (std::size_t j = 0; j < ring.size(); ++j)
-              if (ring[j] == n && arc[j] < 0) {
-                arc[j] = arcs;
-                stack.push_back(j);
-              }
-          }
-        }
-        ++arcs;
-      }
+      const EdgeArcs e = edge_arcs(mesh, v, w, opened);
       std::map<std::pair<int, int>, int> copy_arc;
       bool pinch = false;
-      for (std::size_t i = 0; i < ring.size() && !pinch; ++i) {
-        const std::pair<int, int> copies{comp_index[(std::uint64_t(v.idx()) << 32) | ring[i].idx()],
-                                         comp_index[(std::uint64_t(w.idx()) << 32) | ring[i].idx()]};
-        auto [it, inserted] = copy_arc.emplace(copies, arc[i]);
-        pinch = !inserted && it->second != arc[i];
+      for (std::size_t i = 0; i < e.ring.size() && !pinch; ++i) {
+        const std::pair<int, int> copies{comp_index[(std::uint64_t(v.idx()) << 32) | e.ring[i].idx()],
+                                         comp_index[(std::uint64_t(w.idx()) << 32) | e.ring[i].idx()]};
+        auto [it, inserted] = copy_arc.emplace(copies, e.arc[i]);
+        pinch = !inserted && it->second != e.arc[i];
       }
       if (pinch)
         for (std::size_t i : list) drop[i] = 1;
@@ -256,6 +416,9 @@ SeparationResult separate(TetMesh& mesh, std::span<const CutFacePair> all_faces)
     r.opened_tets.push_back(p.a.tet);
     r.opened_tets.push_back(p.b.tet);
   }
+  // The input faces still shut (dropped, or along the front), with their tets as they are now.
+  for (const CutFacePair& p : all)
+    if (mesh.is_alive(p.a.tet) && mesh.neighbor(p.a.tet, p.a.local).is_valid()) r.shut.push_back(p);
   return r;
 }
 
