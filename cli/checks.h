@@ -9,24 +9,20 @@
 
 #include <CLI/CLI.hpp>
 
+#include "mesh/io/input_checks.h"
+
 namespace incise::cli {
 
-inline std::string number_text(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
-}
+using incise::number_text;
 
 // A finite number in [lo, hi]; `note` (e.g. "0: no limit") is shown in --help.
 inline CLI::Validator finite_range(double lo, double hi, const std::string& note = "") {
   const std::string range = "[" + number_text(lo) + ", " + number_text(hi) + "]";
   return CLI::Validator(
-      [lo, hi, range](std::string& s) -> std::string {
+      [lo, hi](std::string& s) -> std::string {
         double v = 0;
         if (!CLI::detail::lexical_cast(s, v)) return "'" + s + "' is not a number";
-        if (!std::isfinite(v)) return "'" + s + "': expected a finite number in " + range;
-        if (v < lo || v > hi) return s + " is out of range " + range;
-        return {};
+        return finite_range_error(v, lo, hi, s);
       },
       "in " + range + (note.empty() ? "" : "; " + note));
 }

@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "cli/checks.h"
+#include "quality/improve_checks.h"
 #include "cli/commands.h"
 #include "quality/improve_report.h"
 #include "mesh/errors.h"
@@ -54,11 +55,7 @@ void add_improve(CLI::App& app) {
       ->check(finite_range(0, 180))
       ->capture_default_str();
   cmd->callback([o] {
-    if (!(o->improve.target_dihedral_deg > 0 && o->improve.target_dihedral_deg < 70.5 &&
-          o->improve.target_max_dihedral_deg > 70.6 && o->improve.target_max_dihedral_deg < 180))
-      throw InvalidArgument("improve: targets must satisfy 0 < --target-dihedral < 70.5 < --target-max-dihedral < 180");
-    if (!(o->improve.radius_ratio_floor > 0 && o->improve.radius_ratio_floor <= 1))
-      throw InvalidArgument("improve: --radius-ratio-floor must be in (0, 1]");
+    check_improve_options(o->improve, CliNames{});
     ImproveOptions opt = o->improve;
     opt.flips = !o->no_flips;
     opt.collapse = !o->no_flips;  // contraction changes connectivity too
@@ -67,7 +64,6 @@ void add_improve(CLI::App& app) {
     opt.move_surface = !o->fixed_boundary;
     opt.slide_curved = !o->keep_surface;
     opt.insertion = o->insert;
-    if (!(opt.max_growth >= 1)) throw InvalidArgument("improve: --max-growth must be at least 1");
     OutputTransaction tx;  // the mesh and the report: both written or neither
     reserve_tet_mesh_output(tx, o->out);
     if (!o->json.empty()) tx.reserve(o->json, "--json");

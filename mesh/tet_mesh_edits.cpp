@@ -92,6 +92,10 @@ VertexId TetMesh::split_tet(TetId t, const std::array<double, 4>& w) {
   if (!is_alive(t)) throw InvalidArgument("split_tet: tet is not alive");
   for (double x : w)
     if (!(x > 0)) throw InvalidArgument("split_tet: barycentric weights must be positive");
+  // Weights that do not sum to 1 put the vertex outside the tet (its children invert).
+  const double sum = w[0] + w[1] + w[2] + w[3];
+  if (!(std::abs(sum - 1) <= 1e-6))
+    throw InvalidArgument("split_tet: barycentric weights must sum to 1 (they sum to " + std::to_string(sum) + ")");
   VertexId p = add_vertex_interpolated(tet_v_[t.idx()], w);
   star_split(t, p, w);
   return p;

@@ -6,6 +6,7 @@
 
 #include "cut/cutter.h"
 #include "mesh/errors.h"
+#include "quality/improve_checks.h"
 
 namespace incise::python {
 
@@ -16,11 +17,21 @@ struct PyCutter {
   py::object mesh_ref;
   TetMesh& mesh;
   Cutter cutter;
+  bool started = false;  // start() called, finish() not since: advance() needs a placed blade
 };
+
+void check_started(const PyCutter& c) {
+  if (!c.started)
+    throw InvalidArgument("cut: advance() needs a blade: call start(a, b) first (finish() ends a cut; "
+                          "start() begins the next)");
+}
 
 std::unique_ptr<PyCutter> make_cutter(const py::object& mesh_obj, const std::string& mode, double snap, bool improve,
                                       double improve_budget_ms, int improve_work, const py::object& frozen,
                                       std::size_t fragment_search_limit) {
+  if (!py::isinstance<TetMesh>(mesh_obj))
+    throw InvalidArgument("Cutter: mesh: expected an incise.TetMesh, got " +
+                          py::str(py::type::of(mesh_obj).attr("__name__")).cast<std::string>());
   TetMesh& mesh = mesh_obj.cast<TetMesh&>();
   CutOptions o;
   if (mode == "subdivide") o.mode = CutMode::Subdivide;
@@ -28,9 +39,11 @@ std::unique_ptr<PyCutter> make_cutter(const py::object& mesh_obj, const std::str
   else throw InvalidArgument("cut: mode: unknown value '" + mode + "' (expected subdivide, remove)");
   o.snap = snap;
   o.improve = improve;
-  if (!(improve_budget_ms >= 0) || !std::isfinite(improve_budget_ms))
-    throw InvalidArgument("cut: improve_budget_ms must be finite and >= 0 (0: no time cap)");
-  if (improve_work < 0) throw InvalidArgument("cut: improve_work must be >= 0 (0: no operation cap)");
+  // `incise cut --improve-budget-ms` / `--improve-work`: the same ranges (a budget past 1e6 ms
+  // would overflow the clock's duration).
+  check_finite_range("cut", "improve_budget_ms", improve_budget_ms, 0, 1e6, PythonNames{});
+  if (improve_work < 0 || improve_work > 100000000)
+    throw InvalidArgument("cut: improve_work: " + std::to_string(improve_work) + " is out of range [0, 100000000]");
   o.improve_budget_ms = improve_budget_ms;
   o.improve_options.max_work = improve_work;
   if (!frozen.is_none()) o.frozen = to_vertices(mesh, frozen);
@@ -82,6 +95,7 @@ void bind_cut(py::module_& m) {
       .def(
           "start", [](PyCutter& c, const py::object& a, const py::object& b) {
             c.cutter.start({to_vec3(a, "blade a"), to_vec3(b, "blade b")});
+            c.started = true;
           },
           py::arg("a"), py::arg("b"), "Places the blade (segment a-b) without cutting. A cut not finished is completed by the next step")
       .def(
@@ -89,7 +103,9 @@ void bind_cut(py::module_& m) {
           [](PyCutter& c, const py::object& positions) {
             std::vector<Vec3> storage;
             const auto pos = positions_of(c.mesh, positions, storage);
-            return report(c.cutter.finish(pos));
+            CutStepReport r = c.cutter.finish(pos);
+            c.started = false;
+            return report(std::move(r));
           },
           py::arg("positions") = py::none(),
           "The blade is withdrawn: cuts the tets the blade was still in (embedding its last front), "
@@ -98,6 +114,7 @@ void bind_cut(py::module_& m) {
       .def(
           "advance",
           [](PyCutter& c, const py::object& a, const py::object& b, const py::object& positions) {
+            check_started(c);
             std::vector<Vec3> storage;
             const auto pos = positions_of(c.mesh, positions, storage);
             return report(c.cutter.advance({to_vec3(a, "blade a"), to_vec3(b, "blade b")}, pos));

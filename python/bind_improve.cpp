@@ -5,6 +5,7 @@
 
 #include "mesh/errors.h"
 #include "quality/improve.h"
+#include "quality/improve_checks.h"
 #include "quality/improve_report.h"
 
 namespace incise::python {
@@ -15,8 +16,6 @@ ImproveOptions options(double time_limit, double budget_ms, int max_work, double
                        bool flips, bool multi_face, bool smoothing, bool insertion, double max_growth,
                        double radius_ratio_floor, bool keep_surface, bool fixed_boundary, double feature_angle,
                        const std::vector<VertexId>& frozen) {
-  if (!(radius_ratio_floor > 0 && radius_ratio_floor <= 1))
-    throw InvalidArgument("improve: radius_ratio_floor must be in (0, 1]");
   ImproveOptions o;
   o.time_limit_s = time_limit;
   o.time_budget_ms = budget_ms;
@@ -36,6 +35,7 @@ ImproveOptions options(double time_limit, double budget_ms, int max_work, double
   o.move_surface = o.move_cut = o.move_interface = !fixed_boundary;
   o.feature_angle_deg = feature_angle;
   o.frozen = frozen;
+  check_improve_options(o, PythonNames{});  // the rules of `incise improve`, Python's names
   return o;
 }
 
@@ -73,9 +73,14 @@ void bind_improve(py::module_& m) {
       [](TetMesh& mesh, const py::object& seeds, double budget_ms, int max_work, int rings, const py::object& frozen) {
         if (mesh.has_pending_change())
           throw InvalidArgument("improve: the mesh has edits not yet taken (call take_change() first)");
+        check_finite_range("improve_local", "budget_ms", budget_ms, 0, 1e6, PythonNames{});
+        if (max_work < 0) throw InvalidArgument("improve_local: max_work: expected an integer >= 0 (0: no cap)");
+        if (rings < 0) throw InvalidArgument("improve_local: rings: expected an integer >= 0 (0: the seeds only)");
         std::vector<TetId> ts;
-        for (long long t : py::array_t<long long, py::array::forcecast>::ensure(seeds).cast<std::vector<long long>>()) {
-          if (t < 0 || !mesh.is_alive(TetId(std::uint32_t(t))))
+        const auto seed_ids = to_indices(seeds, "improve_local: seeds");
+        for (py::ssize_t i = 0; i < seed_ids.size(); ++i) {
+          const long long t = seed_ids.data()[i];
+          if (t < 0 || t >= static_cast<long long>(mesh.tet_capacity()) || !mesh.is_alive(TetId(std::uint32_t(t))))
             throw InvalidArgument("improve_local: seed tet " + std::to_string(t) + " is not a live tet");
           ts.push_back(TetId(std::uint32_t(t)));
         }

@@ -10,8 +10,8 @@ namespace {
 
 // A point or cell field: capacity values (scalar) or capacity by 3 (vector), row = id.
 Field to_field(const std::string& name, const py::handle& h, std::size_t capacity, const char* what) {
-  auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(h);
-  const bool ok = a && a.shape(0) == static_cast<py::ssize_t>(capacity) &&
+  auto a = to_reals(h, std::string(what) + " '" + name + "'");
+  const bool ok = a.ndim() >= 1 && a.shape(0) == static_cast<py::ssize_t>(capacity) &&
                   (a.ndim() == 1 || (a.ndim() == 2 && a.shape(1) == 3));
   if (!ok)
     throw InvalidArgument(std::string(what) + " '" + name + "': expected " + std::to_string(capacity) +
@@ -39,12 +39,12 @@ SurfaceMesh surface_from_python(const py::handle& h) {
     throw InvalidArgument(std::string(what) + ": expected a path or a (vertices, triangles) pair");
   auto seq = h.cast<py::sequence>();
   if (seq.size() != 2) throw InvalidArgument(std::string(what) + ": expected a (vertices, triangles) pair");
-  auto v = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(seq[0]);
-  if (!v || v.ndim() != 2 || v.shape(1) != 3) throw InvalidArgument(std::string(what) + ": vertices must be #V by 3");
+  auto v = to_reals(seq[0], "surface vertices");
+  if (v.ndim() != 2 || v.shape(1) != 3) throw InvalidArgument(std::string(what) + ": vertices must be #V by 3");
   SurfaceMesh s;
   s.vertices = to_points(v, v.shape(0), "surface vertices");
-  auto f = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(seq[1]);
-  if (!f || f.ndim() != 2 || f.shape(1) != 3) throw InvalidArgument(std::string(what) + ": triangles must be #F by 3");
+  auto f = to_indices(seq[1], "surface triangles");
+  if (f.ndim() != 2 || f.shape(1) != 3) throw InvalidArgument(std::string(what) + ": triangles must be #F by 3");
   for (py::ssize_t i = 0; i < f.shape(0); ++i) {
     std::array<int, 3> t;
     for (int k = 0; k < 3; ++k) {

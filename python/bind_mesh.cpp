@@ -4,11 +4,14 @@
 // the two views agree with num_vertices / num_tets.
 #include "python/bindings.h"
 
+#include <algorithm>
+#include <limits>
 #include <sstream>
 
 #include "mesh/errors.h"
 #include "mesh/generate.h"
 #include "mesh/io/formats.h"
+#include "mesh/io/input_checks.h"
 
 namespace incise::python {
 
@@ -20,24 +23,49 @@ py::array_t<double> to_array(const std::vector<Vec3>& points) {
   return a;
 }
 
+py::array_t<double, py::array::c_style | py::array::forcecast> to_reals(const py::handle& h, const std::string& what) {
+  const py::array raw = py::array::ensure(h);
+  if (!raw) throw InvalidArgument(what + ": expected numbers");
+  const char k = raw.dtype().kind();
+  // numpy would turn complex numbers into their real part and "1.5" into 1.5 without a word.
+  if (k != 'f' && k != 'i' && k != 'u')
+    throw InvalidArgument(what + ": expected real numbers, got " + py::str(raw.dtype()).cast<std::string>());
+  return py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(raw);
+}
+
+py::array_t<long long, py::array::c_style | py::array::forcecast> to_indices(const py::handle& h,
+                                                                             const std::string& what) {
+  const py::array raw = py::array::ensure(h);
+  if (!raw) throw InvalidArgument(what + ": expected integers");
+  const char k = raw.dtype().kind();
+  // A float index would be truncated (3.9 -> 3).
+  if (k != 'i' && k != 'u' && !(raw.size() == 0 && k == 'f'))
+    throw InvalidArgument(what + ": expected integers, got " + py::str(raw.dtype()).cast<std::string>());
+  return py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(raw);
+}
+
 std::vector<Vec3> to_points(const py::handle& h, std::size_t rows, const char* what) {
-  auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(h);
-  if (!a || a.ndim() != 2 || a.shape(1) != 3 || a.shape(0) != static_cast<py::ssize_t>(rows))
+  auto a = to_reals(h, what);
+  if (a.ndim() != 2 || a.shape(1) != 3 || a.shape(0) != static_cast<py::ssize_t>(rows))
     throw InvalidArgument(std::string(what) + ": expected " + std::to_string(rows) + " by 3");
   std::vector<Vec3> p(rows);
-  for (std::size_t i = 0; i < rows; ++i) p[i] = Vec3(a.data()[3 * i], a.data()[3 * i + 1], a.data()[3 * i + 2]);
+  for (std::size_t i = 0; i < rows; ++i) {
+    p[i] = Vec3(a.data()[3 * i], a.data()[3 * i + 1], a.data()[3 * i + 2]);
+    if (!p[i].allFinite()) throw InvalidArgument(std::string(what) + ": " + non_finite_point(i));
+  }
   return p;
 }
 
 Vec3 to_vec3(const py::handle& h, const char* what) {
-  auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(h);
-  if (!a || a.size() != 3) throw InvalidArgument(std::string(what) + ": expected 3 numbers");
-  return Vec3(a.data()[0], a.data()[1], a.data()[2]);
+  auto a = to_reals(h, what);
+  if (a.size() != 3) throw InvalidArgument(std::string(what) + ": expected 3 numbers");
+  const Vec3 v(a.data()[0], a.data()[1], a.data()[2]);
+  if (!v.allFinite()) throw InvalidArgument(std::string(what) + ": expected 3 finite numbers");
+  return v;
 }
 
 std::vector<VertexId> to_vertices(const TetMesh& mesh, const py::handle& h) {
-  auto a = py::array_t<long long, py::array::c_style | py::array::forcecast>::ensure(h);
-  if (!a) throw InvalidArgument("expected a vertex id or a sequence of vertex ids");
+  auto a = to_indices(h, "vertex ids");
   std::vector<VertexId> out;
   out.reserve(a.size());
   for (py::ssize_t i = 0; i < a.size(); ++i) {
@@ -53,17 +81,20 @@ namespace {
 
 // Through the readers' builder, so arrays get the checks and fixes a file gets (indices in
 // range, inverted tets reoriented, overlapping tets refused, boundary tagged).
-TetMesh from_arrays(const py::array_t<double, py::array::c_style | py::array::forcecast>& points,
-                    const py::array_t<long long, py::array::c_style | py::array::forcecast>& tets,
-                    const py::object& labels) {
+TetMesh from_arrays(const py::object& points_obj, const py::object& tets_obj, const py::object& labels) {
   const char* what = "TetMesh(points, tets)";
+  const auto points = to_reals(points_obj, std::string(what) + ": points");
+  const auto tets = to_indices(tets_obj, std::string(what) + ": tets");
   if (points.ndim() != 2 || points.shape(1) != 3) throw InvalidArgument(std::string(what) + ": points must be #V by 3");
   if (tets.ndim() != 2 || tets.shape(1) != 4) throw InvalidArgument(std::string(what) + ": tets must be #T by 4");
   io::RawMesh raw;
   raw.format = "arrays";
   raw.points.reserve(points.shape(0));
   auto p = points.unchecked<2>();
-  for (py::ssize_t i = 0; i < points.shape(0); ++i) raw.points.emplace_back(p(i, 0), p(i, 1), p(i, 2));
+  for (py::ssize_t i = 0; i < points.shape(0); ++i) {
+    raw.points.emplace_back(p(i, 0), p(i, 1), p(i, 2));
+    if (!raw.points.back().allFinite()) throw InvalidArgument(std::string(what) + ": " + non_finite_point(i));
+  }
   auto t = tets.unchecked<2>();
   raw.tets.reserve(tets.shape(0));
   for (py::ssize_t i = 0; i < tets.shape(0); ++i) {
@@ -78,10 +109,16 @@ TetMesh from_arrays(const py::array_t<double, py::array::c_style | py::array::fo
     raw.tets.push_back(q);
   }
   if (!labels.is_none()) {
-    auto l = py::array_t<int, py::array::c_style | py::array::forcecast>::ensure(labels);
-    if (!l || l.ndim() != 1 || l.shape(0) != tets.shape(0))
+    const auto l = to_indices(labels, std::string(what) + ": labels");
+    if (l.ndim() != 1 || l.shape(0) != tets.shape(0))
       throw InvalidArgument(std::string(what) + ": labels must have one entry per tet");
-    raw.tet_labels.assign(l.data(), l.data() + l.shape(0));
+    for (py::ssize_t i = 0; i < l.shape(0); ++i) {
+      const long long x = l.data()[i];
+      if (x < std::numeric_limits<int>::min() || x > std::numeric_limits<int>::max())
+        throw InvalidArgument(std::string(what) + ": label " + std::to_string(x) + " of tet #" + std::to_string(i) +
+                              " is out of range (a label is a 32-bit integer)");
+      raw.tet_labels.push_back(static_cast<int>(x));
+    }
   }
   return io::build_mesh(std::move(raw), what, nullptr);
 }
@@ -125,11 +162,16 @@ py::list origins(const std::vector<VertexOrigin>& list) {
 }
 
 std::array<int, 3> to_cells(const py::handle& h) {
-  if (py::isinstance<py::int_>(h)) {
-    const int n = h.cast<int>();
-    return {n, n, n};
+  const auto a = to_indices(h, "cells");
+  if (a.size() != 1 && a.size() != 3) throw InvalidArgument("cells: expected an integer or 3 integers");
+  std::array<int, 3> c;
+  for (int k = 0; k < 3; ++k) {
+    const long long n = a.data()[a.size() == 1 ? 0 : k];
+    // make_box checks the count; here only that it is an int (2**40 would wrap).
+    if (n > std::numeric_limits<int>::max()) throw InvalidArgument("cells: " + std::to_string(n) + " is too large");
+    c[k] = static_cast<int>(std::max<long long>(n, 0));
   }
-  return h.cast<std::array<int, 3>>();
+  return c;
 }
 
 }  // namespace
@@ -207,7 +249,7 @@ void bind_mesh(py::module_& m) {
           "split_tet",
           [](TetMesh& mesh, long long t, const std::array<double, 4>& w) { return mesh.split_tet(to_tet(mesh, t), w).idx(); },
           py::arg("tet"), py::arg("weights") = std::array<double, 4>{0.25, 0.25, 0.25, 0.25},
-          "New vertex at barycentric weights (all > 0) in the tet, split 1 -> 4")
+          "New vertex at barycentric weights (all > 0, summing to 1) in the tet, split 1 -> 4")
       .def("take_change", &TetMesh::take_change, "The edits since the last call, as one TopologyChange")
       .def_property_readonly("has_pending_change", &TetMesh::has_pending_change)
       .def(

@@ -4,6 +4,7 @@
 #include "python/bindings.h"
 
 #include <filesystem>
+#include <limits>
 
 #include "cut/scene_cuts.h"
 #include "mesh/errors.h"
@@ -28,7 +29,8 @@ E parse_choice(const std::string& what, const std::string& s, std::initializer_l
   throw InvalidArgument(what + ": unknown value '" + s + "' (expected " + names + ")");
 }
 
-// A Material (every label), a {label: Material} dict (other labels: Material()), or a table.
+// A Material (every label), a {label: Material} dict (a "*" key: every label not listed;
+// without one, a label of the mesh missing from the dict is an error), or a table.
 MaterialTable to_materials(const py::object& o) {
   if (o.is_none()) return MaterialTable();
   if (py::isinstance<MaterialTable>(o)) return o.cast<MaterialTable>();
@@ -39,14 +41,47 @@ MaterialTable to_materials(const py::object& o) {
   }
   if (py::isinstance<py::dict>(o)) {
     MaterialTable t;
+    t.clear_default();
     for (auto [k, v] : o.cast<py::dict>()) {
+      const std::string key = py::str(k).cast<std::string>();
+      if (!py::isinstance<Material>(v))
+        throw InvalidArgument("materials[" + key + "]: expected a Material, got " +
+                              py::str(py::type::of(v).attr("__name__")).cast<std::string>());
       const Material m = v.cast<Material>();
-      check_material(m, "materials[" + py::str(k).cast<std::string>() + "]");
-      t.set(k.cast<int>(), m);
+      if (py::isinstance<py::str>(k) && key == "*") {
+        check_material(m, "materials[*]");
+        t.set_default(m);
+        continue;
+      }
+      if (!py::isinstance<py::int_>(k) || py::isinstance<py::bool_>(k))
+        throw InvalidArgument("materials: key " + py::repr(k).cast<std::string>() +
+                              ": expected an integer region label or \"*\"");
+      const long long label = k.cast<long long>();
+      if (label < std::numeric_limits<int>::min() || label > std::numeric_limits<int>::max())
+        throw InvalidArgument("materials: label " + key + " is out of range (a label is a 32-bit integer)");
+      check_material(m, "materials[" + key + "]");
+      t.set(static_cast<int>(label), m);
     }
     return t;
   }
   throw InvalidArgument("materials: expected a Material, a {label: Material} dict or a MaterialTable");
+}
+
+// True or False (numpy's too), not any object with a truth value: volume_term=-1 is a mistake.
+bool strict_bool(const py::handle& h, const char* what) {
+  if (py::isinstance<py::bool_>(h)) return h.cast<bool>();
+  const py::object np_bool = py::module_::import("numpy").attr("bool_");
+  if (py::isinstance(h, np_bool)) return h.cast<bool>();
+  throw InvalidArgument(std::string(what) + ": expected True or False, got " + py::repr(h).cast<std::string>());
+}
+
+// The mesh argument of a simulation or cutter (a clear error instead of pybind11's "Unable to
+// cast Python instance").
+TetMesh& mesh_of(const py::object& o, const char* what) {
+  if (!py::isinstance<TetMesh>(o))
+    throw InvalidArgument(std::string(what) + ": mesh: expected an incise.TetMesh, got " +
+                          py::str(py::type::of(o).attr("__name__")).cast<std::string>());
+  return o.cast<TetMesh&>();
 }
 
 // Snake-case names for programs (to_string() is the text for people, kept in "message").
@@ -120,7 +155,7 @@ std::unique_ptr<Fem> make_fem(const py::object& mesh_obj, const py::object& mate
   o.nonlinear_iterations = nonlinear_iterations;
   o.gravity = to_vec3(gravity, "gravity");
   o.check_rigid_modes = check_rigid_modes;
-  const TetMesh& mesh = mesh_obj.cast<const TetMesh&>();
+  const TetMesh& mesh = mesh_of(mesh_obj, "FemSimulation");
   return std::unique_ptr<Fem>(new Fem{mesh_obj, mesh, FemSimulation(mesh, to_materials(materials), o)});
 }
 
@@ -211,17 +246,17 @@ void bind_sim(py::module_& m) {
 
   py::class_<Springs>(m, "SpringSimulation",
                       "Spring-mass model on the mesh edges with per-tet volume terms (sim/spring_model.h)")
-      .def(py::init([](const py::object& mesh_obj, const py::object& materials, double damping, bool volume_term,
-                       bool compute_energy) {
+      .def(py::init([](const py::object& mesh_obj, const py::object& materials, double damping,
+                       const py::object& volume_term, const py::object& compute_energy) {
              SpringOptions o;
              o.damping = damping;
-             o.volume_term = volume_term;
-             o.compute_energy = compute_energy;
-             const TetMesh& mesh = mesh_obj.cast<const TetMesh&>();
+             o.volume_term = strict_bool(volume_term, "SpringSimulation: volume_term");
+             o.compute_energy = strict_bool(compute_energy, "SpringSimulation: compute_energy");
+             const TetMesh& mesh = mesh_of(mesh_obj, "SpringSimulation");
              return std::unique_ptr<Springs>(new Springs{mesh_obj, mesh, SpringModel(mesh, to_materials(materials), o)});
            }),
            py::arg("mesh"), py::arg("materials") = py::none(), py::kw_only(), py::arg("damping") = 0.0,
-           py::arg("volume_term") = true, py::arg("compute_energy") = true)
+           py::arg("volume_term") = py::bool_(true), py::arg("compute_energy") = py::bool_(true))
       .def("fix", [](Springs& s, const py::object& v) { for (VertexId x : to_vertices(s.mesh, v)) s.model.set_fixed(x, true); })
       .def("release", [](Springs& s, const py::object& v) {
         for (VertexId x : to_vertices(s.mesh, v)) {
@@ -289,10 +324,16 @@ void bind_sim(py::module_& m) {
   m.def("load_scene", &load_scene, py::arg("path"), "Reads and checks a scene; raises IoError naming the key");
   m.def(
       "run_scene",
-      [](const std::string& path, const std::string& out_dir, int frames) {
+      [](const std::string& path, const std::string& out_dir, const py::object& frames) {
         SceneRunOptions o;
         o.out_dir = out_dir;
-        o.frames = frames;
+        if (!frames.is_none()) {
+          // `incise simulate --frames`: at least 1 (None: the scene's own count).
+          const auto n = to_indices(frames, "run_scene: frames");
+          if (n.ndim() != 0 || n.data()[0] < 1 || n.data()[0] > 1000000000)
+            throw InvalidArgument("run_scene: frames: expected an integer in [1, 1000000000] (None: the scene's)");
+          o.frames = static_cast<int>(n.data()[0]);
+        }
         const SceneRunSummary r = run_scene_with_cuts(load_scene(path), o);
         py::dict d;
         d["frames"] = r.frames;
@@ -308,7 +349,7 @@ void bind_sim(py::module_& m) {
         d["files"] = r.files;
         return d;
       },
-      py::arg("path"), py::arg("out_dir") = "", py::arg("frames") = -1,
+      py::arg("path"), py::arg("out_dir") = "", py::arg("frames") = py::none(),
       "Plays a scene as `incise simulate` does (VTU frames, .pvd, stats.csv into out_dir when given)");
 }
 

@@ -22,6 +22,7 @@ void check_material(const Material& m, const std::string& what) {
 void MaterialTable::set_default(const Material& m) {
   check_material(m, "materials.*");
   default_ = m;
+  has_default_ = true;
 }
 
 void MaterialTable::set(int label, const Material& m) {
@@ -31,7 +32,11 @@ void MaterialTable::set(int label, const Material& m) {
 
 const Material& MaterialTable::get(int label) const {
   auto it = by_label_.find(label);
-  return it == by_label_.end() ? default_ : it->second;
+  if (it != by_label_.end()) return it->second;
+  if (!has_default_)
+    throw InvalidArgument("materials: no material for region label " + std::to_string(label) +
+                          " (give one for every label of the mesh, or a default for the rest)");
+  return default_;
 }
 
 }  // namespace incise

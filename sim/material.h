@@ -24,6 +24,11 @@ public:
   MaterialTable() = default;
   explicit MaterialTable(const Material& fallback) { set_default(fallback); }
   void set_default(const Material& m);                      // used for labels not set explicitly
+  // No default: get() of a label not set throws InvalidArgument (a table meant to name every
+  // label, e.g. Python's {label: Material}: a label the mesh has and the table lacks is an error,
+  // not silently Material()). set_default() gives it one again.
+  void clear_default() { has_default_ = false; }
+  bool has_default() const { return has_default_; }
   void set(int label, const Material& m);
   const Material& get(int label) const;                     // O(1)
   const Material& fallback() const { return default_; }
@@ -31,6 +36,7 @@ public:
 
 private:
   Material default_;
+  bool has_default_ = true;
   std::unordered_map<int, Material> by_label_;
 };
 

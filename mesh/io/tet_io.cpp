@@ -9,6 +9,7 @@
 #include "mesh/errors.h"
 #include "mesh/generate.h"
 #include "mesh/io/formats.h"
+#include "mesh/io/input_checks.h"
 #include "mesh/io/parse_util.h"
 
 namespace incise {
@@ -88,6 +89,8 @@ TetMesh build_mesh(RawMesh&& raw, const std::string& file, ReadReport* report) {
     io::throw_io(tfile, 0, "no tetrahedra");
   }
   const std::size_t np = raw.points.size();
+  for (std::size_t i = 0; i < np; ++i)  // the readers refuse these with a line; arrays reach here
+    if (!raw.points[i].allFinite()) io::throw_io(file, 0, non_finite_point(i));
   TetMesh m;
   m.reserve(np, raw.tets.size());
   for (const Vec3& p : raw.points) m.add_vertex(p);

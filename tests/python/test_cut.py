@@ -111,3 +111,33 @@ def test_progressive_cut_is_step_count_independent_and_reproducible():
     assert m1.num_tets == m2.num_tets and np.array_equal(m1.points, m2.points)
     with pytest.raises(Exception, match="improve_work"):
         incise.Cutter(incise.generate_box((1.0, 1.0, 1.0), (2, 2, 2)), improve_work=-1)
+
+
+# Issue 18 section 3: the cutter refuses what `incise cut` refuses, and a blade never placed.
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"improve_budget_ms": -1}, r"improve_budget_ms: -1 is out of range \[0, 1e\+06\]"),
+        ({"improve_budget_ms": 1e300}, "improve_budget_ms: 1e\\+300 is out of range"),
+        ({"improve_budget_ms": float("nan")}, "improve_budget_ms: 'nan': expected a finite number"),
+        ({"improve_work": -1}, r"improve_work: -1 is out of range \[0, 100000000\]"),
+    ],
+)
+def test_cutter_options_as_the_cli(box, kwargs, message):
+    with pytest.raises(incise.InvalidArgument, match=message):
+        incise.Cutter(box, **kwargs)
+
+
+def test_advance_needs_a_started_blade(box):
+    c = incise.Cutter(box)
+    with pytest.raises(incise.InvalidArgument, match=r"advance\(\) needs a blade: call start\(a, b\) first"):
+        c.advance((0.5, -1, 0.3), (0.5, 1, 0.3))
+    assert not box.has_pending_change
+    c.start((0.5, -1, 0.3), (0.5, 1, 0.3))
+    box.take_change() if box.has_pending_change else None
+    c.advance((0.5, -1, 0.1), (0.5, 1, 0.1))
+    c.finish()
+    with pytest.raises(incise.InvalidArgument, match="advance\\(\\) needs a blade"):
+        c.advance((0.5, -1, 0.0), (0.5, 1, 0.0))
+    with pytest.raises(incise.InvalidArgument, match="Cutter: mesh: expected an incise.TetMesh, got list"):
+        incise.Cutter([1, 2, 3])

@@ -77,3 +77,37 @@ def test_improve_keywords_for_multi_face_removal_and_the_radius_ratio_floor(sour
     assert r["after"]["min_radius_ratio"] >= min(r["before"]["min_radius_ratio"], 0.3) - 1e-12
     with pytest.raises(incise.InvalidArgument, match="radius_ratio_floor"):
         incise.improve(jittered_box(), radius_ratio_floor=0.0)
+
+
+# Issue 18 section 3: the options `incise improve` refuses, improve() refuses, same rule.
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"target_dihedral": 200}, "0 < target_dihedral < 70.5 < target_max_dihedral < 180"),
+        ({"target_max_dihedral": float("nan")}, "0 < target_dihedral < 70.5"),
+        ({"max_growth": 0}, "max_growth must be at least 1"),
+        ({"radius_ratio_floor": 0}, r"radius_ratio_floor must be in \(0, 1\]"),
+        ({"feature_angle": 400}, r"feature_angle: 400 is out of range \[0, 180\]"),
+        ({"time_limit": -1}, r"time_limit: -1 is out of range \[0, 1e\+06\]"),
+        ({"time_limit": float("inf")}, "time_limit: 'inf': expected a finite number"),
+    ],
+)
+def test_improve_refuses_what_the_cli_refuses(kwargs, message):
+    m = incise.generate_box(1.0, 2)
+    with pytest.raises(incise.InvalidArgument, match=message):
+        incise.improve(m, **kwargs)
+    assert not m.has_pending_change
+
+
+def test_improve_local_refuses_bad_rings_budget_and_seeds():
+    m = incise.generate_box(1.0, 2)
+    with pytest.raises(incise.InvalidArgument, match="rings: expected an integer >= 0"):
+        incise.improve_local(m, [0], rings=-1)
+    with pytest.raises(incise.InvalidArgument, match="budget_ms: -5 is out of range"):
+        incise.improve_local(m, [0], budget_ms=-5)
+    with pytest.raises(incise.InvalidArgument, match="max_work: expected an integer >= 0"):
+        incise.improve_local(m, [0], max_work=-1)
+    with pytest.raises(incise.InvalidArgument, match="seeds: expected integers"):
+        incise.improve_local(m, [0.5])
+    with pytest.raises(incise.InvalidArgument, match="seed tet 100000 is not a live tet"):
+        incise.improve_local(m, [100000])

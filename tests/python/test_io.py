@@ -60,3 +60,18 @@ def test_boundary_surface_encloses_the_volume(box):
     a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
     enclosed = np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6  # outward: positive
     assert enclosed == pytest.approx(box.volume(), rel=1e-12)
+
+
+def test_write_refuses_non_finite_or_complex_positions(tmp_path, box):
+    out = tmp_path / "p.vtu"
+    pos = box.points.copy()
+    pos[3, 0] = np.nan
+    with pytest.raises(incise.InvalidArgument, match=r"positions: non-finite point coordinate \(point 3\)"):
+        incise.write(box, str(out), positions=pos)
+    assert not out.exists()
+    with pytest.raises(incise.InvalidArgument, match="positions: expected real numbers"):
+        incise.write(box, str(out), positions=box.points.astype(complex))
+    with pytest.raises(incise.InvalidArgument, match="point_data 'x': expected real numbers"):
+        incise.write(box, str(out), point_data={"x": ["a"] * box.vertex_capacity})
+    with pytest.raises(incise.InvalidArgument, match="surface triangles: expected integers"):
+        incise.write_surface((box.points, [[0.0, 1.5, 2.0]]), str(tmp_path / "s.off"))

@@ -80,3 +80,50 @@ def test_compact_maps_are_identity_on_a_fresh_mesh(box):
     vmap, tmap = box.compact()
     assert np.array_equal(vmap, np.arange(box.num_vertices))
     assert np.array_equal(tmap, np.arange(box.num_tets))
+
+
+# Issue 18 section 3: the arrays get the checks a file gets, with incise's messages.
+PTS = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_from_arrays_refuses_non_finite_points(bad):
+    pts = np.array(PTS, dtype=float)
+    pts[2, 1] = bad
+    with pytest.raises(incise.InvalidArgument, match=r"non-finite point coordinate \(point 2\)"):
+        incise.TetMesh(pts, [[0, 1, 2, 3]])
+
+
+def test_from_arrays_refuses_float_indices_and_wide_labels():
+    with pytest.raises(incise.InvalidArgument, match="tets: expected integers, got float64"):
+        incise.TetMesh(PTS, [[0, 1, 2, 3.9]])
+    with pytest.raises(incise.InvalidArgument, match="label 1099511627776 of tet #0 is out of range"):
+        incise.TetMesh(PTS, [[0, 1, 2, 3]], labels=[2**40])
+    with pytest.raises(incise.InvalidArgument, match="labels: expected integers"):
+        incise.TetMesh(PTS, [[0, 1, 2, 3]], labels=[1.5])
+    assert list(incise.TetMesh(PTS, np.array([[0, 1, 2, 3]], dtype=np.uint8), labels=[-(2**31)]).labels) == [-(2**31)]
+
+
+def test_from_arrays_refuses_complex_and_string_points():
+    with pytest.raises(incise.InvalidArgument, match="points: expected real numbers, got complex128"):
+        incise.TetMesh(np.array(PTS, dtype=complex) + 1j, [[0, 1, 2, 3]])
+    with pytest.raises(incise.InvalidArgument, match="points: expected real numbers"):
+        incise.TetMesh([[str(x) for x in p] for p in PTS], [[0, 1, 2, 3]])
+
+
+def test_split_tet_weights_must_sum_to_one():
+    m = incise.TetMesh(PTS, [[0, 1, 2, 3]])
+    with pytest.raises(incise.InvalidArgument, match="must sum to 1"):
+        m.split_tet(0, (0.5, 0.5, 0.5, 0.5))
+    assert m.num_tets == 1 and not m.has_pending_change
+    m.split_tet(0, (0.1, 0.2, 0.3, 0.4))
+    m.validate()
+
+
+def test_generator_arguments_get_incise_errors():
+    with pytest.raises(incise.InvalidArgument, match="cells: expected integers"):
+        incise.generate_box(1.0, (1.5, 1, 1))
+    with pytest.raises(incise.InvalidArgument, match="cells: expected an integer or 3 integers"):
+        incise.generate_box(1.0, (1, 1))
+    with pytest.raises(incise.InvalidArgument, match="size: expected 3 finite numbers"):
+        incise.generate_box((1, np.nan, 1), 1)

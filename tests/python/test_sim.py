@@ -156,3 +156,48 @@ def test_every_preconditioner_reaches_the_same_answer(box, preconditioner):
     assert np.allclose(sim.displacement, ref.displacement, atol=1e-9)
     with pytest.raises(incise.InvalidArgument, match="preconditioner"):
         incise.FemSimulation(box, incise.Material(), preconditioner="ilu")
+
+
+# Issue 18 section 3: what the CLI and scenes refuse, the simulations refuse too.
+def test_material_dict_must_cover_the_mesh_labels(box):
+    with pytest.raises(incise.InvalidArgument, match="no material for region label 1"):
+        incise.FemSimulation(box, {7: incise.Material(young=2e6)})
+    with pytest.raises(incise.InvalidArgument, match="no material for region label 1"):
+        incise.SpringSimulation(box, {7: incise.Material(young=2e6)})
+    incise.FemSimulation(box, {7: incise.Material(), "*": incise.Material(young=2e6)})
+    incise.FemSimulation(box, {1: incise.Material(young=2e6)})
+
+
+def test_simulation_arguments_get_incise_errors(box):
+    with pytest.raises(incise.InvalidArgument, match=r"materials\[1\]: expected a Material, got str"):
+        incise.FemSimulation(box, {1: "soft"})
+    with pytest.raises(incise.InvalidArgument, match="materials: key 1.5: expected an integer region label"):
+        incise.FemSimulation(box, {1.5: incise.Material()})
+    with pytest.raises(incise.InvalidArgument, match="FemSimulation: mesh: expected an incise.TetMesh, got str"):
+        incise.FemSimulation("box.msh")
+    with pytest.raises(incise.InvalidArgument, match="volume_term: expected True or False, got -1"):
+        incise.SpringSimulation(box, volume_term=-1)
+    incise.SpringSimulation(box, volume_term=np.bool_(False))
+
+
+def test_loads_and_constraints_must_be_finite(box):
+    fem = incise.FemSimulation(box)
+    with pytest.raises(incise.InvalidArgument, match="force: expected 3 finite numbers"):
+        fem.set_force(0, (0, 0, np.nan))
+    with pytest.raises(incise.InvalidArgument, match="displacement: expected 3 finite numbers"):
+        fem.prescribe(0, (np.inf, 0, 0))
+    with pytest.raises(incise.InvalidArgument, match="vertex ids: expected integers, got float64"):
+        fem.fix([0.0, 1.5])
+    springs = incise.SpringSimulation(box)
+    with pytest.raises(incise.InvalidArgument, match="position: expected 3 finite numbers"):
+        springs.prescribe(0, (0, np.nan, 0))
+    with pytest.raises(incise.InvalidArgument, match="force: expected real numbers, got complex128"):
+        springs.set_force(0, (1j, 0, 0))
+
+
+@pytest.mark.parametrize("frames", [-3, -1, 0, 2.0])
+def test_run_scene_frames_as_the_cli(source_dir, tmp_path, frames):
+    beam = str(source_dir / "samples" / "scenes" / "beam.json")
+    with pytest.raises(incise.InvalidArgument, match="run_scene: frames"):
+        incise.run_scene(beam, str(tmp_path / "out"), frames=frames)
+    assert not (tmp_path / "out").exists()
