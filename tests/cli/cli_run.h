@@ -2,11 +2,14 @@
 // Running the incise executable from the CLI tests: stdout, stderr and the exit code.
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+
+#include <catch2/catch.hpp>
 
 namespace incise::testing {
 
@@ -37,6 +40,23 @@ inline std::filesystem::path scratch_dir(const std::string& name) {
   std::filesystem::remove_all(d);
   std::filesystem::create_directories(d);
   return d;
+}
+
+// Quoted for the shell (appended, not operator+: GCC 12 warns falsely on that, PR105329).
+inline std::string q(const std::filesystem::path& p) {
+  std::string s(1, '\'');
+  s += p.string();
+  s += '\'';
+  return s;
+}
+
+// A failed run: exit 1, one line with the prefix, naming `expect`.
+inline void check_failed(const Run& r, const std::string& expect) {
+  INFO(r.err);
+  CHECK(r.code == 1);
+  CHECK(r.err.rfind("incise: error: ", 0) == 0);
+  CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+  CHECK(r.err.find(expect) != std::string::npos);
 }
 
 }  // namespace incise::testing

@@ -20,22 +20,6 @@ const std::string kSentinel = "sentinel: must survive a failed command\n";
 
 void put_sentinel(const fs::path& p) { std::ofstream(p) << kSentinel; }
 
-// Quoted for the shell (appended, not operator+: GCC 12 warns falsely on that, PR105329).
-std::string q(const fs::path& p) {
-  std::string s(1, '\'');
-  s += p.string();
-  s += '\'';
-  return s;
-}
-
-// A failed run: exit 1, one line with the prefix, naming `expect`.
-void check_failed(const Run& r, const std::string& expect) {
-  INFO(r.err);
-  CHECK(r.code == 1);
-  CHECK(r.err.rfind("incise: error: ", 0) == 0);
-  CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
-  CHECK(r.err.find(expect) != std::string::npos);
-}
 
 // Files in `d` without the capture files run_incise writes.
 std::vector<std::string> listing(const fs::path& d) {

@@ -15,21 +15,6 @@ using namespace incise::testing;
 
 namespace {
 
-// Quoted for the shell (appended, not operator+: GCC 12 warns falsely on that, PR105329).
-std::string q(const fs::path& p) {
-  std::string s(1, '\'');
-  s += p.string();
-  s += '\'';
-  return s;
-}
-
-void check_failed(const Run& r, const std::string& expect) {
-  INFO(r.err);
-  CHECK(r.code == 1);
-  CHECK(r.err.rfind("incise: error: ", 0) == 0);
-  CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
-  CHECK(r.err.find(expect) != std::string::npos);
-}
 
 struct Case {
   std::string args, expect;

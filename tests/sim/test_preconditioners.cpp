@@ -26,6 +26,34 @@ void fix_ends(const TetMesh& m, FemSimulation& sim) {
     if (m.rest(v).x() < 1e-9 || m.rest(v).x() > 4 - 1e-9) sim.fix(v);
 }
 
+// A 1D Laplacian of n unknowns (SPD), for CG tests that need no mesh.
+struct Laplacian : LinearOperator {
+  Eigen::VectorXd d;
+  explicit Laplacian(Eigen::Index n) : d(Eigen::VectorXd::Constant(n, 2.0)) {}
+  Eigen::Index rows() const override { return d.size(); }
+  void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const override {
+    y = 2 * x;
+    y.tail(x.size() - 1) -= x.head(x.size() - 1);
+    y.head(x.size() - 1) -= x.tail(x.size() - 1);
+  }
+  const Eigen::VectorXd& diagonal() const override { return d; }
+};
+
+// Jacobi that counts its applications, optionally sleeping in each, with a cheaper() one.
+struct CountingJacobi : CgPreconditioner {
+  const LinearOperator* op = nullptr;
+  mutable int applications = 0;
+  int sleep_ms = 0;
+  CgPreconditioner* cheap = nullptr;
+  void setup(const LinearOperator& o, const std::vector<std::uint8_t>*) override { op = &o; }
+  void apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const override {
+    ++applications;
+    if (sleep_ms) std::this_thread::sleep_for(std::chrono::milliseconds(sleep_ms));
+    z = r.cwiseQuotient(op->diagonal());
+  }
+  CgPreconditioner* cheaper() override { return cheap; }
+};
+
 }  // namespace
 
 TEST_CASE("CG with every preconditioner equals the direct solution", "[fem][preconditioner]") {
@@ -267,25 +295,8 @@ TEST_CASE("corotational: the stale factor rotated is symmetric, and CG still equ
 
 TEST_CASE("CG applies the preconditioner once per iteration, not once more after converging", "[cg][preconditioner]") {
   // A 1D Laplacian (SPD), Jacobi applied through a counting wrapper.
-  struct Laplacian : LinearOperator {
-    Eigen::VectorXd d = Eigen::VectorXd::Constant(30, 2.0);
-    Eigen::Index rows() const override { return d.size(); }
-    void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const override {
-      y = 2 * x;
-      y.tail(x.size() - 1) -= x.head(x.size() - 1);
-      y.head(x.size() - 1) -= x.tail(x.size() - 1);
-    }
-    const Eigen::VectorXd& diagonal() const override { return d; }
-  } a;
-  struct Counting : CgPreconditioner {
-    const LinearOperator* op = nullptr;
-    mutable int applications = 0;
-    void setup(const LinearOperator& o, const std::vector<std::uint8_t>*) override { op = &o; }
-    void apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const override {
-      ++applications;
-      z = r.cwiseQuotient(op->diagonal());
-    }
-  } pc;
+  Laplacian a(30);
+  CountingJacobi pc;
   ConjugateGradient cg;
   cg.set_tolerance(1e-10);
   cg.set_preconditioner(&pc);
@@ -301,32 +312,11 @@ TEST_CASE("CG applies the preconditioner once per iteration, not once more after
 }
 
 TEST_CASE("a budget that cannot afford the preconditioner's application uses its cheaper one", "[cg][preconditioner][budget]") {
-  // A 1D Laplacian; the "expensive" preconditioner is exact-ish Jacobi that sleeps 20 ms per
+  // A 1D Laplacian; the "expensive" preconditioner is Jacobi that sleeps 20 ms per
   // application, its cheaper one plain Jacobi. With a 2 ms budget, once the cost is measured,
   // fresh solves start on the cheaper one, resumes keep it, and the run still converges.
-  struct Laplacian : LinearOperator {
-    Eigen::VectorXd d = Eigen::VectorXd::Constant(200, 2.0);
-    Eigen::Index rows() const override { return d.size(); }
-    void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const override {
-      y = 2 * x;
-      y.tail(x.size() - 1) -= x.head(x.size() - 1);
-      y.head(x.size() - 1) -= x.tail(x.size() - 1);
-    }
-    const Eigen::VectorXd& diagonal() const override { return d; }
-  } a;
-  struct Counting : CgPreconditioner {
-    const LinearOperator* op = nullptr;
-    mutable int applications = 0;
-    int sleep_ms = 0;
-    Counting* cheap = nullptr;
-    void setup(const LinearOperator& o, const std::vector<std::uint8_t>*) override { op = &o; }
-    void apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const override {
-      ++applications;
-      if (sleep_ms) std::this_thread::sleep_for(std::chrono::milliseconds(sleep_ms));
-      z = r.cwiseQuotient(op->diagonal());
-    }
-    CgPreconditioner* cheaper() override { return cheap; }
-  } slow, fast;
+  Laplacian a(200);
+  CountingJacobi slow, fast;
   slow.sleep_ms = 20;
   slow.cheap = &fast;
   ConjugateGradient cg;
