@@ -7,6 +7,8 @@
 
 #include <cctype>
 #include <cstdlib>
+#include <cerrno>
+#include <cstdint>
 #include <fstream>
 #include <sstream>
 
@@ -68,7 +70,7 @@ void check_ply_header(const std::string& path) {
 // becomes a valid triangle) and goes on; the OBJ importer refuses the same mistake. The face
 // lines are checked here so both formats fail alike, naming the line. Anything this simple
 // reading does not follow (another header, counts missing) is left to assimp.
-void check_off_faces(const std::string& path) {
+void check_off_faces(const std::string& path, std::uintmax_t file_size) {
   std::ifstream in(path, std::ios::binary);
   std::string line;
   long n = 0;
@@ -90,11 +92,29 @@ void check_off_faces(const std::string& path) {
   std::string head;
   ss >> head;
   if (head != "OFF") return;
+  // The counts: on the header line or the next. A count that is not a number, or that more
+  // lines than the file can hold (every vertex and face needs a line of 2 bytes or more), is
+  // refused here: assimp reserves memory by them (a 40-digit face count took 2 GB, fuzzing).
   long nv = -1, nf = -1;
-  if (!(ss >> nv >> nf)) {
-    if (!next(ss) || !(ss >> nv >> nf)) return;
+  std::string tv, tf;
+  if (!(ss >> tv)) {
+    if (!next(ss) || !(ss >> tv)) return;
   }
-  if (nv < 0 || nf < 0) return;
+  if (!(ss >> tf)) return;
+  const long header_line = n;
+  auto count = [&](const std::string& tok, const char* what) {
+    char* end = nullptr;
+    errno = 0;
+    const long c = std::strtol(tok.c_str(), &end, 10);
+    if (*end != '\0' || errno == ERANGE || c < 0)
+      io::throw_io(path, header_line, std::string(what) + " count '" + io::Cursor::shorten(tok) + "' is not a count");
+    return c;
+  };
+  nv = count(tv, "vertex");
+  nf = count(tf, "face");
+  if (std::uintmax_t(nv) + std::uintmax_t(nf) > file_size)
+    io::throw_io(path, header_line, "the header announces " + tv + " vertices and " + tf + " faces, more than a file of " +
+                                        std::to_string(file_size) + " bytes can hold");
   for (long v = 0; v < nv; ++v)
     if (!next(ss)) return;
   for (long f = 0; f < nf; ++f) {
@@ -121,7 +141,7 @@ SurfaceMesh read_surface(const std::string& path) {
   if (S_ISDIR(st.st_mode)) io::throw_io(path, 0, "is a directory, not a file");
   if (st.st_size == 0) io::throw_io(path, 0, "empty file");
   if (io::lower_extension(path) == "ply") check_ply_header(path);
-  if (io::lower_extension(path) == "off") check_off_faces(path);
+  if (io::lower_extension(path) == "off") check_off_faces(path, std::uintmax_t(st.st_size));
   if (is_tet_mesh_path(path))
     io::throw_io(path, 0, "is a tetrahedral mesh format; a surface is needed here (OBJ, STL, PLY, OFF, glTF, ...)");
   Assimp::Importer importer;

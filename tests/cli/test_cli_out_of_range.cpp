@@ -121,6 +121,15 @@ TEST_CASE("the OFF reader rejects a face index out of range, naming the line", "
                "bad.off:9:");
   CHECK(!fs::exists(dir / "out.obj"));
   CHECK(!fs::exists(dir / "out.msh"));
+  // Header counts the file cannot hold, or that are no counts (a 40-digit face count made the
+  // surface importer reserve 2 GB): refused before the import.
+  std::ofstream(dir / "huge.off") << "OFF\n8 1333333333333333333333333333333333333332 3\n0 0 0\n";
+  check_failed(run_incise("convert " + q(dir / "huge.off") + " " + q(dir / "out.obj"), dir),
+               "huge.off:2: face count '");
+  std::ofstream(dir / "many.off") << "OFF\n4 100000000 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n";
+  check_failed(run_incise("convert " + q(dir / "many.off") + " " + q(dir / "out.obj"), dir),
+               "many.off:2: the header announces 4 vertices and 100000000 faces");
+  CHECK(!fs::exists(dir / "out.obj"));
 }
 
 TEST_CASE("scene cuts: degenerate blades and frames after the run are errors naming the key", "[cli][options][scene]") {
