@@ -66,16 +66,21 @@ void check_ply_header(const std::string& path) {
   fail("no end_header");
 }
 
-// assimp's OFF importer clamps a face index past the vertex count to the last vertex (`3 0 1 9`
-// becomes a valid triangle) and goes on; the OBJ importer refuses the same mistake. The face
-// lines are checked here so both formats fail alike, naming the line. Anything this simple
-// reading does not follow (another header, counts missing) is left to assimp.
-void check_off_faces(const std::string& path, std::uintmax_t file_size) {
+// OFF is read here, not by assimp: its importer clamped a face index past the vertex count
+// to the last vertex (`3 0 1 9` became a valid triangle; the OBJ importer refuses the same
+// mistake), reserved memory by the header's counts (a 40-digit count took 2 GB) and crashed on
+// malformed files, all found by fuzzing. The format: an optional keyword ([ST][C][N]OFF; the
+// extra per-vertex and per-face fields are skipped), the counts `V F [E]`, V lines of
+// coordinates, F lines `k i_1 .. i_k`; `#` starts a comment. Polygons are fan-triangulated and
+// faces of fewer than 3 vertices dropped, like the other formats.
+SurfaceMesh read_off(const std::string& path, std::uintmax_t file_size) {
   std::ifstream in(path, std::ios::binary);
+  if (!in) io::throw_io(path, 0, "cannot open file (does it exist?)");
   std::string line;
   long n = 0;
-  // The next line with content, its '#' comment stripped.
-  auto next = [&](std::istringstream& ss) {
+  std::istringstream ss;
+  // The next line with content, its comment stripped.
+  auto next = [&]() {
     while (std::getline(in, line)) {
       ++n;
       const auto hash = line.find('#');
@@ -87,50 +92,72 @@ void check_off_faces(const std::string& path, std::uintmax_t file_size) {
     }
     return false;
   };
-  std::istringstream ss;
-  if (!next(ss)) return;
-  std::string head;
-  ss >> head;
-  if (head != "OFF") return;
-  // The counts: on the header line or the next. A count that is not a number, or that more
-  // lines than the file can hold (every vertex and face needs a line of 2 bytes or more), is
-  // refused here: assimp reserves memory by them (a 40-digit face count took 2 GB, fuzzing).
-  long nv = -1, nf = -1;
-  std::string tv, tf;
-  if (!(ss >> tv)) {
-    if (!next(ss) || !(ss >> tv)) return;
-  }
-  if (!(ss >> tf)) return;
-  const long header_line = n;
-  auto count = [&](const std::string& tok, const char* what) {
-    char* end = nullptr;
-    errno = 0;
-    const long c = std::strtol(tok.c_str(), &end, 10);
-    if (*end != '\0' || errno == ERANGE || c < 0)
-      io::throw_io(path, header_line, std::string(what) + " count '" + io::Cursor::shorten(tok) + "' is not a count");
-    return c;
-  };
-  nv = count(tv, "vertex");
-  nf = count(tf, "face");
-  if (std::uintmax_t(nv) + std::uintmax_t(nf) > file_size)
-    io::throw_io(path, header_line, "the header announces " + tv + " vertices and " + tf + " faces, more than a file of " +
-                                        std::to_string(file_size) + " bytes can hold");
-  for (long v = 0; v < nv; ++v)
-    if (!next(ss)) return;
-  for (long f = 0; f < nf; ++f) {
-    if (!next(ss)) return;
-    long k = 0;
-    if (!(ss >> k) || k < 0) return;
-    for (long i = 0; i < k; ++i) {
-      std::string tok;
-      if (!(ss >> tok)) io::throw_io(path, n, "face has " + std::to_string(i) + " of its " + std::to_string(k) + " vertex indices");
-      char* end = nullptr;
-      const long idx = std::strtol(tok.c_str(), &end, 10);
-      if (*end != '\0') io::throw_io(path, n, "face vertex index '" + io::Cursor::shorten(tok) + "' is not an integer");
-      if (idx < 0 || idx >= nv)
-        io::throw_io(path, n, "face vertex index " + tok + " out of range (" + std::to_string(nv) + " vertices)");
+  if (!next()) io::throw_io(path, n, "no OFF header");
+  std::string tok;
+  ss >> tok;
+  if (tok.size() >= 3 && tok.compare(tok.size() - 3, 3, "OFF") == 0) {
+    if (tok.find_first_of("4n") != std::string::npos)
+      io::throw_io(path, n, "'" + io::Cursor::shorten(tok) + "': only 3D OFF is read");
+    if (!(ss >> tok)) {
+      if (!next()) io::throw_io(path, n, "the file ends before the vertex and face counts");
+      ss >> tok;
     }
   }
+  const long header_line = n;
+  auto integer = [&](const std::string& t, long line_no, const std::string& what) {
+    char* end = nullptr;
+    errno = 0;
+    const long c = std::strtol(t.c_str(), &end, 10);
+    if (t.empty() || *end != '\0' || errno == ERANGE || c < 0)
+      io::throw_io(path, line_no, what + " '" + io::Cursor::shorten(t) + "' is not a count");
+    return c;
+  };
+  const long nv = integer(tok, header_line, "vertex count");
+  std::string tf;
+  if (!(ss >> tf)) io::throw_io(path, header_line, "no face count after the vertex count");
+  const long nf = integer(tf, header_line, "face count");
+  if (std::uintmax_t(nv) + std::uintmax_t(nf) > file_size)
+    io::throw_io(path, header_line, "the header announces " + tok + " vertices and " + tf + " faces, more than a file of " +
+                                        std::to_string(file_size) + " bytes can hold");
+  SurfaceMesh s;
+  s.vertices.reserve(std::size_t(nv));
+  for (long v = 0; v < nv; ++v) {
+    if (!next()) io::throw_io(path, n, "the file ends after " + std::to_string(v) + " of its " + std::to_string(nv) + " vertices");
+    Vec3 p;
+    for (int d = 0; d < 3; ++d) {
+      std::string c;
+      if (!(ss >> c)) io::throw_io(path, n, "a vertex needs 3 coordinates");
+      char* end = nullptr;
+      p[d] = std::strtod(c.c_str(), &end);
+      if (*end != '\0') io::throw_io(path, n, "coordinate '" + io::Cursor::shorten(c) + "' is not a number");
+    }
+    if (!p.allFinite()) io::throw_io(path, n, "non-finite vertex coordinate");
+    s.vertices.push_back(p);
+  }
+  std::vector<int> face;
+  for (long f = 0; f < nf; ++f) {
+    if (!next()) io::throw_io(path, n, "the file ends after " + std::to_string(f) + " of its " + std::to_string(nf) + " faces");
+    std::string kt;
+    ss >> kt;
+    const long k = integer(kt, n, "face size");
+    if (std::uintmax_t(k) > file_size) io::throw_io(path, n, "face size " + kt + " is more than the file can hold");
+    face.clear();
+    for (long i = 0; i < k; ++i) {
+      std::string t;
+      if (!(ss >> t)) io::throw_io(path, n, "face has " + std::to_string(i) + " of its " + std::to_string(k) + " vertex indices");
+      char* end = nullptr;
+      errno = 0;
+      const long idx = std::strtol(t.c_str(), &end, 10);
+      if (*end != '\0' || errno == ERANGE)
+        io::throw_io(path, n, "face vertex index '" + io::Cursor::shorten(t) + "' is not an integer");
+      if (idx < 0 || idx >= nv)
+        io::throw_io(path, n, "face vertex index " + t + " out of range (" + std::to_string(nv) + " vertices)");
+      face.push_back(int(idx));
+    }
+    for (std::size_t i = 1; i + 1 < face.size(); ++i) s.triangles.push_back({face[0], face[i], face[i + 1]});
+  }
+  if (s.triangles.empty()) io::throw_io(path, 0, "no triangles in the file");
+  return s;
 }
 
 }  // namespace
@@ -141,7 +168,7 @@ SurfaceMesh read_surface(const std::string& path) {
   if (S_ISDIR(st.st_mode)) io::throw_io(path, 0, "is a directory, not a file");
   if (st.st_size == 0) io::throw_io(path, 0, "empty file");
   if (io::lower_extension(path) == "ply") check_ply_header(path);
-  if (io::lower_extension(path) == "off") check_off_faces(path, std::uintmax_t(st.st_size));
+  if (io::lower_extension(path) == "off") return read_off(path, std::uintmax_t(st.st_size));
   if (is_tet_mesh_path(path))
     io::throw_io(path, 0, "is a tetrahedral mesh format; a surface is needed here (OBJ, STL, PLY, OFF, glTF, ...)");
   Assimp::Importer importer;

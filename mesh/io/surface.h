@@ -13,7 +13,8 @@ struct SurfaceMesh {
   std::vector<std::array<int, 3>> triangles;  // #F by 3, indices into vertices
 };
 
-// Reads any surface format assimp reads (OBJ, STL ascii/binary, PLY, OFF, glTF, ...).
+// Reads any surface format assimp reads (OBJ, STL ascii/binary, PLY, glTF, ...) and OFF (read
+// by incise itself: assimp's importer clamped bad indices and crashed on malformed files).
 // Polygons are fan-triangulated, node transforms applied, points and lines dropped;
 // vertices are kept as the importer gives them (not welded; STL has one per corner).
 // Throws IoError naming the file for unreadable input or a file without triangles.

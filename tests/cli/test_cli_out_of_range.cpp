@@ -126,6 +126,9 @@ TEST_CASE("the OFF reader rejects a face index out of range, naming the line", "
   std::ofstream(dir / "huge.off") << "OFF\n8 1333333333333333333333333333333333333332 3\n0 0 0\n";
   check_failed(run_incise("convert " + q(dir / "huge.off") + " " + q(dir / "out.obj"), dir),
                "huge.off:2: face count '");
+  std::ofstream(dir / "headless.off") << "3333333332 3\n3 2 6\n3 0 6 2\n";
+  check_failed(run_incise("convert " + q(dir / "headless.off") + " " + q(dir / "out.obj"), dir),
+               "headless.off:1: the header announces 3333333332 vertices");
   std::ofstream(dir / "many.off") << "OFF\n4 100000000 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n";
   check_failed(run_incise("convert " + q(dir / "many.off") + " " + q(dir / "out.obj"), dir),
                "many.off:2: the header announces 4 vertices and 100000000 faces");
