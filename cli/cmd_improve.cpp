@@ -24,7 +24,7 @@ void add_improve(CLI::App& app) {
     bool no_flips = false, no_multi_face = false, no_smoothing = false, fixed_boundary = false, keep_surface = false, insert = false;
   };
   auto o = std::make_shared<Opts>();
-  auto* cmd = app.add_subcommand("improve", "Improve element quality by flips and smoothing (surface unchanged)");
+  auto* cmd = app.add_subcommand("improve", "Improve element quality by flips, contraction and smoothing (surface and label volumes kept within --volume-tolerance)");
   cmd->add_option("input", o->in, "Tet mesh (.msh .mesh .vtk .vtu .node/.ele)")->required();
   cmd->add_option("-o,--output", o->out, "Improved mesh (format by extension)")->required();
   cmd->add_option("--json", o->json, "Write the before/after report (JSON) to this file");
@@ -49,7 +49,13 @@ void add_improve(CLI::App& app) {
   cmd->add_flag("--fixed-boundary", o->fixed_boundary, "Boundary vertices never move");
   cmd->add_flag("--keep-surface", o->keep_surface,
                 "Boundary and interface vertices slide only where flat (surface and label volumes kept exactly); "
-                "by default they also slide on smooth curved parts, staying on the old surface");
+                "by default they also slide on smooth curved parts, staying on the old surface, while each label's "
+                "volume stays within --volume-tolerance");
+  cmd->add_option("--volume-tolerance", o->improve.volume_tolerance,
+                  "Slides on curved parts may move each label's volume by at most this fraction of it (net; 1: no "
+                  "limit in practice)")
+      ->check(finite_range(0, 1))
+      ->capture_default_str();
   cmd->add_option("--feature-angle", o->improve.feature_angle_deg,
                   "Surface edges bent more than this (degrees) are features: their vertices stay")
       ->check(finite_range(0, 180))

@@ -72,7 +72,10 @@ void add_prepare(CLI::App& app) {
         if (!*no_improve) {
           ImproveOptions io;
           io.time_limit_s = *improve_seconds;
-          io.slide_curved = true;  // the mesh approximates the input surface anyway
+          // The mesh only approximates the input surface (its report gives the volume against the
+          // input's): sliding on it is not limited by volume, the summary line says what it moved.
+          io.slide_curved = true;
+          io.volume_tolerance = 1;
           imp = improve(mesh, io);
           mesh.discard_change();
           if (!quiet) std::cerr << format_improve_report(imp);

@@ -15,7 +15,7 @@ namespace {
 ImproveOptions options(double time_limit, double budget_ms, int max_work, double target, double target_max,
                        bool flips, bool multi_face, bool smoothing, bool insertion, double max_growth,
                        double radius_ratio_floor, bool keep_surface, bool fixed_boundary, double feature_angle,
-                       const std::vector<VertexId>& frozen) {
+                       double volume_tolerance, const std::vector<VertexId>& frozen) {
   ImproveOptions o;
   o.time_limit_s = time_limit;
   o.time_budget_ms = budget_ms;
@@ -34,6 +34,7 @@ ImproveOptions options(double time_limit, double budget_ms, int max_work, double
   o.slide_curved = !keep_surface && !fixed_boundary;
   o.move_surface = o.move_cut = o.move_interface = !fixed_boundary;
   o.feature_angle_deg = feature_angle;
+  o.volume_tolerance = volume_tolerance;
   o.frozen = frozen;
   check_improve_options(o, PythonNames{});  // the rules of `incise improve`, Python's names
   return o;
@@ -52,20 +53,22 @@ void bind_improve(py::module_& m) {
       "improve",
       [](TetMesh& mesh, double time_limit, double target, double target_max, bool flips, bool multi_face,
          bool smoothing, bool insertion, double max_growth, double radius_ratio_floor, bool keep_surface,
-         bool fixed_boundary, double feature_angle, const py::object& frozen) {
+         bool fixed_boundary, double feature_angle, double volume_tolerance, const py::object& frozen) {
         if (mesh.has_pending_change())
           throw InvalidArgument("improve: the mesh has edits not yet taken (call take_change() first)");
         const std::vector<VertexId> fz = frozen.is_none() ? std::vector<VertexId>{} : to_vertices(mesh, frozen);
         const ImproveReport r =
             improve(mesh, options(time_limit, 0, 0, target, target_max, flips, multi_face, smoothing, insertion,
-                                  max_growth, radius_ratio_floor, keep_surface, fixed_boundary, feature_angle, fz));
+                                  max_growth, radius_ratio_floor, keep_surface, fixed_boundary, feature_angle,
+                                  volume_tolerance, fz));
         return result(mesh, r);
       },
       py::arg("mesh"), py::kw_only(), py::arg("time_limit") = 10.0, py::arg("target_dihedral") = 35.0,
       py::arg("target_max_dihedral") = 135.0, py::arg("flips") = true, py::arg("multi_face") = true,
       py::arg("smoothing") = true, py::arg("insert") = false, py::arg("max_growth") = 1.5,
       py::arg("radius_ratio_floor") = 0.1, py::arg("keep_surface") = false,
-      py::arg("fixed_boundary") = false, py::arg("feature_angle") = 30.0, py::arg("frozen") = py::none(),
+      py::arg("fixed_boundary") = false, py::arg("feature_angle") = 30.0, py::arg("volume_tolerance") = 1e-4,
+      py::arg("frozen") = py::none(),
       "Flips and smoothing over the whole mesh, worst first (as `incise improve`); returns the "
       "`incise improve --json` report with the edits as 'change'");
   m.def(
@@ -87,7 +90,7 @@ void bind_improve(py::module_& m) {
         const std::vector<VertexId> fz = frozen.is_none() ? std::vector<VertexId>{} : to_vertices(mesh, frozen);
         // Local passes keep the surface exactly, as the cutter's does.
         ImproveOptions o =
-            options(10, budget_ms, max_work, 35, 135, true, true, true, false, 1.5, 0.1, true, false, 30, fz);
+            options(10, budget_ms, max_work, 35, 135, true, true, true, false, 1.5, 0.1, true, false, 30, 1e-4, fz);
         o.rings = rings;
         return result(mesh, improve_local(mesh, ts, o));
       },

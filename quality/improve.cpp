@@ -66,6 +66,7 @@ public:
     smooth_.iterations = opt.smoothing_iterations;
     smooth_.frozen = &frozen_;
     smooth_.curved_slid = &curved_slid_;
+    if (opt.slide_curved) smooth_.volume = &volume_;
     collapse_.edge_ratio = opt.collapse_edge_ratio;
     collapse_.tolerance = opt.collapse_tolerance;
     // Boundary vertices that may not slide may not be contracted away either (the boundary's
@@ -80,6 +81,11 @@ public:
       insert_.boundary_tags = [surface = opt.move_surface, cut = opt.move_cut](std::uint16_t tag) {
         return tag == kTagCut ? cut : surface;
       };
+  }
+
+  // Curved slides may move each label's volume by volume_tolerance of `volumes`.
+  void limit_volume(const std::unordered_map<int, double>& volumes) {
+    for (const auto& [label, v] : volumes) volume_.limit[label] = opt_.volume_tolerance * std::abs(v);
   }
 
   // One sweep over `tets`; returns whether anything improved. `seen`: also gathers the
@@ -265,6 +271,7 @@ private:
   InsertionOptions insert_;
   std::unordered_set<std::uint32_t> frozen_;
   std::unordered_set<std::uint32_t> curved_slid_;
+  VolumeAllowance volume_;
   // Smoothing (vertices) or flips (tets) failed and nothing around changed since.
   std::unordered_set<std::uint32_t> stuck_, flip_stuck_, collapse_stuck_;
   std::unordered_map<std::uint32_t, std::uint32_t> version_;
@@ -273,6 +280,26 @@ private:
   long growth_cap_;  // how many tets the pass may add in all
   long grown_ = 0;  // net tets added by all operations
 };
+
+// Each label's volume over `tets` (live ones).
+template <class Tets>
+std::unordered_map<int, double> label_volumes(const TetMesh& mesh, const Tets& tets) {
+  std::unordered_map<int, double> vol;
+  for (auto t : tets)
+    if (mesh.is_alive(TetId(t))) vol[mesh.label(TetId(t))] += mesh.volume(TetId(t));
+  return vol;
+}
+
+// The largest relative change of one label's volume from `before` to `after`.
+double largest_change(const std::unordered_map<int, double>& before, const std::unordered_map<int, double>& after) {
+  double worst = 0;
+  for (const auto& [label, v0] : before) {
+    const auto it = after.find(label);
+    const double v1 = it == after.end() ? 0 : it->second;
+    if (v0 > 0) worst = std::max(worst, std::abs(v1 - v0) / v0);
+  }
+  return worst;
+}
 
 void finish(ImproveReport& rep, const Driver& d, Clock::time_point start) {
   rep.moved_vertices.reserve(d.moved.size());
@@ -290,6 +317,8 @@ ImproveReport improve(TetMesh& mesh, const ImproveOptions& opt) {
   rep.tets_before = all.size();
   const auto deadline = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(opt.time_limit_s));
   Driver d(mesh, opt, deadline, opt.time_limit_s > 0, nullptr, all.size());
+  const std::unordered_map<int, double> volumes = label_volumes(mesh, all);
+  d.limit_volume(volumes);
   // Sweeps until one makes no progress: a tet stuck in one sweep may become improvable once
   // its neighbours changed. The first one's queueing measures "before". With insertion, the
   // sweeps without it come first: inserting at the first worst tets spent the growth cap on
@@ -309,6 +338,7 @@ ImproveReport improve(TetMesh& mesh, const ImproveOptions& opt) {
   rep.max_dihedral_before = before.max_dih;
   rep.min_radius_ratio_before = before.min_rr;
   const std::vector<TetId> after_tets = mesh.tets();
+  rep.label_volume_change = largest_change(volumes, label_volumes(mesh, after_tets));
   Stats after = stats_of(mesh, after_tets);
   rep.tets_after = after_tets.size();
   rep.min_dihedral_after = after.min_dih;
@@ -339,6 +369,8 @@ ImproveReport improve_local(TetMesh& mesh, std::span<const TetId> seeds, const I
   const auto deadline =
       start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double, std::milli>(opt.time_budget_ms));
   Driver d(mesh, opt, deadline, timed, &region, region.size());
+  const std::unordered_map<int, double> volumes = label_volumes(mesh, region);
+  d.limit_volume(volumes);
   if (opt.insertion) d.allow_insertion();  // a local pass has no time to converge first
   Stats before;  // measured by the first sweep as it queues the region
   for (int pass = 0; pass < 4 && !rep.budget_exhausted; ++pass) {
@@ -348,6 +380,7 @@ ImproveReport improve_local(TetMesh& mesh, std::span<const TetId> seeds, const I
   rep.min_dihedral_before = before.min_dih;
   rep.max_dihedral_before = before.max_dih;
   rep.min_radius_ratio_before = before.min_rr;
+  rep.label_volume_change = largest_change(volumes, label_volumes(mesh, region));
   Stats after = stats_of(mesh, region);
   rep.tets_after = region.size();
   rep.min_dihedral_after = after.min_dih;

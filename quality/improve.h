@@ -52,6 +52,9 @@ struct ImproveOptions {
   bool slide_curved = false;         // boundary/interface vertices also slide on smooth curved parts (no edge
                                      // sharper than feature_angle_deg), staying on the old surface; the
                                      // surface and per-label volumes then change slightly (never cut faces)
+  double volume_tolerance = 1e-4;    // with slide_curved: curved slides may move each label's volume by at most
+                                     // this fraction of it (net; of the region's in local mode), the way
+                                     // Stellar bounds surface smoothing. 1: no limit in practice
   double feature_angle_deg = 30;     // dihedral between boundary faces above which an edge is a feature (fixed)
   std::span<const VertexId> frozen;  // vertices that must not move or be removed
   int rings = 2;                     // local mode: rings grown around the seeds
@@ -68,6 +71,9 @@ struct ImproveReport {
   int boundary_insertions = 0;  // insertions on a boundary face (counted in insertions too)  // contractions: edge collapses (one vertex removed each)
   int boundary_flips = 0;  // boundary edge removals between coplanar faces (2-2 and larger)
   double volume_change = 0;  // sum of |label volume change| of tolerance-mode contractions (else 0)
+  // Largest change of one label's volume, relative to it (measured, all operations; over the
+  // region in local mode): 0 up to rounding unless slide_curved or tolerance-mode contraction.
+  double label_volume_change = 0;
   double seconds = 0;
   std::vector<VertexId> moved_vertices;  // vertices whose position changed (for local backend refresh)
   bool budget_exhausted = false;

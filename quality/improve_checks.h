@@ -43,6 +43,7 @@ void check_improve_options(const ImproveOptions& o, const Names& name) {
     throw InvalidArgument("improve: " + name("max_growth") + " must be at least 1");
   check_finite_range("improve", "feature_angle", o.feature_angle_deg, 0, 180, name);
   check_finite_range("improve", "time_limit", o.time_limit_s, 0, 1e6, name);
+  check_finite_range("improve", "volume_tolerance", o.volume_tolerance, 0, 1, name);
 }
 
 }  // namespace incise

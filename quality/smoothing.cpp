@@ -216,6 +216,25 @@ bool place(const TetMesh& mesh, VertexId v, const Vec3& p, const Freedom& fr, Ve
   return true;
 }
 
+// Moving v to p changes each label's volume by the change of v's tets of that label. Spends
+// the change from the allowance, or refuses (false) when a label would pass its limit.
+bool spend_volume(const TetMesh& mesh, VertexId v, const Vec3& p, VolumeAllowance& allowance) {
+  std::unordered_map<int, double> delta;
+  for (TetId t : mesh.incident_tets(v)) {
+    std::array<Vec3, 4> x;
+    const auto& tv = mesh.tet_vertices(t);
+    for (int k = 0; k < 4; ++k) x[k] = tv[k] == v ? p : mesh.rest(tv[k]);
+    const double after = (x[1] - x[0]).cross(x[2] - x[0]).dot(x[3] - x[0]) / 6;
+    delta[mesh.label(t)] += after - mesh.volume(t);
+  }
+  for (const auto& [label, d] : delta) {
+    const auto lim = allowance.limit.find(label);
+    if (lim == allowance.limit.end() || std::abs(allowance.moved[label] + d) > lim->second) return false;
+  }
+  for (const auto& [label, d] : delta) allowance.moved[label] += d;
+  return true;
+}
+
 }  // namespace
 
 bool smooth_vertex(TetMesh& mesh, VertexId v, const ImproveScope& scope, const SmoothOptions& opt) {
@@ -250,6 +269,7 @@ bool smooth_vertex(TetMesh& mesh, VertexId v, const ImproveScope& scope, const S
   if (!locate(mesh, v, best_p, fr, parents, weights)) return false;
   const Vec3 actual = combine(mesh, parents, weights);
   if (!better(star.at(actual, tg), orig, tg) || !mesh.is_move_ok(v, actual)) return false;
+  if (fr.kind == Freedom::Surface && opt.volume && !spend_volume(mesh, v, actual, *opt.volume)) return false;
   mesh.move_vertex(v, parents, weights);
   if (fr.kind == Freedom::Surface && opt.curved_slid) opt.curved_slid->insert(v.idx());
   return true;

@@ -13,12 +13,20 @@
 // vertices (corners, curved feature edges, where three labels meet) stay. The move goes through
 // TetMesh::move_vertex, recorded as a point of the mesh before the move.
 #include <cstdint>
+#include <unordered_map>
 #include <unordered_set>
 
 #include "mesh/tet_mesh.h"
 #include "quality/improve_scope.h"
 
 namespace incise {
+
+// How far slides on curved discs may move each label's volume: a slide that would take a
+// label's net change past its limit is refused (flat slides keep volumes exactly).
+struct VolumeAllowance {
+  std::unordered_map<int, double> limit;  // per label, absolute volume
+  std::unordered_map<int, double> moved;  // per label, net change by curved slides so far
+};
 
 struct SmoothOptions {
   bool move_surface = true;  // boundary (non-cut) vertices may slide in flat neighbourhoods
@@ -31,6 +39,7 @@ struct SmoothOptions {
   // Vertices that already slid on a curved disc in this pass: they slide there once, so the
   // drift from the input surface stays within one disc's sagitta (nullptr: no limit).
   std::unordered_set<std::uint32_t>* curved_slid = nullptr;
+  VolumeAllowance* volume = nullptr;  // curved slides spend it (nullptr: no limit)
 };
 
 // Returns true when v moved (its tets strictly better by better()).

@@ -90,6 +90,7 @@ def test_improve_keywords_for_multi_face_removal_and_the_radius_ratio_floor(sour
         ({"feature_angle": 400}, r"feature_angle: 400 is out of range \[0, 180\]"),
         ({"time_limit": -1}, r"time_limit: -1 is out of range \[0, 1e\+06\]"),
         ({"time_limit": float("inf")}, "time_limit: 'inf': expected a finite number"),
+        ({"volume_tolerance": 2}, r"volume_tolerance: 2 is out of range \[0, 1\]"),
     ],
 )
 def test_improve_refuses_what_the_cli_refuses(kwargs, message):
@@ -111,3 +112,29 @@ def test_improve_local_refuses_bad_rings_budget_and_seeds():
         incise.improve_local(m, [0.5])
     with pytest.raises(incise.InvalidArgument, match="seed tet 100000 is not a live tet"):
         incise.improve_local(m, [100000])
+
+
+def test_improve_keeps_label_volumes_within_volume_tolerance(source_dir):
+    # The sample liver is curved: sliding on it without a limit moves its volume by over 0.1%.
+    liver = str(source_dir / "samples" / "liver.msh")
+
+    def volumes(m):
+        vols = {}
+        pts, tets, labels = m.points, m.tets, m.labels
+        a, b, c, d = (pts[tets[:, k]] for k in range(4))
+        v = np.einsum("ij,ij->i", np.cross(b - a, c - a), d - a) / 6
+        for lab in np.unique(labels):
+            vols[int(lab)] = float(v[labels == lab].sum())
+        return vols
+
+    m = incise.read(liver)
+    before = volumes(m)
+    r = incise.improve(m, time_limit=10)
+    after = volumes(m)
+    moved = max(abs(after[k] - v) / v for k, v in before.items())
+    assert moved <= 1e-4 * (1 + 1e-9)
+    assert r["label_volume_change"] == pytest.approx(moved, abs=1e-12)
+    loose = incise.read(liver)
+    incise.improve(loose, time_limit=10, volume_tolerance=1.0)
+    after = volumes(loose)
+    assert max(abs(after[k] - v) / v for k, v in before.items()) > 1e-3
