@@ -36,25 +36,36 @@ void add_cut(CLI::App& app) {
   cmd->add_option("--blade", o->blade, "Blade segment A-B: AX AY AZ BX BY BZ")->expected(6);
   cmd->add_option("--sweep", o->sweep, "Blade motion D over the whole cut: DX DY DZ")->expected(3);
   auto* steps_opt = cmd->add_option("--steps", o->steps, "Progressive steps: the blade moves D/N per step (N cuts)")
-      ->check(CLI::Range(1, 100000));
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
   cmd->add_option("--plane", o->plane, "Instead of a blade: plane through P with normal N: PX PY PZ NX NY NZ")
       ->expected(6);
   cmd->add_option("--surface", o->surface, "Instead of a blade: cut along a triangulated surface (OFF, OBJ, STL, ...)");
   cmd->add_option("--mode", o->mode, "subdivide (remesh along the blade, separate) or remove (carve touched tets)")
-      ->check(CLI::IsMember({"subdivide", "remove"}));
+      ->check(CLI::IsMember({"subdivide", "remove"}))
+      ->capture_default_str();
   cmd->add_option("--snap", o->snap,
                   "Snap threshold relative to the local edge length: vertices this close to the blade are "
                   "treated as on it (fewer slivers, cut surface up to this far from the blade)")
-      ->check(finite_range(0.0, 0.49));
+      ->check(CLI::Validator(
+          [](std::string& s) -> std::string {
+            double v = 0;
+            if (!CLI::detail::lexical_cast(s, v)) return "'" + s + "' is not a number";
+            return snap_error(v);
+          },
+          "in [0, 0.5)"))
+      ->capture_default_str();
   cmd->add_flag("--no-improve", o->no_improve, "No local flips and smoothing after each step");
   cmd->add_option("--improve-work", o->work,
                   "Operations the local improvement may attempt per step (0: no cap). The default result is "
                   "reproducible: the same command gives the same mesh on every run")
-      ->check(CLI::Range(0, 100000000));
+      ->check(CLI::Range(0, 100000000))
+      ->capture_default_str();
   cmd->add_option("--improve-budget-ms", o->budget_ms,
                   "Wall-clock cap of the local improvement per step, on top of --improve-work (0: none, the "
                   "default; a time cap makes the output depend on the machine's speed and load)")
-      ->check(time_limit_range(1e6));
+      ->check(time_limit_range(1e6))
+      ->capture_default_str();
   cmd->add_option("--json", o->json, "Write the cut report (JSON) here");
   cmd->add_flag("-q,--quiet", o->quiet, "No per-step progress on stderr");
   cmd->callback([o, steps_opt] {
@@ -95,7 +106,7 @@ void add_cut(CLI::App& app) {
     Cutter cutter(mesh, opt);
     nlohmann::json steps = nlohmann::json::array();
     std::size_t tets_cut = 0, tets_added = 0, vertices_added = 0, duplicated = 0, faces = 0, fragments = 0;
-    double ms_total = 0, ms_max = 0, area = 0;
+    double ms_total = 0, ms_max = 0, area = 0, exposed = 0;
     auto record = [&](const CutStepReport& r, int k) {
       tets_cut += r.tets_cut;
       tets_added += r.tets_added;
@@ -103,6 +114,7 @@ void add_cut(CLI::App& app) {
       duplicated += r.vertices_duplicated;
       faces += r.cut_faces;
       area += r.cut_area;
+      exposed += r.exposed_area;
       fragments += r.fragments.size();
       ms_total += r.ms;
       ms_max = std::max(ms_max, r.ms);
@@ -165,6 +177,7 @@ void add_cut(CLI::App& app) {
                           {"vertices_duplicated", duplicated},
                           {"cut_faces", faces},
                           {"cut_area", area},
+                          {"exposed_area", exposed},
                           {"fragments", fragments},
                           {"min_dihedral_before", before.min_dihedral},
                           {"max_dihedral_before", before.max_dihedral},

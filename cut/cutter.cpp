@@ -27,6 +27,7 @@ void add_separation(CutStepReport& rep, const SeparationResult& sep) {
   rep.vertices_duplicated += sep.vertices_duplicated;
   rep.cut_faces += sep.faces_opened;
   rep.cut_area += sep.area;
+  rep.exposed_area += 2 * sep.area;
 }
 }  // namespace
 
@@ -70,7 +71,7 @@ bool Cutter::needs_improving(TetId t) const {
 
 Cutter::Cutter(TetMesh& mesh, CutOptions options)
     : mesh_(&mesh), opt_(std::move(options)), progress_(std::make_unique<Progress>()) {
-  if (!(opt_.snap >= 0) || opt_.snap >= 0.5) throw InvalidArgument("cut: snap must be in [0, 0.5)");
+  if (const std::string e = snap_error(opt_.snap); !e.empty()) throw InvalidArgument("cut: snap: " + e);
   // Room for the cuts' new vertices and tets: the first steps then do not copy the mesh's
   // arrays (an O(mesh) spike); later growth is geometric, so amortized.
   mesh.reserve(mesh.vertex_capacity() + mesh.vertex_capacity() / 8 + 1024,
@@ -312,11 +313,12 @@ CutStepReport Cutter::finish(const PositionFn& caller_positions) {
 }
 
 CutStepReport Cutter::advance(const BladeSegment& blade, const PositionFn& caller_positions, double max_displacement) {
+  // A blade that was never placed (or was withdrawn) has no "from": refuse rather than guess
+  // (this once started a cut silently, and a script missing its start() cut nothing).
+  if (!started_)
+    throw InvalidArgument("cut: advance() needs a blade: call start(a, b) first (finish() ends a cut; start() "
+                          "begins the next)");
   const PositionFn positions = with_fresh(caller_positions);
-  if (!started_) {
-    start(blade);
-    return {};
-  }
   if (!finite(blade.a) || !finite(blade.b)) throw InvalidArgument("cut: blade endpoints must be finite");
   const BladeSegment from = blade_;
   blade_ = blade;
@@ -515,7 +517,8 @@ CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const Position
     CarveResult c = carve(*mesh_, pieces, seeds, scan, positions);
     rep.tets_cut = c.removed;
     rep.cut_faces = c.faces_exposed;
-    rep.cut_area = c.area;
+    rep.cut_area = c.area / 2;
+    rep.exposed_area = c.area;
     front_ = std::move(c.neighbours);
     rep.fragments = find_fragments(*mesh_, front_, opt_.fragment_search_limit);
   } else {
@@ -534,6 +537,7 @@ CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const Position
     rep.vertices_duplicated = sep.vertices_duplicated;
     rep.cut_faces = sep.faces_opened;
     rep.cut_area = sep.area;
+    rep.exposed_area = 2 * sep.area;
     front_ = step.live_candidates();
     front_vertices_ = step.segment_vertices(blade_.a, blade_.b);
     front_segment_ = blade_;

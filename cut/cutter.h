@@ -42,6 +42,7 @@
 #include <vector>
 
 #include "cut/blade.h"
+#include "cut/snap_rule.h"
 #include "cut/tet_grid.h"
 #include "mesh/tet_mesh.h"
 #include "quality/improve.h"
@@ -108,7 +109,9 @@ struct CutStepReport {
   std::size_t vertices_added = 0;     // new vertices (split points and duplicates)
   std::size_t vertices_duplicated = 0;
   std::size_t cut_faces = 0;          // faces opened (each side counted once: pairs)
-  double cut_area = 0;                // area of the opened faces (one side)
+  double cut_area = 0;                // area of the cut, one side: subdivision's opened faces; removal's
+                                      // half of what it exposed (the channel has two walls)
+  double exposed_area = 0;            // area of all new boundary faces (subdivision: twice cut_area)
   std::vector<Fragment> fragments;    // parts detached by this step
   double ms = 0;                      // wall time of the step (cut + improvement)
   double ms_improve = 0;
@@ -131,7 +134,8 @@ public:
   // Positions the blade without cutting (a new cut). A cut not finish()ed is completed (its
   // waiting tets cut, without finish()'s improvement) by the next step, in that step's record.
   void start(const BladeSegment& blade);
-  // Cuts what the blade sweeps moving from its last position to `blade`. Subdivision mode cuts
+  // Cuts what the blade sweeps moving from its last position to `blade` (InvalidArgument
+  // before start() or after finish(): there is no last position). Subdivision mode cuts
   // progressively: steps in one plane grow one swept polygon (cut/sheet.h), and a tet is cut
   // against that polygon once the blade has left it (its section with the plane lies inside
   // the polygon, and the snap decisions of its vertices are final); the tets the blade is in
@@ -139,6 +143,8 @@ public:
   // steps, and the opening trails the blade by the tets it is in.
   CutStepReport advance(const BladeSegment& blade, const PositionFn& positions = {},
                         double max_displacement = kUnknownDisplacement);
+  // Whether a blade is placed (start() called, finish() not since): advance() may be called.
+  bool in_cut() const { return started_; }
   // One-shot cuts: a plane through the whole mesh, or a triangulated surface.
   CutStepReport cut_plane(const Vec3& point, const Vec3& normal, const PositionFn& positions = {},
                           double max_displacement = kUnknownDisplacement);

@@ -86,7 +86,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         case 0: cutter.start({p, q}); break;
         case 1: moved += cutter.cut_plane(p, q - shift - Vec3(0.5, 0.5, 0.5)).improve.volume_change; break;
         case 2: moved += cutter.finish().improve.volume_change; break;
-        default: moved += cutter.advance({p, q}).improve.volume_change; break;
+        default:  // a move with no blade placed places it (advance() would refuse)
+          if (!cutter.in_cut())
+            cutter.start({p, q});
+          else
+            moved += cutter.advance({p, q}).improve.volume_change;
+          break;
       }
     } catch (const incise::InvalidMesh&) {
       std::abort();  // the cutter broke the mesh and noticed late

@@ -17,14 +17,7 @@ struct PyCutter {
   py::object mesh_ref;
   TetMesh& mesh;
   Cutter cutter;
-  bool started = false;  // start() called, finish() not since: advance() needs a placed blade
 };
-
-void check_started(const PyCutter& c) {
-  if (!c.started)
-    throw InvalidArgument("cut: advance() needs a blade: call start(a, b) first (finish() ends a cut; "
-                          "start() begins the next)");
-}
 
 std::unique_ptr<PyCutter> make_cutter(const py::object& mesh_obj, const std::string& mode, double snap, bool improve,
                                       double improve_budget_ms, int improve_work, const py::object& frozen,
@@ -66,6 +59,7 @@ py::dict report(CutStepReport&& r) {
   d["vertices_duplicated"] = r.vertices_duplicated;
   d["cut_faces"] = r.cut_faces;
   d["cut_area"] = r.cut_area;
+  d["exposed_area"] = r.exposed_area;
   d["ms"] = r.ms;
   d["ms_improve"] = r.ms_improve;
   py::list fragments;
@@ -95,7 +89,6 @@ void bind_cut(py::module_& m) {
       .def(
           "start", [](PyCutter& c, const py::object& a, const py::object& b) {
             c.cutter.start({to_vec3(a, "blade a"), to_vec3(b, "blade b")});
-            c.started = true;
           },
           py::arg("a"), py::arg("b"), "Places the blade (segment a-b) without cutting. A cut not finished is completed by the next step")
       .def(
@@ -103,9 +96,7 @@ void bind_cut(py::module_& m) {
           [](PyCutter& c, const py::object& positions) {
             std::vector<Vec3> storage;
             const auto pos = positions_of(c.mesh, positions, storage);
-            CutStepReport r = c.cutter.finish(pos);
-            c.started = false;
-            return report(std::move(r));
+            return report(c.cutter.finish(pos));
           },
           py::arg("positions") = py::none(),
           "The blade is withdrawn: cuts the tets the blade was still in (embedding its last front), "
@@ -114,7 +105,6 @@ void bind_cut(py::module_& m) {
       .def(
           "advance",
           [](PyCutter& c, const py::object& a, const py::object& b, const py::object& positions) {
-            check_started(c);
             std::vector<Vec3> storage;
             const auto pos = positions_of(c.mesh, positions, storage);
             return report(c.cutter.advance({to_vec3(a, "blade a"), to_vec3(b, "blade b")}, pos));

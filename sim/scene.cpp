@@ -12,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "cut/snap_rule.h"
 #include "mesh/errors.h"
 #include "mesh/generate.h"
 #include "mesh/io/atomic_file.h"
@@ -413,7 +414,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
       }
       if (c.contains("snap")) {
         cut.snap = rd.number(c["snap"], key + ".snap");
-        if (!(cut.snap >= 0 && cut.snap < 0.5)) rd.fail(key + ".snap", "expected a number in [0, 0.5)");
+        if (const std::string e = snap_error(cut.snap); !e.empty()) rd.fail(key + ".snap", e);
       }
       if (c.contains("improve")) {
         if (!c["improve"].is_boolean()) rd.fail(key + ".improve", "expected true or false");
@@ -723,7 +724,8 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
         sum.files.push_back(name);
       }
       if (opt.progress) {
-        *opt.progress << "simulate: frame " << frame + 1 << "/" << frames << ": " << st.iterations << " iterations, residual "
+        // Numbered like the files and stats.csv (frame_0000.vtu is frame 0).
+        *opt.progress << "simulate: frame " << frame << " (0.." << frames - 1 << "): " << st.iterations << " iterations, residual "
                       << st.relative_residual << ", " << std::fixed << std::setprecision(2) << st.solve_ms << " ms"
                       << std::defaultfloat << std::setprecision(6) << (st.budget_exhausted ? ", budget exhausted" : "")
                       << (!converged && !st.budget_exhausted && fem ? ", NOT CONVERGED" : "") << "\n";

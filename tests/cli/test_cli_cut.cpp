@@ -16,6 +16,7 @@ namespace fs = std::filesystem;
 using incise::testing::Run;
 using incise::testing::run_incise;
 using incise::testing::scratch_dir;
+using incise::testing::slurp;
 
 namespace {
 
@@ -65,6 +66,7 @@ TEST_CASE("incise cut: a progressive through-cut of a box, JSON report and tagge
   // Both sides of the cut are tagged 2 in .msh: twice the section of the box (about 1 x 1).
   const double area = tagged_area(m, incise::kTagCut);
   CHECK(area == Approx(2 * j["cut_area"].get<double>()).epsilon(1e-9));
+  CHECK(area == Approx(j["exposed_area"].get<double>()).epsilon(1e-9));
   CHECK(area > 2.0);
   CHECK(area < 2.1);
 }
@@ -90,12 +92,19 @@ TEST_CASE("incise cut: partial, plane and removal cuts", "[cli][cut]") {
   CHECK(incise::tet_components(plm).count == 2);
 
   const std::string carved = (dir / "carved.msh").string();
-  r = run_incise("cut '" + box + "' -o '" + carved + "' --mode remove --plane 0.5 0.5 0.5 0 0 1", dir);
+  const std::string carved_json = (dir / "carved.json").string();
+  r = run_incise("cut '" + box + "' -o '" + carved + "' --mode remove --plane 0.5 0.5 0.5 0 0 1 --json '" +
+                     carved_json + "'",
+                 dir);
   REQUIRE(r.code == 0);
   const incise::TetMesh cm = incise::read_tet_mesh(carved);
   REQUIRE_NOTHROW(cm.validate({true, true}));
   CHECK(cm.num_tets() < incise::read_tet_mesh(box).num_tets());
   CHECK(tagged_area(cm, incise::kTagCut) > 1.9);
+  // Removal reports one side like subdivision (it once gave both walls of the channel).
+  const nlohmann::json cj = nlohmann::json::parse(slurp(carved_json));
+  CHECK(cj["exposed_area"].get<double>() == Approx(tagged_area(cm, incise::kTagCut)).epsilon(1e-9));
+  CHECK(cj["cut_area"].get<double>() == Approx(tagged_area(cm, incise::kTagCut) / 2).epsilon(1e-9));
 }
 
 TEST_CASE("incise cut fails with one line naming the problem, and writes nothing", "[cli][cut]") {
@@ -126,9 +135,19 @@ TEST_CASE("incise cut fails with one line naming the problem, and writes nothing
     CHECK(!fs::exists(out));
   }
   // Option values out of range are caught by the option parser: one line like every error.
-  Run r = run_incise("cut '" + box + "' -o '" + out + "' --plane 0 0 0 1 0 0 --snap 0.7", dir);
-  CHECK(r.code == 1);
-  CHECK(r.err.find("incise: error: --snap") == 0);
-  CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
-  CHECK(!fs::exists(out));
+  for (const char* snap : {"0.7", "0.5", "-0.1", "nan"}) {
+    Run r = run_incise("cut '" + box + "' -o '" + out + "' --plane 0 0 0 1 0 0 --snap " + snap, dir);
+    INFO(snap << ": " << r.err);
+    CHECK(r.code == 1);
+    CHECK(r.err.find("incise: error: --snap") == 0);
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+    CHECK(!fs::exists(out));
+  }
+  // The rule is the library's (scenes and Python share it): [0, 0.5), so 0.49 is a snap.
+  Run ok = run_incise("cut '" + box + "' -o '" + out + "' --plane 0.5 0.5 0.5 1 0 0 --snap 0.49", dir);
+  CHECK(ok.code == 0);
+  // --help shows the defaults.
+  Run help = run_incise("cut --help", dir);
+  for (const char* d : {"--snap FLOAT:in [0, 0.5)=0.05", "=subdivide", "--improve-work INT:INT in [0 - 100000000]=8"})
+    CHECK(help.out.find(d) != std::string::npos);
 }

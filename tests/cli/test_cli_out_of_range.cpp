@@ -152,6 +152,9 @@ TEST_CASE("scene cuts: degenerate blades and frames after the run are errors nam
       {scene(R"({"blade": [[2, 0, 2], [2, 0, 2]], "sweep": [0, 0, -3]})"), "cuts[0]: the blade's two ends are the same point"},
       {scene(R"({"blade": [[2, -1, 2], [2, 2, 2]], "sweep": [0, 0, 0]})"), "cuts[0]: the sweep is zero"},
       {scene(R"({"blade": [[2, -1, 2], [2, 2, 2]], "sweep": [0, 1e999, 0]})"), "scene.json: invalid JSON"},
+      // The same snap rule as `incise cut --snap` and Python's Cutter.
+      {scene(R"({"blade": [[2, -1, 2], [2, 2, 2]], "sweep": [0, 0, -3], "snap": 0.5})"),
+       "cuts[0].snap: 0.5 is not in [0, 0.5)"},
   };
   for (const Case& c : cases) {
     INFO(c.args);

@@ -153,7 +153,9 @@ TEST_CASE("finishing a cut improves around its front with the front's vertices f
   CHECK(fin.improve.flips23 + fin.improve.flips32 + fin.improve.flips44 + fin.improve.edge_removals +
             fin.improve.smoothing_moves + fin.improve.contractions > 0);
   CHECK_FALSE(fin.change.empty());
-  // Nothing to do twice; the next advance starts a new cut.
+  // Nothing to do twice; advance() needs start() again (it once started a cut silently).
   CHECK(cutter.finish().change.empty());
-  CHECK(cutter.advance({Vec3(-0.2, 0.2, 1.2), Vec3(1.2, 0.2, 1.2)}).change.empty());
+  CHECK_FALSE(cutter.in_cut());
+  CHECK_THROWS_AS(cutter.advance({Vec3(-0.2, 0.2, 1.2), Vec3(1.2, 0.2, 1.2)}), InvalidArgument);
+  CHECK(cutter.finish().change.empty());
 }

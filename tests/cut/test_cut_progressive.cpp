@@ -226,7 +226,7 @@ TEST_CASE("progressive: random straight cuts of a box open exactly their swept a
 
 TEST_CASE("progressive: a blade swept across the Kuhn box's diagonal keeps the mesh valid and every volume (fuzz)",
           "[cut][progressive][fuzz]") {
-  // Found by fuzz_cut: an advance() without start() from outside the box, then a blade through
+  // Found by fuzz_cut: a blade placed outside the box, then a blade through
   // the main diagonal that every Kuhn tet shares, with snapping and improvement on.
   auto coordinate = [](int b) { return b < 128 ? -0.25 + 0.125 * (b % 13) : -0.3 + 1.6 * (b - 128) / 127.0; };
   auto point = [&](int x, int y, int z) { return Vec3(coordinate(x), coordinate(y), coordinate(z)); };
@@ -239,7 +239,7 @@ TEST_CASE("progressive: a blade swept across the Kuhn box's diagonal keeps the m
   opt.fragment_search_limit = 500;
   Cutter cutter(m, opt);
   double moved = 0;  // what the improvement's tolerance-mode contractions report moving
-  moved += cutter.advance({point(0xbd, 0xff, 0xf8), point(0xfb, 0xfc, 0xff)}).improve.volume_change;
+  cutter.start({point(0xbd, 0xff, 0xf8), point(0xfb, 0xfc, 0xff)});  // the harness's first advance() then
   check_cut_invariants(m, vol0, 1e-9, moved);
   moved += cutter.advance({point(0xfc, 0xfd, 0xfc), point(0, 0, 0)}).improve.volume_change;
   check_cut_invariants(m, vol0, 1e-9, moved);

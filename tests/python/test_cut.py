@@ -67,6 +67,9 @@ def test_cut_errors_carry_the_cli_messages():
     mesh.take_change()
     with pytest.raises(incise.InvalidArgument, match="snap"):
         incise.Cutter(mesh, snap=0.7)
+    with pytest.raises(incise.InvalidArgument, match=r"snap: 0.5 is not in \[0, 0.5\)"):
+        incise.Cutter(mesh, snap=0.5)
+    incise.Cutter(mesh, snap=0.49)  # the CLI's --snap takes it too
     with pytest.raises(incise.InvalidArgument, match="mode"):
         incise.Cutter(mesh, mode="laser")
     c = incise.Cutter(mesh)
