@@ -141,6 +141,15 @@ TEST_CASE("simulate: DIR is always one run's output", "[cli][nothing-lost][simul
   const std::vector<std::string> four{"frame_0000.vtu", "frame_0001.vtu", "frame_0002.vtu", "frame_0003.vtu",
                                       "frames.pvd", "stats.csv"};
   CHECK(listing(out) == four);
+  {  // Progress numbers frames as the files do (it once said frame 1/4 for frame_0000).
+    const Run loud = run_incise("simulate " + q(dir / "scene.json") + " -o " + q(dir / "loud"), dir);
+    REQUIRE(loud.code == 0);
+    const std::string all = loud.out + loud.err;
+    CHECK(all.find("simulate: frame 0 (0..3)") != std::string::npos);
+    CHECK(all.find("simulate: frame 3 (0..3)") != std::string::npos);
+    CHECK(all.find("frame 4") == std::string::npos);
+    fs::remove_all(dir / "loud");
+  }
   const std::string stats = slurp(out / "stats.csv"), frame0 = slurp(out / "frame_0000.vtu");
 
   // A run that fails mid-way leaves the earlier run as it was, and says so.
