@@ -50,6 +50,11 @@ public:
   CutStep(TetMesh& mesh, const PositionFn& positions, double snap, CutMemory* memory = nullptr,
           bool provisional = false);
 
+  // Vertices that never move (CutOptions::frozen): snapping leaves them where they are.
+  void set_fixed(std::span<const VertexId> fixed) {
+    for (VertexId v : fixed) fixed_.insert(v.idx());
+  }
+
   // Current position of a vertex (created this step, or given by the caller, or rest).
   Vec3 position(VertexId v) const;
 
@@ -84,6 +89,8 @@ public:
 private:
   int side(const Piece& piece, std::size_t piece_index, VertexId v);
   double snap_length(VertexId v);
+  // Moves a snapped vertex onto the piece's plane (cut/snap_move.h); false where it may not.
+  bool move_snapped(const Piece& piece, std::size_t k, VertexId v);
   double vertex_radius(VertexId v);
   double star_radius(VertexId v) const;  // longest edge at v
   bool edge_split_ok(VertexId a, VertexId b, double s) const;
@@ -100,6 +107,7 @@ private:
   CutMemory* memory_;
   bool provisional_;
   void decide(std::size_t k, VertexId v, int s);
+  std::unordered_set<std::uint32_t> fixed_;
   std::vector<TetId> cand_;
   std::unordered_set<std::uint32_t> in_cand_;
   std::unordered_map<std::uint32_t, Vec3> created_pos_;

@@ -253,6 +253,7 @@ void Cutter::finish_sheet(CutStepReport& rep, const PositionFn& positions) {
     return;
   }
   CutStep step(*mesh_, positions, opt_.snap, &pr.memory, false);
+  step.set_fixed(opt_.frozen);
   if (pr.back_known) step.add_known_segment(pr.back.a, pr.back.b, pr.back_vertices);
   step.add_candidates(closed);
   std::vector<TetId> seeds = pr.waiting;
@@ -368,6 +369,7 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
     std::vector<Piece> pieces = make_pieces(tris);
     if (pr.back_known) mark_inner_segment(pieces, from.a, from.b);
     CutStep step(*mesh_, positions, opt_.snap);
+    step.set_fixed(opt_.frozen);
     if (pr.back_known) step.add_known_segment(from.a, from.b, pr.back_vertices);
     seeds = front_;
     for (const Piece& p : pieces) {
@@ -383,6 +385,7 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
   } else {
     const Piece& sp = pr.sheet->piece();
     CutStep step(*mesh_, positions, opt_.snap, &pr.memory, true);
+    step.set_fixed(opt_.frozen);
     step.add_candidates(pr.waiting);
     step.add_candidates(pr.closed);
     step.collect(local, front_, scan);
@@ -523,6 +526,7 @@ CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const Position
     rep.fragments = find_fragments(*mesh_, front_, opt_.fragment_search_limit);
   } else {
     CutStep step(*mesh_, positions, opt_.snap);
+    step.set_fixed(opt_.frozen);
     if (use_front && has_front_) step.add_known_segment(front_segment_.a, front_segment_.b, front_vertices_);
     for (const Piece& p : pieces) {
       step.collect(p, seeds, scan);
