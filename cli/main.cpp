@@ -17,8 +17,12 @@ void refuse_non_finite_words(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
     for (char& c : a) c = char(std::tolower(static_cast<unsigned char>(c)));
-    if (a == "-inf" || a == "-infinity" || a == "-nan")
-      throw incise::InvalidArgument(std::string("'") + argv[i] + "': numbers must be finite");
+    if (a == "-inf" || a == "-infinity" || a == "-nan") {
+      std::string option;  // the option the value belongs to: the last one spelled before it
+      for (int j = i - 1; j > 0 && option.empty(); --j)
+        if (argv[j][0] == '-' && argv[j][1] == '-') option = std::string(argv[j]) + ": ";
+      throw incise::InvalidArgument(option + "'" + argv[i] + "': numbers must be finite");
+    }
   }
 }
 
