@@ -199,3 +199,33 @@ TEST_CASE("simulate and trade: --frames must be at least 1", "[cli][nothing-lost
       CHECK(!fs::exists(dir / "out"));
     }
 }
+
+TEST_CASE("every command that writes a mesh keeps an existing output when it fails", "[cli][nothing-lost]") {
+  // One case per writing command: the output exists, the command fails after naming it (bad
+  // input or a value its checks refuse), the old output is still there byte for byte.
+  const fs::path dir = scratch_dir("cli_lost_every");
+  const fs::path out = dir / "out.msh", box = dir / "box.msh", bad = dir / "bad.off";
+  REQUIRE(run_incise("generate box --cells 2 2 2 -o " + q(box), dir).code == 0);
+  std::ofstream(bad) << "OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 9\n";  // index 9 of 4
+  const std::string o = " -o " + q(out);
+  const std::string cases[] = {
+      "generate box --cells 0 2 2" + o,
+      "generate ellipsoid --resolution 0" + o,
+      "tetra " + q(bad) + o,
+      "prepare " + q(bad) + o,
+      "convert " + q(bad) + " " + q(out),
+      "cut " + q(dir / "missing.msh") + o + " --plane 0 0 0 0 0 1",
+      "cut " + q(box) + o + " --blade 0.5 -1 2 0.5 2 2 --sweep 0 0 0",
+      "improve " + q(dir / "missing.msh") + o,
+      "improve " + q(box) + o + " --volume-tolerance 2",
+  };
+  for (const std::string& args : cases) {
+    INFO(args);
+    put_sentinel(out);
+    const Run r = run_incise(args, dir);
+    INFO(r.err);
+    CHECK(r.code == 1);
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+    CHECK(slurp(out) == kSentinel);
+  }
+}
