@@ -57,7 +57,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     write_file(base + ".ele", cut == std::string_view::npos ? std::string_view() : bytes.substr(cut + 6));
     check_mesh(incise::read_tet_mesh(base + ".node"));
 #elif defined(INCISE_FUZZ_SURFACE)
-    // The first byte picks the assimp importer.
+    // The first byte picks the format (OFF is read by incise itself, the others by assimp).
     if (size == 0) return 0;
     static const char* kExt[] = {".off", ".stl", ".obj", ".ply"};
     const std::string path = base + kExt[data[0] % 4];
