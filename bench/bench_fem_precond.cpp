@@ -1,6 +1,7 @@
 // Preconditioners, budgets and warm start, each against a baseline measured in the same run:
 //  1. iterations and time per frame on the sample beam scene, an organ and the organ cut
-//     mid-run, for Jacobi (baseline), block-Jacobi and Cholesky (the scene default);
+//     mid-run, for Jacobi (baseline), block-Jacobi, Cholesky (the scene default) and the
+//     aggregation multigrid (amg);
 //  2. budgeted convergence on a cantilever: relative residual against frames at several
 //     budgets, resuming CG (now) against restarting it every frame (before);
 //  3. warm start on a probe moving steadily over 40 frames: iterations of the last solution
@@ -33,7 +34,8 @@ using namespace incise::bench;
 
 namespace {
 
-const Preconditioner kPcs[] = {Preconditioner::Jacobi, Preconditioner::BlockJacobi, Preconditioner::Cholesky};
+const Preconditioner kPcs[] = {Preconditioner::Jacobi, Preconditioner::BlockJacobi, Preconditioner::Cholesky,
+                               Preconditioner::Amg};
 
 MaterialTable material(double e, double nu) {
   Material m;
@@ -171,7 +173,8 @@ void section_budget(double tets, Csv& csv) {
               c.mesh.num_tets());
   std::printf("  %-13s %6s %8s %18s %18s %18s %18s %10s\n", "preconditioner", "budget", "mode", "frame 1 err/res",
               "frame 10", "frame 30", "frame 100", "converged@");
-  for (Preconditioner pc : {Preconditioner::Jacobi, Preconditioner::BlockJacobi, Preconditioner::Cholesky})
+  for (Preconditioner pc : {Preconditioner::Jacobi, Preconditioner::BlockJacobi, Preconditioner::Cholesky,
+                            Preconditioner::Amg})
     for (double budget : {2.0, 10.0})
       for (bool resume : {false, true}) {
         FemSimulationOptions opt;
@@ -213,9 +216,9 @@ void section_budget_holds(Csv& csv) {
               "tolerance 1e-8: frame ms (whole step) median / p90 / max, share of frames within %.0f ms, frames "
               "on the cheaper preconditioner, setup (before the first solve) and solve ms median/max, residual at the end\n",
               budget, c.mesh.num_tets(), goal);
-  std::printf("  %-13s %7s %8s %8s %8s %9s %8s %13s %13s %10s\n", "preconditioner", "budget", "median", "p90", "max",
-              "within", "cheaper", "setup med/max", "solve med/p90", "residual");
-  for (Preconditioner pc : {Preconditioner::Cholesky, Preconditioner::BlockJacobi})
+  std::printf("  %-13s %7s %8s %8s %8s %9s %8s %13s %13s %10s %12s\n", "preconditioner", "budget", "median", "p90", "max",
+              "within", "cheaper", "setup med/max", "solve med/p90", "residual", "it med/max");
+  for (Preconditioner pc : {Preconditioner::Cholesky, Preconditioner::BlockJacobi, Preconditioner::Amg})
     for (double b : {0.0, budget}) {
       FemSimulationOptions opt;  // the defaults, but the preconditioner and the budget
       opt.cg.preconditioner = pc;
@@ -225,6 +228,7 @@ void section_budget_holds(Csv& csv) {
       std::vector<double> ms, setup, solve;
       int within = 0, cheaper = 0;
       double res = 0;
+      std::vector<double> its;
       for (int f = 0; f < 100; ++f) {
         const double load = 1 + 0.5 * std::sin(0.2 * f);
         for (VertexId v : c.mesh.vertices())
@@ -236,13 +240,15 @@ void section_budget_holds(Csv& csv) {
         setup.push_back(st.setup_ms);
         solve.push_back(st.solve_ms);
         res = st.relative_residual;
+        its.push_back(st.iterations);
       }
       std::vector<double> sorted = ms;
       std::sort(sorted.begin(), sorted.end());
       std::sort(setup.begin(), setup.end());
       std::sort(solve.begin(), solve.end());
-      std::printf("  %-13s %7.0f %8.2f %8.2f %8.2f %8d%% %8d %6.2f/%6.2f %6.2f/%6.2f %10.1e\n", to_string(pc), b,
-                  sorted[50], sorted[90], sorted[99], within, cheaper, setup[50], setup[99], solve[50], solve[90], res);
+      std::sort(its.begin(), its.end());
+      std::printf("  %-13s %7.0f %8.2f %8.2f %8.2f %8d%% %8d %6.2f/%6.2f %6.2f/%6.2f %10.1e %5.0f/%-6.0f\n", to_string(pc), b,
+                  sorted[50], sorted[90], sorted[99], within, cheaper, setup[50], setup[99], solve[50], solve[90], res, its[50], its[99]);
       if (sim.cholesky()) std::printf("    factorizations adopted: %d\n", sim.cholesky()->factorizations());
       csv.row("budget-holds", to_string(pc), c.mesh.num_tets(), b, "", sorted[50], sorted[90], sorted[99], within, cheaper);
     }
@@ -331,29 +337,49 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
               "frames 10-50, tolerance 1e-4; over frames 10-50: frame = cut + step (ms), its parts (median), CG "
               "iterations median/max, worst residual, factorizations started while cutting show as a busy core\n",
               organ_file.c_str(), organ.num_tets());
-  std::printf("  %-28s %8s %8s %8s %8s %8s %8s %10s %17s\n", "preconditioner", "median", "p95", "max", "cut",
-              "setup", "solve", "iterations", "residual med/max");
+  std::printf("  %-28s %8s %8s %8s %8s %8s %8s %10s %17s %13s\n", "preconditioner", "median", "p95", "max", "cut",
+              "setup", "solve", "iterations", "residual med/max", "pc setup m/x");
   struct Config {
     const char* name;
     Preconditioner pc;
     int settle;
     double budget_ms = 0;
+    AggregationAmgOptions amg = {};
   };
+  AggregationAmgOptions additive;
+  additive.cycle = AggregationAmgOptions::Cycle::Additive;
   const Config configs[] = {{"cholesky (stale factor)", Preconditioner::Cholesky, 0},
                             {"cholesky settle 3 (default)", Preconditioner::Cholesky, 3},
                             {"block-jacobi", Preconditioner::BlockJacobi, 0},
                             {"jacobi", Preconditioner::Jacobi, 0},
-                            {"default, budget 16 ms", Preconditioner::Cholesky, 3, 16.0}};
+                            {"amg", Preconditioner::Amg, 0},
+                            {"amg additive", Preconditioner::Amg, 0, 0, additive},
+                            {"default, budget 16 ms", Preconditioner::Cholesky, 3, 16.0},
+                            {"block-jacobi, budget 16 ms", Preconditioner::BlockJacobi, 0, 16.0},
+                            {"amg, budget 16 ms", Preconditioner::Amg, 0, 16.0}};
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "incise-bench-cut-scene";
+  // INCISE_BENCH_CUT_CONFIGS="amg,block-jacobi": only the configurations of these names (quick runs).
+  const std::string filter = std::getenv("INCISE_BENCH_CUT_CONFIGS") ? std::getenv("INCISE_BENCH_CUT_CONFIGS") : "";
   for (const Config& cfg : configs) {
+    if (!filter.empty()) {
+      bool hit = false;
+      std::stringstream fs(filter);
+      for (std::string f; std::getline(fs, f, ',');) hit = hit || std::string(cfg.name) == f;
+      if (!hit) continue;
+    }
     Scene sc = scene;
     sc.cg.preconditioner = cfg.pc;
     sc.cholesky.settle_frames = cfg.settle;
     sc.cg.budget_ms = cfg.budget_ms;
+    sc.amg = cfg.amg;
     std::filesystem::remove_all(dir);
     SceneRunOptions ro;
     ro.out_dir = dir.string();
     ro.cut_hook = make_scene_cut_hook(sc);
+    std::vector<double> pc_setup;  // frames 10-50: the preconditioner's setup inside the solve
+    ro.on_frame = [&](int f, const Eigen::VectorXd&, const FrameStats& st) {
+      if (f >= 10 && f <= 50) pc_setup.push_back(st.preconditioner_setup_ms);
+    };
     run_scene(sc, ro);
     if (std::getenv("INCISE_BENCH_KEEP"))  // inspect a configuration's per-frame stats
       std::filesystem::copy_file(dir / "stats.csv", std::string(std::getenv("INCISE_BENCH_KEEP")) + "-" +
@@ -388,9 +414,10 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
       std::sort(x.begin(), x.end());
       return x[std::min(x.size() - 1, std::size_t(q * double(x.size() - 1) + 0.5))];
     };
-    std::printf("  %-28s %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %5.0f/%-4.0f %8.1e/%-8.1e\n", cfg.name, pct(frame, 0.5),
-                pct(frame, 0.95), pct(frame, 1.0), pct(cutms, 0.5), pct(setup, 0.5), pct(solve, 0.5), pct(iters, 0.5),
-                pct(iters, 1.0), pct(resid, 0.5), worst);
+    std::printf("  %-28s %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %5.0f/%-4.0f %8.1e/%-8.1e %6.1f/%-6.1f\n", cfg.name,
+                pct(frame, 0.5), pct(frame, 0.95), pct(frame, 1.0), pct(cutms, 0.5), pct(setup, 0.5), pct(solve, 0.5),
+                pct(iters, 0.5), pct(iters, 1.0), pct(resid, 0.5), worst, pc_setup.empty() ? 0.0 : pct(pc_setup, 0.5),
+                pc_setup.empty() ? 0.0 : pct(pc_setup, 1.0));
     csv.row("cut-scene", cfg.name, organ.num_tets(), pct(frame, 0.5), pct(frame, 0.95), pct(frame, 1.0), pct(cutms, 0.5),
             pct(setup, 0.5), pct(solve, 0.5), pct(iters, 0.5), worst);
   }
@@ -535,10 +562,11 @@ void section_poisson(Csv& csv) {
   Cantilever c(5000);
   std::printf("\niterations against Poisson's ratio: cantilever %zu tets, linear, cold start, tolerance 1e-8\n",
               c.mesh.num_tets());
-  std::printf("  %8s %10s %12s %10s %12s %12s\n", "nu", "jacobi", "block-jacobi", "cholesky", "bj/jacobi", "chol/jacobi");
+  std::printf("  %8s %10s %12s %10s %10s %12s %12s %12s\n", "nu", "jacobi", "block-jacobi", "cholesky", "amg", "bj/jacobi",
+              "chol/jacobi", "amg/jacobi");
   for (double nu : {0.3, 0.45, 0.49, 0.499, 0.4999}) {
-    int it[3] = {0, 0, 0};
-    for (int i = 0; i < 3; ++i) {
+    int it[4] = {0, 0, 0, 0};
+    for (int i = 0; i < 4; ++i) {
       FemSimulationOptions opt;
       opt.cg.tolerance = 1e-8;
       opt.cg.preconditioner = kPcs[i];
@@ -547,8 +575,8 @@ void section_poisson(Csv& csv) {
       c.setup(sim);
       it[i] = sim.step().iterations;
     }
-    std::printf("  %8.4f %10d %12d %10d %12.3f %12.3f\n", nu, it[0], it[1], it[2], double(it[1]) / it[0],
-                double(it[2]) / it[0]);
+    std::printf("  %8.4f %10d %12d %10d %10d %12.3f %12.3f %12.3f\n", nu, it[0], it[1], it[2], it[3],
+                double(it[1]) / it[0], double(it[2]) / it[0], double(it[3]) / it[0]);
     csv.row("poisson", nu, c.mesh.num_tets(), it[0], it[1], it[2], double(it[1]) / it[0], double(it[2]) / it[0], 0, 0);
   }
 }

@@ -236,7 +236,8 @@ bool ConjugateGradient::start(const Eigen::VectorXd& b, Eigen::VectorXd& x, std:
   }
   const double ts = now_ms();
   active_->setup(*A_, free_);
-  average_in(active_ == pc_ ? pc_setup_ms_ : cheap_setup_ms_, now_ms() - ts);
+  stats_.preconditioner_setup_ms = now_ms() - ts;
+  average_in(active_ == pc_ ? pc_setup_ms_ : cheap_setup_ms_, stats_.preconditioner_setup_ms);
   pc_version_ = active_->version();
   precondition(r_, z_);
   project(z_);

@@ -55,6 +55,7 @@ struct SolveStats {
   double guess_relative_residual = 0;    // at the guess as given (before prediction)
   double prediction_weight = 0;    // alpha_1 of x = guess + sum alpha_i d_i (0: prediction not used)
   double solve_ms = 0;             // wall time of the solve
+  double preconditioner_setup_ms = 0;  // of it, the preconditioner's setup (a multigrid rebuild shows here)
   bool budget_exhausted = false;   // the budget stopped it
   bool resumed = false;            // continued the previous interrupted solve
   // The budget left could not afford one application of the preconditioner: the solve used
