@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -346,14 +347,18 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
     double budget_ms = 0;
     AggregationAmgOptions amg = {};
   };
-  AggregationAmgOptions additive;
+  AggregationAmgOptions additive, ring2, lazy;
   additive.cycle = AggregationAmgOptions::Cycle::Additive;
+  ring2.ring = 2;
+  lazy.topology_rebuild_iterations = 20;
   const Config configs[] = {{"cholesky (stale factor)", Preconditioner::Cholesky, 0},
                             {"cholesky settle 3 (default)", Preconditioner::Cholesky, 3},
                             {"block-jacobi", Preconditioner::BlockJacobi, 0},
                             {"jacobi", Preconditioner::Jacobi, 0},
                             {"amg", Preconditioner::Amg, 0},
                             {"amg additive", Preconditioner::Amg, 0, 0, additive},
+                            {"amg ring 2", Preconditioner::Amg, 0, 0, ring2},
+                            {"amg lazy (rebuild >20 it)", Preconditioner::Amg, 0, 0, lazy},
                             {"default, budget 16 ms", Preconditioner::Cholesky, 3, 16.0},
                             {"block-jacobi, budget 16 ms", Preconditioner::BlockJacobi, 0, 16.0},
                             {"amg, budget 16 ms", Preconditioner::Amg, 0, 16.0}};
@@ -422,6 +427,72 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
             pct(setup, 0.5), pct(solve, 0.5), pct(iters, 0.5), worst);
   }
   std::filesystem::remove_all(dir);
+}
+
+// What the aggregation multigrid costs on the organ: one build's phases (aggregation,
+// prolongator, coarse operator, coarse factorization), the coarse size, and one application
+// against a block-Jacobi application and a product K x; the organ held at the bottom and
+// pressed at the top, corotational, one frame solved to 1e-4 first (so rotations are set).
+void section_amg_build(const std::string& organ_file, Csv& csv) {
+  const TetMesh organ = largest_part(read_tet_mesh(organ_file));
+  const Box b(organ);
+  std::printf("\namg build on %s (%zu tets, %zu vertices), corotational: per build ms (median of 5), coarse size, "
+              "and one application against block-Jacobi and K x (median of 20)\n",
+              organ_file.c_str(), organ.num_tets(), organ.num_vertices());
+  std::printf("  %-22s %6s %8s %8s %9s %8s %8s %8s %8s %8s %8s %8s\n", "variant", "aggr.", "coarse n", "nnz(L)",
+              "aggregate", "P", "A_c", "factor", "total", "apply", "bj apply", "K x");
+  for (int ring : {1, 2})
+    for (bool rotations : {true, false}) {
+      FemSimulationOptions opt;
+      opt.kind = FemKind::Corotational;
+      opt.cg.tolerance = 1e-4;
+      opt.cg.preconditioner = Preconditioner::Amg;
+      opt.amg.ring = ring;
+      opt.amg.rotations = rotations;
+      FemSimulation sim(organ, material(5e3, 0.4), opt);
+      for (VertexId v : organ.vertices()) {
+        const Vec3 p = organ.rest(v);
+        if (p.z() < b.lo.z() + 0.15 * b.size().z()) sim.fix(v);
+        if (p.z() > b.hi.z() - 0.05 * b.size().z()) sim.set_force(v, Vec3(0, 0, -1e-3));
+      }
+      sim.step();
+      std::vector<double> phase[5], apply, bj, kx;
+      AggregationAmg amg(sim.model(), opt.amg);
+      BlockJacobi jac;
+      for (int k = 0; k < 5; ++k) {
+        amg.mark_stale();
+        amg.setup(sim.model(), &sim.free_mask());
+        const AmgBuildStats& st = amg.build_stats();
+        const double p5[5] = {st.aggregate_ms, st.prolongator_ms, st.coarse_ms, st.factor_ms, st.total_ms};
+        for (int i = 0; i < 5; ++i) phase[i].push_back(p5[i]);
+      }
+      jac.setup(sim.model(), &sim.free_mask());
+      Eigen::VectorXd r = Eigen::VectorXd::Random(sim.model().rows()), z;
+      for (std::size_t i = 0; i < sim.free_mask().size(); ++i)
+        if (!sim.free_mask()[i]) r[Eigen::Index(i)] = 0;
+      auto time = [&](std::vector<double>& out, auto&& f) {
+        for (int k = 0; k < 20; ++k) {
+          const auto t0 = std::chrono::steady_clock::now();
+          f();
+          out.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+        }
+      };
+      time(apply, [&] { amg.apply(r, z); });
+      time(bj, [&] { jac.apply(r, z); });
+      time(kx, [&] { sim.model().multiply(r, z); });
+      auto med = [](std::vector<double> x) {
+        std::sort(x.begin(), x.end());
+        return x[x.size() / 2];
+      };
+      const AmgBuildStats& st = amg.build_stats();
+      char name[64];
+      std::snprintf(name, sizeof name, "ring %d%s", ring, rotations ? "" : ", translations");
+      std::printf("  %-22s %6zu %8zu %8zu %9.2f %8.2f %8.2f %8.2f %8.2f %8.3f %8.3f %8.3f\n", name, st.aggregates,
+                  st.coarse_unknowns, st.factor_nonzeros, med(phase[0]), med(phase[1]), med(phase[2]), med(phase[3]),
+                  med(phase[4]), med(apply), med(bj), med(kx));
+      csv.row("amg-build", name, organ.num_tets(), st.aggregates, st.coarse_unknowns, med(phase[2]), med(phase[3]),
+              med(phase[4]), med(apply), med(kx));
+    }
 }
 
 void section_warm_start(Csv& csv) {
@@ -587,7 +658,7 @@ int main(int argc, char** argv) {
   Args args(argc, argv);
   const std::string out = args.get("--out", ".");
   Csv csv(out, "fem_precond.csv", "section,setting,tets,a,b,c,d,e,f,g");
-  // --only SECTION (beam, organ, cut-scene, budget, holds, warm, poisson, rotated): one section, for quick runs.
+  // --only SECTION (beam, organ, cut-scene, amg-build, budget, holds, warm, poisson, rotated): one section, for quick runs.
   const std::string only = args.get("--only", "");
   auto want = [&](const char* name) { return only.empty() || only == name; };
   const std::string beam = args.get("--beam", std::string(INCISE_SOURCE_DIR) + "/samples/scenes/beam.json");
@@ -607,6 +678,10 @@ int main(int argc, char** argv) {
   if (want("cut-scene")) {
     if (!organ.empty()) section_cut_scene(organ, csv);
     else if (!only.empty()) std::printf("\ncut-scene: needs --organ MESH\n");
+  }
+  if (want("amg-build")) {
+    if (!organ.empty()) section_amg_build(organ, csv);
+    else if (!only.empty()) std::printf("\namg-build: needs --organ MESH\n");
   }
   if (want("warm")) section_warm_start(csv);
   if (want("rotated")) section_rotated(csv);

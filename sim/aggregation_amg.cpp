@@ -28,13 +28,6 @@ Eigen::Matrix3d cross_matrix(const Eigen::Vector3d& p) {
   return m;
 }
 
-// B_v^T u for the rigid modes B_v = [I | -[p]x] of a vertex at scaled position p: (u, p x u).
-Vec6 modes_t(const Eigen::Vector3d& p, const Eigen::Vector3d& u) {
-  Vec6 out;
-  out << u, p.cross(u);
-  return out;
-}
-
 // B_v^T B_w = [[I, -[q]x], [[p]x, (p.q) I - q p^T]] for B_v at p and B_w at q.
 Mat6 modes_tt(const Eigen::Vector3d& p, const Eigen::Vector3d& q) {
   Mat6 m;
@@ -68,10 +61,29 @@ void AggregationAmg::frame(double a, double c, int last_iterations) {
   mass_coeff_ = a;
   stiffness_coeff_ = c;
   if (model_->kind() == FemKind::Corotational && last_iterations > opt_.rebuild_iterations) stale_ = true;
+  if (topology_changed_ && last_iterations > opt_.topology_rebuild_iterations) stale_ = true;
 }
 
 void AggregationAmg::apply(const TopologyChange& change) {
-  if (!change.empty()) stale_ = true;
+  if (change.empty()) return;
+  if (!coarse_ || stale_) {
+    stale_ = true;
+    return;
+  }
+  if (opt_.topology_rebuild_iterations > 0) {
+    topology_changed_ = true;
+    return;
+  }
+  // Patched at the next setup(): the aggregates of these vertices are dissolved and redone.
+  for (const auto* list : {&change.touched_vertices, &change.removed_vertices})
+    for (VertexId v : *list) pending_.push_back(v.idx());
+  for (const VertexOrigin& o : change.added_vertices) pending_.push_back(o.vertex.idx());
+  for (const VertexOrigin& o : change.moved_vertices) pending_.push_back(o.vertex.idx());
+  // A tet's corners couple through it: a new tet changes blocks between its corners even where
+  // a corner's set of incident tets did not change.
+  for (TetId t : change.added_tets)
+    if (model_->tet_alive(t))
+      for (std::uint32_t v : model_->tet_vertex_ids(t)) pending_.push_back(v);
 }
 
 void AggregationAmg::mark_stale() { stale_ = true; }
@@ -80,7 +92,8 @@ void AggregationAmg::setup(const LinearOperator& a, const std::vector<std::uint8
   a_ = &a;
   free_ = free;
   smoother_.setup(a, free);
-  if (stale_ || !coarse_ || Eigen::Index(p_.size() * 3) != a.rows()) build(a, free);
+  if (stale_ || !coarse_) build(a, free);
+  else if (!pending_.empty()) patch(a, free);
 }
 
 void AggregationAmg::project(Eigen::VectorXd& v) const {
@@ -89,43 +102,133 @@ void AggregationAmg::project(Eigen::VectorXd& v) const {
     if (!(*free_)[std::size_t(i)]) v[i] = 0;
 }
 
+namespace {
+// Vertices with all three unknowns free are aggregated; the others are left to the smoother.
+bool all_free(const std::vector<std::uint8_t>* free, std::size_t v) {
+  return !free || (v * 3 + 2 < free->size() && (*free)[3 * v] && (*free)[3 * v + 1] && (*free)[3 * v + 2]);
+}
+}  // namespace
+
 void AggregationAmg::build(const LinearOperator& a, const std::vector<std::uint8_t>* free) {
   const double t0 = now_ms();
   stats_ = {};
   const std::size_t nv = std::size_t(a.rows() / 3);
-  // Vertices with all three unknowns free are aggregated; the others are left to the smoother.
   std::vector<std::uint8_t> eligible(nv, 0);
-  for (std::size_t v = 0; v < nv; ++v)
-    eligible[v] = !free || ((*free)[3 * v] && (*free)[3 * v + 1] && (*free)[3 * v + 2]);
+  for (std::size_t v = 0; v < nv; ++v) eligible[v] = all_free(free, v);
   agg_ = aggregate_vertices(model_->mesh(), eligible, opt_.ring);
+  agg_.of.resize(nv, -1);
   const double t1 = now_ms();
-  prolongator(free);
-  const double t2 = now_ms();
-  coarse_operator();
-  const double t3 = now_ms();
-  if (opt_.smoother_weight > 0) weight_ = opt_.smoother_weight;
-  else if (weight_ == 0) weight_ = (4.0 / 3.0) / (1.1 * estimate_lambda_max(a, free));
-  stats_.aggregate_ms = t1 - t0;
-  stats_.prolongator_ms = t2 - t1;
-  stats_.coarse_ms = t3 - t2 - stats_.factor_ms;
-  stats_.aggregates = agg_.count();
-  stats_.total_ms = now_ms() - t0;
-  stale_ = false;
-  ++builds_;
-  ++version_;
-}
-
-void AggregationAmg::prolongator(const std::vector<std::uint8_t>*) {
-  const TetMesh& mesh = model_->mesh();
   const std::size_t na = agg_.count();
   centre_.assign(na, Eigen::Vector3d::Zero());
   scale_.assign(na, 1.0);
   t_.assign(na, Mat6::Zero());
   modes_.assign(na, 0);
-  offset_.assign(na + 1, 0);
-  p_.assign(agg_.of.size(), Eigen::Matrix<double, 3, 6>::Zero());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, na, 64), [&](const tbb::blocked_range<std::size_t>& range) {
-    for (std::size_t ai = range.begin(); ai != range.end(); ++ai) {
+  p_.assign(nv, Eigen::Matrix<double, 3, 6>::Zero());
+  pos_.assign(nv, Eigen::Vector3d::Zero());
+  rows_.assign(na, {});
+  std::vector<std::uint32_t> all(na);
+  for (std::uint32_t k = 0; k < na; ++k) all[k] = k;
+  prolongator(all);
+  const double t2 = now_ms();
+  coarse_rows(all);
+  const double t3 = now_ms();
+  factor();
+  if (opt_.smoother_weight > 0) weight_ = opt_.smoother_weight;
+  else if (weight_ == 0) weight_ = (4.0 / 3.0) / (1.1 * estimate_lambda_max(a, free));
+  stats_.aggregate_ms = t1 - t0;
+  stats_.prolongator_ms = t2 - t1;
+  stats_.coarse_ms = t3 - t2;
+  stats_.total_ms = now_ms() - t0;
+  pending_.clear();
+  stale_ = topology_changed_ = false;
+  ++builds_;
+  ++version_;
+}
+
+// The local update after cuts: dissolve the aggregates of the vertices the changes named,
+// re-aggregate their members and the new vertices on the current connectivity, redo P for
+// the new aggregates and their rows of A_c (the neighbouring rows get the transposed blocks;
+// blocks between two untouched aggregates keep their values, since a tet whose corners lie in
+// untouched aggregates was not changed), then refactor the coarse matrix. Rows computed now
+// use the current rotations, the others those of their build: close, and the pivots are
+// checked (a failure means a full rebuild).
+void AggregationAmg::patch(const LinearOperator& a, const std::vector<std::uint8_t>* free) {
+  const double t0 = now_ms();
+  stats_ = {};
+  const std::size_t nv = std::size_t(a.rows() / 3);
+  if (agg_.of.size() < nv) {
+    agg_.of.resize(nv, -1);
+    p_.resize(nv, Eigen::Matrix<double, 3, 6>::Zero());
+    pos_.resize(nv, Eigen::Vector3d::Zero());
+  }
+  std::sort(pending_.begin(), pending_.end());
+  pending_.erase(std::unique(pending_.begin(), pending_.end()), pending_.end());
+  std::vector<std::int32_t> dissolved;
+  for (std::uint32_t v : pending_)
+    if (v < nv && agg_.of[v] >= 0) dissolved.push_back(agg_.of[v]);
+  std::sort(dissolved.begin(), dissolved.end());
+  dissolved.erase(std::unique(dissolved.begin(), dissolved.end()), dissolved.end());
+  std::vector<std::uint32_t> pool;
+  for (std::int32_t d : dissolved) {
+    for (auto& [b, m] : rows_[std::size_t(d)])  // neighbours forget d
+      if (b != d) {
+        auto& rb = rows_[std::size_t(b)];
+        rb.erase(std::remove_if(rb.begin(), rb.end(), [&](const auto& e) { return e.first == d; }), rb.end());
+      }
+    for (std::uint32_t v : agg_.members[std::size_t(d)]) {
+      agg_.of[v] = -1;
+      p_[v].setZero();
+      pool.push_back(v);
+    }
+    agg_.members[std::size_t(d)].clear();
+    rows_[std::size_t(d)].clear();
+    modes_[std::size_t(d)] = 0;
+  }
+  for (std::uint32_t v : pending_)
+    if (v < nv && agg_.of[v] < 0) pool.push_back(v);
+  std::sort(pool.begin(), pool.end());
+  pool.erase(std::unique(pool.begin(), pool.end()), pool.end());
+  std::vector<std::uint8_t> eligible(nv, 0);  // read only at pool vertices and their neighbours
+  for (std::uint32_t v : pool) {
+    eligible[v] = all_free(free, v);
+    for (TetId t : model_->mesh().incident_tets(VertexId(v)))
+      for (VertexId w : model_->mesh().tet_vertices(t)) eligible[w.idx()] = all_free(free, w.idx());
+  }
+  const std::size_t first = agg_.count();
+  aggregate_more(model_->mesh(), eligible, opt_.ring, pool, agg_);
+  const std::size_t na = agg_.count();
+  centre_.resize(na, Eigen::Vector3d::Zero());
+  scale_.resize(na, 1.0);
+  t_.resize(na, Mat6::Zero());
+  modes_.resize(na, 0);
+  rows_.resize(na);
+  std::vector<std::uint32_t> fresh;
+  for (std::size_t k = first; k < na; ++k) fresh.push_back(std::uint32_t(k));
+  const double t1 = now_ms();
+  prolongator(fresh);
+  const double t2 = now_ms();
+  coarse_rows(fresh);
+  for (std::uint32_t k : fresh)  // the untouched neighbours' blocks towards the new aggregates
+    for (const auto& [b, m] : rows_[k])
+      if (std::size_t(b) < first) rows_[std::size_t(b)].emplace_back(std::int32_t(k), m.transpose());
+  const double t3 = now_ms();
+  factor();
+  if (!coarse_->ok) stale_ = true;  // the mixed rotations broke definiteness: rebuild next time
+  stats_.aggregate_ms = t1 - t0;
+  stats_.prolongator_ms = t2 - t1;
+  stats_.coarse_ms = t3 - t2;
+  stats_.total_ms = now_ms() - t0;
+  stats_.patched_aggregates = fresh.size();
+  pending_.clear();
+  ++patches_;
+  ++version_;
+}
+
+void AggregationAmg::prolongator(const std::vector<std::uint32_t>& which) {
+  const TetMesh& mesh = model_->mesh();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, which.size(), 64), [&](const tbb::blocked_range<std::size_t>& range) {
+    for (std::size_t wi = range.begin(); wi != range.end(); ++wi) {
+      const std::size_t ai = which[wi];
       const auto& m = agg_.members[ai];
       Eigen::Vector3d c = Eigen::Vector3d::Zero();
       for (std::uint32_t v : m) c += mesh.rest(VertexId(v));
@@ -156,30 +259,32 @@ void AggregationAmg::prolongator(const std::vector<std::uint8_t>*) {
       }
       modes_[ai] = k;
       for (std::uint32_t v : m) {
-        const Eigen::Vector3d p = (mesh.rest(VertexId(v)) - c) / h;
+        const Eigen::Vector3d p = pos_[v] = (mesh.rest(VertexId(v)) - c) / h;
         Eigen::Matrix<double, 3, 6> b;
         b << Eigen::Matrix3d::Identity(), -cross_matrix(p);
         p_[v] = b * t;
       }
     }
   });
-  for (std::size_t ai = 0; ai < na; ++ai) offset_[ai + 1] = offset_[ai] + modes_[ai];
-  stats_.coarse_unknowns = std::size_t(offset_[na]);
 }
 
-// A_c = P^T (a M + c K) P, one row of aggregates per task: the 6x6 blocks of B^T A B (rigid
-// modes before the per-aggregate orthonormalization T) from each member's corners of its
-// incident tets, then T_a^T (.) T_b. Element block (i, j) of a tet, with h = R grad N:
-// V (mu (g_i . g_j) I + mu h_j h_i^T + lambda h_i h_j^T), the same as the matrix-free K x.
-void AggregationAmg::coarse_operator() {
+// A_c = P^T (a M + c K) P, one row of aggregates per task. For each member v, its row of
+// 3x3 blocks of a M + c K is summed first from its corners in its incident tets (element block
+// (i, j) with h = R grad N: V (mu (g_i . g_j) I + mu h_j h_i^T + lambda h_i h_j^T), as the
+// matrix-free K x uses it), then each block A_vw enters the aggregates' 6x6 block of B^T A B
+// (rigid modes before the per-aggregate orthonormalization T) as B_v^T A_vw B_w, and finally
+// T_a^T (.) T_b. Summing the fine blocks first does the 6x6 work once per vertex pair instead
+// of once per tet corner pair (about 5 tets share an edge).
+void AggregationAmg::coarse_rows(const std::vector<std::uint32_t>& which) {
   const TetMesh& mesh = model_->mesh();
-  const std::size_t na = agg_.count();
   const double c = stiffness_coeff_, am = mass_coeff_;
   const Eigen::VectorXd& mass = model_->lumped_mass();
-  std::vector<std::vector<std::pair<std::int32_t, Mat6>>> rows(na);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, na, 16), [&](const tbb::blocked_range<std::size_t>& range) {
-    for (std::size_t ai = range.begin(); ai != range.end(); ++ai) {
-      auto& row = rows[ai];
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, which.size(), 8), [&](const tbb::blocked_range<std::size_t>& range) {
+    std::vector<std::pair<std::uint32_t, Eigen::Matrix3d>> fine;  // v's row: (w, A_vw)
+    for (std::size_t wi = range.begin(); wi != range.end(); ++wi) {
+      const std::size_t ai = which[wi];
+      auto& row = rows_[ai];
+      row.clear();
       auto block = [&](std::int32_t b) -> Mat6& {
         for (auto& [id, m] : row)
           if (id == b) return m;
@@ -188,8 +293,14 @@ void AggregationAmg::coarse_operator() {
       };
       block(std::int32_t(ai));  // the diagonal block first
       for (std::uint32_t v : agg_.members[ai]) {
-        const Eigen::Vector3d pv = (mesh.rest(VertexId(v)) - centre_[ai]) / scale_[ai];
-        if (am != 0) block(std::int32_t(ai)) += am * mass[Eigen::Index(3 * v)] * modes_tt(pv, pv);
+        fine.clear();
+        fine.emplace_back(v, (am * mass[Eigen::Index(3 * v)]) * Eigen::Matrix3d::Identity());
+        auto fine_block = [&](std::uint32_t w) -> Eigen::Matrix3d& {
+          for (auto& [id, m] : fine)
+            if (id == w) return m;
+          fine.emplace_back(w, Eigen::Matrix3d::Zero());
+          return fine.back().second;
+        };
         for (TetId t : mesh.incident_tets(VertexId(v))) {
           if (!model_->tet_alive(t)) continue;
           const auto& ids = model_->tet_vertex_ids(t);
@@ -200,31 +311,49 @@ void AggregationAmg::coarse_operator() {
           const double vol = model_->tet_volume(t), vmu = c * vol * model_->tet_mu(t),
                        vlam = c * vol * model_->tet_lambda(t);
           Eigen::Vector3d g[4], hr[4];
-          Vec6 e[4];
           for (int j = 0; j < 4; ++j) {
             g[j] = shape_gradient(bm, j);
             hr[j] = r * g[j];
-            e[j] = modes_t(pv, hr[j]);
           }
           for (int j = 0; j < 4; ++j) {
             const std::uint32_t w = ids[std::size_t(j)];
-            const std::int32_t bj = agg_.of[w];
-            if (bj < 0) continue;
-            const Eigen::Vector3d pw = (mesh.rest(VertexId(w)) - centre_[std::size_t(bj)]) / scale_[std::size_t(bj)];
-            Mat6& blk = block(bj);
-            blk.noalias() += (vmu * g[i].dot(g[j])) * modes_tt(pv, pw);
-            blk.noalias() += (vmu * e[j]) * modes_t(pw, hr[i]).transpose();
-            blk.noalias() += (vlam * e[i]) * modes_t(pw, hr[j]).transpose();
+            if (agg_.of[w] < 0) continue;
+            Eigen::Matrix3d& a = fine_block(w);
+            a.diagonal().array() += vmu * g[i].dot(g[j]);
+            a.noalias() += (vmu * hr[j]) * hr[i].transpose();
+            a.noalias() += (vlam * hr[i]) * hr[j].transpose();
           }
         }
+        const Eigen::Vector3d& pv = pos_[v];
+        for (const auto& [w, a] : fine) {
+          // B_v^T A B_w with B = [I | -[p]x]: M = A B_w = [A | -A [p_w]x], then (M; p_v x M).
+          Eigen::Matrix<double, 3, 6> m;
+          m.leftCols<3>() = a;
+          m.rightCols<3>().noalias() = -a * cross_matrix(pos_[w]);
+          Mat6& blk = block(agg_.of[w]);
+          blk.topRows<3>() += m;
+          for (int k = 0; k < 6; ++k) blk.block<3, 1>(3, k) += pv.cross(Eigen::Vector3d(m.col(k)));
+        }
       }
-      // Into the orthonormal coarse basis.
+  // Into the orthonormal coarse basis.
       for (auto& [b, m] : row) m = t_[ai].transpose() * m * t_[std::size_t(b)];
     }
   });
+}
+
+// The coarse matrix from the rows (lower triangle; aggregates left empty by a patch have no
+// unknowns), factored by sparse LDL^T.
+void AggregationAmg::factor() {
+  const double tf = now_ms();
+  const std::size_t na = agg_.count();
+  offset_.assign(na + 1, 0);
+  for (std::size_t ai = 0; ai < na; ++ai) offset_[ai + 1] = offset_[ai] + modes_[ai];
+  stats_.coarse_unknowns = std::size_t(offset_[na]);
+  stats_.aggregates = 0;
+  for (std::size_t ai = 0; ai < na; ++ai) stats_.aggregates += modes_[ai] > 0;
   std::vector<Eigen::Triplet<double>> lower;
   for (std::size_t ai = 0; ai < na; ++ai)
-    for (const auto& [b, m] : rows[ai]) {
+    for (const auto& [b, m] : rows_[ai]) {
       if (std::size_t(b) > ai) continue;
       const int ka = modes_[ai], kb = modes_[std::size_t(b)];
       for (int p = 0; p < ka; ++p)
@@ -237,7 +366,6 @@ void AggregationAmg::coarse_operator() {
   Eigen::SparseMatrix<double> ac(n, n);
   ac.setFromTriplets(lower.begin(), lower.end());
   stats_.coarse_nonzeros = std::size_t(ac.nonZeros());
-  const double tf = now_ms();
   if (!coarse_) coarse_ = std::make_unique<Coarse>();
   coarse_->rows = n;
   coarse_->ldlt.compute(ac);
@@ -250,6 +378,7 @@ void AggregationAmg::coarse_operator() {
     for (Eigen::Index i = 0; i < d.size() && coarse_->ok; ++i) coarse_->ok = d[i] > 1e-12 * dmax;
   }
   stats_.factor_ok = coarse_->ok;
+  if (coarse_->ok) stats_.factor_nonzeros = std::size_t(coarse_->ldlt.matrixL().nestedExpression().nonZeros());
   stats_.factor_ms = now_ms() - tf;
 }
 
@@ -278,6 +407,10 @@ double AggregationAmg::estimate_lambda_max(const LinearOperator& a, const std::v
 
 void AggregationAmg::apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
   const bool coarse = coarse_ && coarse_->ok;
+  // A stale hierarchy (topology_rebuild_iterations) may hold vertices a cut has since removed
+  // or fixed: they take no coarse correction, so z stays zero on kept unknowns.
+  const bool check = topology_changed_ && free_;
+  auto covered = [&](std::uint32_t v) { return !check || (*free_)[3 * std::size_t(v)]; };
   // z += P A_c^-1 P^T x
   auto coarse_correct = [&](const Eigen::VectorXd& x, Eigen::VectorXd& out) {
     if (!coarse) return;
@@ -287,14 +420,14 @@ void AggregationAmg::apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
       const int k = modes_[ai];
       auto seg = rc_.segment(offset_[ai], k);
       for (std::uint32_t v : agg_.members[ai])
-        seg.noalias() += (p_[v].transpose() * x.segment<3>(3 * Eigen::Index(v))).head(k);
+        if (covered(v)) seg.noalias() += (p_[v].transpose() * x.segment<3>(3 * Eigen::Index(v))).head(k);
     }
     ec_ = coarse_->ldlt.solve(rc_);
     for (std::size_t ai = 0; ai < na; ++ai) {
       const int k = modes_[ai];
       const auto seg = ec_.segment(offset_[ai], k);
       for (std::uint32_t v : agg_.members[ai])
-        out.segment<3>(3 * Eigen::Index(v)).noalias() += p_[v].leftCols(k) * seg;
+        if (covered(v)) out.segment<3>(3 * Eigen::Index(v)).noalias() += p_[v].leftCols(k) * seg;
     }
   };
   if (opt_.cycle == AggregationAmgOptions::Cycle::Additive) {

@@ -22,10 +22,12 @@
 //  - additive: z = S r + P A_c^-1 P^T r, no product; SPD for any SPD A_c; more iterations.
 //
 // Through changes: the hierarchy (aggregates, P, A_c, its factor) is rebuilt at the next CG
-// fresh start after a topology change (apply), a constraint change (mark_stale) or a new
-// system scaling (frame), and, for corotational models, when a frame needed more than
-// `rebuild_iterations` iterations (the rotations drifted from A_c's); in between A_c is stale
-// but the smoother reads the current blocks. The rebuild is O(mesh) and timed (build_stats());
+// fresh start after a topology change (apply; or, with topology_rebuild_iterations, only once
+// a frame after the change needed more than that many iterations), a constraint change
+// (mark_stale) or a new system scaling (frame), and, for corotational models, when a frame
+// needed more than `rebuild_iterations` iterations (the rotations drifted from A_c's); in
+// between A_c is stale but the smoother reads the current blocks. A stale hierarchy only
+// covers vertices that are still free; the others, and vertices added since, get the smoother. The rebuild is O(mesh) and timed (build_stats());
 // docs/solver.md has what it costs on the organ cut scene against the iterations it saves.
 // Rebuilds happen in setup(), so CG's budget accounting sees them as setup cost and a budget
 // that cannot afford one falls back to cheaper() (block-Jacobi).
@@ -49,12 +51,17 @@ struct AggregationAmgOptions {
   bool rotations = true;            // rotational modes in the coarse space (false: translations only)
   double smoother_weight = 0;       // w of the damped block-Jacobi; 0: 4/3 / lambda_max estimated
   int rebuild_iterations = 1 << 30;  // corotational: a frame above this many iterations rebuilds A_c
+  // After a topology change: rebuild at the next solve (0), or keep the stale hierarchy until a
+  // frame needs more than this many iterations (> 0). The stale one leaves the vertices a cut
+  // added to the smoother, and its A_c still couples across the cut: SPD all the same.
+  int topology_rebuild_iterations = 0;
 };
 
 struct AmgBuildStats {
   double aggregate_ms = 0, prolongator_ms = 0, coarse_ms = 0, factor_ms = 0, total_ms = 0;
-  std::size_t aggregates = 0, coarse_unknowns = 0, coarse_nonzeros = 0;
+  std::size_t aggregates = 0, coarse_unknowns = 0, coarse_nonzeros = 0, factor_nonzeros = 0;
   bool factor_ok = false;
+  std::size_t patched_aggregates = 0;  // a patch: the aggregates it made
 };
 
 class AggregationAmg : public CgPreconditioner {
@@ -73,7 +80,8 @@ public:
   std::uint64_t version() const override { return version_; }
   CgPreconditioner* cheaper() override { return &smoother_; }
 
-  int builds() const { return builds_; }
+  int builds() const { return builds_; }    // full builds
+  int patches() const { return patches_; }  // local updates after topology changes
   const AmgBuildStats& build_stats() const { return stats_; }
   const VertexAggregates& aggregates() const { return agg_; }
   double smoother_weight() const { return weight_; }
@@ -82,8 +90,10 @@ public:
 
 private:
   void build(const LinearOperator& a, const std::vector<std::uint8_t>* free);
-  void prolongator(const std::vector<std::uint8_t>* free);
-  void coarse_operator();
+  void patch(const LinearOperator& a, const std::vector<std::uint8_t>* free);
+  void prolongator(const std::vector<std::uint32_t>& aggregates);  // centre, scale, T, P rows
+  void coarse_rows(const std::vector<std::uint32_t>& aggregates);   // their rows_ of A_c
+  void factor();                                                    // A_c from rows_, factored
   double estimate_lambda_max(const LinearOperator& a, const std::vector<std::uint8_t>* free) const;
   void project(Eigen::VectorXd& v) const;
 
@@ -91,8 +101,9 @@ private:
   AggregationAmgOptions opt_;
   double mass_coeff_ = 0, stiffness_coeff_ = 1;
   bool stale_ = true;
+  bool topology_changed_ = false;  // since the last build (topology_rebuild_iterations > 0)
   std::uint64_t version_ = 0;
-  int builds_ = 0;
+  int builds_ = 0, patches_ = 0;
   AmgBuildStats stats_;
 
   const LinearOperator* a_ = nullptr;
@@ -108,8 +119,13 @@ private:
   std::vector<Eigen::Matrix<double, 6, 6>> t_;
   std::vector<int> modes_;
   std::vector<Eigen::Index> offset_;
-  // Per vertex slot: its 3x6 block of P (columns beyond its aggregate's k are zero).
+  // Per vertex slot: its position scaled in its aggregate ((x - c) / h), and its 3x6 block of P
+  // (columns beyond its aggregate's k are zero).
+  std::vector<Eigen::Vector3d> pos_;
   std::vector<Eigen::Matrix<double, 3, 6>> p_;
+  // Per aggregate: its row of A_c, (aggregate, k_a x k_b block in the top-left of a 6x6).
+  std::vector<std::vector<std::pair<std::int32_t, Eigen::Matrix<double, 6, 6>>>> rows_;
+  std::vector<std::uint32_t> pending_;  // vertices named by changes since the last build/patch
   std::unique_ptr<Coarse> coarse_;
 
   mutable Eigen::VectorXd t1_, t2_, rc_, ec_;

@@ -13,6 +13,7 @@
 // eligible neighbours: a fixed vertex neither joins nor links aggregates.
 // O(vertices x ring-neighbourhood); vertex ids in increasing order (deterministic).
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "mesh/tet_mesh.h"
@@ -27,5 +28,12 @@ struct VertexAggregates {
 
 // `eligible` has one entry per vertex slot (at least mesh.vertex_capacity(); more are ignored).
 VertexAggregates aggregate_vertices(const TetMesh& mesh, const std::vector<std::uint8_t>& eligible, int ring = 1);
+
+// The same three phases over the unaggregated vertices of `pool` only (distinct ids), adding
+// aggregates to `agg` and leaving the existing ones as they are: the local re-aggregation
+// after a cut dissolves the aggregates the cut touched and calls this on their vertices and
+// the new ones. Aggregates grow only over pool vertices. O(pool x neighbourhood).
+void aggregate_more(const TetMesh& mesh, const std::vector<std::uint8_t>& eligible, int ring,
+                    std::span<const std::uint32_t> pool, VertexAggregates& agg);
 
 }  // namespace incise
