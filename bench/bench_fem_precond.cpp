@@ -359,9 +359,9 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
                             {"amg additive", Preconditioner::Amg, 0, 0, additive},
                             {"amg ring 2", Preconditioner::Amg, 0, 0, ring2},
                             {"amg lazy (rebuild >20 it)", Preconditioner::Amg, 0, 0, lazy},
-                            {"default, budget 16 ms", Preconditioner::Cholesky, 3, 16.0},
-                            {"block-jacobi, budget 16 ms", Preconditioner::BlockJacobi, 0, 16.0},
-                            {"amg, budget 16 ms", Preconditioner::Amg, 0, 16.0}};
+                            {"default budget 16 ms", Preconditioner::Cholesky, 3, 16.0},
+                            {"block-jacobi budget 16 ms", Preconditioner::BlockJacobi, 0, 16.0},
+                            {"amg budget 16 ms", Preconditioner::Amg, 0, 16.0}};
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "incise-bench-cut-scene";
   // INCISE_BENCH_CUT_CONFIGS="amg,block-jacobi": only the configurations of these names (quick runs).
   const std::string filter = std::getenv("INCISE_BENCH_CUT_CONFIGS") ? std::getenv("INCISE_BENCH_CUT_CONFIGS") : "";
