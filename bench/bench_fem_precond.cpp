@@ -347,9 +347,9 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
     double budget_ms = 0;
     AggregationAmgOptions amg = {};
   };
-  AggregationAmgOptions additive, ring2, lazy;
+  AggregationAmgOptions additive, ring1, lazy;
   additive.cycle = AggregationAmgOptions::Cycle::Additive;
-  ring2.ring = 2;
+  ring1.ring = 1;
   lazy.topology_rebuild_iterations = 20;
   const Config configs[] = {{"cholesky (stale factor)", Preconditioner::Cholesky, 0},
                             {"cholesky settle 3 (default)", Preconditioner::Cholesky, 3},
@@ -357,7 +357,7 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
                             {"jacobi", Preconditioner::Jacobi, 0},
                             {"amg", Preconditioner::Amg, 0},
                             {"amg additive", Preconditioner::Amg, 0, 0, additive},
-                            {"amg ring 2", Preconditioner::Amg, 0, 0, ring2},
+                            {"amg ring 1", Preconditioner::Amg, 0, 0, ring1},
                             {"amg lazy (rebuild >20 it)", Preconditioner::Amg, 0, 0, lazy},
                             {"default budget 16 ms", Preconditioner::Cholesky, 3, 16.0},
                             {"block-jacobi budget 16 ms", Preconditioner::BlockJacobi, 0, 16.0},

@@ -111,9 +111,23 @@ void AggregationAmg::mark_stale() { stale_ = true; }
 void AggregationAmg::setup(const LinearOperator& a, const std::vector<std::uint8_t>* free) {
   a_ = &a;
   free_ = free;
+  const double t0 = now_ms();
   smoother_.setup(a, free);
+  smoother_ms_ = now_ms() - t0;
+  if (!stale_ && coarse_ && !pending_.empty()) {
+    patch(a, free);
+    // Rows computed with this frame's rotations beside rows of an earlier build can make A_c
+    // indefinite (once in 30 patches on the organ cut scene); smoothing alone then cost 140
+    // iterations in that frame, a rebuild costs a few patches.
+    if (!coarse_->ok) ++failed_patches_;
+  }
   if (stale_ || !coarse_) build(a, free);
-  else if (!pending_.empty()) patch(a, free);
+}
+
+double AggregationAmg::next_setup_ms() const {
+  if (stale_ || !coarse_) return build_ms_ > 0 ? smoother_ms_ + build_ms_ : -1;
+  if (!pending_.empty() && patch_ms_ > 0) return smoother_ms_ + patch_ms_;
+  return smoother_ms_ > 0 ? smoother_ms_ : -1;
 }
 
 void AggregationAmg::project(Eigen::VectorXd& v) const {
@@ -158,7 +172,7 @@ void AggregationAmg::build(const LinearOperator& a, const std::vector<std::uint8
   stats_.aggregate_ms = t1 - t0;
   stats_.prolongator_ms = t2 - t1;
   stats_.coarse_ms = t3 - t2;
-  stats_.total_ms = now_ms() - t0;
+  stats_.total_ms = build_ms_ = now_ms() - t0;
   pending_.clear();
   stale_ = topology_changed_ = false;
   ++builds_;
@@ -233,11 +247,11 @@ void AggregationAmg::patch(const LinearOperator& a, const std::vector<std::uint8
       if (std::size_t(b) < first) rows_[std::size_t(b)].emplace_back(std::int32_t(k), m.transpose());
   const double t3 = now_ms();
   factor();
-  if (!coarse_->ok) stale_ = true;  // the mixed rotations broke definiteness: rebuild next time
+  if (!coarse_->ok) stale_ = true;  // setup() rebuilds at once
   stats_.aggregate_ms = t1 - t0;
   stats_.prolongator_ms = t2 - t1;
   stats_.coarse_ms = t3 - t2;
-  stats_.total_ms = now_ms() - t0;
+  stats_.total_ms = patch_ms_ = now_ms() - t0;
   stats_.patched_aggregates = fresh.size();
   pending_.clear();
   ++patches_;

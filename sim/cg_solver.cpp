@@ -229,7 +229,8 @@ bool ConjugateGradient::start(const Eigen::VectorXd& b, Eigen::VectorXd& x, std:
   // otherwise this solve uses the cheaper one (unknown costs are measured by trying).
   active_ = pc_;
   CgPreconditioner* cheap = pc_->cheaper();
-  const double pc_ms = pc_setup_ms_ + pc_apply_ms_, cheap_ms = cheap_setup_ms_ + cheap_apply_ms_;
+  const double hint = pc_->next_setup_ms();
+  const double pc_ms = (hint >= 0 ? hint : pc_setup_ms_) + pc_apply_ms_, cheap_ms = cheap_setup_ms_ + cheap_apply_ms_;
   if (budgeted && cheap && pc_apply_ms_ > 0 && pc_ms + kx_ms_ > left() && (cheap_ms == 0 || pc_ms > 1.5 * cheap_ms)) {
     active_ = cheap;
     stats_.cheaper_preconditioner = true;

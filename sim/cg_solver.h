@@ -19,7 +19,8 @@
 // operator (no compute()/invalidate() since) and the same preconditioner version.
 //
 // Budget: a solve with budget_ms > 0 plans with the measured cost of a product and of a
-// preconditioner application (running averages). It skips the prediction when its products
+// preconditioner application (running averages; the preconditioner's next_setup_ms() when it
+// gives one). It skips the prediction when its products
 // would take more than half of the budget, preconditions with pc->cheaper() when one setup and
 // application of the preconditioner plus a product do not fit and the cheaper one is cheaper by
 // half again (stats: cheaper_preconditioner),

@@ -35,6 +35,10 @@ public:
   // A cheaper preconditioner CG uses instead for a solve whose wall-clock budget cannot
   // afford one application of this one (nullptr: none). It must stay valid as long as this.
   virtual CgPreconditioner* cheaper() { return nullptr; }
+  // What the next setup() is expected to cost (ms), when the preconditioner knows better than
+  // CG's running average of past setups (a multigrid whose setup is a patch after a cut and
+  // almost nothing otherwise); negative: no idea, CG uses its average.
+  virtual double next_setup_ms() const { return -1; }
 };
 
 // None, Jacobi or BlockJacobi (Cholesky and Amg give BlockJacobi, see above).
