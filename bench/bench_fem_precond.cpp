@@ -346,6 +346,7 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
     int settle;
     double budget_ms = 0;
     AggregationAmgOptions amg = {};
+    bool settle_amg = false;  // the factor's settle policy with amg instead of block-Jacobi
   };
   AggregationAmgOptions additive, ring1, lazy;
   additive.cycle = AggregationAmgOptions::Cycle::Additive;
@@ -359,7 +360,9 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
                             {"amg additive", Preconditioner::Amg, 0, 0, additive},
                             {"amg ring 1", Preconditioner::Amg, 0, 0, ring1},
                             {"amg lazy (rebuild >20 it)", Preconditioner::Amg, 0, 0, lazy},
+                            {"cholesky settle 3 + amg", Preconditioner::Cholesky, 3, 0, {}, true},
                             {"default budget 16 ms", Preconditioner::Cholesky, 3, 16.0},
+                            {"chol+amg budget 16 ms", Preconditioner::Cholesky, 3, 16.0, {}, true},
                             {"block-jacobi budget 16 ms", Preconditioner::BlockJacobi, 0, 16.0},
                             {"amg budget 16 ms", Preconditioner::Amg, 0, 16.0}};
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "incise-bench-cut-scene";
@@ -377,6 +380,7 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
     sc.cholesky.settle_frames = cfg.settle;
     sc.cg.budget_ms = cfg.budget_ms;
     sc.amg = cfg.amg;
+    sc.cholesky.settle_with_amg = cfg.settle_amg;
     std::filesystem::remove_all(dir);
     SceneRunOptions ro;
     ro.out_dir = dir.string();

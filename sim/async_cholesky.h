@@ -51,6 +51,10 @@ struct AsyncCholeskyOptions {
   // takes ~5x the time per frame of block-Jacobi while the blade moves (fewer iterations, each
   // a triangular solve), and a core stays busy refactoring; hence the default.
   int settle_frames = 3;
+  // While the blade moves (settle_frames) and before the first factor lands, precondition with
+  // the aggregation multigrid (sim/aggregation_amg.h) instead of block-Jacobi; the FEM frame
+  // driver makes it and attaches it (set_moving). Block-Jacobi stays the budget's cheaper one.
+  bool settle_with_amg = false;
 };
 
 class AsyncCholesky : public CgPreconditioner {
@@ -73,6 +77,9 @@ public:
   std::uint64_t version() const override { return version_; }
   // Block-Jacobi: for budgets that cannot afford a triangular solve.
   CgPreconditioner* cheaper() override { return &fallback_; }
+  // What preconditions instead of block-Jacobi while there is no factor of the current
+  // topology in use (settling, or before the first factor): not owned, nullptr: block-Jacobi.
+  void set_moving(CgPreconditioner* pc) { moving_ = pc; }
 
   bool has_factor() const;
   bool settling() const { return settling_; }  // block-Jacobi alone (settle_frames policy)
@@ -110,6 +117,7 @@ private:
   bool settling_ = false;
   double snapshot_a_ = -1, snapshot_c_ = -1;
   BlockJacobi fallback_;
+  CgPreconditioner* moving_ = nullptr;
   const std::vector<std::uint8_t>* free_ = nullptr;
   std::uint64_t version_ = 0;
   int factorizations_ = 0;

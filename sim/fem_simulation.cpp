@@ -342,12 +342,21 @@ const FrameStats& FemSimulation::step() {
       if (opt_.cg.budget_ms > 0) co.wait_for_first = false;
       cholesky_ = std::make_unique<AsyncCholesky>(model_, co);
       cg_.set_preconditioner(cholesky_.get());
+      if (co.settle_with_amg) {
+        amg_ = std::make_unique<AggregationAmg>(model_, opt_.amg);
+        cholesky_->set_moving(amg_.get());
+      }
+    }
+    if (amg_) {
+      if (opt_.dynamic) amg_->frame(1 + opt_.dt * opt_.damping, opt_.dt * opt_.dt, last_iterations);
+      else amg_->frame(0.0, 1.0, last_iterations);
     }
     if (opt_.dynamic) cholesky_->frame(free_, 1 + opt_.dt * opt_.damping, opt_.dt * opt_.dt, last_iterations);
     else cholesky_->frame(free_, 0.0, 1.0, last_iterations);
   } else if (cholesky_) {
     cg_.set_preconditioner(nullptr);
     cholesky_.reset();
+    amg_.reset();  // it was the factor's (settle_with_amg)
   }
   if (opt_.method == SolverMethod::Cg && cg_.options().preconditioner == Preconditioner::Amg) {
     if (!amg_) {
@@ -356,7 +365,7 @@ const FrameStats& FemSimulation::step() {
     }
     if (opt_.dynamic) amg_->frame(1 + opt_.dt * opt_.damping, opt_.dt * opt_.dt, last_iterations);
     else amg_->frame(0.0, 1.0, last_iterations);
-  } else if (amg_) {
+  } else if (amg_ && !cholesky_) {
     cg_.set_preconditioner(nullptr);
     amg_.reset();
   }

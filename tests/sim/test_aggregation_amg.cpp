@@ -181,3 +181,48 @@ TEST_CASE("amg: far fewer CG iterations than block-Jacobi on a long cantilever",
   CHECK(it[1] * 5 <= it[0]);
   CHECK((u[1] - u[0]).norm() <= 1e-6 * u[0].norm());
 }
+
+TEST_CASE("settle policy with amg: the multigrid while the blade moves, the factor once settled", "[amg][cholesky][cut]") {
+  // The same cuts with block-Jacobi (the default settle policy) and with the multigrid.
+  int cut_iterations[2] = {0, 0};
+  for (bool with_amg : {false, true}) {
+    INFO("settle_with_amg " << with_amg);
+    TetMesh m = make_box(Vec3(4, 1, 1), {16, 4, 4});
+    m.discard_change();
+    FemSimulationOptions opt;
+    opt.kind = FemKind::Corotational;
+    opt.cg.tolerance = 1e-8;
+    opt.cg.preconditioner = Preconditioner::Cholesky;
+    opt.cholesky.background = false;  // deterministic: a started factorization lands in the same frame
+    opt.cholesky.settle_frames = 2;
+    opt.cholesky.settle_with_amg = with_amg;
+    FemSimulation sim(m, table(1e5, 0.45), opt);
+    fix_ends(m, sim);
+    const std::vector<VertexId> top = top_of(m);
+    for (VertexId v : top) sim.set_force(v, Vec3(0, 0, -2));
+    REQUIRE(sim.step().info == SolveInfo::Success);
+    REQUIRE((sim.amg() != nullptr) == with_amg);
+    if (with_amg) CHECK(sim.amg()->builds() == 0);  // the factor preconditions: the multigrid is not built
+    for (int depth = 1; depth <= 3; ++depth) {
+      crack(m, 0, 2.0, 2, 1.0 - 0.25 * depth - 1e-3);
+      sim.apply(m.take_change());
+      const FrameStats& st = sim.step();
+      CHECK(st.info == SolveInfo::Success);
+      CHECK(sim.cholesky()->settling());
+      cut_iterations[with_amg] += st.iterations;
+    }
+    if (with_amg) {
+      CHECK(sim.amg()->builds() == 1);
+      CHECK(sim.amg()->patches() == 2);
+    }
+    int frames = 0;
+    while (sim.cholesky()->settling() && frames < 5) {
+      CHECK(sim.step().info == SolveInfo::Success);
+      ++frames;
+    }
+    CHECK_FALSE(sim.cholesky()->settling());
+    check_equals_direct(m, opt, top, sim);
+  }
+  WARN("iterations over the cut frames: block-Jacobi " << cut_iterations[0] << ", amg " << cut_iterations[1]);
+  CHECK(cut_iterations[1] * 3 <= cut_iterations[0]);
+}
