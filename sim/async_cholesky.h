@@ -80,6 +80,10 @@ public:
   // What preconditions instead of block-Jacobi while there is no factor of the current
   // topology in use (settling, or before the first factor): not owned, nullptr: block-Jacobi.
   void set_moving(CgPreconditioner* pc) { moving_ = pc; }
+  // The moving one's, while it is the one in use (a multigrid patch after a cut is due or not).
+  double next_setup_ms() const override {
+    return moving_ && (!factor_ || settling_) ? moving_->next_setup_ms() : -1;
+  }
 
   bool has_factor() const;
   bool settling() const { return settling_; }  // block-Jacobi alone (settle_frames policy)
