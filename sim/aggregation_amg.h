@@ -10,8 +10,8 @@
 // vertex, collinear vertices) are dropped. That is the tentative (unsmoothed) prolongator P,
 // one 3x6 block per vertex. The coarse operator A_c = P^T A P is assembled element by element
 // from the model's per-tet data (its current rotations, as K x uses them) straight into 6x6
-// blocks per pair of aggregates, and factored directly (sparse LDL^T, ~6 unknowns per
-// aggregate). Kept (fixed, prescribed) unknowns have zero rows in P, like block-Jacobi's.
+// blocks per pair of aggregates, and factored directly (CHOLMOD's supernodal LL^T, Eigen's
+// SimplicialLDLT without CHOLMOD; ~6 unknowns per aggregate). Kept (fixed, prescribed) unknowns have zero rows in P, like block-Jacobi's.
 //
 // Application, z = M^-1 r:
 //  - multiplicative (default): a symmetric two-level V-cycle, damped block-Jacobi S before and
@@ -21,16 +21,20 @@
 //    A_c is the exact Galerkin operator of A or a stale one.
 //  - additive: z = S r + P A_c^-1 P^T r, no product; SPD for any SPD A_c; more iterations.
 //
-// Through changes: the hierarchy (aggregates, P, A_c, its factor) is rebuilt at the next CG
-// fresh start after a topology change (apply; or, with topology_rebuild_iterations, only once
-// a frame after the change needed more than that many iterations), a constraint change
-// (mark_stale) or a new system scaling (frame), and, for corotational models, when a frame
-// needed more than `rebuild_iterations` iterations (the rotations drifted from A_c's); in
-// between A_c is stale but the smoother reads the current blocks. A stale hierarchy only
-// covers vertices that are still free; the others, and vertices added since, get the smoother. The rebuild is O(mesh) and timed (build_stats());
-// docs/solver.md has what it costs on the organ cut scene against the iterations it saves.
-// Rebuilds happen in setup(), so CG's budget accounting sees them as setup cost and a budget
-// that cannot afford one falls back to cheaper() (block-Jacobi).
+// Through changes: after a topology change (apply) the hierarchy is patched at the next CG
+// fresh start: the aggregates holding a vertex the change names are dissolved, their vertices
+// and the new ones re-aggregated, P and the rows of A_c recomputed for the new aggregates only,
+// and the coarse matrix refactored (O(change) for the fine-level work, plus the coarse matrix
+// and its factorization, O(coarse); two O(vertices) flag arrays are cleared; a patch whose A_c
+// is not positive definite, rows of different frames' rotations side by side, is replaced by a
+// full rebuild). A constraint change (mark_stale) or a new system scaling (frame) rebuilds;
+// so does, for corotational models, a frame that needed more than `rebuild_iterations`
+// iterations (off by default: between cuts A_c keeps its rotations, the smoother reads the
+// current blocks). `topology_rebuild_iterations` > 0 instead keeps the stale hierarchy after a
+// change until a frame needs that many iterations (measured slower than patching). Patches and
+// builds run in setup(), so CG's budget planning sees them (next_setup_ms() says whether one
+// is due) and a budget that cannot afford one uses cheaper() (block-Jacobi) for the frame.
+// Costs and iterations on the organ cut scene: docs/solver.md.
 #include <cstdint>
 #include <memory>
 #include <vector>

@@ -255,7 +255,7 @@ void AsyncCholesky::apply(const TopologyChange& change) {
 void AsyncCholesky::setup(const LinearOperator& a, const std::vector<std::uint8_t>* free) {
   free_ = free;
   fallback_.setup(a, free);
-  if (moving_ && (!factor_ || settling_)) moving_->setup(a, free);
+  if (use_moving()) moving_->setup(a, free);
   if (!settling_) update_rotation_change();
 }
 
@@ -307,7 +307,7 @@ void AsyncCholesky::update_rotation_change() {
 
 void AsyncCholesky::apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
   if (!factor_ || settling_) {
-    if (moving_) moving_->apply(r, z);
+    if (use_moving()) moving_->apply(r, z);
     else fallback_.apply(r, z);
     return;
   }
