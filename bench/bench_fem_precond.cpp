@@ -1,6 +1,7 @@
 // Preconditioners, budgets and warm start, each against a baseline measured in the same run:
 //  1. iterations and time per frame on the sample beam scene, an organ and the organ cut
-//     mid-run, for Jacobi (baseline), block-Jacobi and Cholesky (the scene default);
+//     mid-run, for Jacobi (baseline), block-Jacobi, Cholesky (the scene default) and the
+//     aggregation multigrid (amg);
 //  2. budgeted convergence on a cantilever: relative residual against frames at several
 //     budgets, resuming CG (now) against restarting it every frame (before);
 //  3. warm start on a probe moving steadily over 40 frames: iterations of the last solution
@@ -13,6 +14,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -33,7 +35,8 @@ using namespace incise::bench;
 
 namespace {
 
-const Preconditioner kPcs[] = {Preconditioner::Jacobi, Preconditioner::BlockJacobi, Preconditioner::Cholesky};
+const Preconditioner kPcs[] = {Preconditioner::Jacobi, Preconditioner::BlockJacobi, Preconditioner::Cholesky,
+                               Preconditioner::Amg};
 
 MaterialTable material(double e, double nu) {
   Material m;
@@ -171,7 +174,8 @@ void section_budget(double tets, Csv& csv) {
               c.mesh.num_tets());
   std::printf("  %-13s %6s %8s %18s %18s %18s %18s %10s\n", "preconditioner", "budget", "mode", "frame 1 err/res",
               "frame 10", "frame 30", "frame 100", "converged@");
-  for (Preconditioner pc : {Preconditioner::Jacobi, Preconditioner::BlockJacobi, Preconditioner::Cholesky})
+  for (Preconditioner pc : {Preconditioner::Jacobi, Preconditioner::BlockJacobi, Preconditioner::Cholesky,
+                            Preconditioner::Amg})
     for (double budget : {2.0, 10.0})
       for (bool resume : {false, true}) {
         FemSimulationOptions opt;
@@ -213,18 +217,22 @@ void section_budget_holds(Csv& csv) {
               "tolerance 1e-8: frame ms (whole step) median / p90 / max, share of frames within %.0f ms, frames "
               "on the cheaper preconditioner, setup (before the first solve) and solve ms median/max, residual at the end\n",
               budget, c.mesh.num_tets(), goal);
-  std::printf("  %-13s %7s %8s %8s %8s %9s %8s %13s %13s %10s\n", "preconditioner", "budget", "median", "p90", "max",
-              "within", "cheaper", "setup med/max", "solve med/p90", "residual");
-  for (Preconditioner pc : {Preconditioner::Cholesky, Preconditioner::BlockJacobi})
+  std::printf("  %-13s %7s %8s %8s %8s %9s %8s %13s %13s %10s %12s\n", "preconditioner", "budget", "median", "p90", "max",
+              "within", "cheaper", "setup med/max", "solve med/p90", "residual", "it med/max");
+  // -1: the Cholesky factor with block-Jacobi while settling (settle_with_amg off, the default before).
+  for (int pci : {int(Preconditioner::Cholesky), -1, int(Preconditioner::BlockJacobi), int(Preconditioner::Amg)})
     for (double b : {0.0, budget}) {
+      const Preconditioner pc = pci < 0 ? Preconditioner::Cholesky : Preconditioner(pci);
       FemSimulationOptions opt;  // the defaults, but the preconditioner and the budget
       opt.cg.preconditioner = pc;
       opt.cg.budget_ms = b;
+      if (pci < 0) opt.cholesky.settle_with_amg = false;
       FemSimulation sim(c.mesh, material(1e5, 0.3), opt);
       c.setup(sim);
       std::vector<double> ms, setup, solve;
       int within = 0, cheaper = 0;
       double res = 0;
+      std::vector<double> its;
       for (int f = 0; f < 100; ++f) {
         const double load = 1 + 0.5 * std::sin(0.2 * f);
         for (VertexId v : c.mesh.vertices())
@@ -236,15 +244,18 @@ void section_budget_holds(Csv& csv) {
         setup.push_back(st.setup_ms);
         solve.push_back(st.solve_ms);
         res = st.relative_residual;
+        its.push_back(st.iterations);
       }
       std::vector<double> sorted = ms;
       std::sort(sorted.begin(), sorted.end());
       std::sort(setup.begin(), setup.end());
       std::sort(solve.begin(), solve.end());
-      std::printf("  %-13s %7.0f %8.2f %8.2f %8.2f %8d%% %8d %6.2f/%6.2f %6.2f/%6.2f %10.1e\n", to_string(pc), b,
-                  sorted[50], sorted[90], sorted[99], within, cheaper, setup[50], setup[99], solve[50], solve[90], res);
+      std::sort(its.begin(), its.end());
+      const std::string name = pci < 0 ? "cholesky+bj" : to_string(pc);
+      std::printf("  %-13s %7.0f %8.2f %8.2f %8.2f %8d%% %8d %6.2f/%6.2f %6.2f/%6.2f %10.1e %5.0f/%-6.0f\n", name.c_str(), b,
+                  sorted[50], sorted[90], sorted[99], within, cheaper, setup[50], setup[99], solve[50], solve[90], res, its[50], its[99]);
       if (sim.cholesky()) std::printf("    factorizations adopted: %d\n", sim.cholesky()->factorizations());
-      csv.row("budget-holds", to_string(pc), c.mesh.num_tets(), b, "", sorted[50], sorted[90], sorted[99], within, cheaper);
+      csv.row("budget-holds", name, c.mesh.num_tets(), b, "", sorted[50], sorted[90], sorted[99], within, cheaper);
     }
 }
 
@@ -331,29 +342,57 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
               "frames 10-50, tolerance 1e-4; over frames 10-50: frame = cut + step (ms), its parts (median), CG "
               "iterations median/max, worst residual, factorizations started while cutting show as a busy core\n",
               organ_file.c_str(), organ.num_tets());
-  std::printf("  %-28s %8s %8s %8s %8s %8s %8s %10s %17s\n", "preconditioner", "median", "p95", "max", "cut",
-              "setup", "solve", "iterations", "residual med/max");
+  std::printf("  %-28s %8s %8s %8s %8s %8s %8s %10s %17s %13s\n", "preconditioner", "median", "p95", "max", "cut",
+              "setup", "solve", "iterations", "residual med/max", "pc setup m/x");
   struct Config {
     const char* name;
     Preconditioner pc;
     int settle;
     double budget_ms = 0;
+    AggregationAmgOptions amg = {};
+    bool settle_amg = false;  // the factor's settle policy with amg instead of block-Jacobi
   };
+  AggregationAmgOptions additive, ring1, lazy;
+  additive.cycle = AggregationAmgOptions::Cycle::Additive;
+  ring1.ring = 1;
+  lazy.topology_rebuild_iterations = 20;
   const Config configs[] = {{"cholesky (stale factor)", Preconditioner::Cholesky, 0},
                             {"cholesky settle 3 (default)", Preconditioner::Cholesky, 3},
                             {"block-jacobi", Preconditioner::BlockJacobi, 0},
                             {"jacobi", Preconditioner::Jacobi, 0},
-                            {"default, budget 16 ms", Preconditioner::Cholesky, 3, 16.0}};
+                            {"amg", Preconditioner::Amg, 0},
+                            {"amg additive", Preconditioner::Amg, 0, 0, additive},
+                            {"amg ring 1", Preconditioner::Amg, 0, 0, ring1},
+                            {"amg lazy (rebuild >20 it)", Preconditioner::Amg, 0, 0, lazy},
+                            {"cholesky settle 3 + amg", Preconditioner::Cholesky, 3, 0, {}, true},
+                            {"default budget 16 ms", Preconditioner::Cholesky, 3, 16.0},
+                            {"chol+amg budget 16 ms", Preconditioner::Cholesky, 3, 16.0, {}, true},
+                            {"block-jacobi budget 16 ms", Preconditioner::BlockJacobi, 0, 16.0},
+                            {"amg budget 16 ms", Preconditioner::Amg, 0, 16.0}};
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "incise-bench-cut-scene";
+  // INCISE_BENCH_CUT_CONFIGS="amg,block-jacobi": only the configurations of these names (quick runs).
+  const std::string filter = std::getenv("INCISE_BENCH_CUT_CONFIGS") ? std::getenv("INCISE_BENCH_CUT_CONFIGS") : "";
   for (const Config& cfg : configs) {
+    if (!filter.empty()) {
+      bool hit = false;
+      std::stringstream fs(filter);
+      for (std::string f; std::getline(fs, f, ',');) hit = hit || std::string(cfg.name) == f;
+      if (!hit) continue;
+    }
     Scene sc = scene;
     sc.cg.preconditioner = cfg.pc;
     sc.cholesky.settle_frames = cfg.settle;
     sc.cg.budget_ms = cfg.budget_ms;
+    sc.amg = cfg.amg;
+    sc.cholesky.settle_with_amg = cfg.settle_amg;
     std::filesystem::remove_all(dir);
     SceneRunOptions ro;
     ro.out_dir = dir.string();
     ro.cut_hook = make_scene_cut_hook(sc);
+    std::vector<double> pc_setup;  // frames 10-50: the preconditioner's setup inside the solve
+    ro.on_frame = [&](int f, const Eigen::VectorXd&, const FrameStats& st) {
+      if (f >= 10 && f <= 50) pc_setup.push_back(st.preconditioner_setup_ms);
+    };
     run_scene(sc, ro);
     if (std::getenv("INCISE_BENCH_KEEP"))  // inspect a configuration's per-frame stats
       std::filesystem::copy_file(dir / "stats.csv", std::string(std::getenv("INCISE_BENCH_KEEP")) + "-" +
@@ -388,13 +427,80 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
       std::sort(x.begin(), x.end());
       return x[std::min(x.size() - 1, std::size_t(q * double(x.size() - 1) + 0.5))];
     };
-    std::printf("  %-28s %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %5.0f/%-4.0f %8.1e/%-8.1e\n", cfg.name, pct(frame, 0.5),
-                pct(frame, 0.95), pct(frame, 1.0), pct(cutms, 0.5), pct(setup, 0.5), pct(solve, 0.5), pct(iters, 0.5),
-                pct(iters, 1.0), pct(resid, 0.5), worst);
+    std::printf("  %-28s %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %5.0f/%-4.0f %8.1e/%-8.1e %6.1f/%-6.1f\n", cfg.name,
+                pct(frame, 0.5), pct(frame, 0.95), pct(frame, 1.0), pct(cutms, 0.5), pct(setup, 0.5), pct(solve, 0.5),
+                pct(iters, 0.5), pct(iters, 1.0), pct(resid, 0.5), worst, pc_setup.empty() ? 0.0 : pct(pc_setup, 0.5),
+                pc_setup.empty() ? 0.0 : pct(pc_setup, 1.0));
     csv.row("cut-scene", cfg.name, organ.num_tets(), pct(frame, 0.5), pct(frame, 0.95), pct(frame, 1.0), pct(cutms, 0.5),
             pct(setup, 0.5), pct(solve, 0.5), pct(iters, 0.5), worst);
   }
   std::filesystem::remove_all(dir);
+}
+
+// What the aggregation multigrid costs on the organ: one build's phases (aggregation,
+// prolongator, coarse operator, coarse factorization), the coarse size, and one application
+// against a block-Jacobi application and a product K x; the organ held at the bottom and
+// pressed at the top, corotational, one frame solved to 1e-4 first (so rotations are set).
+void section_amg_build(const std::string& organ_file, Csv& csv) {
+  const TetMesh organ = largest_part(read_tet_mesh(organ_file));
+  const Box b(organ);
+  std::printf("\namg build on %s (%zu tets, %zu vertices), corotational: per build ms (median of 5), coarse size, "
+              "and one application against block-Jacobi and K x (median of 20)\n",
+              organ_file.c_str(), organ.num_tets(), organ.num_vertices());
+  std::printf("  %-22s %6s %8s %8s %9s %8s %8s %8s %8s %8s %8s %8s\n", "variant", "aggr.", "coarse n", "nnz(L)",
+              "aggregate", "P", "A_c", "factor", "total", "apply", "bj apply", "K x");
+  for (int ring : {1, 2})
+    for (bool rotations : {true, false}) {
+      FemSimulationOptions opt;
+      opt.kind = FemKind::Corotational;
+      opt.cg.tolerance = 1e-4;
+      opt.cg.preconditioner = Preconditioner::Amg;
+      opt.amg.ring = ring;
+      opt.amg.rotations = rotations;
+      FemSimulation sim(organ, material(5e3, 0.4), opt);
+      for (VertexId v : organ.vertices()) {
+        const Vec3 p = organ.rest(v);
+        if (p.z() < b.lo.z() + 0.15 * b.size().z()) sim.fix(v);
+        if (p.z() > b.hi.z() - 0.05 * b.size().z()) sim.set_force(v, Vec3(0, 0, -1e-3));
+      }
+      sim.step();
+      std::vector<double> phase[5], apply, bj, kx;
+      AggregationAmg amg(sim.model(), opt.amg);
+      BlockJacobi jac;
+      for (int k = 0; k < 5; ++k) {
+        amg.mark_stale();
+        amg.setup(sim.model(), &sim.free_mask());
+        const AmgBuildStats& st = amg.build_stats();
+        const double p5[5] = {st.aggregate_ms, st.prolongator_ms, st.coarse_ms, st.factor_ms, st.total_ms};
+        for (int i = 0; i < 5; ++i) phase[i].push_back(p5[i]);
+      }
+      jac.setup(sim.model(), &sim.free_mask());
+      Eigen::VectorXd r = Eigen::VectorXd::Random(sim.model().rows()), z;
+      for (std::size_t i = 0; i < sim.free_mask().size(); ++i)
+        if (!sim.free_mask()[i]) r[Eigen::Index(i)] = 0;
+      auto time = [&](std::vector<double>& out, auto&& f) {
+        for (int k = 0; k < 20; ++k) {
+          const auto t0 = std::chrono::steady_clock::now();
+          f();
+          out.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+        }
+      };
+      time(apply, [&] { amg.apply(r, z); });
+      time(bj, [&] { jac.apply(r, z); });
+      time(kx, [&] { sim.model().multiply(r, z); });
+      auto med = [](std::vector<double> x) {
+        std::sort(x.begin(), x.end());
+        return x[x.size() / 2];
+      };
+      const AmgBuildStats& st = amg.build_stats();
+      char name[64];
+      std::snprintf(name, sizeof name, "ring %d%s", ring, rotations ? "" : ", translations");
+      std::printf("  %-22s %6zu %8zu %8zu %9.2f %8.2f %8.2f %8.2f %8.2f %8.3f %8.3f %8.3f\n", name, st.aggregates,
+                  st.coarse_unknowns, st.factor_nonzeros, med(phase[0]), med(phase[1]), med(phase[2]), med(phase[3]),
+                  med(phase[4]), med(apply), med(bj), med(kx));
+      csv.row("amg-build", name, organ.num_tets(), st.aggregates, st.coarse_unknowns, med(phase[2]), med(phase[3]),
+              med(phase[4]), med(apply), med(kx));
+    }
 }
 
 void section_warm_start(Csv& csv) {
@@ -535,10 +641,11 @@ void section_poisson(Csv& csv) {
   Cantilever c(5000);
   std::printf("\niterations against Poisson's ratio: cantilever %zu tets, linear, cold start, tolerance 1e-8\n",
               c.mesh.num_tets());
-  std::printf("  %8s %10s %12s %10s %12s %12s\n", "nu", "jacobi", "block-jacobi", "cholesky", "bj/jacobi", "chol/jacobi");
+  std::printf("  %8s %10s %12s %10s %10s %12s %12s %12s\n", "nu", "jacobi", "block-jacobi", "cholesky", "amg", "bj/jacobi",
+              "chol/jacobi", "amg/jacobi");
   for (double nu : {0.3, 0.45, 0.49, 0.499, 0.4999}) {
-    int it[3] = {0, 0, 0};
-    for (int i = 0; i < 3; ++i) {
+    int it[4] = {0, 0, 0, 0};
+    for (int i = 0; i < 4; ++i) {
       FemSimulationOptions opt;
       opt.cg.tolerance = 1e-8;
       opt.cg.preconditioner = kPcs[i];
@@ -547,8 +654,8 @@ void section_poisson(Csv& csv) {
       c.setup(sim);
       it[i] = sim.step().iterations;
     }
-    std::printf("  %8.4f %10d %12d %10d %12.3f %12.3f\n", nu, it[0], it[1], it[2], double(it[1]) / it[0],
-                double(it[2]) / it[0]);
+    std::printf("  %8.4f %10d %12d %10d %10d %12.3f %12.3f %12.3f\n", nu, it[0], it[1], it[2], it[3],
+                double(it[1]) / it[0], double(it[2]) / it[0], double(it[3]) / it[0]);
     csv.row("poisson", nu, c.mesh.num_tets(), it[0], it[1], it[2], double(it[1]) / it[0], double(it[2]) / it[0], 0, 0);
   }
 }
@@ -559,7 +666,7 @@ int main(int argc, char** argv) {
   Args args(argc, argv);
   const std::string out = args.get("--out", ".");
   Csv csv(out, "fem_precond.csv", "section,setting,tets,a,b,c,d,e,f,g");
-  // --only SECTION (beam, organ, cut-scene, budget, holds, warm, poisson, rotated): one section, for quick runs.
+  // --only SECTION (beam, organ, cut-scene, amg-build, budget, holds, warm, poisson, rotated): one section, for quick runs.
   const std::string only = args.get("--only", "");
   auto want = [&](const char* name) { return only.empty() || only == name; };
   const std::string beam = args.get("--beam", std::string(INCISE_SOURCE_DIR) + "/samples/scenes/beam.json");
@@ -579,6 +686,10 @@ int main(int argc, char** argv) {
   if (want("cut-scene")) {
     if (!organ.empty()) section_cut_scene(organ, csv);
     else if (!only.empty()) std::printf("\ncut-scene: needs --organ MESH\n");
+  }
+  if (want("amg-build")) {
+    if (!organ.empty()) section_amg_build(organ, csv);
+    else if (!only.empty()) std::printf("\namg-build: needs --organ MESH\n");
   }
   if (want("warm")) section_warm_start(csv);
   if (want("rotated")) section_rotated(csv);

@@ -1,9 +1,9 @@
 #include "sim/async_cholesky.h"
 
-#include <chrono>
-#include <mutex>
+#include "sim/blas_threads.h"
 
-#include <dlfcn.h>
+#include <chrono>
+
 #ifdef __linux__
 #include <sys/resource.h>
 #include <sys/syscall.h>
@@ -32,20 +32,6 @@ using FactorType = Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Low
 
 double now_ms() {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
-// CHOLMOD runs on whatever libblas.so.3 Debian's alternatives select. The optimized one
-// (OpenBLAS, libopenblas0-pthread, installed by scripts/install-deps.sh) starts a thread per
-// core for every factorization and triangular solve by default; beside the frame's own
-// threads (TBB) and the background factorization that made a cut organ's frame 445 ms instead
-// of 42 (64 with the reference BLAS). One BLAS thread, set once through the symbol when that
-// library is the one loaded (the reference BLAS has none).
-void single_threaded_blas() {
-  static std::once_flag once;
-  std::call_once(once, [] {
-    using SetThreads = void (*)(int);
-    if (void* f = dlsym(RTLD_DEFAULT, "openblas_set_num_threads")) reinterpret_cast<SetThreads>(f)(1);
-  });
 }
 
 // The factorization thread yields to the frame: at the lowest priority it runs on what the
@@ -269,6 +255,7 @@ void AsyncCholesky::apply(const TopologyChange& change) {
 void AsyncCholesky::setup(const LinearOperator& a, const std::vector<std::uint8_t>* free) {
   free_ = free;
   fallback_.setup(a, free);
+  if (use_moving()) moving_->setup(a, free);
   if (!settling_) update_rotation_change();
 }
 
@@ -320,7 +307,8 @@ void AsyncCholesky::update_rotation_change() {
 
 void AsyncCholesky::apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
   if (!factor_ || settling_) {
-    fallback_.apply(r, z);
+    if (use_moving()) moving_->apply(r, z);
+    else fallback_.apply(r, z);
     return;
   }
   const auto& idx = factor_->index;

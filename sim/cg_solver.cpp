@@ -226,17 +226,21 @@ bool ConjugateGradient::start(const Eigen::VectorXd& b, Eigen::VectorXd& x, std:
   }
   if (log_) *log_ = {};
   // The preconditioner's setup and application must fit the budget with a product to spare;
-  // otherwise this solve uses the cheaper one (unknown costs are measured by trying).
+  // otherwise this solve uses the cheaper one (unknown costs are measured by trying, unless the
+  // preconditioner announces its setup cost).
   active_ = pc_;
   CgPreconditioner* cheap = pc_->cheaper();
-  const double pc_ms = pc_setup_ms_ + pc_apply_ms_, cheap_ms = cheap_setup_ms_ + cheap_apply_ms_;
-  if (budgeted && cheap && pc_apply_ms_ > 0 && pc_ms + kx_ms_ > left() && (cheap_ms == 0 || pc_ms > 1.5 * cheap_ms)) {
+  const double hint = pc_->next_setup_ms();
+  const double pc_ms = (hint >= 0 ? hint : pc_setup_ms_) + pc_apply_ms_, cheap_ms = cheap_setup_ms_ + cheap_apply_ms_;
+  if (budgeted && cheap && (pc_apply_ms_ > 0 || hint > 0) && pc_ms + kx_ms_ > left() &&
+      (cheap_ms == 0 || pc_ms > 1.5 * cheap_ms)) {
     active_ = cheap;
     stats_.cheaper_preconditioner = true;
   }
   const double ts = now_ms();
   active_->setup(*A_, free_);
-  average_in(active_ == pc_ ? pc_setup_ms_ : cheap_setup_ms_, now_ms() - ts);
+  stats_.preconditioner_setup_ms = now_ms() - ts;
+  average_in(active_ == pc_ ? pc_setup_ms_ : cheap_setup_ms_, stats_.preconditioner_setup_ms);
   pc_version_ = active_->version();
   precondition(r_, z_);
   project(z_);

@@ -19,7 +19,8 @@
 // operator (no compute()/invalidate() since) and the same preconditioner version.
 //
 // Budget: a solve with budget_ms > 0 plans with the measured cost of a product and of a
-// preconditioner application (running averages). It skips the prediction when its products
+// preconditioner application (running averages; the preconditioner's next_setup_ms() when it
+// gives one). It skips the prediction when its products
 // would take more than half of the budget, preconditions with pc->cheaper() when one setup and
 // application of the preconditioner plus a product do not fit and the cheaper one is cheaper by
 // half again (stats: cheaper_preconditioner),
@@ -55,6 +56,7 @@ struct SolveStats {
   double guess_relative_residual = 0;    // at the guess as given (before prediction)
   double prediction_weight = 0;    // alpha_1 of x = guess + sum alpha_i d_i (0: prediction not used)
   double solve_ms = 0;             // wall time of the solve
+  double preconditioner_setup_ms = 0;  // of it, the preconditioner's setup (a multigrid rebuild shows here)
   bool budget_exhausted = false;   // the budget stopped it
   bool resumed = false;            // continued the previous interrupted solve
   // The budget left could not afford one application of the preconditioner: the solve used

@@ -128,6 +128,13 @@ public:
   bool tet_alive(TetId t) const { return t.idx() < alive_.size() && alive_[t.idx()]; }
   double tet_volume(TetId t) const { return vol_[t.idx()]; }
   Eigen::Matrix3d rotation(TetId t) const { return quat_[t.idx()].toRotationMatrix(); }
+  // What a tet's element matrix is made of, without the copy elements() takes: a coarse
+  // operator assembled per frame (sim/aggregation_amg.h) reads these in place.
+  const std::array<std::uint32_t, 4>& tet_vertex_ids(TetId t) const { return verts_[t.idx()]; }
+  const Eigen::Matrix3d& tet_shape_matrix(TetId t) const { return bm_[t.idx()]; }  // row j-1: grad N_j
+  double tet_mu(TetId t) const { return mu_[t.idx()]; }
+  double tet_lambda(TetId t) const { return lambda_[t.idx()]; }
+  const Eigen::Quaterniond& tet_quaternion(TetId t) const { return quat_[t.idx()]; }
 
 private:
   void grow();

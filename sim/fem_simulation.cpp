@@ -90,6 +90,7 @@ void FemSimulation::prescribe(VertexId v, const Vec3& d) {
     constrained_[v.idx()] = 1;
     rigid_dirty_ = direct_dirty_ = system_dirty_ = true;
     if (cholesky_) cholesky_->mark_stale();
+    if (amg_) amg_->mark_stale();
     update_free(v.idx());
   }
   target_.segment<3>(3 * v.idx()) = d;
@@ -100,6 +101,7 @@ void FemSimulation::release(VertexId v) {
   constrained_[v.idx()] = 0;
   rigid_dirty_ = direct_dirty_ = system_dirty_ = true;
   if (cholesky_) cholesky_->mark_stale();
+  if (amg_) amg_->mark_stale();
   update_free(v.idx());
 }
 
@@ -148,6 +150,7 @@ void FemSimulation::apply(const TopologyChange& change) {
   // callers that want the precise diagnosis call check_constraints().
   predictor_.apply(change, model_.vertex_slots());
   if (cholesky_) cholesky_->apply(change);
+  if (amg_) amg_->apply(change);
   if (!change.empty()) assembled_dirty_ = direct_dirty_ = system_dirty_ = true;
 }
 
@@ -279,6 +282,7 @@ void FemSimulation::solve_system(const LinearOperator& k, double a, double c, co
   st.products += s.products;
   st.relative_residual = s.relative_residual;
   st.solve_ms += s.solve_ms;
+  st.preconditioner_setup_ms += s.preconditioner_setup_ms;
   st.budget_exhausted = st.budget_exhausted || s.budget_exhausted;
   st.cheaper_preconditioner = st.cheaper_preconditioner || s.cheaper_preconditioner;
   st.info = s.info;
@@ -338,12 +342,32 @@ const FrameStats& FemSimulation::step() {
       if (opt_.cg.budget_ms > 0) co.wait_for_first = false;
       cholesky_ = std::make_unique<AsyncCholesky>(model_, co);
       cg_.set_preconditioner(cholesky_.get());
+      if (co.settle_with_amg) {
+        amg_ = std::make_unique<AggregationAmg>(model_, opt_.amg);
+        cholesky_->set_moving(amg_.get());
+      }
+    }
+    if (amg_) {
+      if (opt_.dynamic) amg_->frame(1 + opt_.dt * opt_.damping, opt_.dt * opt_.dt, last_iterations);
+      else amg_->frame(0.0, 1.0, last_iterations);
     }
     if (opt_.dynamic) cholesky_->frame(free_, 1 + opt_.dt * opt_.damping, opt_.dt * opt_.dt, last_iterations);
     else cholesky_->frame(free_, 0.0, 1.0, last_iterations);
   } else if (cholesky_) {
     cg_.set_preconditioner(nullptr);
     cholesky_.reset();
+    amg_.reset();  // it was the factor's (settle_with_amg)
+  }
+  if (opt_.method == SolverMethod::Cg && cg_.options().preconditioner == Preconditioner::Amg) {
+    if (!amg_) {
+      amg_ = std::make_unique<AggregationAmg>(model_, opt_.amg);
+      cg_.set_preconditioner(amg_.get());
+    }
+    if (opt_.dynamic) amg_->frame(1 + opt_.dt * opt_.damping, opt_.dt * opt_.dt, last_iterations);
+    else amg_->frame(0.0, 1.0, last_iterations);
+  } else if (amg_ && !cholesky_) {
+    cg_.set_preconditioner(nullptr);
+    amg_.reset();
   }
   const LinearOperator* k = &model_;
   auto refresh_operator = [&] {

@@ -32,6 +32,7 @@
 #include <Eigen/Core>
 
 #include "mesh/tet_mesh.h"
+#include "sim/aggregation_amg.h"
 #include "sim/async_cholesky.h"
 #include "sim/cg_solver.h"
 #include "sim/fem_model.h"
@@ -55,6 +56,7 @@ struct FemSimulationOptions {
   // fastest measured, docs/solver.md; block-Jacobi above AsyncCholeskyOptions::max_unknowns).
   CgOptions cg{.preconditioner = Preconditioner::Cholesky};
   AsyncCholeskyOptions cholesky;                        // for cg.preconditioner == Cholesky
+  AggregationAmgOptions amg;                            // for cg.preconditioner == Amg
   bool warm_start = true;                               // start CG from the previous frame
   bool predict = true;                                  // static warm start extrapolates the last frames
   bool dynamic = false;                                 // backward Euler instead of static
@@ -74,6 +76,7 @@ struct FrameStats {
   double guess_relative_residual = 0;    // same, before the prediction (at the last solution)
   bool resumed = false;                  // CG continued the previous frame's interrupted solve
   double solve_ms = 0;
+  double preconditioner_setup_ms = 0;    // of solve_ms: the preconditioner's setup (block-Jacobi blocks, a multigrid rebuild)
   double frame_ms = 0;                   // the whole step(): rotations, right-hand side, solves
   // Before the first solve started: factor adoption, rotations, right-hand side. A budgeted
   // frame's solve gets only what this left of budget_ms (at least one iteration runs).
@@ -123,6 +126,8 @@ public:
 
   // The asynchronous factorization behind Preconditioner::Cholesky (nullptr until used).
   const AsyncCholesky* cholesky() const { return cholesky_.get(); }
+  // The aggregation multigrid behind Preconditioner::Amg (nullptr until used).
+  const AggregationAmg* amg() const { return amg_.get(); }
   FemModel& model() { return model_; }
   const FemModel& model() const { return model_; }
   FemSimulationOptions& options() { return opt_; }
@@ -155,6 +160,7 @@ private:
   bool system_dirty_ = true;
   WarmStartPredictor predictor_;
   std::unique_ptr<AsyncCholesky> cholesky_;  // Preconditioner::Cholesky: built on first use
+  std::unique_ptr<AggregationAmg> amg_;      // Preconditioner::Amg: built on first use
   Eigen::VectorXd b_rot_;              // corotational right-hand side term
   std::vector<Eigen::VectorXd> d_;     // prediction directions
 

@@ -12,15 +12,17 @@ const char* to_string(Preconditioner p) {
     case Preconditioner::Jacobi: return "jacobi";
     case Preconditioner::BlockJacobi: return "block-jacobi";
     case Preconditioner::Cholesky: return "cholesky";
+    case Preconditioner::Amg: return "amg";
   }
   return "?";
 }
 
 Preconditioner parse_preconditioner(const std::string& name) {
   for (Preconditioner p :
-       {Preconditioner::None, Preconditioner::Jacobi, Preconditioner::BlockJacobi, Preconditioner::Cholesky})
+       {Preconditioner::None, Preconditioner::Jacobi, Preconditioner::BlockJacobi, Preconditioner::Cholesky,
+        Preconditioner::Amg})
     if (name == to_string(p)) return p;
-  throw InvalidArgument("expected \"jacobi\", \"block-jacobi\", \"cholesky\" or \"none\", got \"" + name + "\"");
+  throw InvalidArgument("expected \"jacobi\", \"block-jacobi\", \"cholesky\", \"amg\" or \"none\", got \"" + name + "\"");
 }
 
 namespace {
@@ -95,7 +97,8 @@ std::unique_ptr<CgPreconditioner> make_preconditioner(Preconditioner kind) {
     case Preconditioner::None: return std::make_unique<Identity>();
     case Preconditioner::Jacobi: return std::make_unique<Jacobi>();
     case Preconditioner::BlockJacobi:
-    case Preconditioner::Cholesky: return std::make_unique<BlockJacobi>();
+    case Preconditioner::Cholesky:
+    case Preconditioner::Amg: return std::make_unique<BlockJacobi>();
   }
   return std::make_unique<Jacobi>();
 }

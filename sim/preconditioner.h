@@ -6,8 +6,9 @@
 //
 // Jacobi and BlockJacobi read the operator's diagonal / 3x3 vertex blocks, which the FEM model
 // keeps current locally from each TopologyChange, so they survive cuts at no extra cost.
-// Cholesky is the asynchronous sparse factorization of sim/async_cholesky.h; the FEM frame
-// driver attaches it to CG (on its own, CG treats it as BlockJacobi).
+// Cholesky is the asynchronous sparse factorization of sim/async_cholesky.h and Amg the
+// aggregation multigrid of sim/aggregation_amg.h; both need the FEM model, so the FEM frame
+// driver attaches them to CG (on its own, CG treats either as BlockJacobi).
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -19,9 +20,9 @@
 
 namespace incise {
 
-enum class Preconditioner { None, Jacobi, BlockJacobi, Cholesky };
+enum class Preconditioner { None, Jacobi, BlockJacobi, Cholesky, Amg };
 const char* to_string(Preconditioner p);
-// "none", "jacobi", "block-jacobi", "cholesky"; throws InvalidArgument on anything else.
+// "none", "jacobi", "block-jacobi", "cholesky", "amg"; throws InvalidArgument on anything else.
 Preconditioner parse_preconditioner(const std::string& name);
 
 class CgPreconditioner {
@@ -34,9 +35,13 @@ public:
   // A cheaper preconditioner CG uses instead for a solve whose wall-clock budget cannot
   // afford one application of this one (nullptr: none). It must stay valid as long as this.
   virtual CgPreconditioner* cheaper() { return nullptr; }
+  // What the next setup() is expected to cost (ms), when the preconditioner knows better than
+  // CG's running average of past setups (a multigrid whose setup is a patch after a cut and
+  // almost nothing otherwise); negative: no idea, CG uses its average.
+  virtual double next_setup_ms() const { return -1; }
 };
 
-// None, Jacobi or BlockJacobi (Cholesky gives BlockJacobi, see above).
+// None, Jacobi or BlockJacobi (Cholesky and Amg give BlockJacobi, see above).
 std::unique_ptr<CgPreconditioner> make_preconditioner(Preconditioner kind);
 
 // Inverse 3x3 vertex blocks with a per-unknown diagonal fallback (vertices with only some

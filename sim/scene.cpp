@@ -520,6 +520,7 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
     fo.damping = s.damping;
     fo.nonlinear_iterations = s.nonlinear_iterations;
     fo.cholesky = s.cholesky;
+    fo.amg = s.amg;
     fo.gravity = gravity;
     fem = std::make_unique<FemSimulation>(mesh, s.materials, fo);
     for (VertexId v : fixed) fem->fix(v);

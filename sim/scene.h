@@ -95,6 +95,7 @@ struct Scene {
   bool predict = true;              // warm start extrapolates the last frames ("predict")
   int nonlinear_iterations = 1;
   AsyncCholeskyOptions cholesky;    // the cholesky preconditioner's policy (library and benches)
+  AggregationAmgOptions amg;        // the amg preconditioner's options (library and benches)
   // time
   int frames = 100;
   double dt = 0.01;

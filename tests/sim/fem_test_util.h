@@ -1,6 +1,9 @@
 #pragma once
-// Helpers shared by the FEM tests: loads on box faces (random edits and jitter come from
+// Helpers shared by the FEM tests: loads on box faces, fixed ends, a run checked against the
+// direct solution (random edits and jitter come from
 // tests/support/mesh_edits.h).
+#include <catch2/catch.hpp>
+
 #include <cmath>
 #include <random>
 #include <vector>
@@ -32,6 +35,27 @@ inline void add_face_traction(const TetMesh& m, FemSimulation& sim, int axis, do
     const double area = 0.5 * (b - a).cross(c - a).norm();
     for (VertexId v : f.vertices) sim.add_force(v, traction * area / 3);
   }
+}
+
+// Both x ends (x = 0 and x = 4) of a 4-long box fixed.
+inline void fix_ends(const TetMesh& m, FemSimulation& sim) {
+  for (VertexId v : m.vertices())
+    if (m.rest(v).x() < 1e-9 || m.rest(v).x() > 4 - 1e-9) sim.fix(v);
+}
+
+// After 8 more frames, `sim` (ends fixed, -2 z on `top`) equals the direct solution on m.
+inline void check_equals_direct(const TetMesh& m, const FemSimulationOptions& opt, const std::vector<VertexId>& top,
+                         FemSimulation& sim) {
+  FemSimulationOptions dopt = opt;
+  dopt.method = SolverMethod::Direct;
+  FemSimulation direct(m, table(1e5, 0.45), dopt);
+  fix_ends(m, direct);
+  for (VertexId v : top) direct.set_force(v, Vec3(0, 0, -2));
+  for (int f = 0; f < 8; ++f) {
+    CHECK(sim.step().info == SolveInfo::Success);
+    direct.step();
+  }
+  CHECK((sim.displacement() - direct.displacement()).norm() <= 1e-6 * direct.displacement().norm());
 }
 
 inline double max_abs(const Eigen::VectorXd& v) { return v.size() ? v.cwiseAbs().maxCoeff() : 0.0; }

@@ -63,7 +63,7 @@ TEST_CASE("scene errors name the key and what was expected", "[scene][errors]") 
   CHECK(error_of(with("solver", R"({"budget_ms": -5})")) == "scene.json: solver.budget_ms: expected a number >= 0");
   CHECK_THAT(error_of(with("solver", R"({"method": "lu"})")), Catch::StartsWith("scene.json: solver.method: expected \"cg\" or \"direct\""));
   CHECK_THAT(error_of(with("solver", R"({"tolerence": 1e-6})")), Catch::StartsWith("scene.json: solver.tolerence: unknown key"));
-  CHECK_THAT(error_of(with("solver", R"({"preconditioner": "ilu"})")), Catch::Contains("solver.preconditioner: expected \"jacobi\", \"block-jacobi\", \"cholesky\" or \"none\", got \"ilu\""));
+  CHECK_THAT(error_of(with("solver", R"({"preconditioner": "ilu"})")), Catch::Contains("solver.preconditioner: expected \"jacobi\", \"block-jacobi\", \"cholesky\", \"amg\" or \"none\", got \"ilu\""));
   CHECK_THAT(error_of(with("solver", R"({"warm_start": "guess"})")), Catch::Contains("solver.warm_start: expected true, false, \"predict\" or \"last\""));
   CHECK_THAT(error_of(with("model", R"("fem")")), Catch::StartsWith("scene.json: model: expected \"fem-linear\""));
   CHECK_THAT(error_of(with("materials", R"({"*": {"poisson": 0.5}})")), Catch::Contains("materials.*.poisson: expected a Poisson's ratio in [0, 0.5)"));
