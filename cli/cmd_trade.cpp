@@ -28,7 +28,7 @@ void add_trade(CLI::App& app) {
     std::string scene, out;
     int frames = -1;
     std::vector<std::string> models{"fem-linear", "fem-corotational", "springs"};
-    std::vector<std::string> preconditioners{"jacobi", "block-jacobi", "cholesky"};
+    std::vector<std::string> preconditioners{"jacobi", "block-jacobi", "cholesky", "amg"};
     std::vector<double> tolerances{1e-2, 1e-4, 1e-6, 1e-8};
     std::vector<double> budgets{0, 2};
     bool no_direct = false, quiet = false;

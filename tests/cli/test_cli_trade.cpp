@@ -60,12 +60,12 @@ TEST_CASE("incise trade writes the grid, the errors and the Pareto plot", "[cli]
   INFO("stderr: " << r.err);
   REQUIRE(r.code == 0);
   CHECK(r.err.find("trade: reference") != std::string::npos);
-  CHECK(r.err.find("trade: 16/16") != std::string::npos);
+  CHECK(r.err.find("trade: 20/20") != std::string::npos);
   const std::string csv = slurp(dir / "out" / "trade.csv");
   REQUIRE(csv.rfind("model,solver,preconditioner,tolerance,budget_ms,ms_per_frame,iterations,error,", 0) == 0);
   const auto rows = read_csv(csv);
-  // Per FEM model: direct + 3 preconditioners x 2 tolerances; springs: 2 tolerances.
-  REQUIRE(rows.size() == 16);
+  // Per FEM model: direct + 4 preconditioners x 2 tolerances; springs: 2 tolerances.
+  REQUIRE(rows.size() == 20);
   std::map<std::string, double> err;
   int pareto = 0;
   for (const auto& row : rows) {
@@ -77,7 +77,7 @@ TEST_CASE("incise trade writes the grid, the errors and the Pareto plot", "[cli]
   }
   CHECK(pareto >= 1);
   CHECK(err.at("fem-corotational direct  0") == 0);  // the reference's own setting
-  for (const char* pc : {"jacobi", "block-jacobi", "cholesky"}) {
+  for (const char* pc : {"jacobi", "block-jacobi", "cholesky", "amg"}) {
     INFO(pc);
     CHECK(err.at(std::string("fem-corotational cg ") + pc + " 1e-06") < 1e-4);
     CHECK(err.at(std::string("fem-corotational cg ") + pc + " 1e-06") <= err.at(std::string("fem-corotational cg ") + pc + " 0.01") + 1e-9);

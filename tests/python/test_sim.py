@@ -144,7 +144,7 @@ def test_springs_follow_mesh_edits(box):
     assert np.allclose(after[v], before[corners].mean(axis=0), rtol=0, atol=1e-15)  # interpolated, deformed
 
 
-@pytest.mark.parametrize("preconditioner", ["none", "jacobi", "block-jacobi", "cholesky"])
+@pytest.mark.parametrize("preconditioner", ["none", "jacobi", "block-jacobi", "cholesky", "amg"])
 def test_every_preconditioner_reaches_the_same_answer(box, preconditioner):
     sim = incise.FemSimulation(box, incise.Material(young=1e5, poisson=0.3), preconditioner=preconditioner,
                                tolerance=1e-10)
