@@ -18,7 +18,9 @@
 //  4. beam_ratio: a beam clamped at both ends under gravity, cut through at midspan: midspan
 //     sag after / before, against beam theory: 3 (Euler-Bernoulli: two cantilevers of half
 //     the length), 2.78 with shear (Timoshenko) for this beam's L/h = 10.
-// Usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive] [ORGAN]   (default samples/liver.msh)
+// Usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive] [--case NAME_PART] [--steps N]
+//                  [ORGAN]   (default samples/liver.msh; --case, --steps: only the progressive rows whose case
+//                  name contains NAME_PART, with N steps, for profiling)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -406,7 +408,8 @@ std::size_t crossed_tets(const TetMesh& m, const Sweep& s) {
   return c;
 }
 
-void progressive(const TetMesh& organ, const std::string& name, bool quick) {
+void progressive(const TetMesh& organ, const std::string& name, bool quick, const std::string& only_case,
+                 int only_steps) {
   std::printf("# progressive (one blade motion in N steps, then finish(): growth per crossed tet, area, parts, "
               "quality and step times against the single step; default options)\n");
   std::printf("case,steps,step_over_edge,tets_before,crossed,tets_after,added_per_crossed,cut_area,area_over_1step,"
@@ -431,6 +434,7 @@ void progressive(const TetMesh& organ, const std::string& name, bool quick) {
                      Vec3(x + 0.02 * ext.x(), hi.y() + 0.1 * ext.y(), hi.z() + 0.05 * ext.z()), Vec3(0, 0, -1.1 * ext.z())});
   }
   for (Sweep& s : cases) {
+    if (!only_case.empty() && s.name.find(only_case) == std::string::npos) continue;
     s.mesh.discard_change();
     const std::size_t crossed = crossed_tets(s.mesh, s);
     const double h = mean_edge(s.mesh);
@@ -448,6 +452,7 @@ void progressive(const TetMesh& organ, const std::string& name, bool quick) {
     for (int n : counts) variants.push_back({n, true});
     variants.push_back({tenth, false});  // the cut's own share, without the improvement
     for (const auto& [n, improve] : variants) {
+      if (only_steps > 0 && n != only_steps) continue;
       TetMesh m = s.mesh;
       CutOptions opt;
       opt.improve = improve;
@@ -478,13 +483,17 @@ void progressive(const TetMesh& organ, const std::string& name, bool quick) {
 
 int main(int argc, char** argv) {
   bool quick = false, with_1m = true;
-  std::string organ_path = std::string(INCISE_SOURCE_DIR) + "/samples/liver.msh", only;
+  std::string organ_path = std::string(INCISE_SOURCE_DIR) + "/samples/liver.msh", only, only_case;
+  int only_steps = 0;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
     else if (!std::strcmp(argv[i], "--no-1m")) with_1m = false;
     else if (!std::strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
+    else if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only_case = argv[++i];
+    else if (!std::strcmp(argv[i], "--steps") && i + 1 < argc) only_steps = std::atoi(argv[++i]);
     else if (argv[i][0] == '-') {
-      std::fprintf(stderr, "usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive] [ORGAN]\n");
+      std::fprintf(stderr, "usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive] "
+                           "[--case NAME_PART] [--steps N] [ORGAN]\n");
       return 1;
     } else organ_path = argv[i];
   }
@@ -496,6 +505,6 @@ int main(int argc, char** argv) {
   if (want("quality")) quality_after_cuts(organ, name, quick);
   if (want("snap")) snap_trade(organ);
   if (want("beam")) beam_ratio(quick);
-  if (want("progressive")) progressive(organ, name, quick);
+  if (want("progressive")) progressive(organ, name, quick, only_case, only_steps);
   return 0;
 }
