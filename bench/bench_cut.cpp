@@ -49,6 +49,28 @@ double now_ms() {
 }
 
 
+// A fingerprint of the mesh (tets, labels, face tags, rest positions bit for bit): equal
+// fingerprints say two runs gave the same mesh (how a speed-up shows it changed nothing).
+std::uint64_t fingerprint(const TetMesh& m) {
+  std::uint64_t h = 1469598103934665603ull;
+  auto mix = [&](std::uint64_t x) {
+    for (int i = 0; i < 8; ++i, x >>= 8) h = (h ^ (x & 0xff)) * 1099511628211ull;
+  };
+  for (TetId t : m.tets()) {
+    for (VertexId v : m.tet_vertices(t)) mix(v.idx());
+    mix(std::uint64_t(m.label(t)));
+    for (int f = 0; f < 4; ++f) mix(m.face_tag(t, f));
+  }
+  for (VertexId v : m.vertices())
+    for (int k = 0; k < 3; ++k) {
+      std::uint64_t bits;
+      const double x = m.rest(v)[k];
+      std::memcpy(&bits, &x, sizeof bits);
+      mix(bits);
+    }
+  return h;
+}
+
 double percentile(std::vector<double> v, double p) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
@@ -170,7 +192,7 @@ void quality_after_cuts(const TetMesh& organ, const std::string& name, bool quic
               "cut mesh, no surface-keeping mesh does better; goal: min dihedral >= min(10, bound / 2) and < 1%% of "
               "tets below 10 deg)\n", name.c_str(), cuts);
   std::printf("variant,tets,min_dihedral,max_dihedral,min_radius_ratio,tets_below_10deg,pct_below_10deg,bound_deg,"
-              "goal_deg,meets_goal,tets_below_5deg,ms_total,ms_p95_step_or_finish,ms_max,contractions,where_below_goal\n");
+              "goal_deg,meets_goal,tets_below_5deg,ms_total,ms_p95_step_or_finish,ms_max,contractions,where_below_goal,mesh_fingerprint\n");
   const QualityRange r0 = quality_range(organ, 10.0);
   const auto b0 = smallest_boundary_angle(organ);
   std::printf("uncut,%zu,%.3f,%.3f,%.2e,%zu,%.2f,%.2f,,,%zu,0,0,0,0,\n", organ.num_tets(), r0.min_dihedral, r0.max_dihedral,
@@ -223,11 +245,11 @@ void quality_after_cuts(const TetMesh& organ, const std::string& name, bool quic
     const auto bound = smallest_boundary_angle(m);
     const double bdeg = bound ? bound->degrees : 180.0, goal = std::min(10.0, 0.5 * bdeg);
     const double pct = 100.0 * double(q.below) / double(m.num_tets());
-    std::printf("%s,%zu,%.3f,%.3f,%.2e,%zu,%.2f,%.2f,%.2f,%s,%zu,%.1f,%.2f,%.2f,%d,%s\n", v.name, m.num_tets(), q.min_dihedral,
+    std::printf("%s,%zu,%.3f,%.3f,%.2e,%zu,%.2f,%.2f,%.2f,%s,%zu,%.1f,%.2f,%.2f,%d,%s,%016llx\n", v.name, m.num_tets(), q.min_dihedral,
                 q.max_dihedral, q.min_radius_ratio, q.below, pct, bdeg, goal,
                 q.min_dihedral >= goal && pct < 1 ? "yes" : "no", quality_range(m, 5.0).below, total, percentile(ms, 0.95),
                 percentile(ms, 1.0),
-                contractions, where_bad(m, goal).c_str());
+                contractions, where_bad(m, goal).c_str(), (unsigned long long)fingerprint(m));
     std::fflush(stdout);
   }
 }
@@ -413,7 +435,8 @@ void progressive(const TetMesh& organ, const std::string& name, bool quick, cons
   std::printf("# progressive (one blade motion in N steps, then finish(): growth per crossed tet, area, parts, "
               "quality and step times against the single step; default options)\n");
   std::printf("case,steps,step_over_edge,tets_before,crossed,tets_after,added_per_crossed,cut_area,area_over_1step,"
-              "parts,min_dihedral,below_10deg,ms_median,ms_p95,ms_max,ms_finish\n");
+              "parts,min_dihedral,below_10deg,ms_median,ms_p95,ms_max,ms_finish,ms_improve_median,ms_improve_p95,"
+              "mesh_fingerprint\n");
   std::vector<Sweep> cases;
   cases.push_back({"box4x1x1 partial", make_box(Vec3(4, 1, 1), {16, 4, 4}), Vec3(2.03, -0.5, 1.1), Vec3(2.03, 1.5, 1.1),
                    Vec3(0, 0, -0.6)});
@@ -458,22 +481,25 @@ void progressive(const TetMesh& organ, const std::string& name, bool quick, cons
       opt.improve = improve;
       Cutter cutter(m, opt);
       cutter.start({s.a, s.b});
-      std::vector<double> ms;
+      std::vector<double> ms, ms_imp;
       for (int k = 1; k <= n; ++k) {
         const Vec3 off = s.d * (double(k) / n);
-        ms.push_back(cutter.advance({s.a + off, s.b + off}).ms);
+        const CutStepReport r = cutter.advance({s.a + off, s.b + off});
+        ms.push_back(r.ms);
+        ms_imp.push_back(r.ms_improve);
       }
       const double fin = cutter.finish().ms;
       const QualityRange q = quality_range(m, 10.0);
       const std::size_t below10 = q.below;
       const double area = tagged_area(m);
       if (n == 1) area1 = area;
-      std::printf("%s%s,%d,%.3f,%zu,%zu,%zu,%.2f,%.4g,%.4f,%zu,%.3f,%zu,%.3f,%.3f,%.3f,%.3f\n", s.name.c_str(),
+      std::printf("%s%s,%d,%.3f,%zu,%zu,%zu,%.2f,%.4g,%.4f,%zu,%.3f,%zu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%016llx\n", s.name.c_str(),
                   improve ? "" : " (no improve)", n,
                   s.d.norm() / n / h, s.mesh.num_tets(), crossed, m.num_tets(),
                   double(m.num_tets() - s.mesh.num_tets()) / double(std::max<std::size_t>(crossed, 1)), area,
                   area / area1, vertex_parts(m), q.min_dihedral, below10, percentile(ms, 0.5), percentile(ms, 0.95),
-                  percentile(ms, 1.0), fin);
+                  percentile(ms, 1.0), fin, percentile(ms_imp, 0.5), percentile(ms_imp, 0.95),
+                  (unsigned long long)fingerprint(m));
       std::fflush(stdout);
     }
   }
