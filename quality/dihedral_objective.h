@@ -33,6 +33,9 @@ struct AngleQuality {
 };
 
 AngleQuality angle_quality(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3, const AngleTargets& t);
+// angle_quality(...).q alone (bit for bit the same value), without the radius ratio: for
+// searches that compare q only (smoothing's ascent).
+double angle_q(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3, const AngleTargets& t);
 AngleQuality angle_quality(const TetMesh& mesh, TetId t, const AngleTargets& targets);
 // Worst over tets given as vertex quadruples of `mesh`.
 AngleQuality angle_quality(const TetMesh& mesh, std::span<const std::array<VertexId, 4>> tets,

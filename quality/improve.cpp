@@ -104,7 +104,7 @@ public:
       }
       const Entry e = queue_.top();
       queue_.pop();
-      if (!mesh_.is_alive(e.tet) || version_[e.tet.idx()] != e.version) continue;
+      if (!mesh_.is_alive(e.tet) || version_[e.tet.idx()].version != e.version) continue;
       ++work_;
       if (step(e.tet, rep)) progress = true;
     }
@@ -113,6 +113,20 @@ public:
   }
 
   std::unordered_set<std::uint32_t> moved;
+
+  // The report's figures of live tets, from their last push (the same values angle_quality
+  // gives now: min/max dihedral and radius ratio do not depend on the targets); a tet never
+  // pushed is evaluated.
+  template <class Tets>
+  Stats current_stats(const Tets& tets) const {
+    Stats st;
+    for (auto t : tets) {
+      if (!mesh_.is_alive(TetId(t))) continue;
+      const auto it = version_.find(std::uint32_t(t));
+      st.add(it != version_.end() ? it->second.quality : angle_quality(mesh_, TetId(t), AngleTargets{}));
+    }
+    return st;
+  }
   // Insertion adds tets, and the growth cap is shared by the whole pass: global mode first
   // lets flips, contraction and smoothing converge, then allows insertion for what is left,
   // and from then on every operation may trade radius ratio down to the floor
@@ -144,9 +158,10 @@ private:
 
   AngleQuality push(TetId t) {
     const AngleQuality a = angle_quality(mesh_, t, scope_.targets);
-    std::uint32_t& ver = version_[t.idx()];
-    ++ver;
-    if (a.q < 1) queue_.push({a.q, t, ver});
+    Known& k = version_[t.idx()];
+    ++k.version;
+    k.quality = a;
+    if (a.q < 1) queue_.push({a.q, t, k.version});
     return a;
   }
 
@@ -274,7 +289,13 @@ private:
   VolumeAllowance volume_;
   // Smoothing (vertices) or flips (tets) failed and nothing around changed since.
   std::unordered_set<std::uint32_t> stuck_, flip_stuck_, collapse_stuck_;
-  std::unordered_map<std::uint32_t, std::uint32_t> version_;
+  // Per tet pushed: its queue version and its figures when pushed. Every tet an operation
+  // creates or reshapes is pushed again, so a live tet's figures are its current ones.
+  struct Known {
+    std::uint32_t version = 0;
+    AngleQuality quality;
+  };
+  std::unordered_map<std::uint32_t, Known> version_;
   std::priority_queue<Entry> queue_;
   int work_ = 0;
   long growth_cap_;  // how many tets the pass may add in all
@@ -381,7 +402,7 @@ ImproveReport improve_local(TetMesh& mesh, std::span<const TetId> seeds, const I
   rep.max_dihedral_before = before.max_dih;
   rep.min_radius_ratio_before = before.min_rr;
   rep.label_volume_change = largest_change(volumes, label_volumes(mesh, region));
-  Stats after = stats_of(mesh, region);
+  Stats after = d.current_stats(region);
   rep.tets_after = region.size();
   rep.min_dihedral_after = after.min_dih;
   rep.max_dihedral_after = after.max_dih;

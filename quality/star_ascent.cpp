@@ -16,6 +16,12 @@ AngleQuality OpenStar::one(std::size_t i, const Vec3& p, const AngleTargets& t) 
   return angle_quality(x[0], x[1], x[2], x[3], t);
 }
 
+double OpenStar::one_q(std::size_t i, const Vec3& p, const AngleTargets& t) const {
+  auto x = tets[i];
+  x[slot[i]] = p;
+  return angle_q(x[0], x[1], x[2], x[3], t);
+}
+
 namespace {
 
 // Smallest vector in the convex hull of g (Frank-Wolfe; the hull is small).
@@ -36,19 +42,26 @@ Vec3 min_norm_in_hull(const std::vector<Vec3>& g) {
 }  // namespace
 
 Vec3 ascend(const OpenStar& star, const Vec3& p0, const AngleTargets& tg, const AscentOptions& opt) {
+  // The searches compare q only (one_q: the same values without the radius ratio); the full
+  // figures are taken where better() needs them. qs: each tet's q at p (from the last
+  // accepted trial), which the activity test reuses.
+  const std::size_t n = star.tets.size();
+  std::vector<double> qs(n), trial_qs(n);
+  for (std::size_t i = 0; i < n; ++i) qs[i] = star.one_q(i, p0, tg);
   const AngleQuality orig = star.at(p0, tg);
   Vec3 p = p0, best_p = p0;
   AngleQuality cur = orig;
   const double h = opt.scale, fd = 1e-6 * h;
+  std::vector<Vec3> grads;
   for (int it = 0; it < opt.iterations; ++it) {
-    std::vector<Vec3> grads;
-    for (std::size_t i = 0; i < star.tets.size(); ++i) {
-      if (star.one(i, p, tg).q > cur.q + 1e-3) continue;  // not active
+    grads.clear();
+    for (std::size_t i = 0; i < n; ++i) {
+      if (qs[i] > cur.q + 1e-3) continue;  // not active
       Vec3 g;
       for (int k = 0; k < 3; ++k) {
         Vec3 e = Vec3::Zero();
         e[k] = fd;
-        g[k] = (star.one(i, p + e, tg).q - star.one(i, p - e, tg).q) / (2 * fd);
+        g[k] = (star.one_q(i, p + e, tg) - star.one_q(i, p - e, tg)) / (2 * fd);
       }
       if (opt.normal) g -= *opt.normal * opt.normal->dot(g);
       if (opt.line) g = *opt.line * opt.line->dot(g);
@@ -61,10 +74,12 @@ Vec3 ascend(const OpenStar& star, const Vec3& p0, const AngleTargets& tg, const 
     for (double len = 0.3 * h; len > 1e-3 * h; len *= 0.5) {
       Vec3 trial = p + len * d.normalized();
       if (opt.project && !opt.project(trial)) continue;
-      const AngleQuality q = star.at(trial, tg);
-      if (q.q > cur.q) {
+      double q = 1e300;  // AngleQuality's q starts there too (combine takes the min)
+      for (std::size_t i = 0; i < n; ++i) q = std::min(q, trial_qs[i] = star.one_q(i, trial, tg));
+      if (q > cur.q) {
         p = trial;
-        cur = q;
+        cur = star.at(trial, tg);
+        qs.swap(trial_qs);
         stepped = true;
         break;
       }

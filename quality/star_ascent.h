@@ -16,6 +16,8 @@ struct OpenStar {
   std::vector<int> slot;  // the open vertex's local index in each tet
   AngleQuality at(const Vec3& p, const AngleTargets& t) const;
   AngleQuality one(std::size_t i, const Vec3& p, const AngleTargets& t) const;
+  // q alone (the same value as one(i, p, t).q, without the radius ratio).
+  double one_q(std::size_t i, const Vec3& p, const AngleTargets& t) const;
 };
 
 struct AscentOptions {
