@@ -70,7 +70,8 @@ bool Cutter::needs_improving(TetId t) const {
 
 
 Cutter::Cutter(TetMesh& mesh, CutOptions options)
-    : mesh_(&mesh), opt_(std::move(options)), progress_(std::make_unique<Progress>()) {
+    : mesh_(&mesh), opt_(std::move(options)), progress_(std::make_unique<Progress>()),
+      fragment_scratch_(std::make_unique<FragmentScratch>()) {
   if (const std::string e = snap_error(opt_.snap); !e.empty()) throw InvalidArgument("cut: snap: " + e);
   // Room for the cuts' new vertices and tets: the first steps then do not copy the mesh's
   // arrays (an O(mesh) spike); later growth is geometric, so amortized.
@@ -114,7 +115,7 @@ SeparationResult Cutter::open_faces(const CutStep& step, std::span<const CutFace
   remember_fresh(step, sep, positions);
   add_separation(rep, sep);
   rep.tets_cut += step.tets_cut();
-  auto frags = find_fragments(*mesh_, sep.opened_tets, opt_.fragment_search_limit);
+  auto frags = find_fragments(*mesh_, sep.opened_tets, opt_.fragment_search_limit, *fragment_scratch_);
   rep.fragments.insert(rep.fragments.end(), frags.begin(), frags.end());
   return sep;
 }
@@ -523,7 +524,7 @@ CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const Position
     rep.cut_area = c.area / 2;
     rep.exposed_area = c.area;
     front_ = std::move(c.neighbours);
-    rep.fragments = find_fragments(*mesh_, front_, opt_.fragment_search_limit);
+    rep.fragments = find_fragments(*mesh_, front_, opt_.fragment_search_limit, *fragment_scratch_);
   } else {
     CutStep step(*mesh_, positions, opt_.snap);
     step.set_fixed(opt_.frozen);
@@ -546,7 +547,7 @@ CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const Position
     front_vertices_ = step.segment_vertices(blade_.a, blade_.b);
     front_segment_ = blade_;
     has_front_ = use_front;
-    rep.fragments = find_fragments(*mesh_, sep.opened_tets, opt_.fragment_search_limit);
+    rep.fragments = find_fragments(*mesh_, sep.opened_tets, opt_.fragment_search_limit, *fragment_scratch_);
     if (opt_.improve && !front_.empty()) {
       const auto ti = std::chrono::steady_clock::now();
       ImproveOptions io = opt_.improve_options;
