@@ -53,6 +53,7 @@ Vec3 ascend(const OpenStar& star, const Vec3& p0, const AngleTargets& tg, const 
   AngleQuality cur = orig;
   const double h = opt.scale, fd = 1e-6 * h;
   std::vector<Vec3> grads;
+  std::vector<std::size_t> order;
   for (int it = 0; it < opt.iterations; ++it) {
     grads.clear();
     for (std::size_t i = 0; i < n; ++i) {
@@ -70,12 +71,19 @@ Vec3 ascend(const OpenStar& star, const Vec3& p0, const AngleTargets& tg, const 
     if (grads.empty()) break;
     const Vec3 d = min_norm_in_hull(grads);
     if (!(d.norm() * h > 1e-9)) break;  // a (nonsmooth) local maximum
+    // A trial is taken only if every tet's q is above the current worst: the tets that are
+    // worst now go first, and the first one not above it ends the trial (the smallest of the
+    // rest could only be lower).
+    order.resize(n);
+    for (std::size_t i = 0; i < n; ++i) order[i] = i;
+    std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return qs[x] < qs[y] || (qs[x] == qs[y] && x < y); });
     bool stepped = false;
     for (double len = 0.3 * h; len > 1e-3 * h; len *= 0.5) {
       Vec3 trial = p + len * d.normalized();
       if (opt.project && !opt.project(trial)) continue;
       double q = 1e300;  // AngleQuality's q starts there too (combine takes the min)
-      for (std::size_t i = 0; i < n; ++i) q = std::min(q, trial_qs[i] = star.one_q(i, trial, tg));
+      for (std::size_t i : order)
+        if (!((q = std::min(q, trial_qs[i] = star.one_q(i, trial, tg))) > cur.q)) break;
       if (q > cur.q) {
         p = trial;
         cur = star.at(trial, tg);
