@@ -41,6 +41,49 @@ Stats stats_of(const TetMesh& mesh, const Tets& tets) {
   return s;
 }
 
+// A map from tet id to V by open addressing (linear probing): inserts and finds only, never
+// iterated, so it behaves exactly like the unordered_map it replaces, without a node
+// allocation per tet (the pass queues every tet of its region once, ~1000 per cut step).
+template <class V>
+class TetMap {
+public:
+  V& operator[](std::uint32_t key) {
+    if (2 * (size_ + 1) > slots_.size()) grow();
+    Slot& s = probe(key);
+    if (s.key != key) {
+      s.key = key;
+      s.value = V{};
+      ++size_;
+    }
+    return s.value;
+  }
+  const V* find(std::uint32_t key) const {
+    if (slots_.empty()) return nullptr;
+    const Slot& s = const_cast<TetMap*>(this)->probe(key);
+    return s.key == key ? &s.value : nullptr;
+  }
+
+private:
+  static constexpr std::uint32_t kEmpty = 0xffffffffu;
+  struct Slot {
+    std::uint32_t key = kEmpty;
+    V value{};
+  };
+  Slot& probe(std::uint32_t key) {
+    const std::size_t mask = slots_.size() - 1;
+    for (std::size_t i = (key * 0x9e3779b1u) & mask;; i = (i + 1) & mask)
+      if (slots_[i].key == key || slots_[i].key == kEmpty) return slots_[i];
+  }
+  void grow() {
+    std::vector<Slot> old = std::move(slots_);
+    slots_.assign(std::max<std::size_t>(64, 2 * old.size()), Slot{});
+    for (const Slot& s : old)
+      if (s.key != kEmpty) probe(s.key) = s;
+  }
+  std::vector<Slot> slots_;
+  std::size_t size_ = 0;
+};
+
 class Driver {
 public:
   // base_tets: the input's tet count (global) or the region's size (local), for max_growth.
@@ -122,8 +165,8 @@ public:
     Stats st;
     for (auto t : tets) {
       if (!mesh_.is_alive(TetId(t))) continue;
-      const auto it = version_.find(std::uint32_t(t));
-      st.add(it != version_.end() ? it->second.quality : angle_quality(mesh_, TetId(t), AngleTargets{}));
+      const Known* k = version_.find(std::uint32_t(t));
+      st.add(k ? k->quality : angle_quality(mesh_, TetId(t), AngleTargets{}));
     }
     return st;
   }
@@ -295,7 +338,7 @@ private:
     std::uint32_t version = 0;
     AngleQuality quality;
   };
-  std::unordered_map<std::uint32_t, Known> version_;
+  TetMap<Known> version_;
   std::priority_queue<Entry> queue_;
   int work_ = 0;
   long growth_cap_;  // how many tets the pass may add in all
