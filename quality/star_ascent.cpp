@@ -41,14 +41,22 @@ Vec3 min_norm_in_hull(const std::vector<Vec3>& g) {
 
 }  // namespace
 
-Vec3 ascend(const OpenStar& star, const Vec3& p0, const AngleTargets& tg, const AscentOptions& opt) {
+Vec3 ascend(const OpenStar& star, const Vec3& p0, const AngleTargets& tg, const AscentOptions& opt,
+            AngleQuality* at_p0, AngleQuality* at_best) {
   // The searches compare q only (one_q: the same values without the radius ratio); the full
   // figures are taken where better() needs them. qs: each tet's q at p (from the last
   // accepted trial), which the activity test reuses.
   const std::size_t n = star.tets.size();
   std::vector<double> qs(n), trial_qs(n);
-  for (std::size_t i = 0; i < n; ++i) qs[i] = star.one_q(i, p0, tg);
-  const AngleQuality orig = star.at(p0, tg);
+  // star.at(p0) tet by tet (the same combine, in the same order), keeping each tet's q.
+  AngleQuality orig;
+  for (std::size_t i = 0; i < n; ++i) {
+    const AngleQuality a = star.one(i, p0, tg);
+    qs[i] = a.q;
+    orig.combine(a);
+  }
+  if (at_p0) *at_p0 = orig;
+  AngleQuality best = orig;
   Vec3 p = p0, best_p = p0;
   AngleQuality cur = orig;
   const double h = opt.scale, fd = 1e-6 * h;
@@ -93,8 +101,12 @@ Vec3 ascend(const OpenStar& star, const Vec3& p0, const AngleTargets& tg, const 
       }
     }
     if (!stepped) break;
-    if (better(cur, orig, tg)) best_p = p;
+    if (better(cur, orig, tg)) {
+      best_p = p;
+      best = cur;
+    }
   }
+  if (at_best) *at_best = best;
   return best_p;
 }
 

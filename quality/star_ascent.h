@@ -30,6 +30,9 @@ struct AscentOptions {
 };
 
 // The best position found from p0 whose star is better() than at p0, or p0 itself.
-Vec3 ascend(const OpenStar& star, const Vec3& p0, const AngleTargets& targets, const AscentOptions& opt);
+// `at_p0`, `at_best`: where to put star.at(p0, targets) and star.at(result, targets) (the
+// search computes both anyway).
+Vec3 ascend(const OpenStar& star, const Vec3& p0, const AngleTargets& targets, const AscentOptions& opt,
+            AngleQuality* at_p0 = nullptr, AngleQuality* at_best = nullptr);
 
 }  // namespace incise
