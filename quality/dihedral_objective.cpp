@@ -13,9 +13,11 @@ void AngleQuality::combine(const AngleQuality& o) {
 }
 
 namespace {
-// One body for angle_quality() and angle_q(): the q-only form skips the radius ratio, and
-// computes q with exactly the same operations, so both give the same q bit for bit.
-template <bool kFull>
+// One body for angle_quality() and its parts: the angles (q, min and max dihedral) and the
+// radius ratio, each computed with exactly the same operations as in the whole, so the parts
+// give the whole's values bit for bit.
+constexpr int kAngles = 1, kRadius = 2, kAll = kAngles | kRadius;
+template <int kParts>
 inline AngleQuality angle_quality_impl(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3,
                                        const AngleTargets& t) {
   const Vec3 p[4] = {p0, p1, p2, p3};
@@ -48,18 +50,20 @@ inline AngleQuality angle_quality_impl(const Vec3& p0, const Vec3& p1, const Vec
   // and j (opposite vertices i and j) is pi minus the angle between their outward normals.
   double inv[4];
   for (int f = 0; f < 4; ++f) inv[f] = 1.0 / n[f].norm();
-  double cmax = -2, cmin = 2;
-  int imax = 0, jmax = 1, imin = 0, jmin = 1;
-  for (int i = 0; i < 4; ++i)
-    for (int j = i + 1; j < 4; ++j) {
-      const double c = -n[i].dot(n[j]) * inv[i] * inv[j];
-      if (c > cmax) cmax = c, imax = i, jmax = j;  // smallest angle
-      if (c < cmin) cmin = c, imin = i, jmin = j;  // largest angle
-    }
-  out.min_dihedral = std::atan2(n[imax].cross(n[jmax]).norm(), -n[imax].dot(n[jmax])) * kDeg;
-  out.max_dihedral = std::atan2(n[imin].cross(n[jmin]).norm(), -n[imin].dot(n[jmin])) * kDeg;
-  out.q = std::min(out.min_dihedral / t.min_deg, (180 - out.max_dihedral) / (180 - t.max_deg));
-  if constexpr (kFull) {
+  if constexpr ((kParts & kAngles) != 0) {
+    double cmax = -2, cmin = 2;
+    int imax = 0, jmax = 1, imin = 0, jmin = 1;
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j) {
+        const double c = -n[i].dot(n[j]) * inv[i] * inv[j];
+        if (c > cmax) cmax = c, imax = i, jmax = j;  // smallest angle
+        if (c < cmin) cmin = c, imin = i, jmin = j;  // largest angle
+      }
+    out.min_dihedral = std::atan2(n[imax].cross(n[jmax]).norm(), -n[imax].dot(n[jmax])) * kDeg;
+    out.max_dihedral = std::atan2(n[imin].cross(n[jmin]).norm(), -n[imin].dot(n[jmin])) * kDeg;
+    out.q = std::min(out.min_dihedral / t.min_deg, (180 - out.max_dihedral) / (180 - t.max_deg));
+  }
+  if constexpr ((kParts & kRadius) != 0) {
     // Radius ratio 3 r_in / R_circ (scaled edges): r_in = 3V / area, R from the circumcentre
     // offset (|a|^2 (b x c) + |b|^2 (c x a) + |c|^2 (a x b)) / (2 a.(b x c)).
     const Vec3 a = e1 * s, b = e2 * s, c = e3 * s;
@@ -75,11 +79,20 @@ inline AngleQuality angle_quality_impl(const Vec3& p0, const Vec3& p1, const Vec
 }  // namespace
 
 AngleQuality angle_quality(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3, const AngleTargets& t) {
-  return angle_quality_impl<true>(p0, p1, p2, p3, t);
+  return angle_quality_impl<kAll>(p0, p1, p2, p3, t);
+}
+
+AngleQuality angle_quality_angles(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3,
+                                  const AngleTargets& t) {
+  return angle_quality_impl<kAngles>(p0, p1, p2, p3, t);
+}
+
+double angle_radius_ratio(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3) {
+  return angle_quality_impl<kRadius>(p0, p1, p2, p3, AngleTargets{}).radius_ratio;
 }
 
 double angle_q(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3, const AngleTargets& t) {
-  return angle_quality_impl<false>(p0, p1, p2, p3, t).q;
+  return angle_quality_impl<kAngles>(p0, p1, p2, p3, t).q;
 }
 
 AngleQuality angle_quality(const TetMesh& mesh, TetId t, const AngleTargets& targets) {

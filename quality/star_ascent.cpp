@@ -22,6 +22,18 @@ double OpenStar::one_q(std::size_t i, const Vec3& p, const AngleTargets& t) cons
   return angle_q(x[0], x[1], x[2], x[3], t);
 }
 
+AngleQuality OpenStar::one_angles(std::size_t i, const Vec3& p, const AngleTargets& t) const {
+  auto x = tets[i];
+  x[slot[i]] = p;
+  return angle_quality_angles(x[0], x[1], x[2], x[3], t);
+}
+
+double OpenStar::one_radius_ratio(std::size_t i, const Vec3& p) const {
+  auto x = tets[i];
+  x[slot[i]] = p;
+  return angle_radius_ratio(x[0], x[1], x[2], x[3]);
+}
+
 namespace {
 
 // Smallest vector in the convex hull of g (Frank-Wolfe; the hull is small).
@@ -43,11 +55,12 @@ Vec3 min_norm_in_hull(const std::vector<Vec3>& g) {
 
 Vec3 ascend(const OpenStar& star, const Vec3& p0, const AngleTargets& tg, const AscentOptions& opt,
             AngleQuality* at_p0, AngleQuality* at_best) {
-  // The searches compare q only (one_q: the same values without the radius ratio); the full
-  // figures are taken where better() needs them. qs: each tet's q at p (from the last
-  // accepted trial), which the activity test reuses.
+  // The searches compare q only (one_q, one_angles: the same values without the radius
+  // ratio); the radius ratios are added where a trial is taken (better() needs them). qs:
+  // each tet's q at p (from the last accepted trial), which the activity test reuses.
   const std::size_t n = star.tets.size();
-  std::vector<double> qs(n), trial_qs(n);
+  std::vector<double> qs(n);
+  std::vector<AngleQuality> trial(n);  // each tet's angles at the trial point
   // star.at(p0) tet by tet (the same combine, in the same order), keeping each tet's q.
   AngleQuality orig;
   for (std::size_t i = 0; i < n; ++i) {
@@ -87,15 +100,21 @@ Vec3 ascend(const OpenStar& star, const Vec3& p0, const AngleTargets& tg, const 
     std::sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) { return qs[x] < qs[y] || (qs[x] == qs[y] && x < y); });
     bool stepped = false;
     for (double len = 0.3 * h; len > 1e-3 * h; len *= 0.5) {
-      Vec3 trial = p + len * d.normalized();
-      if (opt.project && !opt.project(trial)) continue;
+      Vec3 at = p + len * d.normalized();
+      if (opt.project && !opt.project(at)) continue;
       double q = 1e300;  // AngleQuality's q starts there too (combine takes the min)
       for (std::size_t i : order)
-        if (!((q = std::min(q, trial_qs[i] = star.one_q(i, trial, tg))) > cur.q)) break;
+        if (!((q = std::min(q, (trial[i] = star.one_angles(i, at, tg)).q)) > cur.q)) break;
       if (q > cur.q) {
-        p = trial;
-        cur = star.at(trial, tg);
-        qs.swap(trial_qs);
+        // star.at(at): the angles found above and each tet's radius ratio, combined in order.
+        p = at;
+        cur = AngleQuality{};
+        for (std::size_t i = 0; i < n; ++i) {
+          AngleQuality a = trial[i];
+          a.radius_ratio = star.one_radius_ratio(i, at);
+          cur.combine(a);
+          qs[i] = a.q;
+        }
         stepped = true;
         break;
       }

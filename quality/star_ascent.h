@@ -18,6 +18,9 @@ struct OpenStar {
   AngleQuality one(std::size_t i, const Vec3& p, const AngleTargets& t) const;
   // q alone (the same value as one(i, p, t).q, without the radius ratio).
   double one_q(std::size_t i, const Vec3& p, const AngleTargets& t) const;
+  // one(i, p, t) in its two parts (angle_quality_angles, angle_radius_ratio): the same values.
+  AngleQuality one_angles(std::size_t i, const Vec3& p, const AngleTargets& t) const;
+  double one_radius_ratio(std::size_t i, const Vec3& p) const;
 };
 
 struct AscentOptions {
