@@ -106,23 +106,32 @@ Vec3 ascend(const OpenStar& star, const Vec3& p0, const AngleTargets& tg, const 
       for (std::size_t i : order)
         if (!((q = std::min(q, (trial[i] = star.one_angles(i, at, tg)).q)) > cur.q)) break;
       if (q > cur.q) {
-        // star.at(at): the angles found above and each tet's radius ratio, combined in order.
+        // star.at(at) but its radius ratio: the angles found above, combined in order.
         p = at;
         cur = AngleQuality{};
         for (std::size_t i = 0; i < n; ++i) {
-          AngleQuality a = trial[i];
-          a.radius_ratio = star.one_radius_ratio(i, at);
-          cur.combine(a);
-          qs[i] = a.q;
+          cur.combine(trial[i]);  // radius ratio 1 (angle_quality_angles)
+          qs[i] = trial[i].q;
         }
         stepped = true;
         break;
       }
     }
     if (!stepped) break;
-    if (better(cur, orig, tg)) {
-      best_p = p;
-      best = cur;
+    // better(star.at(p), orig): its angle conditions first; the radius ratios (the same
+    // combine, in order) only when those hold, stopping at the first tet below the bound
+    // (the smallest could only be lower: better() fails either way).
+    if (cur.q > orig.q + 1e-6 && cur.min_dihedral >= std::min(orig.min_dihedral, tg.min_deg) &&
+        cur.max_dihedral <= std::max(orig.max_dihedral, tg.max_deg)) {
+      const double need = std::min(orig.radius_ratio, tg.radius_ratio_floor);
+      double rr = AngleQuality{}.radius_ratio;
+      bool ok = true;
+      for (std::size_t i = 0; i < n && ok; ++i) ok = (rr = std::min(rr, star.one_radius_ratio(i, p))) >= need;
+      if (ok) {
+        cur.radius_ratio = rr;
+        best_p = p;
+        best = cur;
+      }
     }
   }
   if (at_best) *at_best = best;
