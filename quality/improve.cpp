@@ -215,22 +215,28 @@ private:
       for (TetId r : removed) region_->erase(r.idx());
       for (TetId a : added) region_->insert(a.idx());
     }
-    for (TetId a : added) {
-      push(a);
-      changed(a);
-    }
+    for (TetId a : added) push(a);
+    changed(added);
   }
 
-  // Tet a is new or changed shape: operations around it may work again.
-  void changed(TetId a) {
-    for (VertexId w : mesh_.tet_vertices(a)) {
-      stuck_.erase(w.idx());
-      for (TetId u : mesh_.incident_tets(w)) {
+  // Tets new or changed shape: operations around them may work again. Each vertex once (the
+  // tets around a moved vertex share most of theirs; the marks are sets, never iterated, so
+  // clearing them once or many times, in any order, leaves the same sets).
+  void changed(std::span<const TetId> tets) {
+    touched_.clear();
+    for (TetId a : tets)
+      for (VertexId w : mesh_.tet_vertices(a)) touched_.push_back(w.idx());
+    std::sort(touched_.begin(), touched_.end());
+    touched_.erase(std::unique(touched_.begin(), touched_.end()), touched_.end());
+    for (std::uint32_t w : touched_) {
+      stuck_.erase(w);
+      for (TetId u : mesh_.incident_tets(VertexId(w))) {
         flip_stuck_.erase(u.idx());
         collapse_stuck_.erase(u.idx());
       }
     }
   }
+  std::vector<std::uint32_t> touched_;
 
   // A tet with a tiny edge: no flip helps (every configuration of that edge's star keeps it)
   // and smoothing moves a vertex by a fraction of that edge; contracting the edge does.
@@ -297,10 +303,8 @@ private:
         any = true;
         const auto inc = mesh_.incident_tets(v);
         const std::vector<TetId> around(inc.begin(), inc.end());
-        for (TetId a : around) {
-          push(a);
-          changed(a);
-        }
+        for (TetId a : around) push(a);
+        changed(around);
         stuck_.erase(v.idx());
       }
     }
