@@ -18,7 +18,9 @@
 //  4. beam_ratio: a beam clamped at both ends under gravity, cut through at midspan: midspan
 //     sag after / before, against beam theory: 3 (Euler-Bernoulli: two cantilevers of half
 //     the length), 2.78 with shear (Timoshenko) for this beam's L/h = 10.
-// Usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive] [ORGAN]   (default samples/liver.msh)
+// Usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive] [--case NAME_PART] [--steps N]
+//                  [ORGAN]   (default samples/liver.msh; --case, --steps: only the progressive rows whose case
+//                  name contains NAME_PART, with N steps, for profiling)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -46,6 +48,28 @@ double now_ms() {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
+
+// A fingerprint of the mesh (tets, labels, face tags, rest positions bit for bit): equal
+// fingerprints say two runs gave the same mesh (how a speed-up shows it changed nothing).
+std::uint64_t fingerprint(const TetMesh& m) {
+  std::uint64_t h = 1469598103934665603ull;
+  auto mix = [&](std::uint64_t x) {
+    for (int i = 0; i < 8; ++i, x >>= 8) h = (h ^ (x & 0xff)) * 1099511628211ull;
+  };
+  for (TetId t : m.tets()) {
+    for (VertexId v : m.tet_vertices(t)) mix(v.idx());
+    mix(std::uint64_t(m.label(t)));
+    for (int f = 0; f < 4; ++f) mix(m.face_tag(t, f));
+  }
+  for (VertexId v : m.vertices())
+    for (int k = 0; k < 3; ++k) {
+      std::uint64_t bits;
+      const double x = m.rest(v)[k];
+      std::memcpy(&bits, &x, sizeof bits);
+      mix(bits);
+    }
+  return h;
+}
 
 double percentile(std::vector<double> v, double p) {
   if (v.empty()) return 0;
@@ -168,7 +192,7 @@ void quality_after_cuts(const TetMesh& organ, const std::string& name, bool quic
               "cut mesh, no surface-keeping mesh does better; goal: min dihedral >= min(10, bound / 2) and < 1%% of "
               "tets below 10 deg)\n", name.c_str(), cuts);
   std::printf("variant,tets,min_dihedral,max_dihedral,min_radius_ratio,tets_below_10deg,pct_below_10deg,bound_deg,"
-              "goal_deg,meets_goal,tets_below_5deg,ms_total,ms_p95_step_or_finish,ms_max,contractions,where_below_goal\n");
+              "goal_deg,meets_goal,tets_below_5deg,ms_total,ms_p95_step_or_finish,ms_max,contractions,where_below_goal,mesh_fingerprint\n");
   const QualityRange r0 = quality_range(organ, 10.0);
   const auto b0 = smallest_boundary_angle(organ);
   std::printf("uncut,%zu,%.3f,%.3f,%.2e,%zu,%.2f,%.2f,,,%zu,0,0,0,0,\n", organ.num_tets(), r0.min_dihedral, r0.max_dihedral,
@@ -221,11 +245,11 @@ void quality_after_cuts(const TetMesh& organ, const std::string& name, bool quic
     const auto bound = smallest_boundary_angle(m);
     const double bdeg = bound ? bound->degrees : 180.0, goal = std::min(10.0, 0.5 * bdeg);
     const double pct = 100.0 * double(q.below) / double(m.num_tets());
-    std::printf("%s,%zu,%.3f,%.3f,%.2e,%zu,%.2f,%.2f,%.2f,%s,%zu,%.1f,%.2f,%.2f,%d,%s\n", v.name, m.num_tets(), q.min_dihedral,
+    std::printf("%s,%zu,%.3f,%.3f,%.2e,%zu,%.2f,%.2f,%.2f,%s,%zu,%.1f,%.2f,%.2f,%d,%s,%016llx\n", v.name, m.num_tets(), q.min_dihedral,
                 q.max_dihedral, q.min_radius_ratio, q.below, pct, bdeg, goal,
                 q.min_dihedral >= goal && pct < 1 ? "yes" : "no", quality_range(m, 5.0).below, total, percentile(ms, 0.95),
                 percentile(ms, 1.0),
-                contractions, where_bad(m, goal).c_str());
+                contractions, where_bad(m, goal).c_str(), (unsigned long long)fingerprint(m));
     std::fflush(stdout);
   }
 }
@@ -406,11 +430,13 @@ std::size_t crossed_tets(const TetMesh& m, const Sweep& s) {
   return c;
 }
 
-void progressive(const TetMesh& organ, const std::string& name, bool quick) {
+void progressive(const TetMesh& organ, const std::string& name, bool quick, const std::string& only_case,
+                 int only_steps) {
   std::printf("# progressive (one blade motion in N steps, then finish(): growth per crossed tet, area, parts, "
               "quality and step times against the single step; default options)\n");
   std::printf("case,steps,step_over_edge,tets_before,crossed,tets_after,added_per_crossed,cut_area,area_over_1step,"
-              "parts,min_dihedral,below_10deg,ms_median,ms_p95,ms_max,ms_finish\n");
+              "parts,min_dihedral,below_10deg,ms_median,ms_p95,ms_max,ms_finish,ms_improve_median,ms_improve_p95,"
+              "mesh_fingerprint,ms_finish_improve\n");
   std::vector<Sweep> cases;
   cases.push_back({"box4x1x1 partial", make_box(Vec3(4, 1, 1), {16, 4, 4}), Vec3(2.03, -0.5, 1.1), Vec3(2.03, 1.5, 1.1),
                    Vec3(0, 0, -0.6)});
@@ -431,6 +457,7 @@ void progressive(const TetMesh& organ, const std::string& name, bool quick) {
                      Vec3(x + 0.02 * ext.x(), hi.y() + 0.1 * ext.y(), hi.z() + 0.05 * ext.z()), Vec3(0, 0, -1.1 * ext.z())});
   }
   for (Sweep& s : cases) {
+    if (!only_case.empty() && s.name.find(only_case) == std::string::npos) continue;
     s.mesh.discard_change();
     const std::size_t crossed = crossed_tets(s.mesh, s);
     const double h = mean_edge(s.mesh);
@@ -448,27 +475,32 @@ void progressive(const TetMesh& organ, const std::string& name, bool quick) {
     for (int n : counts) variants.push_back({n, true});
     variants.push_back({tenth, false});  // the cut's own share, without the improvement
     for (const auto& [n, improve] : variants) {
+      if (only_steps > 0 && n != only_steps) continue;
       TetMesh m = s.mesh;
       CutOptions opt;
       opt.improve = improve;
       Cutter cutter(m, opt);
       cutter.start({s.a, s.b});
-      std::vector<double> ms;
+      std::vector<double> ms, ms_imp;
       for (int k = 1; k <= n; ++k) {
         const Vec3 off = s.d * (double(k) / n);
-        ms.push_back(cutter.advance({s.a + off, s.b + off}).ms);
+        const CutStepReport r = cutter.advance({s.a + off, s.b + off});
+        ms.push_back(r.ms);
+        ms_imp.push_back(r.ms_improve);
       }
-      const double fin = cutter.finish().ms;
+      const CutStepReport fin_rep = cutter.finish();
+      const double fin = fin_rep.ms;
       const QualityRange q = quality_range(m, 10.0);
       const std::size_t below10 = q.below;
       const double area = tagged_area(m);
       if (n == 1) area1 = area;
-      std::printf("%s%s,%d,%.3f,%zu,%zu,%zu,%.2f,%.4g,%.4f,%zu,%.3f,%zu,%.3f,%.3f,%.3f,%.3f\n", s.name.c_str(),
+      std::printf("%s%s,%d,%.3f,%zu,%zu,%zu,%.2f,%.4g,%.4f,%zu,%.3f,%zu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%016llx,%.3f\n", s.name.c_str(),
                   improve ? "" : " (no improve)", n,
                   s.d.norm() / n / h, s.mesh.num_tets(), crossed, m.num_tets(),
                   double(m.num_tets() - s.mesh.num_tets()) / double(std::max<std::size_t>(crossed, 1)), area,
                   area / area1, vertex_parts(m), q.min_dihedral, below10, percentile(ms, 0.5), percentile(ms, 0.95),
-                  percentile(ms, 1.0), fin);
+                  percentile(ms, 1.0), fin, percentile(ms_imp, 0.5), percentile(ms_imp, 0.95),
+                  (unsigned long long)fingerprint(m), fin_rep.ms_improve);
       std::fflush(stdout);
     }
   }
@@ -478,13 +510,17 @@ void progressive(const TetMesh& organ, const std::string& name, bool quick) {
 
 int main(int argc, char** argv) {
   bool quick = false, with_1m = true;
-  std::string organ_path = std::string(INCISE_SOURCE_DIR) + "/samples/liver.msh", only;
+  std::string organ_path = std::string(INCISE_SOURCE_DIR) + "/samples/liver.msh", only, only_case;
+  int only_steps = 0;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
     else if (!std::strcmp(argv[i], "--no-1m")) with_1m = false;
     else if (!std::strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
+    else if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only_case = argv[++i];
+    else if (!std::strcmp(argv[i], "--steps") && i + 1 < argc) only_steps = std::atoi(argv[++i]);
     else if (argv[i][0] == '-') {
-      std::fprintf(stderr, "usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive] [ORGAN]\n");
+      std::fprintf(stderr, "usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive] "
+                           "[--case NAME_PART] [--steps N] [ORGAN]\n");
       return 1;
     } else organ_path = argv[i];
   }
@@ -496,6 +532,6 @@ int main(int argc, char** argv) {
   if (want("quality")) quality_after_cuts(organ, name, quick);
   if (want("snap")) snap_trade(organ);
   if (want("beam")) beam_ratio(quick);
-  if (want("progressive")) progressive(organ, name, quick);
+  if (want("progressive")) progressive(organ, name, quick, only_case, only_steps);
   return 0;
 }

@@ -232,6 +232,7 @@ void CutStep::collect(const Piece& piece, std::span<const TetId> seeds,
   current_piece_ = on_piece_.size();
   on_piece_.emplace_back();
   side_cache_.emplace_back();
+  undecided_.emplace_back();
   // Tolerance of the overlap test: a little more than the snap reach, relative to the piece.
   const double tol = 1e-9 * (piece.hi - piece.lo).norm();
   std::vector<TetId> queue;
@@ -378,6 +379,10 @@ int CutStep::side(const Piece& piece, std::size_t k, VertexId v) {
     auto m = memory_->side.find(v.idx());
     if (m != memory_->side.end()) return side_cache_[k][v.idx()] = m->second;
   }
+  if (provisional_) {
+    auto u = undecided_[k].find(v.idx());
+    if (u != undecided_[k].end() && u->second == mesh_.counters().edits) return kUndecided;
+  }
   const Vec3 x = position(v);
   int s = piece.side(x);
   const int exact = s;
@@ -406,7 +411,10 @@ int CutStep::side(const Piece& piece, std::size_t k, VertexId v) {
       flattens = flattens || zero == 3;
     }
     if (inside && !flattens) s = 0;
-    else if (!inside && provisional_) return kUndecided;
+    else if (!inside && provisional_) {
+      undecided_[k][v.idx()] = mesh_.counters().edits;
+      return kUndecided;
+    }
     // The sheet's finish, its boundary embedded: a vertex inside the swept polygon whose star
     // reaches past its rim (the blade's sides and last front inside the body) snaps too. Kept
     // on its side, the edges it has across the plane were split a hair from it, and the

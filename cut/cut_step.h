@@ -118,6 +118,10 @@ private:
   // Per piece: vertices created on it (exactly on it by construction) and cached sides.
   std::vector<std::unordered_set<std::uint32_t>> on_piece_;
   std::vector<std::unordered_map<std::uint32_t, int>> side_cache_;
+  // Vertices side() found undecided, with the mesh's edit count then: the answer depends on
+  // the vertex's position and its star only, so it holds until the mesh is edited (a split
+  // or a snap move); side() is asked about each vertex once per tet around it.
+  std::vector<std::unordered_map<std::uint32_t, std::uint64_t>> undecided_;
   std::size_t current_piece_ = 0;
   std::vector<VertexId> boundary_vertices_;
   struct EmbeddedSegment {

@@ -53,6 +53,7 @@ namespace cut_detail {
 class CutStep;
 struct CutFacePair;
 struct SeparationResult;
+struct FragmentScratch;
 }  // namespace cut_detail
 
 enum class CutMode { Subdivide, Remove };
@@ -208,7 +209,8 @@ private:
   bool has_front_ = false;
   std::unique_ptr<Progress> progress_;
   TetGrid grid_;
-  std::uint64_t grid_edits_ = 0;  // the mesh's edit counter when the grid was last in sync
+  std::uint64_t grid_edits_ = 0;
+  std::unique_ptr<cut_detail::FragmentScratch> fragment_scratch_;  // the fragment search's marks  // the mesh's edit counter when the grid was last in sync
 };
 
 }  // namespace incise

@@ -1,7 +1,6 @@
 #include "cut/fragments.h"
 
 #include <algorithm>
-#include <unordered_map>
 
 namespace incise::cut_detail {
 
@@ -26,12 +25,25 @@ int root(std::vector<Fill>& fills, int i) {
 
 }  // namespace
 
-std::vector<Fragment> find_fragments(const TetMesh& mesh, std::span<const TetId> starts, std::size_t limit) {
+std::vector<Fragment> find_fragments(const TetMesh& mesh, std::span<const TetId> starts, std::size_t limit,
+                                     FragmentScratch& scratch) {
   if (limit == 0) return {};
   std::vector<Fill> fills;
-  std::unordered_map<std::uint32_t, int> owner;
+  // owner of tet i: scratch.owner[i] when scratch.stamp[i] is this call's stamp.
+  if (scratch.stamp.size() < mesh.tet_capacity()) {
+    scratch.stamp.resize(mesh.tet_capacity(), 0);
+    scratch.owner.resize(mesh.tet_capacity(), -1);
+  }
+  if (++scratch.now == 0) {  // the stamp wrapped: every entry is old
+    std::fill(scratch.stamp.begin(), scratch.stamp.end(), 0);
+    scratch.now = 1;
+  }
+  const std::uint32_t now = scratch.now;
+  std::uint32_t* const stamp = scratch.stamp.data();
+  int* const owner = scratch.owner.data();
   for (TetId s : starts) {
-    if (!mesh.is_alive(s) || owner.count(s.idx())) continue;
+    if (!mesh.is_alive(s) || stamp[s.idx()] == now) continue;
+    stamp[s.idx()] = now;
     owner[s.idx()] = int(fills.size());
     fills.emplace_back();
     fills.back().tets.push_back(s);
@@ -59,13 +71,14 @@ std::vector<Fragment> find_fragments(const TetMesh& mesh, std::span<const TetId>
         for (int j = 0; j < 4; ++j) {
           const TetId n = mesh.neighbor(t, j);
           if (!n.is_valid()) continue;
-          auto [it, fresh] = owner.emplace(n.idx(), int(i));
-          if (fresh) {
+          if (stamp[n.idx()] != now) {
+            stamp[n.idx()] = now;
+            owner[n.idx()] = int(i);
             fills[i].tets.push_back(n);
             fills[i].volume += mesh.volume(n);
             continue;
           }
-          const int other = root(fills, it->second);
+          const int other = root(fills, owner[n.idx()]);
           if (other == int(i)) continue;
           // Two fills met: the smaller joins the larger's queue (its unexpanded tets too).
           int keep = int(i), gone = other;

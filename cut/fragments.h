@@ -10,6 +10,16 @@
 
 namespace incise::cut_detail {
 
-std::vector<Fragment> find_fragments(const TetMesh& mesh, std::span<const TetId> starts, std::size_t limit);
+// Which fill reached a tet, by tet id: kept between calls (grown with the mesh, never
+// cleared: a stamp per call says which entries are current), so a step's search costs the
+// tets it visits and no hashing.
+struct FragmentScratch {
+  std::vector<std::uint32_t> stamp;
+  std::vector<int> owner;
+  std::uint32_t now = 0;
+};
+
+std::vector<Fragment> find_fragments(const TetMesh& mesh, std::span<const TetId> starts, std::size_t limit,
+                                     FragmentScratch& scratch);
 
 }  // namespace incise::cut_detail

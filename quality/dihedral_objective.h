@@ -33,6 +33,14 @@ struct AngleQuality {
 };
 
 AngleQuality angle_quality(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3, const AngleTargets& t);
+// angle_quality(...).q alone (bit for bit the same value), without the radius ratio: for
+// searches that compare q only (smoothing's ascent).
+double angle_q(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3, const AngleTargets& t);
+// angle_quality in two parts, each bit for bit the whole's: q and the dihedral angles (radius
+// ratio left at 1), and the radius ratio alone (the same for any targets).
+AngleQuality angle_quality_angles(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3,
+                                  const AngleTargets& t);
+double angle_radius_ratio(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3);
 AngleQuality angle_quality(const TetMesh& mesh, TetId t, const AngleTargets& targets);
 // Worst over tets given as vertex quadruples of `mesh`.
 AngleQuality angle_quality(const TetMesh& mesh, std::span<const std::array<VertexId, 4>> tets,

@@ -20,8 +20,11 @@ struct RingTriangulation {
 // Tets of the triangle (i, j, k) (i < j < k) as TetMesh::remove_edge builds them.
 std::array<std::array<Vec3, 4>, 2> ring_triangle_tets(std::span<const Vec3> ring, const Vec3& a, const Vec3& b,
                                                       int i, int j, int k);
-// The best triangulation of the ring (n >= 3) for edge (a,b).
+// The best triangulation of the ring (n >= 3) for edge (a,b). With `floor`, the caller
+// wants it only if its worst q is above the floor: the search skips what cannot end above it,
+// and returns the same triangulation when the best one is above, and otherwise a worst q at
+// most the floor (triangles then empty or partial: not to be used).
 RingTriangulation best_ring_triangulation(std::span<const Vec3> ring, const Vec3& a, const Vec3& b,
-                                          const AngleTargets& targets);
+                                          const AngleTargets& targets, double floor = -1e300);
 
 }  // namespace incise

@@ -46,10 +46,14 @@ void consider_flip23(const TetMesh& mesh, TetId t, int f, const ImproveScope& sc
   for (int k = 0; k < 4; ++k)
     if (mesh.neighbor(u, k) == t) b = mesh.tet_vertices(u)[k];
   const auto x = mesh.face_vertices(t, f);
+  // better() needs a worst q above the old one's: the new tets stop at the first that is not.
+  const AngleQuality before = worst_of(mesh, pair, scope.targets);
   AngleQuality after;
-  for (int k = 0; k < 3; ++k)
+  for (int k = 0; k < 3; ++k) {
     after.combine(angle_quality(mesh.rest(x[k]), mesh.rest(x[(k + 1) % 3]), mesh.rest(a), mesh.rest(b), scope.targets));
-  if (!better(after, worst_of(mesh, pair, scope.targets), scope.targets)) return;
+    if (!(after.q > before.q + 1e-6)) return;
+  }
+  if (!better(after, before, scope.targets)) return;
   Candidate c;
   c.after = after;
   c.kind = FlipOutcome::Flip23;
@@ -83,8 +87,10 @@ void consider_edge_removal(const TetMesh& mesh, VertexId a, VertexId b, const Im
   std::vector<Vec3> ring;
   ring.reserve(n);
   for (VertexId c : star.ring) ring.push_back(mesh.rest(c));
-  RingTriangulation best = best_ring_triangulation(ring, mesh.rest(a), mesh.rest(b), scope.targets);
-  if (!better(best.worst, worst_of(mesh, star.tets, scope.targets), scope.targets)) return;
+  // better() needs a worst q above the old one's by 1e-6: the search skips what cannot.
+  const AngleQuality before = worst_of(mesh, star.tets, scope.targets);
+  RingTriangulation best = best_ring_triangulation(ring, mesh.rest(a), mesh.rest(b), scope.targets, before.q + 1e-6);
+  if (!better(best.worst, before, scope.targets)) return;
   Candidate c;
   c.after = best.worst;
   c.kind = n == 3 ? FlipOutcome::Flip32 : n == 4 ? FlipOutcome::Flip44 : FlipOutcome::EdgeRemoval;

@@ -41,6 +41,49 @@ Stats stats_of(const TetMesh& mesh, const Tets& tets) {
   return s;
 }
 
+// A map from tet id to V by open addressing (linear probing): inserts and finds only, never
+// iterated, so it behaves exactly like the unordered_map it replaces, without a node
+// allocation per tet (the pass queues every tet of its region once, ~1000 per cut step).
+template <class V>
+class TetMap {
+public:
+  V& operator[](std::uint32_t key) {
+    if (2 * (size_ + 1) > slots_.size()) grow();
+    Slot& s = probe(key);
+    if (s.key != key) {
+      s.key = key;
+      s.value = V{};
+      ++size_;
+    }
+    return s.value;
+  }
+  const V* find(std::uint32_t key) const {
+    if (slots_.empty()) return nullptr;
+    const Slot& s = const_cast<TetMap*>(this)->probe(key);
+    return s.key == key ? &s.value : nullptr;
+  }
+
+private:
+  static constexpr std::uint32_t kEmpty = 0xffffffffu;
+  struct Slot {
+    std::uint32_t key = kEmpty;
+    V value{};
+  };
+  Slot& probe(std::uint32_t key) {
+    const std::size_t mask = slots_.size() - 1;
+    for (std::size_t i = (key * 0x9e3779b1u) & mask;; i = (i + 1) & mask)
+      if (slots_[i].key == key || slots_[i].key == kEmpty) return slots_[i];
+  }
+  void grow() {
+    std::vector<Slot> old = std::move(slots_);
+    slots_.assign(std::max<std::size_t>(64, 2 * old.size()), Slot{});
+    for (const Slot& s : old)
+      if (s.key != kEmpty) probe(s.key) = s;
+  }
+  std::vector<Slot> slots_;
+  std::size_t size_ = 0;
+};
+
 class Driver {
 public:
   // base_tets: the input's tet count (global) or the region's size (local), for max_growth.
@@ -104,7 +147,7 @@ public:
       }
       const Entry e = queue_.top();
       queue_.pop();
-      if (!mesh_.is_alive(e.tet) || version_[e.tet.idx()] != e.version) continue;
+      if (!mesh_.is_alive(e.tet) || version_[e.tet.idx()].version != e.version) continue;
       ++work_;
       if (step(e.tet, rep)) progress = true;
     }
@@ -113,6 +156,20 @@ public:
   }
 
   std::unordered_set<std::uint32_t> moved;
+
+  // The report's figures of live tets, from their last push (the same values angle_quality
+  // gives now: min/max dihedral and radius ratio do not depend on the targets); a tet never
+  // pushed is evaluated.
+  template <class Tets>
+  Stats current_stats(const Tets& tets) const {
+    Stats st;
+    for (auto t : tets) {
+      if (!mesh_.is_alive(TetId(t))) continue;
+      const Known* k = version_.find(std::uint32_t(t));
+      st.add(k ? k->quality : angle_quality(mesh_, TetId(t), AngleTargets{}));
+    }
+    return st;
+  }
   // Insertion adds tets, and the growth cap is shared by the whole pass: global mode first
   // lets flips, contraction and smoothing converge, then allows insertion for what is left,
   // and from then on every operation may trade radius ratio down to the floor
@@ -144,9 +201,10 @@ private:
 
   AngleQuality push(TetId t) {
     const AngleQuality a = angle_quality(mesh_, t, scope_.targets);
-    std::uint32_t& ver = version_[t.idx()];
-    ++ver;
-    if (a.q < 1) queue_.push({a.q, t, ver});
+    Known& k = version_[t.idx()];
+    ++k.version;
+    k.quality = a;
+    if (a.q < 1) queue_.push({a.q, t, k.version});
     return a;
   }
 
@@ -157,22 +215,28 @@ private:
       for (TetId r : removed) region_->erase(r.idx());
       for (TetId a : added) region_->insert(a.idx());
     }
-    for (TetId a : added) {
-      push(a);
-      changed(a);
-    }
+    for (TetId a : added) push(a);
+    changed(added);
   }
 
-  // Tet a is new or changed shape: operations around it may work again.
-  void changed(TetId a) {
-    for (VertexId w : mesh_.tet_vertices(a)) {
-      stuck_.erase(w.idx());
-      for (TetId u : mesh_.incident_tets(w)) {
+  // Tets new or changed shape: operations around them may work again. Each vertex once (the
+  // tets around a moved vertex share most of theirs; the marks are sets, never iterated, so
+  // clearing them once or many times, in any order, leaves the same sets).
+  void changed(std::span<const TetId> tets) {
+    touched_.clear();
+    for (TetId a : tets)
+      for (VertexId w : mesh_.tet_vertices(a)) touched_.push_back(w.idx());
+    std::sort(touched_.begin(), touched_.end());
+    touched_.erase(std::unique(touched_.begin(), touched_.end()), touched_.end());
+    for (std::uint32_t w : touched_) {
+      stuck_.erase(w);
+      for (TetId u : mesh_.incident_tets(VertexId(w))) {
         flip_stuck_.erase(u.idx());
         collapse_stuck_.erase(u.idx());
       }
     }
   }
+  std::vector<std::uint32_t> touched_;
 
   // A tet with a tiny edge: no flip helps (every configuration of that edge's star keeps it)
   // and smoothing moves a vertex by a fraction of that edge; contracting the edge does.
@@ -239,10 +303,8 @@ private:
         any = true;
         const auto inc = mesh_.incident_tets(v);
         const std::vector<TetId> around(inc.begin(), inc.end());
-        for (TetId a : around) {
-          push(a);
-          changed(a);
-        }
+        for (TetId a : around) push(a);
+        changed(around);
         stuck_.erase(v.idx());
       }
     }
@@ -274,7 +336,13 @@ private:
   VolumeAllowance volume_;
   // Smoothing (vertices) or flips (tets) failed and nothing around changed since.
   std::unordered_set<std::uint32_t> stuck_, flip_stuck_, collapse_stuck_;
-  std::unordered_map<std::uint32_t, std::uint32_t> version_;
+  // Per tet pushed: its queue version and its figures when pushed. Every tet an operation
+  // creates or reshapes is pushed again, so a live tet's figures are its current ones.
+  struct Known {
+    std::uint32_t version = 0;
+    AngleQuality quality;
+  };
+  TetMap<Known> version_;
   std::priority_queue<Entry> queue_;
   int work_ = 0;
   long growth_cap_;  // how many tets the pass may add in all
@@ -381,7 +449,7 @@ ImproveReport improve_local(TetMesh& mesh, std::span<const TetId> seeds, const I
   rep.max_dihedral_before = before.max_dih;
   rep.min_radius_ratio_before = before.min_rr;
   rep.label_volume_change = largest_change(volumes, label_volumes(mesh, region));
-  Stats after = stats_of(mesh, region);
+  Stats after = d.current_stats(region);
   rep.tets_after = region.size();
   rep.min_dihedral_after = after.min_dih;
   rep.max_dihedral_after = after.max_dih;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <vector>
 
@@ -254,7 +255,7 @@ bool smooth_vertex(TetMesh& mesh, VertexId v, const ImproveScope& scope, const S
   }
   const AngleTargets& tg = scope.targets;
   const Vec3 p0 = mesh.rest(v);
-  const AngleQuality orig = star.at(p0, tg);
+  AngleQuality orig, at_best;  // star.at(p0, tg) and star.at(best_p, tg), from the ascent
   AscentOptions ao;
   ao.iterations = opt.iterations;
   ao.scale = hmin;
@@ -262,13 +263,15 @@ bool smooth_vertex(TetMesh& mesh, VertexId v, const ImproveScope& scope, const S
     (fr.kind == Freedom::Line ? ao.line : ao.normal) = &fr.n;
     ao.project = [&](Vec3& p) { return place(mesh, v, p, fr, p); };
   }
-  const Vec3 best_p = ascend(star, p0, tg, ao);
+  const Vec3 best_p = ascend(star, p0, tg, ao, &orig, &at_best);
   if (best_p == p0) return false;
   std::vector<VertexId> parents;
   std::vector<double> weights;
   if (!locate(mesh, v, best_p, fr, parents, weights)) return false;
   const Vec3 actual = combine(mesh, parents, weights);
-  if (!better(star.at(actual, tg), orig, tg) || !mesh.is_move_ok(v, actual)) return false;
+  // The located point is usually the ascent's own (bit for bit): its figures are known then.
+  const AngleQuality at_actual = std::memcmp(&actual, &best_p, sizeof actual) == 0 ? at_best : star.at(actual, tg);
+  if (!better(at_actual, orig, tg) || !mesh.is_move_ok(v, actual)) return false;
   if (fr.kind == Freedom::Surface && opt.volume && !spend_volume(mesh, v, actual, *opt.volume)) return false;
   mesh.move_vertex(v, parents, weights);
   if (fr.kind == Freedom::Surface && opt.curved_slid) opt.curved_slid->insert(v.idx());

@@ -16,6 +16,11 @@ struct OpenStar {
   std::vector<int> slot;  // the open vertex's local index in each tet
   AngleQuality at(const Vec3& p, const AngleTargets& t) const;
   AngleQuality one(std::size_t i, const Vec3& p, const AngleTargets& t) const;
+  // q alone (the same value as one(i, p, t).q, without the radius ratio).
+  double one_q(std::size_t i, const Vec3& p, const AngleTargets& t) const;
+  // one(i, p, t) in its two parts (angle_quality_angles, angle_radius_ratio): the same values.
+  AngleQuality one_angles(std::size_t i, const Vec3& p, const AngleTargets& t) const;
+  double one_radius_ratio(std::size_t i, const Vec3& p) const;
 };
 
 struct AscentOptions {
@@ -28,6 +33,9 @@ struct AscentOptions {
 };
 
 // The best position found from p0 whose star is better() than at p0, or p0 itself.
-Vec3 ascend(const OpenStar& star, const Vec3& p0, const AngleTargets& targets, const AscentOptions& opt);
+// `at_p0`, `at_best`: where to put star.at(p0, targets) and star.at(result, targets) (the
+// search computes both anyway).
+Vec3 ascend(const OpenStar& star, const Vec3& p0, const AngleTargets& targets, const AscentOptions& opt,
+            AngleQuality* at_p0 = nullptr, AngleQuality* at_best = nullptr);
 
 }  // namespace incise
