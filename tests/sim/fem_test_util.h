@@ -18,6 +18,14 @@ namespace incise::testing {
 using incise::testing::boundary_vertices;
 using incise::testing::jitter;
 using incise::testing::random_edit;
+
+// A random residual on the free unknowns, zero on kept ones (for checking M^-1 as CG uses it).
+inline Eigen::VectorXd random_free_residual(const std::vector<std::uint8_t>& free, std::mt19937& rng) {
+  std::normal_distribution<double> g;
+  Eigen::VectorXd r(Eigen::Index(free.size()));
+  for (Eigen::Index i = 0; i < r.size(); ++i) r[i] = free[std::size_t(i)] ? g(rng) : 0.0;
+  return r;
+}
 using incise::testing::random_tet;
 
 // One material for every label (E, nu, density).

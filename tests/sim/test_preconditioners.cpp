@@ -250,12 +250,7 @@ TEST_CASE("corotational: the stale factor rotated is symmetric, and CG still equ
   // M^-1 as CG used it in the last frame: random residuals on the free unknowns.
   const auto& free = rotated->free_mask();
   std::mt19937 rng(5);
-  std::normal_distribution<double> g;
-  auto random_residual = [&] {
-    Eigen::VectorXd r(Eigen::Index(free.size()));
-    for (Eigen::Index i = 0; i < r.size(); ++i) r[i] = free[std::size_t(i)] ? g(rng) : 0.0;
-    return r;
-  };
+  auto random_residual = [&] { return random_free_residual(free, rng); };
   for (int trial = 0; trial < 5; ++trial) {
     const Eigen::VectorXd r1 = random_residual(), r2 = random_residual();
     Eigen::VectorXd z1, z2, p1;
