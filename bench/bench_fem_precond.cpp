@@ -311,7 +311,7 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
   tissue.young = 5e3;
   tissue.poisson = 0.4;
   scene.materials = MaterialTable(tissue);
-  scene.fixed.push_back(SceneBox{b.lo - 0.01 * s, Vec3(b.hi.x(), b.hi.y(), b.lo.z() + 0.15 * s.z()) + 0.01 * s});
+  scene.fixed.push_back(SceneFixed{SceneBox{b.lo - 0.01 * s, Vec3(b.hi.x(), b.hi.y(), b.lo.z() + 0.15 * s.z()) + 0.01 * s}});
   SceneLoad probe;
   probe.kind = SceneLoad::Kind::Probe;
   probe.key = "loads[0]";

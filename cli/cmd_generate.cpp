@@ -1,4 +1,4 @@
-// incise generate box|ellipsoid: structured meshes for tests, benchmarks and users.
+// incise generate box|ellipsoid|tube: structured meshes for tests, benchmarks and users.
 #include <iostream>
 
 #include "cli/commands.h"
@@ -47,6 +47,30 @@ void add_generate(CLI::App& app) {
     TetMesh m = make_ellipsoid(Vec3(ell->radii[0], ell->radii[1], ell->radii[2]), ell->n, ell->label);
     write_tet_mesh(m, ell->out);
     std::cerr << "generate: " << m.num_vertices() << " vertices, " << m.num_tets() << " tets -> " << ell->out << "\n";
+  });
+
+  struct TubeOpts {
+    std::vector<double> radii{0.5, 1};
+    double height = 0.25;
+    double angle = 90;
+    std::vector<int> cells{4, 8, 1};
+    int label = 1;
+    std::string out;
+  };
+  auto tube = std::make_shared<TubeOpts>();
+  auto* t = gen->add_subcommand(
+      "tube", "Sector of a thick-walled tube around the z axis (inner wall tagged 16, outer wall 17, the rest 1)");
+  t->add_option("--radii", tube->radii, "Inner and outer radius")->expected(2)->capture_default_str();
+  t->add_option("--height", tube->height, "Length along z")->capture_default_str();
+  t->add_option("--angle", tube->angle, "Sector angle in degrees, from the x axis, in (0, 360)")->capture_default_str();
+  t->add_option("--cells", tube->cells, "Cubes across the wall, around, along z")->expected(3)->capture_default_str();
+  t->add_option("--label", tube->label, "Region label of every tet")->capture_default_str();
+  t->add_option("-o,--output", tube->out, "Output mesh (format by extension)")->required();
+  t->callback([tube] {
+    TetMesh m = make_tube(tube->radii[0], tube->radii[1], tube->height, tube->angle,
+                          {tube->cells[0], tube->cells[1], tube->cells[2]}, tube->label);
+    write_tet_mesh(m, tube->out);
+    std::cerr << "generate: " << m.num_vertices() << " vertices, " << m.num_tets() << " tets -> " << tube->out << "\n";
   });
 }
 

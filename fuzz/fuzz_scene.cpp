@@ -18,8 +18,8 @@ void check_scene(const incise::Scene& s) {
   if (s.frames < 1 || !(s.dt > 0) || !std::isfinite(s.dt) || s.substeps < 1 || s.output_every < 1) std::abort();
   if (s.mesh_file.empty() == s.generator.empty()) std::abort();  // exactly one mesh source
   if (!s.generator.empty() && !(finite(s.gen_size) && (s.gen_size.array() > 0).all())) std::abort();
-  for (const auto& b : s.fixed)
-    if (!finite(b.lo) || !finite(b.hi)) std::abort();
+  for (const auto& f : s.fixed)
+    if (!finite(f.box.lo) || !finite(f.box.hi) || f.axes < 1 || f.axes > 7) std::abort();
   for (const auto& l : s.loads) {
     if (!finite(l.value) || !finite(l.box.lo) || !finite(l.box.hi)) std::abort();
     if (l.from_frame < 0 || l.to_frame < l.from_frame) std::abort();

@@ -81,4 +81,35 @@ TetMesh make_ellipsoid(const Vec3& radii, int n, int label) {
                       label);
 }
 
+TetMesh make_tube(double inner, double outer, double height, double angle_deg, const std::array<int, 3>& cells,
+                  int label) {
+  auto finite_positive = [](double x) { return x > 0 && std::isfinite(x); };
+  if (!finite_positive(inner) || !finite_positive(outer) || !(inner < outer))
+    throw InvalidArgument("make_tube: radii must be finite with 0 < inner < outer");
+  if (!finite_positive(height)) throw InvalidArgument("make_tube: height must be positive and finite");
+  if (!(angle_deg > 0 && angle_deg < 360)) throw InvalidArgument("make_tube: angle must be in (0, 360) degrees");
+  for (int c : cells)
+    if (c < 1) throw InvalidArgument("make_tube: cell counts must be at least 1");
+  const double angle = angle_deg * M_PI / 180;
+  TetMesh m = kuhn_lattice(
+      cells,
+      [&](int i, int j, int k) {
+        const double r = inner + (outer - inner) * i / cells[0], th = angle * j / cells[1];
+        return Vec3(r * std::cos(th), r * std::sin(th), height * k / cells[2]);
+      },
+      label);
+  // Wall faces: all three corners on the wall's radius (lattice points lie on it to rounding).
+  const double tol = 1e-9 * outer;
+  auto on_radius = [&](const std::array<VertexId, 3>& f, double r) {
+    for (VertexId v : f)
+      if (std::abs(m.rest(v).head<2>().norm() - r) > tol) return false;
+    return true;
+  };
+  for (const BoundaryFace& f : m.boundary_faces()) {
+    if (on_radius(f.vertices, inner)) m.set_face_tag(f.tet, f.local, kTagTubeInner);
+    else if (on_radius(f.vertices, outer)) m.set_face_tag(f.tet, f.local, kTagTubeOuter);
+  }
+  return m;
+}
+
 }  // namespace incise

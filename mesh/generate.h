@@ -16,6 +16,17 @@ TetMesh make_box(const Vec3& size, const std::array<int, 3>& cells, int label = 
 // [-1,1]^3 mapped radially onto the unit ball, then scaled. n >= 1.
 TetMesh make_ellipsoid(const Vec3& radii, int n, int label = 1);
 
+// Sector of a thick-walled tube around the z axis: radii [inner, outer], polar angle
+// [0, angle_deg] from the x axis, z in [0, height]; cells = (radial, around, along) cubes of the
+// (r, theta, z) lattice, mapped to Cartesian (the map keeps orientation). The wall faces are
+// tagged so that loads can select them: r = inner kTagTubeInner, r = outer kTagTubeOuter, the
+// rest (end caps, the sector's flat sides) kTagSurface. A quarter tube (angle 90) with rollers
+// on its flat sides and end caps is the plane-strain Lame cylinder of elasticity texts.
+// 0 < inner < outer, 0 < angle_deg < 360, height > 0, every count >= 1.
+constexpr std::uint16_t kTagTubeInner = 16, kTagTubeOuter = 17;
+TetMesh make_tube(double inner, double outer, double height, double angle_deg, const std::array<int, 3>& cells,
+                  int label = 1);
+
 // Tags every boundary face kTagSurface (used by generators and readers).
 void tag_boundary(TetMesh& mesh, std::uint16_t tag = kTagSurface);
 

@@ -297,11 +297,15 @@ void bind_sim(py::module_& m) {
       .def_property_readonly("model", [](const Scene& s) {
         return s.model == SceneModel::Springs ? "springs" : s.model == SceneModel::FemCorotational ? "fem-corotational" : "fem-linear";
       })
+      .def_property_readonly("formulation", [](const Scene& s) { return std::string(formulation_name(s.formulation)); },
+                             "\"standard\", \"nodal-averaged\" or \"mixed\"")
       .def_readonly("materials", &Scene::materials)
       .def_property_readonly("fixed", [](const Scene& s) {
         py::list l;
-        for (const SceneBox& b : s.fixed)
+        for (const SceneFixed& f : s.fixed) {
+          const SceneBox& b = f.box;
           l.append(py::make_tuple(py::make_tuple(b.lo.x(), b.lo.y(), b.lo.z()), py::make_tuple(b.hi.x(), b.hi.y(), b.hi.z())));
+        }
         return l;
       }, "Fixed boxes as (lo, hi) pairs")
       .def_property_readonly("solver", [](const Scene& s) {

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <sstream>
 
+#include <Eigen/Eigenvalues>
+
 #include "mesh/errors.h"
 #include "sim/assembled_stiffness.h"
 
@@ -79,21 +81,23 @@ void FemSimulation::grow() {
 
 void FemSimulation::update_free(std::uint32_t v) {
   const VertexId id(v);
-  const bool f = v < mesh_->vertex_capacity() && mesh_->is_alive(id) && !mesh_->incident_tets(id).empty() &&
-                 !constrained_[v];
-  for (int a = 0; a < 3; ++a) free_[3 * v + a] = f;
+  const bool f = v < mesh_->vertex_capacity() && mesh_->is_alive(id) && !mesh_->incident_tets(id).empty();
+  for (int a = 0; a < 3; ++a) free_[3 * v + a] = f && !(constrained_[v] >> a & 1u);
 }
 
-void FemSimulation::prescribe(VertexId v, const Vec3& d) {
-  if (!mesh_->is_alive(v)) throw InvalidArgument("fem: prescribe: vertex " + std::to_string(v.idx()) + " is not alive");
-  if (!constrained_[v.idx()]) {
-    constrained_[v.idx()] = 1;
+void FemSimulation::constrain(VertexId v, unsigned axes, const Vec3& d) {
+  if (!mesh_->is_alive(v)) throw InvalidArgument("fem: constrain: vertex " + std::to_string(v.idx()) + " is not alive");
+  if (axes == 0 || axes > kAllAxes) throw InvalidArgument("fem: constrain: axes must be a non-empty subset of x, y, z");
+  const unsigned held = constrained_[v.idx()] | axes;
+  if (held != constrained_[v.idx()]) {
+    constrained_[v.idx()] = std::uint8_t(held);
     rigid_dirty_ = direct_dirty_ = system_dirty_ = true;
     if (cholesky_) cholesky_->mark_stale();
     if (amg_) amg_->mark_stale();
     update_free(v.idx());
   }
-  target_.segment<3>(3 * v.idx()) = d;
+  for (int a = 0; a < 3; ++a)
+    if (axes >> a & 1u) target_[3 * Eigen::Index(v.idx()) + a] = d[a];
 }
 
 void FemSimulation::release(VertexId v) {
@@ -129,13 +133,15 @@ void FemSimulation::apply(const TopologyChange& change) {
   interpolate_added_vertices(change, model_.vertex_slots(), v_);
   interpolate_added_vertices(change, model_.vertex_slots(), target_);
   for (const VertexOrigin& o : change.added_vertices) {
-    bool all = true, any = false;
+    // Held on the axes every parent holds (a vertex split on a symmetry plane stays on it).
+    unsigned axes = kAllAxes;
+    bool any = false;
     for (int k = 0; k < 4; ++k)
       if (o.parents[k].is_valid() && o.weights[k] != 0) {
         any = true;
-        all = all && constrained_[o.parents[k].idx()];
+        axes &= constrained_[o.parents[k].idx()];
       }
-    constrained_[o.vertex.idx()] = any && all;
+    constrained_[o.vertex.idx()] = std::uint8_t(any ? axes : 0);
     f_ext_.segment<3>(3 * o.vertex.idx()).setZero();  // loads stay on the nodes they were put on
     update_free(o.vertex.idx());
   }
@@ -154,8 +160,40 @@ void FemSimulation::apply(const TopologyChange& change) {
   if (!change.empty()) assembled_dirty_ = direct_dirty_ = system_dirty_ = true;
 }
 
+namespace {
+
+// Whether the held components of points (x, axes) block every rigid motion w(x) = t + omega x (x - c):
+// each held component is one linear condition on (t, omega), and all six must be pinned. The
+// points are centred and scaled to the unit ball so the test does not depend on units; 1e-13 on
+// the normal matrix's eigenvalues accepts points 1e-6 of the part's size off a common line.
+bool blocks_rigid_motions(const std::vector<std::pair<Vec3, unsigned>>& held) {
+  if (held.empty()) return false;
+  Vec3 c = Vec3::Zero();
+  for (const auto& h : held) c += h.first;
+  c /= double(held.size());
+  double scale = 0;
+  for (const auto& h : held) scale = std::max(scale, (h.first - c).norm());
+  if (!(scale > 0)) scale = 1;
+  Eigen::Matrix<double, 6, 6> normal = Eigen::Matrix<double, 6, 6>::Zero();
+  for (const auto& [x, axes] : held) {
+    const Vec3 d = (x - c) / scale;
+    for (int a = 0; a < 3; ++a) {
+      if (!(axes >> a & 1u)) continue;
+      // Component a of t + omega x d: t_a + omega . (d x e_a).
+      Eigen::Matrix<double, 6, 1> row = Eigen::Matrix<double, 6, 1>::Zero();
+      row[a] = 1;
+      row.tail<3>() = d.cross(Vec3::Unit(a));
+      normal += row * row.transpose();
+    }
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(normal, Eigen::EigenvaluesOnly);
+  return eig.eigenvalues()[0] > 1e-13 * eig.eigenvalues()[5];
+}
+
+}  // namespace
+
 void FemSimulation::check_rigid_modes() const {
-  // Face-connected parts; each needs 3 non-collinear constrained vertices or it can move rigidly.
+  // Face-connected parts; the constrained components of each must block all six rigid motions.
   const TetMesh& m = *mesh_;
   std::vector<std::int32_t> part(m.tet_capacity(), -1);
   std::vector<std::uint32_t> stack;
@@ -165,8 +203,9 @@ void FemSimulation::check_rigid_modes() const {
   for (std::size_t s = 0; s < m.tet_capacity(); ++s) {
     if (!m.is_alive(TetId(std::uint32_t(s))) || part[s] >= 0) continue;
     const int id = nparts++;
-    std::vector<Vec3> pts;
+    std::vector<std::pair<Vec3, unsigned>> held;
     std::size_t ntets = 0;
+    bool rollers = false;
     part[s] = id;
     stack.assign(1, std::uint32_t(s));
     while (!stack.empty()) {
@@ -176,7 +215,10 @@ void FemSimulation::check_rigid_modes() const {
       for (VertexId v : m.tet_vertices(t))
         if (vertex_seen[v.idx()] != id) {
           vertex_seen[v.idx()] = id;
-          if (constrained_[v.idx()]) pts.push_back(m.rest(v));
+          if (constrained_[v.idx()]) {
+            held.emplace_back(m.rest(v), constrained_[v.idx()]);
+            rollers = rollers || constrained_[v.idx()] != kAllAxes;
+          }
         }
       for (int f = 0; f < 4; ++f) {
         const TetId n = m.neighbor(t, f);
@@ -186,32 +228,22 @@ void FemSimulation::check_rigid_modes() const {
         }
       }
     }
-    // Non-collinear: some point far from the line through the two most distant ones.
-    bool ok = false;
-    if (pts.size() >= 3) {
-      const Vec3 a = pts[0];
-      std::size_t ib = 0;
-      for (std::size_t i = 1; i < pts.size(); ++i)
-        if ((pts[i] - a).squaredNorm() > (pts[ib] - a).squaredNorm()) ib = i;
-      const Vec3 dir = pts[ib] - a;
-      const double len = dir.norm();
-      if (len > 0) {
-        const Vec3 d = dir / len;
-        for (const Vec3& p : pts)
-          if ((p - a - (p - a).dot(d) * d).norm() > 1e-9 * len) ok = true;
+    if (!blocks_rigid_motions(held)) {
+      if (bad < 3) {
+        msg << (bad ? "; " : "") << "part " << id << " (" << ntets << " tets, near ("
+            << m.rest(m.tet_vertices(TetId(std::uint32_t(s)))[0]).transpose() << ")) has " << held.size()
+            << " constrained vertices";
+        if (rollers) msg << ", whose held components leave a rigid motion free";
+        else if (held.size() >= 3) msg << ", all on one line";
       }
-    }
-    if (!ok) {
-      if (bad < 3)
-        msg << (bad ? "; " : "") << "part " << id << " (" << ntets << " tets, near (" << m.rest(m.tet_vertices(TetId(std::uint32_t(s)))[0]).transpose()
-            << ")) has " << pts.size() << " constrained vertices" << (pts.size() >= 3 ? ", all on one line" : "");
       ++bad;
     }
   }
   if (bad)
     throw InvalidArgument("static solve is under-constrained: " + std::to_string(bad) + " of " +
                           std::to_string(nparts) + " connected parts can move rigidly: " + msg.str() +
-                          "; fix or prescribe at least 3 non-collinear nodes per part, or use a dynamic integrator");
+                          "; fix or prescribe at least 3 non-collinear nodes per part (or rollers that block every "
+                          "rigid motion), or use a dynamic integrator");
 }
 
 void FemSimulation::body_and_external_forces(Eigen::VectorXd& b) const {

@@ -14,10 +14,12 @@
 // frame (loads, constraints, topology; corotational rotations are not refreshed while such a
 // solve is pending) CG resumes it, so budgeted frames add up to one uninterrupted solve.
 //
-// Constraints are per vertex: fix() (zero displacement) or prescribe() (a displacement);
-// they enter CG by projection and the right-hand side. A static solve first checks, per
-// face-connected part of the mesh, that at least 3 non-collinear vertices are constrained, and
-// throws InvalidArgument naming the part otherwise (the check is O(mesh), run only after the
+// Constraints are per vertex and axis: fix() (zero displacement) or prescribe() (a
+// displacement) hold all three components, constrain() chosen ones (a roller: a symmetry plane
+// or a plane-strain face); they enter CG by projection and the right-hand side. A static solve
+// first checks, per face-connected part of the mesh, that the constrained components block all
+// six rigid motions (three translations, three rotations), and throws InvalidArgument naming the
+// part otherwise (the check is O(mesh), run only after the
 // constraint set changed, never after apply(): call check_constraints() after a cut if wanted).
 //
 // Topology changes: apply(change) after every mesh edit batch. Per-tet data, diagonal and
@@ -94,9 +96,14 @@ public:
 
   // ---- constraints and loads (by vertex) ------------------------------------------
   void fix(VertexId v) { prescribe(v, Vec3::Zero()); }
-  void prescribe(VertexId v, const Vec3& displacement);
+  void prescribe(VertexId v, const Vec3& displacement) { constrain(v, kAllAxes, displacement); }
+  // Holds the components in `axes` (bit 0: x, 1: y, 2: z) at those of `displacement`, in
+  // addition to any already held; the other components stay as they were.
+  void constrain(VertexId v, unsigned axes, const Vec3& displacement = Vec3::Zero());
   void release(VertexId v);
-  bool is_constrained(VertexId v) const { return constrained_[v.idx()] != 0; }
+  static constexpr unsigned kAllAxes = 7;
+  bool is_constrained(VertexId v) const { return constrained_[v.idx()] != 0; }  // any component
+  unsigned constrained_axes(VertexId v) const { return constrained_[v.idx()]; }
   void set_force(VertexId v, const Vec3& f) { f_ext_.segment<3>(3 * v.idx()) = f; }
   void add_force(VertexId v, const Vec3& f) { f_ext_.segment<3>(3 * v.idx()) += f; }
   void clear_forces() { f_ext_.setZero(); }
@@ -165,7 +172,7 @@ private:
   std::vector<Eigen::VectorXd> d_;     // prediction directions
 
   Eigen::VectorXd u_, v_, f_ext_, target_;  // target_: prescribed displacement per unknown
-  std::vector<std::uint8_t> constrained_;   // per vertex
+  std::vector<std::uint8_t> constrained_;   // per vertex: the held axes (bit 0: x, 1: y, 2: z)
   std::vector<std::uint8_t> free_;          // per unknown: CG may change it
   FrameStats stats_;
   Eigen::VectorXd b_, x_, tmp_;

@@ -6,27 +6,27 @@
 
 namespace incise {
 
-void check_material(const Material& m, const std::string& what) {
+void check_material(const Material& m, const std::string& what, bool incompressible_ok) {
   if (!(m.young > 0) || !std::isfinite(m.young))
     throw InvalidArgument(what + ".young: expected a finite Young's modulus > 0");
   if (!(m.density > 0) || !std::isfinite(m.density))
     throw InvalidArgument(what + ".density: expected a finite density > 0");
   if (!(m.poisson >= 0) || !std::isfinite(m.poisson))
     throw InvalidArgument(what + ".poisson: expected a Poisson's ratio in [0, 0.5)");
-  if (m.poisson >= 0.5)
+  if (m.poisson > 0.5 || (m.poisson == 0.5 && !incompressible_ok))
     throw InvalidArgument(what + ".poisson: " + std::to_string(m.poisson) +
-                          " is >= 0.5; linear elasticity is singular at 0.5 (incompressible) and "
-                          "unstable above; use at most 0.4999");
+                          " is >= 0.5; displacement-only elasticity is singular at 0.5 (incompressible) and "
+                          "unstable above; use at most 0.4999, or the mixed formulation for 0.5");
 }
 
 void MaterialTable::set_default(const Material& m) {
-  check_material(m, "materials.*");
+  check_material(m, "materials.*", true);
   default_ = m;
   has_default_ = true;
 }
 
 void MaterialTable::set(int label, const Material& m) {
-  check_material(m, "materials." + std::to_string(label));
+  check_material(m, "materials." + std::to_string(label), true);
   by_label_[label] = m;
 }
 

@@ -8,7 +8,7 @@ namespace incise {
 
 struct Material {
   double young = 1e6;     // Young's modulus E [Pa], > 0
-  double poisson = 0.3;   // Poisson's ratio nu, in [0, 0.5): 0.5 makes linear elasticity singular
+  double poisson = 0.3;   // Poisson's ratio nu, in [0, 0.5]: 0.5 (incompressible) only for the mixed formulation
   double density = 1000;  // [kg/m^3], > 0
 
   // Lame parameters.
@@ -16,8 +16,10 @@ struct Material {
   double mu() const { return young / (2 * (1 + poisson)); }
 };
 
-// Throws InvalidArgument naming `what` (e.g. "materials.2") and the bad field.
-void check_material(const Material& m, const std::string& what);
+// Throws InvalidArgument naming `what` (e.g. "materials.2") and the bad field. Poisson's ratio
+// 0.5 passes only with `incompressible_ok`: a table may hold it (for the mixed formulation,
+// which keeps pressure as an unknown), displacement-only models refuse it (lambda is infinite).
+void check_material(const Material& m, const std::string& what, bool incompressible_ok = false);
 
 class MaterialTable {
 public:

@@ -9,6 +9,7 @@
 #include <iomanip>
 #include <ostream>
 #include <sstream>
+#include <unordered_map>
 
 #include <nlohmann/json.hpp>
 
@@ -105,16 +106,29 @@ Material read_material(const Reader& rd, const json& j, const std::string& key, 
   if (j.contains("young")) m.young = rd.positive(j["young"], key + ".young");
   if (j.contains("poisson")) {
     m.poisson = rd.number(j["poisson"], key + ".poisson");
-    if (m.poisson < 0 || m.poisson >= 0.5)
-      rd.fail(key + ".poisson", "expected a Poisson's ratio in [0, 0.5) (0.5 makes linear elasticity singular; use at most 0.4999)");
+    // 0.5 is allowed here and refused after parsing unless the formulation is mixed.
+    if (m.poisson < 0 || m.poisson > 0.5) rd.fail(key + ".poisson", "expected a Poisson's ratio in [0, 0.5]");
   }
   if (j.contains("density")) m.density = rd.positive(j["density"], key + ".density");
   return m;
 }
 
+// "xz" -> bits 0 and 2: the held displacement components of a fixed box.
+unsigned read_axes(const Reader& rd, const json& j, const std::string& key) {
+  const std::string c = rd.string(j, key);
+  unsigned axes = 0;
+  for (char ch : c) {
+    const auto at = std::string_view("xyz").find(ch);
+    if (at == std::string_view::npos || (axes >> at & 1u)) axes = 8;  // marks it bad
+    else axes |= 1u << at;
+  }
+  if (axes == 0 || axes > 7) rd.fail(key, "expected the held components as letters, e.g. \"xyz\" or \"z\", got \"" + c + "\"");
+  return axes;
+}
+
 SceneLoad read_load(const Reader& rd, const json& j, const std::string& key) {
   if (!j.is_object()) rd.fail(key, "expected an object");
-  if (!j.contains("type")) rd.fail(key + ".type", "missing; expected \"force\", \"gravity\" or \"probe\"");
+  if (!j.contains("type")) rd.fail(key + ".type", "missing; expected \"force\", \"gravity\", \"probe\" or \"pressure\"");
   const std::string type = rd.string(j["type"], key + ".type");
   SceneLoad l;
   l.key = key;
@@ -146,8 +160,18 @@ SceneLoad read_load(const Reader& rd, const json& j, const std::string& key) {
     l.value = rd.vec3(need("displacement"), key + ".displacement");
     ramp();
     l.ramp = true;
+  } else if (type == "pressure") {
+    // On boundary faces chosen by tag or box (all three corners inside), pushing against each
+    // face's outward normal with p times its rest area.
+    rd.keys(j, key, {"type", "value", "tag", "box", "from_frame", "to_frame"});
+    l.kind = SceneLoad::Kind::Pressure;
+    l.value = Vec3(rd.number(need("value"), key + ".value"), 0, 0);
+    if (j.contains("tag") == j.contains("box")) rd.fail(key, "expected exactly one of \"tag\" and \"box\" to select the faces");
+    if (j.contains("tag")) l.tag = rd.integer(j["tag"], key + ".tag", 0);
+    else l.box = rd.box(j["box"], key + ".box");
+    ramp();
   } else {
-    rd.fail(key + ".type", "expected \"force\", \"gravity\" or \"probe\", got \"" + type + "\"");
+    rd.fail(key + ".type", "expected \"force\", \"gravity\", \"probe\" or \"pressure\", got \"" + type + "\"");
   }
   return l;
 }
@@ -233,7 +257,8 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     throw IoError(path, 0, "invalid JSON: " + (p == std::string::npos ? what : what.substr(p + 2)));
   }
   const Reader rd(path);
-  rd.keys(j, "", {"mesh", "model", "materials", "fixed", "loads", "solver", "time", "output", "cuts", "fragments"});
+  rd.keys(j, "", {"mesh", "model", "formulation", "materials", "fixed", "loads", "solver", "time", "output", "cuts",
+                  "fragments"});
   Scene s;
   s.path = path;
 
@@ -243,7 +268,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     s.mesh_file = jm.get<std::string>();
     if (s.mesh_file.empty()) rd.fail("mesh", "expected a non-empty file name");
   } else if (jm.is_object()) {
-    if (!jm.contains("generate")) rd.fail("mesh.generate", "missing; expected \"box\" or \"ellipsoid\"");
+    if (!jm.contains("generate")) rd.fail("mesh.generate", "missing; expected \"box\", \"ellipsoid\" or \"tube\"");
     s.generator = rd.string(jm["generate"], "mesh.generate");
     if (s.generator == "box") {
       rd.keys(jm, "mesh", {"generate", "size", "cells"});
@@ -261,8 +286,29 @@ Scene parse_scene(const std::string& text, const std::string& path) {
       if (jm.contains("resolution")) s.gen_resolution = rd.integer(jm["resolution"], "mesh.resolution", 1);
       for (int i = 0; i < 3; ++i)
         if (!(s.gen_size[i] > 0)) rd.fail("mesh.radii", "expected 3 positive numbers");
+    } else if (s.generator == "tube") {
+      rd.keys(jm, "mesh", {"generate", "radii", "height", "angle", "cells"});
+      s.gen_size = Vec3(0.5, 1, 0.25);
+      s.gen_cells = {4, 8, 1};
+      if (jm.contains("radii")) {
+        const json& r = jm["radii"];
+        if (!r.is_array() || r.size() != 2) rd.fail("mesh.radii", "expected [inner, outer]");
+        s.gen_size[0] = rd.positive(r[0], "mesh.radii[0]");
+        s.gen_size[1] = rd.positive(r[1], "mesh.radii[1]");
+        if (!(s.gen_size[0] < s.gen_size[1])) rd.fail("mesh.radii", "expected inner < outer");
+      }
+      if (jm.contains("height")) s.gen_size[2] = rd.positive(jm["height"], "mesh.height");
+      if (jm.contains("angle")) {
+        s.gen_angle = rd.positive(jm["angle"], "mesh.angle");
+        if (s.gen_angle >= 360) rd.fail("mesh.angle", "expected degrees in (0, 360)");
+      }
+      if (jm.contains("cells")) {
+        const json& c = jm["cells"];
+        if (!c.is_array() || c.size() != 3) rd.fail("mesh.cells", "expected an array of 3 integers >= 1");
+        for (int i = 0; i < 3; ++i) s.gen_cells[std::size_t(i)] = rd.integer(c[std::size_t(i)], "mesh.cells[" + std::to_string(i) + "]", 1);
+      }
     } else {
-      rd.fail("mesh.generate", "expected \"box\" or \"ellipsoid\", got \"" + s.generator + "\"");
+      rd.fail("mesh.generate", "expected \"box\", \"ellipsoid\" or \"tube\", got \"" + s.generator + "\"");
     }
   } else {
     rd.fail("mesh", "expected a mesh file name or {\"generate\": \"box\", ...}");
@@ -274,6 +320,14 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     else if (m == "fem-corotational") s.model = SceneModel::FemCorotational;
     else if (m == "springs") s.model = SceneModel::Springs;
     else rd.fail("model", "expected \"fem-linear\", \"fem-corotational\" or \"springs\", got \"" + m + "\"");
+  }
+  if (j.contains("formulation")) {
+    const std::string f = rd.string(j["formulation"], "formulation");
+    const auto parsed = parse_formulation(f);
+    if (!parsed) rd.fail("formulation", "expected \"standard\", \"nodal-averaged\" or \"mixed\", got \"" + f + "\"");
+    s.formulation = *parsed;
+    if (s.model == SceneModel::Springs && s.formulation != Formulation::Standard)
+      rd.fail("formulation", "is for FEM models; springs have no volumetric strain to treat");
   }
 
   if (j.contains("materials")) {
@@ -302,9 +356,11 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     if (!jf.is_array()) rd.fail("fixed", "expected an array of {\"box\": [...]}");
     for (std::size_t i = 0; i < jf.size(); ++i) {
       const std::string key = "fixed[" + std::to_string(i) + "]";
-      rd.keys(jf[i], key, {"box"});
+      rd.keys(jf[i], key, {"box", "components"});
       if (!jf[i].contains("box")) rd.fail(key + ".box", "missing");
-      s.fixed.push_back(rd.box(jf[i]["box"], key + ".box"));
+      SceneFixed f{rd.box(jf[i]["box"], key + ".box")};
+      if (jf[i].contains("components")) f.axes = read_axes(rd, jf[i]["components"], key + ".components");
+      s.fixed.push_back(f);
     }
   }
   if (j.contains("loads")) {
@@ -432,6 +488,21 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     else if (f == "error") s.fragments = FragmentPolicy::Error;
     else rd.fail("fragments", "expected \"auto\", \"keep\", \"fix\", \"remove\" or \"error\", got \"" + f + "\"");
   }
+  // Poisson's ratio 0.5 (incompressible) has no displacement-only stiffness: only the mixed
+  // formulation, with pressure as an unknown, solves it.
+  if (s.formulation != Formulation::Mixed) {
+    auto check = [&](const Material& m, const std::string& key) {
+      if (m.poisson >= 0.5)
+        rd.fail(key, "Poisson's ratio 0.5 needs \"formulation\": \"mixed\" (pressure as an unknown); the other "
+                     "formulations take at most 0.4999");
+    };
+    if (s.materials.has_default()) check(s.materials.fallback(), "materials.*.poisson");
+    for (const auto& [label, m] : s.materials.by_label()) check(m, "materials." + std::to_string(label) + ".poisson");
+  }
+  if (s.model == SceneModel::Springs)
+    for (std::size_t i = 0; i < s.fixed.size(); ++i)
+      if (s.fixed[i].axes != 7)
+        rd.fail("fixed[" + std::to_string(i) + "].components", "rollers are for FEM models; springs fix whole vertices");
   return s;
 }
 
@@ -443,12 +514,43 @@ Scene load_scene(const std::string& path) {
   return parse_scene(ss.str(), path);
 }
 
+namespace {
+
+// The boundary faces a pressure load selects (by tag, or all three corners in its box) and, per
+// corner vertex, the force of a unit pressure: minus a third of each face's outward rest area
+// vector (pressure pushes into the body).
+std::vector<std::pair<VertexId, Vec3>> pressure_faces(const TetMesh& mesh, const SceneLoad& l, double tol, const Reader& rd) {
+  std::unordered_map<std::uint32_t, Vec3> w;
+  std::size_t faces = 0;
+  for (const BoundaryFace& f : mesh.boundary_faces()) {
+    bool in = l.tag >= 0 ? f.tag == l.tag : true;
+    if (l.tag < 0)
+      for (VertexId v : f.vertices) in = in && l.box.contains(mesh.rest(v), tol);
+    if (!in) continue;
+    ++faces;
+    const Vec3 a = mesh.rest(f.vertices[0]), b = mesh.rest(f.vertices[1]), c = mesh.rest(f.vertices[2]);
+    const Vec3 area = 0.5 * (b - a).cross(c - a);
+    for (VertexId v : f.vertices) w[v.idx()] -= area / 3;
+  }
+  if (faces == 0)
+    rd.fail(l.key + (l.tag >= 0 ? ".tag" : ".box"),
+            l.tag >= 0 ? "no boundary face has tag " + std::to_string(l.tag) : std::string("selects no boundary face"));
+  std::vector<std::pair<VertexId, Vec3>> out;
+  for (const auto& [v, f] : w) out.emplace_back(VertexId(v), f);
+  std::sort(out.begin(), out.end(), [](const auto& x, const auto& y) { return x.first.idx() < y.first.idx(); });
+  return out;
+}
+
+}  // namespace
+
 SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
   const Reader rd(s.path);
   // ---- mesh ---------------------------------------------------------------------------
   TetMesh mesh;
   if (!s.generator.empty()) {
-    mesh = s.generator == "box" ? make_box(s.gen_size, s.gen_cells) : make_ellipsoid(s.gen_size, s.gen_resolution);
+    if (s.generator == "box") mesh = make_box(s.gen_size, s.gen_cells);
+    else if (s.generator == "tube") mesh = make_tube(s.gen_size[0], s.gen_size[1], s.gen_size[2], s.gen_angle, s.gen_cells);
+    else mesh = make_ellipsoid(s.gen_size, s.gen_resolution);
   } else {
     fs::path p(s.mesh_file);
     if (p.is_relative()) p = fs::path(s.path).parent_path() / p;
@@ -480,16 +582,19 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
     }
     return out;
   };
-  std::vector<VertexId> fixed;
-  for (std::size_t i = 0; i < s.fixed.size(); ++i) {
-    auto sel = select(s.fixed[i], "fixed[" + std::to_string(i) + "].box");
-    fixed.insert(fixed.end(), sel.begin(), sel.end());
-  }
+  std::vector<std::pair<VertexId, unsigned>> fixed;  // vertex, held axes
+  for (std::size_t i = 0; i < s.fixed.size(); ++i)
+    for (VertexId v : select(s.fixed[i].box, "fixed[" + std::to_string(i) + "].box")) fixed.emplace_back(v, s.fixed[i].axes);
   std::vector<std::vector<VertexId>> load_vertices(s.loads.size());
+  // Pressure loads: per vertex, the force of a unit pressure (its share of the selected faces'
+  // rest area vectors, a third per corner), fixed when the scene starts like other loads.
+  std::vector<std::vector<std::pair<VertexId, Vec3>>> pressure_weights(s.loads.size());
   Vec3 gravity = Vec3::Zero();
   for (std::size_t i = 0; i < s.loads.size(); ++i) {
-    if (s.loads[i].kind == SceneLoad::Kind::Gravity) gravity += s.loads[i].value;
-    else load_vertices[i] = select(s.loads[i].box, s.loads[i].key + ".box");
+    const SceneLoad& l = s.loads[i];
+    if (l.kind == SceneLoad::Kind::Gravity) gravity += l.value;
+    else if (l.kind == SceneLoad::Kind::Pressure) pressure_weights[i] = pressure_faces(mesh, l, tol, rd);
+    else load_vertices[i] = select(l.box, l.key + ".box");
   }
 
 
@@ -505,7 +610,7 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
     so.compute_energy = false;
     springs = std::make_unique<SpringModel>(mesh, s.materials, so);
     integrator = parse_integrator(s.integrator);
-    for (VertexId v : fixed) springs->set_fixed(v, true);
+    for (const auto& [v, axes] : fixed) springs->set_fixed(v, true);  // axes == 7: the parser refuses rollers
     springs->set_gravity(gravity);
   } else {
     FemSimulationOptions fo;
@@ -523,7 +628,7 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
     fo.amg = s.amg;
     fo.gravity = gravity;
     fem = std::make_unique<FemSimulation>(mesh, s.materials, fo);
-    for (VertexId v : fixed) fem->fix(v);
+    for (const auto& [v, axes] : fixed) fem->constrain(v, axes);
     for (std::size_t i = 0; i < s.loads.size(); ++i)
       if (s.loads[i].kind == SceneLoad::Kind::Probe)
         for (VertexId v : load_vertices[i]) fem->prescribe(v, Vec3::Zero());
@@ -649,6 +754,8 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
         const double f = l.factor(frame);
         if (l.kind == SceneLoad::Kind::Force) {
           for (VertexId v : load_vertices[i]) force[v.idx()] += f * l.value / double(load_vertices[i].size());
+        } else if (l.kind == SceneLoad::Kind::Pressure) {
+          for (const auto& [v, w] : pressure_weights[i]) force[v.idx()] += f * l.value.x() * w;
         } else if (l.kind == SceneLoad::Kind::Probe) {
           for (VertexId v : load_vertices[i]) {
             if (fem) fem->prescribe(v, f * l.value);

@@ -18,6 +18,7 @@
 #include "mesh/tet_mesh.h"
 #include "mesh/topology_change.h"
 #include "sim/fem_simulation.h"
+#include "sim/formulation.h"
 #include "sim/material.h"
 
 namespace incise {
@@ -29,11 +30,19 @@ struct SceneBox {
   }
 };
 
+// Vertices in `box` held on the axes in `axes` (bit 0: x, 1: y, 2: z): all three fix them, one or
+// two make rollers (a symmetry plane, a plane-strain end face).
+struct SceneFixed {
+  SceneBox box;
+  unsigned axes = 7;
+};
+
 struct SceneLoad {
-  enum class Kind { Force, Gravity, Probe } kind = Kind::Force;
+  enum class Kind { Force, Gravity, Probe, Pressure } kind = Kind::Force;
   std::string key;           // "loads[2]", for messages
-  SceneBox box;              // force, probe
-  Vec3 value = Vec3::Zero(); // force: total [N]; gravity: g [m/s^2]; probe: displacement [m]
+  SceneBox box;              // force, probe; pressure when tag < 0
+  int tag = -1;              // pressure: the boundary faces with this tag (instead of a box)
+  Vec3 value = Vec3::Zero(); // force: total [N]; gravity: g [m/s^2]; probe: displacement [m]; pressure: (p [Pa], 0, 0)
   int from_frame = 0;        // probe (and optionally force): ramp start
   int to_frame = 0;          // ramp end (== from_frame: a step)
   bool ramp = false;         // force: ramped only when from_frame/to_frame are given
@@ -79,13 +88,15 @@ struct Scene {
   std::string path;                 // the scene file (messages, relative paths)
   // Mesh: a file (relative to the scene) or a generator.
   std::string mesh_file;
-  std::string generator;            // "", "box" or "ellipsoid"
-  Vec3 gen_size = Vec3::Ones();     // box size or ellipsoid radii
-  std::array<int, 3> gen_cells{4, 4, 4};
+  std::string generator;            // "", "box", "ellipsoid" or "tube"
+  Vec3 gen_size = Vec3::Ones();     // box size, ellipsoid radii, tube (inner radius, outer radius, height)
+  std::array<int, 3> gen_cells{4, 4, 4};  // box; tube (across the wall, around, along)
+  double gen_angle = 90;            // tube: sector angle [deg]
   int gen_resolution = 4;
   SceneModel model = SceneModel::FemLinear;
+  Formulation formulation = Formulation::Standard;  // FEM: how the volumetric strain is treated
   MaterialTable materials;
-  std::vector<SceneBox> fixed;
+  std::vector<SceneFixed> fixed;
   std::vector<SceneLoad> loads;
   // solver
   SolverMethod method = SolverMethod::Cg;

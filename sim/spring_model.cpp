@@ -11,6 +11,7 @@
 namespace incise {
 
 SpringCalibration calibrate_springs(const Material& m, const SpringOptions& o) {
+  check_material(m, "materials");  // springs have no incompressible limit: 0.5 is refused
   SpringCalibration c;
   if (!o.volume_term) {  // Van Gelder's rule as published: E exact, nu = 1/4
     c.spring_modulus = m.young;
