@@ -530,7 +530,7 @@ std::vector<std::pair<VertexId, Vec3>> pressure_faces(const TetMesh& mesh, const
     ++faces;
     const Vec3 a = mesh.rest(f.vertices[0]), b = mesh.rest(f.vertices[1]), c = mesh.rest(f.vertices[2]);
     const Vec3 area = 0.5 * (b - a).cross(c - a);
-    for (VertexId v : f.vertices) w[v.idx()] -= area / 3;
+    for (VertexId v : f.vertices) w.try_emplace(v.idx(), Vec3::Zero()).first->second -= area / 3;  // Eigen leaves a default Vec3 unset
   }
   if (faces == 0)
     rd.fail(l.key + (l.tag >= 0 ? ".tag" : ".box"),

@@ -12,6 +12,7 @@
 #include "sim/assembled_stiffness.h"
 #include "sim/fem_model.h"
 #include "sim/fem_simulation.h"
+#include "sim/spring_model.h"
 #include "tests/sim/fem_test_util.h"
 
 using namespace incise;
@@ -462,10 +463,16 @@ TEST_CASE("warm start: an unchanged load converges at once, a moving probe needs
   CHECK(cold_repeat > 0);
 }
 
-TEST_CASE("materials: Poisson's ratio 0.5 and above is refused", "[fem][errors]") {
+TEST_CASE("materials: Poisson's ratio 0.5 and above is refused by displacement-only models", "[fem][errors]") {
   Material m;
   m.poisson = 0.5;
-  CHECK_THROWS_WITH(MaterialTable(m), Catch::Contains("0.5"));
+  // A table may hold 0.5 (the mixed formulation solves it); a displacement-only model may not.
+  const MaterialTable incompressible(m);
+  const TetMesh box = make_box(Vec3(1, 1, 1), {1, 1, 1});
+  CHECK_THROWS_WITH(FemModel(box, incompressible), Catch::Contains("0.5"));
+  CHECK_THROWS_WITH(SpringModel(box, incompressible), Catch::Contains("0.5"));
+  m.poisson = 0.51;
+  CHECK_THROWS_WITH(MaterialTable(m), Catch::Contains("0.51"));
   m.poisson = 0.3;
   m.young = -1;
   CHECK_THROWS_AS(MaterialTable(m), InvalidArgument);
