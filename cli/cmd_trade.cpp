@@ -1,6 +1,8 @@
-// incise trade SCENE -o DIR: the scene under a grid of models and solver settings, each
-// measured for time per frame and error against a corotational direct reference
-// (docs/solver.md); writes DIR/trade.csv and DIR/trade.svg, progress on stderr.
+// incise trade SCENE -o DIR: the scene under a grid of resolutions, models, formulations and
+// solver settings, each measured for time per frame and error against a converged reference
+// (docs/solver.md); writes DIR/trade.csv and DIR/trade.svg (and --json), progress on stderr,
+// the frontier and one recommendation per frame budget on stdout.
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -8,6 +10,7 @@
 #include "cli/commands.h"
 #include "mesh/errors.h"
 #include "mesh/io/atomic_file.h"
+#include "sim/formulation.h"
 #include "sim/trade.h"
 
 namespace incise::cli {
@@ -28,6 +31,11 @@ void add_trade(CLI::App& app) {
     std::string scene, out;
     int frames = -1;
     std::vector<std::string> models{"fem-linear", "fem-corotational", "springs"};
+    std::vector<std::string> formulations{"standard", "nodal-averaged", "mixed"};
+    std::vector<int> resolutions;
+    int reference_level = -1;
+    std::vector<double> frame_budgets{2, 16, 33};
+    std::string json;
     std::vector<std::string> preconditioners{"jacobi", "block-jacobi", "cholesky", "amg"};
     std::vector<double> tolerances{1e-2, 1e-4, 1e-6, 1e-8};
     std::vector<double> budgets{0, 2};
@@ -40,6 +48,18 @@ void add_trade(CLI::App& app) {
   cmd->add_option("--frames", o->frames, "Override the scene's number of frames (at least 1)")
       ->check(CLI::Range(1, 1000000000));
   cmd->add_option("--models", o->models, "Models to run")->capture_default_str();
+  cmd->add_option("--formulations", o->formulations, "FEM formulations to run (standard, nodal-averaged, mixed)")
+      ->capture_default_str();
+  cmd->add_option("--resolutions", o->resolutions,
+                  "Mesh levels: 0 the scene's, k refined k times (1:8), -1 one coarser (generated meshes); "
+                  "default -1 0 1 for generated meshes, 0 1 for files")
+      ->check(CLI::Range(-1, 3));
+  cmd->add_option("--reference-level", o->reference_level,
+                  "Mesh level of the reference (default: one above the finest resolution)")
+      ->check(CLI::Range(0, 4));
+  cmd->add_option("--frame-budgets", o->frame_budgets, "Frame budgets in ms to recommend a setting for")
+      ->capture_default_str();
+  cmd->add_option("--json", o->json, "Also write the rows, the reference and the recommendations as JSON");
   cmd->add_option("--preconditioners", o->preconditioners, "CG preconditioners")->capture_default_str();
   cmd->add_option("--tolerances", o->tolerances, "CG relative tolerances")->capture_default_str();
   cmd->add_option("--budgets", o->budgets, "Per-frame CG budgets in ms (0: none)")->capture_default_str();
@@ -50,6 +70,18 @@ void add_trade(CLI::App& app) {
     to.frames = o->frames;
     to.models.clear();
     for (const auto& m : o->models) to.models.push_back(parse_model(m));
+    to.formulations.clear();
+    for (const auto& f : o->formulations) {
+      const auto parsed = parse_formulation(f);
+      if (!parsed)
+        throw InvalidArgument("trade: --formulations: expected standard, nodal-averaged or mixed, got \"" + f + "\"");
+      to.formulations.push_back(*parsed);
+    }
+    to.resolutions = o->resolutions;
+    to.reference_level = o->reference_level;
+    for (double b : o->frame_budgets)
+      if (!(b > 0) || !std::isfinite(b)) throw InvalidArgument("trade: --frame-budgets: expected numbers > 0");
+    to.frame_budgets_ms = o->frame_budgets;
     to.preconditioners.clear();
     for (const auto& p : o->preconditioners) {
       try {
@@ -69,27 +101,26 @@ void add_trade(CLI::App& app) {
     // The directory is checked now and created only when there is something to put in it: a
     // scene error leaves no empty directory behind.
     check_output_dir(o->out);
+    // The JSON may go into the output directory, which is created only at the end.
+    if (!o->json.empty() && std::filesystem::path(o->json).parent_path().lexically_normal() !=
+                                std::filesystem::path(o->out).lexically_normal())
+      check_output_path(o->json);
     const Scene scene = load_scene(o->scene);
-    const std::vector<TradeRow> rows = run_trade(scene, to);
+    const TradeResult result = run_trade(scene, to);
     std::error_code ec;
     std::filesystem::create_directories(o->out, ec);
     if (ec) throw IoError(o->out, 0, "cannot create output directory: " + ec.message());
     const std::filesystem::path dir(o->out);
-    OutputTransaction tx;  // both files or neither
-    tx.write_text((dir / "trade.csv").string(), trade_csv(rows));
+    OutputTransaction tx;  // every file or none
+    tx.write_text((dir / "trade.csv").string(), trade_csv(result.rows));
     tx.write_text((dir / "trade.svg").string(),
-                  trade_svg(rows, "incise trade: " + std::filesystem::path(o->scene).filename().string()));
+                  trade_svg(result.rows, "incise trade: " + std::filesystem::path(o->scene).filename().string(),
+                            to.frame_budgets_ms));
+    if (!o->json.empty()) tx.write_text(o->json, trade_json(result, to.frame_budgets_ms));
     tx.commit();
-    std::cout << "trade: " << rows.size() << " runs of " << o->scene << "; Pareto frontier (fastest first):\n";
-    std::vector<const TradeRow*> front;
-    for (const TradeRow& r : rows)
-      if (r.pareto) front.push_back(&r);
-    std::sort(front.begin(), front.end(), [](auto* a, auto* b) { return a->ms_per_frame < b->ms_per_frame; });
-    for (const TradeRow* r : front)
-      std::cout << "  " << r->model << " " << r->solver << (r->preconditioner.empty() ? "" : " " + r->preconditioner)
-                << " tolerance " << r->tolerance << " budget " << r->budget_ms << " ms: " << r->ms_per_frame
-                << " ms/frame, error " << r->error << "\n";
-    std::cout << "trade: wrote " << (dir / "trade.csv").string() << " and " << (dir / "trade.svg").string() << "\n";
+    std::cout << trade_summary(result, to.frame_budgets_ms);
+    std::cout << "trade: wrote " << (dir / "trade.csv").string() << " and " << (dir / "trade.svg").string()
+              << (o->json.empty() ? "" : " and " + o->json) << "\n";
   });
 }
 

@@ -547,7 +547,9 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
   const Reader rd(s.path);
   // ---- mesh ---------------------------------------------------------------------------
   TetMesh mesh;
-  if (!s.generator.empty()) {
+  if (opt.mesh) {
+    mesh = *opt.mesh;
+  } else if (!s.generator.empty()) {
     if (s.generator == "box") mesh = make_box(s.gen_size, s.gen_cells);
     else if (s.generator == "tube") mesh = make_tube(s.gen_size[0], s.gen_size[1], s.gen_size[2], s.gen_angle, s.gen_cells);
     else mesh = make_ellipsoid(s.gen_size, s.gen_resolution);
@@ -838,6 +840,7 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
                       << std::defaultfloat << std::setprecision(6) << (st.budget_exhausted ? ", budget exhausted" : "")
                       << (!converged && !st.budget_exhausted && fem ? ", NOT CONVERGED" : "") << "\n";
       }
+      if (opt.stop && opt.stop(frame)) break;
     }
   } catch (...) {
     finish();  // keep the series and stats of the frames that were computed

@@ -133,6 +133,12 @@ struct SceneRunOptions {
   SceneCutHook cut_hook;              // required when the scene has cuts (cut/scene_cuts.h)
   // Called after each frame with its displacement (3 per vertex slot) and stats (incise trade).
   std::function<void(int frame, const Eigen::VectorXd& displacement, const FrameStats& stats)> on_frame;
+  // Checked after on_frame: true ends the run after this frame (incise trade: a dynamic run
+  // that has settled).
+  std::function<bool(int frame)> stop;
+  // Plays the scene on this mesh instead of its own (incise trade: other resolutions of the
+  // same body); the scene's boxes select on it the same way. Copied, not modified.
+  const TetMesh* mesh = nullptr;
 };
 
 struct SceneRunSummary {

@@ -3,11 +3,18 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <iomanip>
+#include <map>
+#include <memory>
 #include <ostream>
 #include <sstream>
 
 #include "mesh/errors.h"
+#include "mesh/generate.h"
+#include "mesh/io/tet_io.h"
+#include "mesh/point_locator.h"
+#include "mesh/refine.h"
 
 namespace incise {
 
@@ -22,116 +29,319 @@ const char* model_name(SceneModel m) {
   return "?";
 }
 
+std::string fmt(double v) {
+  std::ostringstream s;
+  s << std::setprecision(4) << v;
+  return s.str();
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// The scene's body at mesh level `level` (see TradeOptions::resolutions), compacted.
+TetMesh body_at(const Scene& s, int level) {
+  TetMesh m;
+  if (level < 0) {
+    if (s.generator.empty())
+      throw InvalidArgument("trade: resolution -1 (coarser) needs a generated mesh; \"" + s.mesh_file +
+                            "\" is a file (make a coarser one with incise prepare and trade that scene)");
+    if (level < -1) throw InvalidArgument("trade: resolutions below -1 are not supported");
+    auto half = [](int n) { return std::max(1, n / 2); };
+    const std::array<int, 3> c{half(s.gen_cells[0]), half(s.gen_cells[1]), half(s.gen_cells[2])};
+    if (s.generator == "box") m = make_box(s.gen_size, c);
+    else if (s.generator == "tube") m = make_tube(s.gen_size[0], s.gen_size[1], s.gen_size[2], s.gen_angle, c);
+    else m = make_ellipsoid(s.gen_size, half(s.gen_resolution));
+    return m;
+  }
+  if (s.generator == "box") m = make_box(s.gen_size, s.gen_cells);
+  else if (s.generator == "tube") m = make_tube(s.gen_size[0], s.gen_size[1], s.gen_size[2], s.gen_angle, s.gen_cells);
+  else if (s.generator == "ellipsoid") m = make_ellipsoid(s.gen_size, s.gen_resolution);
+  else {
+    std::filesystem::path file(s.mesh_file);  // relative to the scene, as run_scene reads it
+    if (file.is_relative()) file = std::filesystem::path(s.path).parent_path() / file;
+    m = read_tet_mesh(file.string());
+  }
+  m.compact();
+  for (int k = 0; k < level; ++k) m = refine_uniform(m);
+  m.discard_change();
+  return m;
+}
+
+// A reference solution read at another mesh's vertices.
+struct Probe {
+  std::vector<PointLocation> at;  // by vertex slot of the run's mesh (invalid tet: dead slot)
+};
+
+Probe locate(const TetMesh& run, const PointLocator& loc) {
+  Probe p;
+  p.at.resize(run.vertex_capacity(), PointLocation{TetId(), {0, 0, 0, 0}, 0});
+  for (VertexId v : run.vertices()) p.at[v.idx()] = loc.locate(run.rest(v));
+  return p;
+}
+
+// The reference displacement at the run's vertices (3 per vertex slot).
+Eigen::VectorXd sample(const TetMesh& ref, const Probe& p, const Eigen::VectorXd& u_ref) {
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(Eigen::Index(3 * p.at.size()));
+  for (std::size_t v = 0; v < p.at.size(); ++v)
+    if (p.at[v].tet.is_valid()) PointLocator::interpolate(ref, p.at[v], u_ref.data(), 3, out.data() + 3 * v);
+  return out;
+}
+
+struct Errors {
+  double l2 = 0, max_disp = 0;
+};
+
+Errors compare(const Eigen::VectorXd& u, const Eigen::VectorXd& ref) {
+  const Eigen::Index n = std::min(u.size(), ref.size());
+  const double norm = ref.head(n).norm(), diff = (u.head(n) - ref.head(n)).norm();
+  double mu = 0, mr = 0;
+  for (Eigen::Index i = 0; i + 2 < n; i += 3) {
+    mu = std::max(mu, u.segment<3>(i).norm());
+    mr = std::max(mr, ref.segment<3>(i).norm());
+  }
+  return {norm > 0 ? diff / norm : diff, mr > 0 ? std::abs(mu - mr) / mr : std::abs(mu - mr)};
+}
+
 struct Setting {
   Scene scene;
   TradeRow row;
+  bool dynamic = false;
 };
 
-// The settings of the grid, in the order they run.
-std::vector<Setting> grid(const Scene& base, const TradeOptions& opt) {
+// Discretization rows, then solver rows (see trade.h).
+std::vector<Setting> grid(const Scene& base, const TradeOptions& opt, const std::vector<int>& levels) {
   std::vector<Setting> out;
-  for (SceneModel model : opt.models) {
-    Scene s = base;
-    s.model = model;
-    TradeRow r;
-    r.model = model_name(model);
-    if (model == SceneModel::Springs) {
-      // Springs are dynamic: implicit Euler at the scene's time step, its CG at each tolerance.
-      s.integrator = "implicit-euler";
-      s.method = SolverMethod::Cg;
-      for (double tol : opt.tolerances) {
-        Setting st{s, r};
-        st.scene.cg.tolerance = tol;
+  const bool base_dynamic = base.integrator == "implicit-euler";
+  for (int level : levels)
+    for (SceneModel model : opt.models) {
+      Setting st{base, {}, model == SceneModel::Springs || base_dynamic};
+      st.scene.model = model;
+      st.row.resolution = level;
+      st.row.model = model_name(model);
+      if (model == SceneModel::Springs) {
+        st.scene.integrator = "implicit-euler";
+        st.scene.method = SolverMethod::Cg;
+        st.scene.formulation = Formulation::Standard;
         st.row.solver = "implicit-euler";
-        st.row.tolerance = tol;
+        st.row.formulation = "-";
+        st.row.tolerance = st.scene.cg.tolerance;
         out.push_back(st);
+        continue;
       }
-      continue;
+      for (Formulation f : opt.formulations) {
+        Setting fs = st;
+        fs.scene.formulation = f;
+        fs.row.formulation = std::string(formulation_name(f));
+        fs.row.solver = fs.scene.method == SolverMethod::Direct ? "direct" : "cg";
+        if (fs.row.solver == "cg") {
+          fs.row.preconditioner = std::string(to_string(fs.scene.cg.preconditioner));
+          fs.row.tolerance = fs.scene.cg.tolerance;
+          fs.row.budget_ms = fs.scene.cg.budget_ms;
+        }
+        if (fs.dynamic) fs.row.solver = "implicit-euler " + fs.row.solver;
+        out.push_back(fs);
+      }
     }
-    if (s.integrator != "static" && s.integrator != "implicit-euler") s.integrator = "static";
+  for (SceneModel model : opt.models) {
+    if (model == SceneModel::Springs) continue;
+    Setting st{base, {}, base_dynamic};
+    st.scene.model = model;
+    st.row.model = model_name(model);
+    st.row.formulation = std::string(formulation_name(base.formulation));
     if (opt.direct) {
-      Setting st{s, r};
-      st.scene.method = SolverMethod::Direct;
-      st.row.solver = "direct";
-      out.push_back(st);
+      Setting d = st;
+      d.scene.method = SolverMethod::Direct;
+      d.row.solver = base_dynamic ? "implicit-euler direct" : "direct";
+      out.push_back(d);
     }
     for (Preconditioner pc : opt.preconditioners)
       for (double tol : opt.tolerances)
         for (double budget : opt.budgets_ms) {
-          Setting st{s, r};
-          st.scene.method = SolverMethod::Cg;
-          st.scene.cg.preconditioner = pc;
-          st.scene.cg.tolerance = tol;
-          st.scene.cg.budget_ms = budget;
-          st.scene.cg.max_iterations = std::max(st.scene.cg.max_iterations, 20000);
-          st.row.solver = "cg";
-          st.row.preconditioner = to_string(pc);
-          st.row.tolerance = tol;
-          st.row.budget_ms = budget;
-          out.push_back(st);
+          Setting c = st;
+          c.scene.method = SolverMethod::Cg;
+          c.scene.cg.preconditioner = pc;
+          c.scene.cg.tolerance = tol;
+          c.scene.cg.budget_ms = budget;
+          c.scene.cg.max_iterations = std::max(c.scene.cg.max_iterations, 20000);
+          c.row.solver = base_dynamic ? "implicit-euler cg" : "cg";
+          c.row.preconditioner = std::string(to_string(pc));
+          c.row.tolerance = tol;
+          c.row.budget_ms = budget;
+          out.push_back(c);
         }
   }
-  return out;
+  // Drop exact repeats (a discretization row at level 0 with the scene's formulation is also a
+  // solver row when the scene's solver is in the grid).
+  std::vector<Setting> unique;
+  for (Setting& s : out) {
+    bool seen = false;
+    for (const Setting& u : unique)
+      seen = seen || (u.row.resolution == s.row.resolution && u.row.model == s.row.model && u.row.formulation == s.row.formulation &&
+                      u.row.solver == s.row.solver && u.row.preconditioner == s.row.preconditioner &&
+                      u.row.tolerance == s.row.tolerance && u.row.budget_ms == s.row.budget_ms);
+    if (!seen) unique.push_back(std::move(s));
+  }
+  return unique;
 }
 
-std::string fmt(double v) {
-  std::ostringstream s;
-  s << std::setprecision(6) << v;
-  return s.str();
+// The last frame any load ramps in: dynamic runs hold the loads after it and settle.
+int last_ramp_frame(const Scene& s) {
+  int f = 0;
+  for (const SceneLoad& l : s.loads) f = std::max(f, l.to_frame);
+  return f;
 }
 
 }  // namespace
 
-std::vector<TradeRow> run_trade(const Scene& scene, const TradeOptions& opt) {
-  // Reference: static corotational FEM, direct, re-linearized per frame.
-  Scene ref_scene = scene;
-  ref_scene.model = SceneModel::FemCorotational;
-  ref_scene.method = SolverMethod::Direct;
-  ref_scene.integrator = "static";
-  std::vector<Eigen::VectorXd> ref;
-  SceneRunOptions ro;
-  ro.frames = opt.frames;
-  ro.on_frame = [&](int, const Eigen::VectorXd& d, const FrameStats&) { ref.push_back(d); };
-  const auto t0 = std::chrono::steady_clock::now();
-  run_scene(ref_scene, ro);
-  if (opt.progress)
-    *opt.progress << "trade: reference (fem-corotational, direct, " << ref_scene.nonlinear_iterations
-                  << " linearizations per frame): " << ref.size() << " frames, "
-                  << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() << " s\n";
+TradeResult run_trade(const Scene& scene, const TradeOptions& opt) {
+  if (!scene.cuts.empty())
+    throw InvalidArgument(scene.path + ": trade compares settings on an uncut body; remove the scene's \"cuts\" (a copy of "
+                                       "the scene without them) to trade it");
+  std::vector<int> levels = opt.resolutions;
+  if (levels.empty()) levels = scene.generator.empty() ? std::vector<int>{0, 1} : std::vector<int>{-1, 0, 1};
+  std::sort(levels.begin(), levels.end());
+  levels.erase(std::unique(levels.begin(), levels.end()), levels.end());
+  const int ref_level = opt.reference_level >= 0 ? opt.reference_level : levels.back() + 1;
+  if (ref_level <= levels.back())
+    throw InvalidArgument("trade: the reference level (" + std::to_string(ref_level) +
+                          ") must be above the finest resolution (" + std::to_string(levels.back()) + ")");
+  const int frames = opt.frames >= 0 ? opt.frames : scene.frames;
 
-  std::vector<Setting> settings = grid(scene, opt);
-  std::vector<TradeRow> rows;
+  std::map<int, std::unique_ptr<TetMesh>> meshes;
+  auto mesh = [&](int level) -> const TetMesh& {
+    auto& m = meshes[level];
+    if (!m) m = std::make_unique<TetMesh>(body_at(scene, level));
+    return *m;
+  };
+
+  // ---- the reference, and the same one level coarser for its error bar ------------------
+  TradeResult result;
+  const Formulation best = Formulation::Mixed;
+  auto solve_reference = [&](int level) {
+    Scene rs = scene;
+    rs.model = SceneModel::FemCorotational;
+    rs.formulation = best;
+    rs.method = SolverMethod::Direct;
+    rs.integrator = "static";
+    std::vector<Eigen::VectorXd> u;
+    SceneRunOptions ro;
+    ro.frames = frames;
+    ro.mesh = &mesh(level);
+    ro.on_frame = [&](int, const Eigen::VectorXd& d, const FrameStats&) { u.push_back(d); };
+    run_scene(rs, ro);
+    return u;
+  };
+  const TetMesh& ref_mesh = mesh(ref_level);
+  if (opt.progress)
+    *opt.progress << "trade: reference: level " << ref_level << " (" << ref_mesh.num_tets() << " tets), fem-corotational "
+                  << formulation_name(best) << ", direct, " << frames << " frames\n";
+  auto t0 = std::chrono::steady_clock::now();
+  const std::vector<Eigen::VectorXd> ref = solve_reference(ref_level);
+  result.reference = {ref_level, ref_mesh.num_tets(), std::string(formulation_name(best)), seconds_since(t0), -1};
+  const PointLocator locator(ref_mesh);
+  std::map<int, Probe> probes;
+  auto probe = [&](int level) -> const Probe& {
+    auto it = probes.find(level);
+    if (it == probes.end()) it = probes.emplace(level, locate(mesh(level), locator)).first;
+    return it->second;
+  };
+  if (ref_level >= 1) {
+    const std::vector<Eigen::VectorXd> coarser = solve_reference(ref_level - 1);
+    const TetMesh& cm = mesh(ref_level - 1);
+    const Probe& at_scene = probe(0);
+    // Both read at the scene mesh's vertices: the coarser one through its own locator.
+    const PointLocator cl(cm);
+    const Probe at_scene_coarse = locate(mesh(0), cl);
+    double change = 0;
+    for (std::size_t f = 0; f < ref.size() && f < coarser.size(); ++f)
+      change = std::max(change, compare(sample(cm, at_scene_coarse, coarser[f]), sample(ref_mesh, at_scene, ref[f])).l2);
+    result.reference.change = change;
+  }
+  if (opt.progress) {
+    *opt.progress << "trade: reference took " << fmt(result.reference.seconds) << " s";
+    if (result.reference.change >= 0)
+      *opt.progress << "; it differs from level " << ref_level - 1 << " by " << fmt(result.reference.change)
+                    << " (relative L2): errors below that are not resolved";
+    *opt.progress << "\n";
+  }
+
+  // ---- the grid ---------------------------------------------------------------------------
+  std::vector<Setting> settings = grid(scene, opt, levels);
+  std::vector<TradeRow>& rows = result.rows;
+  const int ramp_end = last_ramp_frame(scene);
+  double spent = 0;
   for (std::size_t i = 0; i < settings.size(); ++i) {
     Setting& st = settings[i];
     TradeRow& r = st.row;
-    double ms = 0, iterations = 0;
-    int frames = 0;
+    const TetMesh& m = mesh(r.resolution);
+    r.tets = m.num_tets();
+    const Probe& p = probe(r.resolution);
+    double ms = 0, iterations = 0, max_move = 0, max_u = 0;
+    int played = 0, calm = 0;
+    Eigen::VectorXd last;
+    SceneRunOptions ro;
+    ro.mesh = &m;
+    ro.frames = st.dynamic ? std::max(opt.max_settle_frames, ramp_end + 4) : frames;
     ro.on_frame = [&](int f, const Eigen::VectorXd& d, const FrameStats& s) {
-      const Eigen::VectorXd& u = ref.at(std::size_t(f));
-      const double n = u.norm(), e = (d - u).norm();
-      r.error = std::max(r.error, n > 0 ? e / n : e);
       ms += s.frame_ms;
       iterations += s.iterations;
       r.frames_not_converged += s.info != SolveInfo::Success;
-      ++frames;
+      ++played;
+      if (st.dynamic) {
+        max_move = last.size() == d.size() ? (d - last).cwiseAbs().maxCoeff() : 1e300;
+        max_u = d.cwiseAbs().maxCoeff();
+        last = d;
+        return;
+      }
+      const Errors e = compare(d, sample(ref_mesh, p, ref.at(std::size_t(f))));
+      r.error = std::max(r.error, e.l2);
+      r.max_displacement_error = std::max(r.max_displacement_error, e.max_disp);
     };
+    ro.stop = [&](int f) {
+      if (!st.dynamic || f < ramp_end) return false;
+      calm = max_move <= opt.settle_tolerance * max_u ? calm + 1 : 0;
+      return calm >= 3;
+    };
+    const auto t_run = std::chrono::steady_clock::now();
     try {
       run_scene(st.scene, ro);
     } catch (const Error& e) {
-      throw Error(std::string("trade: ") + r.model + " " + r.solver + " " + r.preconditioner + " tolerance " +
-                  fmt(r.tolerance) + " budget " + fmt(r.budget_ms) + ": " + e.what());
+      throw Error(std::string("trade: level ") + std::to_string(r.resolution) + " " + r.model + " " + r.formulation + " " +
+                  r.solver + " " + r.preconditioner + " tolerance " + fmt(r.tolerance) + " budget " + fmt(r.budget_ms) +
+                  ": " + e.what());
     }
-    r.ms_per_frame = frames ? ms / frames : 0;
-    r.iterations = frames ? iterations / frames : 0;
-    if (opt.progress)
-      *opt.progress << "trade: " << i + 1 << "/" << settings.size() << " " << r.model << " " << r.solver
-                    << (r.preconditioner.empty() ? "" : " " + r.preconditioner) << " tol " << fmt(r.tolerance)
-                    << " budget " << fmt(r.budget_ms) << " ms: " << fmt(r.ms_per_frame) << " ms/frame, "
-                    << fmt(r.iterations) << " iterations/frame, error " << fmt(r.error) << "\n";
+    spent += seconds_since(t_run);
+    r.ms_per_frame = played ? ms / played : 0;
+    r.iterations = played ? iterations / played : 0;
+    if (st.dynamic) {
+      r.compared = "at-rest";
+      r.settle_frames = played;
+      r.settle_ms = ms;
+      r.settled = calm >= 3;
+      const Errors e = compare(last, sample(ref_mesh, p, ref.back()));
+      r.error = e.l2;
+      r.max_displacement_error = e.max_disp;
+    }
+    if (opt.progress) {
+      if (i == 0)
+        *opt.progress << "trade: " << settings.size() << " runs; at the first run's pace about "
+                      << fmt(spent * double(settings.size())) << " s in all\n";
+      const int bar = int(20.0 * double(i + 1) / double(settings.size()));
+      *opt.progress << "trade: [" << std::string(std::size_t(bar), '#') << std::string(std::size_t(20 - bar), '.') << "] "
+                    << i + 1 << "/" << settings.size() << " level " << r.resolution << " " << r.model << " "
+                    << r.formulation << " " << r.solver << (r.preconditioner.empty() ? "" : " " + r.preconditioner)
+                    << " tol " << fmt(r.tolerance) << " budget " << fmt(r.budget_ms) << " ms: " << fmt(r.ms_per_frame)
+                    << " ms/frame, error " << fmt(r.error)
+                    << (st.dynamic ? " at rest after " + std::to_string(r.settle_frames) + " frames" +
+                                         (r.settled ? "" : " (not settled)")
+                                   : "")
+                    << "\n";
+    }
     rows.push_back(r);
   }
   mark_pareto(rows);
-  return rows;
+  return result;
 }
 
 void mark_pareto(std::vector<TradeRow>& rows) {
@@ -144,15 +354,16 @@ void mark_pareto(std::vector<TradeRow>& rows) {
   }
 }
 
-std::string trade_csv(const std::vector<TradeRow>& rows) {
-  std::ostringstream s;
-  s << "model,solver,preconditioner,tolerance,budget_ms,ms_per_frame,iterations,error,frames_not_converged,pareto\n";
-  s << std::setprecision(8);
-  for (const TradeRow& r : rows)
-    s << r.model << "," << r.solver << "," << r.preconditioner << "," << r.tolerance << "," << r.budget_ms << ","
-      << r.ms_per_frame << "," << r.iterations << "," << r.error << "," << r.frames_not_converged << ","
-      << (r.pareto ? 1 : 0) << "\n";
-  return s.str();
+std::vector<const TradeRow*> recommend(const std::vector<TradeRow>& rows, const std::vector<double>& budgets_ms) {
+  std::vector<const TradeRow*> out;
+  for (double b : budgets_ms) {
+    const TradeRow* best = nullptr;
+    for (const TradeRow& r : rows)
+      if (r.ms_per_frame <= b && (!best || r.error < best->error || (r.error == best->error && r.ms_per_frame < best->ms_per_frame)))
+        best = &r;
+    out.push_back(best);
+  }
+  return out;
 }
 
 }  // namespace incise

@@ -1,53 +1,108 @@
 #pragma once
-// incise trade: plays one scene under a grid of solver settings and measures, for each, the
-// time per frame and the error against a reference, so a user can pick settings for a scene.
+// incise trade: plays one scene under a grid of settings and measures, for each, the time per
+// frame and the error against a converged reference, so a user can pick settings for a scene.
 //
-// Reference: the scene's mesh, loads and materials with static corotational FEM solved by the
-// direct solver, re-linearized solver.nonlinear_iterations times per frame like the runs, so
-// the error measures what the model and solver choices change. Error of a
-// run: the largest over frames of ||u_f - u_ref,f|| / ||u_ref,f|| (nodal displacements, 2-norm
-// over all vertices; a frame with ||u_ref,f|| = 0 compares absolute values). Time per frame:
-// the mean wall time of a frame's step (setup, rotations, right-hand side, solve; a background
-// factorization runs on another thread and is not counted).
+// Reference: the scene's body refined uniformly (1:8 per level, mesh/refine.h) one level
+// beyond the finest run, solved by the direct solver with static corotational FEM in the most
+// accurate formulation (mixed: pressure as an unknown, exact at any Poisson's ratio),
+// re-linearized solver.nonlinear_iterations times per frame like the runs. Its own error bar
+// is the difference between it and the same reference one level coarser (reference_change).
+//
+// Runs are compared at shared material points: each run's vertices, located in the reference
+// mesh and read there by barycentric interpolation (mesh/point_locator.h). Error of a run: the
+// relative L2 of displacement over those points, ||u - u_ref|| / ||u_ref||, and the relative
+// error of the largest displacement; static runs take the largest over frames. Dynamic runs
+// (springs, implicit-Euler FEM) are compared at rest: played, with the loads held at their final
+// values, until they settle, then compared with the reference's last frame ("at-rest"); time to
+// settle and time per frame are reported. Time per frame: the mean wall time of a frame's step
+// (a background factorization runs on another thread and is not counted).
+//
+// The grid has two parts, so that it stays bounded: discretization rows (each resolution x
+// model x formulation, with the scene's own solver settings) and solver rows (at the scene's
+// resolution and formulation, per FEM model: the direct solver and CG per preconditioner x
+// tolerance x budget).
 #include <functional>
 #include <iosfwd>
 #include <string>
 #include <vector>
 
+#include "sim/formulation.h"
 #include "sim/scene.h"
 
 namespace incise {
 
 struct TradeOptions {
-  std::vector<SceneModel> models{SceneModel::FemLinear, SceneModel::FemCorotational, SceneModel::Springs};  // all three
+  std::vector<SceneModel> models{SceneModel::FemLinear, SceneModel::FemCorotational, SceneModel::Springs};
+  std::vector<Formulation> formulations{Formulation::Standard, Formulation::NodalAveraged, Formulation::Mixed};
+  // Mesh levels: 0 the scene's mesh, k > 0 refined k times, -1 one coarser (generated meshes
+  // only: half the cells). Empty: {-1, 0, 1} for generated meshes, {0, 1} for mesh files.
+  std::vector<int> resolutions;
+  int reference_level = -1;  // -1: one above the finest resolution
   std::vector<Preconditioner> preconditioners{Preconditioner::Jacobi, Preconditioner::BlockJacobi,
-                                              Preconditioner::Cholesky};  // CG runs
+                                              Preconditioner::Cholesky, Preconditioner::Amg};
   std::vector<double> tolerances{1e-2, 1e-4, 1e-6, 1e-8};  // CG relative residual targets
   std::vector<double> budgets_ms{0, 2};                    // per-frame CG budgets; 0 = none
   bool direct = true;                                      // also the direct solver per FEM model
   int frames = -1;                                         // override the scene's frames when >= 0
-  std::ostream* progress = nullptr;                        // one line per run (stderr in the CLI)
+  // Dynamic runs: settled when no vertex moved more than settle_tolerance x the largest
+  // displacement in each of 3 frames in a row (after the loads' last ramp frame), or after
+  // max_settle_frames.
+  double settle_tolerance = 1e-4;
+  int max_settle_frames = 2000;
+  std::vector<double> frame_budgets_ms{2, 16, 33};  // one recommendation per frame budget
+  std::ostream* progress = nullptr;                 // the plan, then one line per run (stderr in the CLI)
 };
 
 struct TradeRow {
-  std::string model, solver, preconditioner;  // solver: "cg", "direct" or the spring integrator
+  int resolution = 0;                         // mesh level (see TradeOptions::resolutions)
+  std::size_t tets = 0;
+  std::string model, formulation, solver, preconditioner;  // solver: "cg", "direct" or "implicit-euler"
   double tolerance = 0, budget_ms = 0;
-  double ms_per_frame = 0, iterations = 0;   // iterations: mean per frame
-  double error = 0;                          // see above
+  double ms_per_frame = 0, iterations = 0;    // iterations: mean per frame
+  double error = 0;                           // relative L2 of displacement (see above)
+  double max_displacement_error = 0;          // relative error of the largest displacement
+  std::string compared = "per-frame";         // or "at-rest" (dynamic runs)
+  int settle_frames = 0;                      // at-rest: frames played until settled (0: per-frame)
+  double settle_ms = 0;                       // at-rest: wall time of those frames
+  bool settled = true;                        // at-rest: false when max_settle_frames ran out
   int frames_not_converged = 0;
-  bool pareto = false;                       // no other row is both faster and more accurate
+  bool pareto = false;                        // no other row is both faster and more accurate
 };
 
-// Runs the grid (the reference first). Throws what run_scene throws, naming the setting.
-std::vector<TradeRow> run_trade(const Scene& scene, const TradeOptions& options);
+struct TradeReference {
+  int level = 0;
+  std::size_t tets = 0;
+  std::string formulation;
+  double seconds = 0;
+  // Relative L2 difference, at the scene mesh's vertices, between this reference and the same
+  // solve one level coarser: the reference's own error bar (-1 when level 0 has no coarser).
+  double change = -1;
+};
+
+struct TradeResult {
+  TradeReference reference;
+  std::vector<TradeRow> rows;
+};
+
+// Runs the reference and the grid. Throws what run_scene throws, naming the setting.
+TradeResult run_trade(const Scene& scene, const TradeOptions& options);
 
 // Marks the Pareto frontier of (ms_per_frame, error).
 void mark_pareto(std::vector<TradeRow>& rows);
 
-// CSV with a header: model,solver,preconditioner,tolerance,budget_ms,ms_per_frame,iterations,
-// error,frames_not_converged,pareto.
+// The most accurate row whose time per frame fits each budget (nullptr: none fits).
+std::vector<const TradeRow*> recommend(const std::vector<TradeRow>& rows, const std::vector<double>& budgets_ms);
+
+// CSV with a header: resolution,tets,model,formulation,solver,preconditioner,tolerance,budget_ms,
+// ms_per_frame,iterations,error,max_displacement_error,compared,settle_frames,settle_ms,settled,
+// frames_not_converged,pareto.
 std::string trade_csv(const std::vector<TradeRow>& rows);
-// Error against time per frame (log-log), one colour per model, the Pareto frontier drawn.
-std::string trade_svg(const std::vector<TradeRow>& rows, const std::string& title);
+// The same as JSON, with the reference and the recommendations.
+std::string trade_json(const TradeResult& result, const std::vector<double>& budgets_ms);
+// The frontier as a short table and one recommendation line per frame budget (stdout).
+std::string trade_summary(const TradeResult& result, const std::vector<double>& budgets_ms);
+// Error against time per frame (log-log): colour per model and formulation, marker per
+// resolution, the Pareto frontier drawn, the frame budgets as vertical lines.
+std::string trade_svg(const std::vector<TradeRow>& rows, const std::string& title, const std::vector<double>& budgets_ms = {});
 
 }  // namespace incise

@@ -1,5 +1,6 @@
-// The trade plot: error against time per frame on log-log axes, one colour per model, one
-// marker per solver kind, the Pareto frontier as a staircase through its points.
+// The trade plot: error against time per frame on log-log axes, one colour per model and
+// formulation, one marker per mesh resolution, the Pareto frontier as a staircase through its
+// points, the frame budgets as vertical lines.
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -10,10 +11,37 @@ namespace incise {
 
 namespace {
 
-const char* colour(const std::string& model) {
-  if (model == "fem-linear") return "#1f77b4";
-  if (model == "fem-corotational") return "#d62728";
-  return "#2ca02c";
+struct Series {
+  const char* model;
+  const char* formulation;
+  const char* colour;
+};
+constexpr Series kSeries[] = {{"fem-linear", "standard", "#1f77b4"},        {"fem-linear", "nodal-averaged", "#17becf"},
+                              {"fem-linear", "mixed", "#9467bd"},           {"fem-corotational", "standard", "#d62728"},
+                              {"fem-corotational", "nodal-averaged", "#ff7f0e"}, {"fem-corotational", "mixed", "#8c564b"},
+                              {"springs", "-", "#2ca02c"}};
+
+const char* colour(const TradeRow& r) {
+  for (const Series& s : kSeries)
+    if (r.model == s.model && r.formulation == s.formulation) return s.colour;
+  return "#7f7f7f";
+}
+
+// Marker per resolution: -1 triangle, 0 circle, 1 square, 2 and finer diamond.
+std::string marker(int level, double x, double y, double size, const std::string& extra) {
+  std::ostringstream s;
+  if (level < 0)
+    s << "<polygon points=\"" << x << "," << y - size * 1.2 << " " << x - size << "," << y + size * 0.8 << " " << x + size
+      << "," << y + size * 0.8 << "\"" << extra << "/>";
+  else if (level == 0)
+    s << "<circle cx=\"" << x << "\" cy=\"" << y << "\" r=\"" << size << "\"" << extra << "/>";
+  else if (level == 1)
+    s << "<rect x=\"" << x - size << "\" y=\"" << y - size << "\" width=\"" << 2 * size << "\" height=\"" << 2 * size
+      << "\"" << extra << "/>";
+  else
+    s << "<polygon points=\"" << x << "," << y - size * 1.3 << " " << x + size * 1.3 << "," << y << " " << x << ","
+      << y + size * 1.3 << " " << x - size * 1.3 << "," << y << "\"" << extra << "/>";
+  return s.str();
 }
 
 std::string escape(const std::string& s) {
@@ -29,8 +57,8 @@ std::string escape(const std::string& s) {
 
 }  // namespace
 
-std::string trade_svg(const std::vector<TradeRow>& rows, const std::string& title) {
-  const double w = 820, h = 560, l = 80, r = 200, t = 50, b = 60;
+std::string trade_svg(const std::vector<TradeRow>& rows, const std::string& title, const std::vector<double>& budgets_ms) {
+  const double w = 900, h = 580, l = 80, r = 280, t = 50, b = 60;
   const double floor_err = 1e-12, floor_ms = 1e-3;
   auto lx = [&](double ms) { return std::log10(std::max(ms, floor_ms)); };
   auto ly = [&](double e) { return std::log10(std::max(e, floor_err)); };
@@ -38,6 +66,7 @@ std::string trade_svg(const std::vector<TradeRow>& rows, const std::string& titl
   for (const TradeRow& row : rows) {
     x0 = std::min(x0, lx(row.ms_per_frame));
     x1 = std::max(x1, lx(row.ms_per_frame));
+    for (double budget : budgets_ms) x1 = std::max(x1, lx(budget));
     y0 = std::min(y0, ly(row.error));
     y1 = std::max(y1, ly(row.error));
   }
@@ -68,7 +97,13 @@ std::string trade_svg(const std::vector<TradeRow>& rows, const std::string& titl
   }
   s << "<text x=\"" << (l + w - r) / 2 << "\" y=\"" << h - 18 << "\" text-anchor=\"middle\">time per frame [ms]</text>\n";
   s << "<text transform=\"translate(20," << (t + h - b) / 2
-    << ") rotate(-90)\" text-anchor=\"middle\">error vs corotational direct (relative)</text>\n";
+    << ") rotate(-90)\" text-anchor=\"middle\">error vs converged reference (relative L2)</text>\n";
+  for (double budget : budgets_ms) {
+    const double x = px(budget);
+    s << "<line x1=\"" << x << "\" y1=\"" << t << "\" x2=\"" << x << "\" y2=\"" << h - b
+      << "\" stroke=\"#888\" stroke-dasharray=\"2,4\"/><text x=\"" << x + 3 << "\" y=\"" << t + 12 << "\" fill=\"#555\">"
+      << budget << " ms</text>\n";
+  }
   // Pareto frontier: a staircase through the frontier points in time order.
   std::vector<const TradeRow*> front;
   for (const TradeRow& row : rows)
@@ -85,29 +120,35 @@ std::string trade_svg(const std::vector<TradeRow>& rows, const std::string& titl
   for (const TradeRow& row : rows) {
     const double x = px(row.ms_per_frame), y = py(row.error);
     std::ostringstream tip;
-    tip << row.model << " " << row.solver << " " << row.preconditioner << " tol " << row.tolerance << " budget "
-        << row.budget_ms << " ms: " << row.ms_per_frame << " ms/frame, error " << row.error;
+    tip << "level " << row.resolution << " (" << row.tets << " tets) " << row.model << " " << row.formulation << " "
+        << row.solver << " " << row.preconditioner << " tol " << row.tolerance << " budget " << row.budget_ms
+        << " ms: " << row.ms_per_frame << " ms/frame, error " << row.error << " (" << row.compared << ")";
     const std::string stroke = row.pareto ? " stroke=\"#000\" stroke-width=\"2\"" : "";
-    s << "<g fill=\"" << colour(row.model) << "\" fill-opacity=\"0.75\"><title>" << escape(tip.str()) << "</title>";
-    if (row.solver == "direct")
-      s << "<rect x=\"" << x - 5 << "\" y=\"" << y - 5 << "\" width=\"10\" height=\"10\"" << stroke << "/>";
-    else if (row.solver == "cg")
-      s << "<circle cx=\"" << x << "\" cy=\"" << y << "\" r=\"" << (row.budget_ms > 0 ? 3.5 : 5) << "\"" << stroke << "/>";
-    else
-      s << "<polygon points=\"" << x << "," << y - 6 << " " << x - 5 << "," << y + 4 << " " << x + 5 << "," << y + 4
-        << "\"" << stroke << "/>";
-    s << "</g>\n";
+    s << "<g fill=\"" << colour(row) << "\" fill-opacity=\"0.75\"><title>" << escape(tip.str()) << "</title>"
+      << marker(row.resolution, x, y, row.budget_ms > 0 ? 3.5 : 5, stroke) << "</g>\n";
   }
-  // Legend.
+  // Legend: the series present, then the markers.
   double ly0 = t + 10;
-  for (const char* m : {"fem-linear", "fem-corotational", "springs"}) {
-    s << "<circle cx=\"" << w - r + 20 << "\" cy=\"" << ly0 << "\" r=\"5\" fill=\"" << colour(m) << "\"/><text x=\""
-      << w - r + 32 << "\" y=\"" << ly0 + 4 << "\">" << m << "</text>\n";
+  for (const Series& se : kSeries) {
+    bool present = false;
+    for (const TradeRow& row : rows) present = present || (row.model == se.model && row.formulation == se.formulation);
+    if (!present) continue;
+    s << "<circle cx=\"" << w - r + 20 << "\" cy=\"" << ly0 << "\" r=\"5\" fill=\"" << se.colour << "\"/><text x=\""
+      << w - r + 32 << "\" y=\"" << ly0 + 4 << "\">" << se.model << (std::string(se.formulation) == "-" ? "" : std::string(" ") + se.formulation)
+      << "</text>\n";
     ly0 += 20;
   }
-  s << "<text x=\"" << w - r + 14 << "\" y=\"" << ly0 + 4 << "\">o CG (small: budgeted)</text>\n";
-  s << "<text x=\"" << w - r + 14 << "\" y=\"" << ly0 + 22 << "\">[] direct, ^ springs</text>\n";
-  s << "<text x=\"" << w - r + 14 << "\" y=\"" << ly0 + 40 << "\">outlined, dashed: Pareto</text>\n";
+  for (int level : {-1, 0, 1, 2}) {
+    bool present = false;
+    for (const TradeRow& row : rows) present = present || std::min(row.resolution, 2) == level;
+    if (!present) continue;
+    s << "<g fill=\"#666\">" << marker(level, w - r + 20, ly0, 5, "") << "</g><text x=\"" << w - r + 32 << "\" y=\""
+      << ly0 + 4 << "\">mesh level " << level << (level == 0 ? " (the scene's)" : level < 0 ? " (coarser)" : " (refined)")
+      << "</text>\n";
+    ly0 += 20;
+  }
+  s << "<text x=\"" << w - r + 14 << "\" y=\"" << ly0 + 4 << "\">small: CG with a frame budget</text>\n";
+  s << "<text x=\"" << w - r + 14 << "\" y=\"" << ly0 + 22 << "\">outlined, dashed: Pareto</text>\n";
   s << "</svg>\n";
   return s.str();
 }
