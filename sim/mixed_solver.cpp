@@ -90,6 +90,32 @@ struct MixedSolver::Krylov {
   int iterations = 0;
 };
 
+// a M + c K_mu with its diagonal and vertex blocks, what the displacement preconditioners read.
+class MixedSolver::UBlock : public LinearOperator {
+public:
+  UBlock(const FemModel& k, double a, double c) : k_(k), a_(a), c_(c) {
+    const Eigen::VectorXd& m = k.lumped_mass();
+    diag_ = c * k.diagonal() + a * m;
+    const auto& kb = k.diagonal_blocks();
+    blocks_.resize(kb.size());
+    for (std::size_t v = 0; v < kb.size(); ++v)
+      blocks_[v] = c * kb[v] + a * m[Eigen::Index(3 * v)] * Eigen::Matrix3d::Identity();
+  }
+  Eigen::Index rows() const override { return k_.rows(); }
+  void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const override {
+    k_.multiply(x, y);
+    y = c_ * y + a_ * k_.lumped_mass().cwiseProduct(x);
+  }
+  const Eigen::VectorXd& diagonal() const override { return diag_; }
+  const std::vector<Eigen::Matrix3d>& diagonal_blocks() const override { return blocks_; }
+
+private:
+  const FemModel& k_;
+  double a_, c_;
+  Eigen::VectorXd diag_;
+  std::vector<Eigen::Matrix3d> blocks_;
+};
+
 // ---- construction and updates -------------------------------------------------------
 
 MixedSolver::MixedSolver(const TetMesh& mesh, const MixedMaterials& materials, FemKind kind, const MixedOptions& options)
@@ -189,7 +215,7 @@ void MixedSolver::set_pressure(const Eigen::VectorXd& p) {
 
 // ---- operator ---------------------------------------------------------------------
 
-void MixedSolver::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
+void MixedSolver::multiply_static(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
   const Eigen::Index nu = Eigen::Index(num_dofs()), np = Eigen::Index(vertex_slots());
   tmp_u_ = x.head(nu);
   model_.multiply(tmp_u_, scratch_);  // K_mu u
@@ -230,6 +256,23 @@ void MixedSolver::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
     y.segment<3>(3 * Eigen::Index(v)) += fu;
     y[nu + Eigen::Index(v)] = fp;
   });
+}
+
+void MixedSolver::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
+  multiply_static(x, y);
+  if (a_ == 0 && c_ == 1) return;
+  const Eigen::Index nu = Eigen::Index(num_dofs());
+  y *= c_;
+  y.head(nu) += a_ * model_.lumped_mass().cwiseProduct(x.head(nu));
+}
+
+void MixedSolver::set_system(double mass_coeff, double stiffness_coeff) {
+  if (!(mass_coeff >= 0) || !(stiffness_coeff > 0))
+    throw InvalidArgument("mixed: system coefficients: expected a >= 0 and c > 0");
+  if (mass_coeff == a_ && stiffness_coeff == c_) return;
+  a_ = mass_coeff;
+  c_ = stiffness_coeff;
+  invalidate();
 }
 
 Eigen::VectorXd MixedSolver::right_hand_side(const Eigen::VectorXd& f) const {
@@ -275,6 +318,11 @@ Eigen::SparseMatrix<double> MixedSolver::assemble() const {
   }
   Eigen::SparseMatrix<double> a(nu + np, nu + np);
   a.setFromTriplets(trip.begin(), trip.end());
+  if (a_ == 0 && c_ == 1) return a;
+  a *= c_;
+  const Eigen::VectorXd& m = model_.lumped_mass();
+  for (Eigen::Index i = 0; i < nu; ++i)
+    if (m[i] != 0) a.coeffRef(i, i) += a_ * m[i];
   return a;
 }
 
@@ -314,10 +362,41 @@ void MixedSolver::setup_preconditioner() {
   if (opt_.preconditioner == MixedPreconditioner::Amg && !opt_.direct)
     for (std::size_t v = 0; v < vertex_slots() && !use_amg_; ++v)
       use_amg_ = umask_[3 * v] && umask_[3 * v + 1] && umask_[3 * v + 2];
-  if (use_amg_) amg_->setup(model_, &umask_);
-  else jacobi_.setup(model_, &umask_);
+  ublock_ = std::make_unique<UBlock>(model_, a_, c_);
+  if (use_amg_) {
+    amg_->frame(a_, c_, last_iterations_);
+    amg_->setup(*ublock_, &umask_);
+  } else {
+    jacobi_.setup(*ublock_, &umask_);
+  }
+  pressure_preconditioner();
   pc_version_ = version_;
   pc_mask_ = mask_;
+}
+
+void MixedSolver::pressure_preconditioner() {
+  const std::size_t nu = num_dofs(), np = vertex_slots();
+  Eigen::VectorXd d = c_ * pdiag_;
+  if (a_ > 0) {
+    // c^2 diag(B D^-1 B^T), D = diag(a M + c K): for small c the Schur complement is mostly
+    // c^2 B (a M)^-1 B^T, a Laplacian the mass-like term alone misses.
+    const Eigen::VectorXd& du = ublock_->diagonal();
+    for (std::size_t t = 0; t < rg_.size(); ++t) {
+      const TetId id{std::uint32_t(t)};
+      if (!model_.tet_alive(id)) continue;
+      const auto& vs = model_.tet_vertex_ids(id);
+      double sum = 0;
+      for (int j = 0; j < 4; ++j)
+        for (int k = 0; k < 3; ++k) {
+          const std::size_t i = 3 * std::size_t(vs[j]) + std::size_t(k);
+          if (umask_[i]) sum += rg_[t](k, j) * rg_[t](k, j) / du[Eigen::Index(i)];
+        }
+      for (std::uint32_t v : vs) d[v] += c_ * c_ * sum;
+    }
+  }
+  pinv_ = Eigen::VectorXd::Zero(Eigen::Index(np));
+  for (std::size_t v = 0; v < np; ++v)
+    if (mask_[nu + v] && d[Eigen::Index(v)] > 0) pinv_[Eigen::Index(v)] = 1 / d[Eigen::Index(v)];
 }
 
 void MixedSolver::project(Eigen::VectorXd& v) const {
@@ -332,7 +411,7 @@ void MixedSolver::precondition(const Eigen::VectorXd& r, Eigen::VectorXd& z) con
   else jacobi_.apply(tmp_u_, tmp_z_);
   z.resize(nu + np);
   z.head(nu) = tmp_z_;
-  for (Eigen::Index v = 0; v < np; ++v) z[nu + v] = mask_[std::size_t(nu + v)] ? r[nu + v] / pdiag_[v] : 0.0;
+  z.tail(np) = r.tail(np).cwiseProduct(pinv_);
 }
 
 double MixedSolver::preconditioned_norm(const Eigen::VectorXd& r) const {
@@ -352,23 +431,30 @@ double MixedSolver::relative_residual(const Eigen::VectorXd& b, const Eigen::Vec
 // ---- solves -------------------------------------------------------------------------
 
 MixedStats MixedSolver::solve(const Eigen::VectorXd& f, const std::vector<std::uint8_t>& free, Eigen::VectorXd& u) {
+  if (a_ != 0 || c_ != 1) throw InvalidArgument("mixed: solve() is the static solve; set_system(0, 1) or solve_system()");
   const Eigen::Index nu = Eigen::Index(num_dofs()), np = Eigen::Index(vertex_slots());
   if (u.size() < nu) {  // slots added by growth start at 0
     const Eigen::Index old = u.size();
     u.conservativeResize(nu);
     u.tail(nu - old).setZero();
   }
-  full_mask(free);
-  const Eigen::VectorXd b = right_hand_side(f);
   Eigen::VectorXd x(nu + np);
   x.head(nu) = u.head(nu);
   x.tail(np) = p_;
-  for (Eigen::Index v = 0; v < np; ++v)
-    if (!mask_[std::size_t(nu + v)]) x[nu + v] = 0;
-  MixedStats st = opt_.direct ? solve_direct(b, x) : solve_minres(b, x);
+  MixedStats st = solve_system(right_hand_side(f), free, x);
   u.head(nu) = x.head(nu);
   p_ = x.tail(np);
   return st;
+}
+
+MixedStats MixedSolver::solve_system(const Eigen::VectorXd& b, const std::vector<std::uint8_t>& free, Eigen::VectorXd& x) {
+  const Eigen::Index nu = Eigen::Index(num_dofs()), np = Eigen::Index(vertex_slots());
+  if (b.size() != nu + np || x.size() != nu + np)
+    throw InvalidArgument("mixed: solve_system: b and x need num_dofs() + vertex_slots() entries");
+  full_mask(free);
+  for (Eigen::Index v = 0; v < np; ++v)
+    if (!mask_[std::size_t(nu + v)]) x[nu + v] = 0;
+  return opt_.direct ? solve_direct(b, x) : solve_minres(b, x);
 }
 
 MixedStats MixedSolver::solve_direct(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
@@ -522,7 +608,7 @@ MixedStats MixedSolver::solve_minres(const Eigen::VectorXd& b, Eigen::VectorXd& 
     }
     fresh = true;
   }
-  st.total_iterations = k.iterations;
+  st.total_iterations = last_iterations_ = k.iterations;
   k.valid = !st.converged && !st.breakdown;
   if (k.valid) {
     k.b = b;

@@ -118,19 +118,39 @@ public:
   // Corotational: per-tet rotations from u (no-op for Linear).
   void update_rotations(const Eigen::VectorXd& u);
 
-  // Static solve. f: external force per displacement unknown (num_dofs()); free: per
+  // Static solve (throws InvalidArgument unless the system is the static one). f: external force per displacement unknown (num_dofs()); free: per
   // displacement unknown; u: in, the prescribed values on kept unknowns and the start
   // elsewhere; out, the solution. The pressure is kept (pressure()) and warm-starts the next.
   MixedStats solve(const Eigen::VectorXd& f, const std::vector<std::uint8_t>& free, Eigen::VectorXd& u);
+
+  // Dynamic steps (backward Euler, as FemSimulation's): the system becomes
+  //   [ a M + c K_mu   -c B^T ] [v]   [b_u]
+  //   [ -c B           -c C   ] [q] = [b_p]
+  // (M the lumped mass). For velocity v' and end-of-step pressure p' (u' = u + dt v'):
+  // a = 1 + dt damping, c = dt^2, q = p' / dt, b_u = M v + dt (f_ext + b_R - K_mu u),
+  // b_p = dt (c_R + B u), where [K_mu u; -B u] = multiply([u; 0]) = multiply_static([u; 0]), and
+  // b_R, c_R are right_hand_side(0). (0, 1): the static system (the default).
+  // The pressure preconditioner adds c^2 diag(B diag(a M + c K)^-1 B^T) to c x the static one
+  // when a > 0 (for small dt the Schur complement is mostly that Laplacian-like term).
+  void set_system(double mass_coeff, double stiffness_coeff);
+  double mass_coeff() const { return a_; }
+  double stiffness_coeff() const { return c_; }
+  // The current system with a full right-hand side b (num_dofs() + vertex_slots()); x: in, the
+  // prescribed values on kept displacement unknowns and the start elsewhere (pressure slots
+  // after the displacements); out, the solution. Does not touch pressure().
+  MixedStats solve_system(const Eigen::VectorXd& b, const std::vector<std::uint8_t>& free, Eigen::VectorXd& x);
 
   const Eigen::VectorXd& pressure() const { return p_; }  // by vertex slot
   void set_pressure(const Eigen::VectorXd& p);
   // Per vertex slot: the pressure block of the preconditioner (lumped mass x (1/mu + 1/lambda)).
   const Eigen::VectorXd& pressure_diagonal() const { return pdiag_; }
 
-  // y = A x for the full system (x = [u; p], 3n + n), no constraints: tests, the direct path.
+  // y = A x for the current system (x = [u; p], 3n + n), no constraints: tests, the direct path.
   void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const;
-  // The full saddle-point matrix (4n x 4n) and right-hand side [f + b_R; c_R].
+  // The static system's product (a = 0, c = 1) whatever the current one: the dynamic
+  // right-hand side's K_mu u and -B u.
+  void multiply_static(const Eigen::VectorXd& x, Eigen::VectorXd& y) const;
+  // The current system's matrix (4n x 4n), and the static right-hand side [f + b_R; c_R].
   Eigen::SparseMatrix<double> assemble() const;
   Eigen::VectorXd right_hand_side(const Eigen::VectorXd& f) const;
 
@@ -139,6 +159,7 @@ public:
 
 private:
   struct Krylov;  // MINRES state kept for resumption (in the .cpp)
+  class UBlock;   // a M + c K_mu as a LinearOperator, for the displacement preconditioner
 
   void grow();
   void compute_tet(std::uint32_t t);
@@ -152,7 +173,7 @@ private:
   MixedStats solve_minres(const Eigen::VectorXd& b, Eigen::VectorXd& x);
   double preconditioned_norm(const Eigen::VectorXd& r) const;
   double relative_residual(const Eigen::VectorXd& b, const Eigen::VectorXd& x) const;
-  void pressure_rows(const Eigen::VectorXd& x, Eigen::VectorXd& y) const;
+  void pressure_preconditioner();
 
   const TetMesh* mesh_;
   MixedMaterials materials_;
@@ -166,6 +187,8 @@ private:
   // Per vertex slot: the pressure preconditioner's diagonal (0: no tets).
   Eigen::VectorXd pdiag_;
   Eigen::VectorXd p_;  // the last pressure
+  double a_ = 0, c_ = 1;  // the system's mass and stiffness coefficients
+  Eigen::VectorXd pinv_;  // per vertex slot: the pressure preconditioner's inverse (0: kept)
 
   // Solve state.
   std::uint64_t version_ = 1;          // bumped by anything that changes the operator
@@ -174,6 +197,8 @@ private:
   std::uint64_t pc_version_ = 0;       // operator version the preconditioner was set up for
   std::vector<std::uint8_t> pc_mask_;  // and its mask
   std::unique_ptr<AggregationAmg> amg_;
+  std::unique_ptr<UBlock> ublock_;
+  int last_iterations_ = 0;
   bool use_amg_ = false;               // of the last setup (else block-Jacobi)
   BlockJacobi jacobi_;
   std::unique_ptr<Krylov> krylov_;

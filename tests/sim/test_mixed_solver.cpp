@@ -230,3 +230,55 @@ TEST_CASE("mixed: after local edits the solver equals one built from scratch", "
     CHECK((sl - ss).norm() <= 1e-9 * ss.norm());
   }
 }
+
+TEST_CASE("mixed: backward Euler steps (a M + c K) match direct and settle to the static solution", "[fem][mixed][dynamic]") {
+  TetMesh m = make_box(Vec3(2, 1, 1), {6, 3, 3});
+  jitter(m, 0.15, 4);
+  const MixedMaterials mats(Material{1e4, 0.5, 1000});
+  MixedSolver stat(m, mats, FemKind::Linear, direct_options());
+  MixedProblem pb(stat.num_dofs());
+  for (VertexId v : m.vertices())
+    if (m.rest(v).x() < 1e-9)
+      for (int d = 0; d < 3; ++d) pb.keep(v, d);
+  add_traction(m, pb, [](const Vec3& x) { return x.x() > 2 - 1e-9; },
+               [](const Vec3&, const Vec3&) -> Vec3 { return Vec3(0, 0, -200); });
+  Eigen::VectorXd us = pb.u;
+  REQUIRE(stat.solve(pb.f, pb.free, us).converged);
+
+  const double dt = 0.2, damping = 1;
+  MixedSolver dyn(m, mats, FemKind::Linear, tolerance(1e-10)), ref(m, mats, FemKind::Linear, direct_options());
+  const Eigen::Index nu = Eigen::Index(dyn.num_dofs()), np = Eigen::Index(dyn.vertex_slots());
+  Eigen::VectorXd u = pb.u, v = Eigen::VectorXd::Zero(nu), p = Eigen::VectorXd::Zero(np);
+  const Eigen::VectorXd b0 = dyn.right_hand_side(pb.f);
+  const Eigen::VectorXd& mass = dyn.deviatoric_model().lumped_mass();
+  int iterations = 0;
+  for (int step = 0; step < 150; ++step) {
+    Eigen::VectorXd x0(nu + np), y;
+    x0 << u, Eigen::VectorXd::Zero(np);
+    dyn.multiply_static(x0, y);  // [K u; -B u]
+    Eigen::VectorXd b(nu + np);
+    b.head(nu) = mass.cwiseProduct(v) + dt * (b0.head(nu) - y.head(nu));
+    b.tail(np) = dt * (b0.tail(np) - y.tail(np));
+    dyn.set_system(1 + dt * damping, dt * dt);
+    ref.set_system(1 + dt * damping, dt * dt);
+    Eigen::VectorXd x(nu + np);
+    x << v, p / dt;
+    for (Eigen::Index i = 0; i < nu; ++i)
+      if (!pb.free[std::size_t(i)]) x[i] = 0;  // fixed: zero velocity
+    Eigen::VectorXd xr = x;
+    const MixedStats st = dyn.solve_system(b, pb.free, x);
+    iterations += st.iterations;
+    REQUIRE(st.converged);
+    if (step < 3) {
+      REQUIRE(ref.solve_system(b, pb.free, xr).converged);
+      CHECK((x - xr).head(nu).norm() <= 1e-7 * xr.head(nu).norm());
+    }
+    v = x.head(nu);
+    p = dt * x.tail(np);
+    u += dt * v;
+  }
+  INFO("150 steps, " << iterations << " MINRES iterations; static " << us.norm() << ", dynamic " << u.norm());
+  CHECK((u - us).norm() <= 1e-3 * us.norm());
+  CHECK((p - stat.pressure()).norm() <= 1e-2 * stat.pressure().norm());
+  CHECK_THROWS(dyn.solve(pb.f, pb.free, u));  // solve() is the static solve only
+}
