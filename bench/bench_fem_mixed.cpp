@@ -3,8 +3,11 @@
 //     displacement, mixed and standard tets, three meshes;
 //  2. cantilever tip deflection against Timoshenko beam theory, mixed and standard, three meshes;
 //  3. MINRES iterations and milliseconds per solve (cold start, tolerance 1e-6), multigrid and
-//     block-Jacobi displacement preconditioners.
-//   bench_fem_mixed [--out DIR] [--quick] [--nu 0.3,0.45,0.49,0.4999,0.5]
+//     block-Jacobi displacement preconditioners;
+//  4. frames: the cylinder's pressure ramped 5% a frame, each solve warm-started from the last
+//     (iterations and ms per frame), and the same with a 5 ms budget per frame (frames until
+//     converged, the residual after each budgeted frame).
+//   bench_fem_mixed [--out DIR] [--quick] [--nu 0.3,0.45,0.49,0.4999,0.5] [--only lame|cantilever|minres|frames]
 #include <cstdio>
 
 #include <Eigen/SparseCholesky>
@@ -87,6 +90,37 @@ double standard_cantilever(int n, double nu) {
   return std::abs(tip / count - theory) / std::abs(theory);
 }
 
+// Frames of a ramped inner pressure on the cylinder: warm starts, then a wall-clock budget.
+void frames(double nu, int nr, int nt, int nz, Csv* csv) {
+  const double a = 1, b = 2, h = 0.5, e = 1e4, tol = 1e-9;
+  TetMesh m = make_quarter_tube(a, b, h, nr, nt, nz);
+  for (double budget : {0.0, 5.0}) {
+    MixedOptions o;
+    o.budget_ms = budget;
+    MixedSolver solver(m, MixedMaterials(Material{e, nu, 1000}), FemKind::Linear, o);
+    MixedProblem pb(solver.num_dofs());
+    for (VertexId v : m.vertices()) {
+      const Vec3 x = m.rest(v);
+      if (std::abs(x.x()) < tol) pb.keep(v, 0);
+      if (std::abs(x.y()) < tol) pb.keep(v, 1);
+      if (std::abs(x.z()) < tol || std::abs(x.z() - h) < tol) pb.keep(v, 2);
+    }
+    std::printf("%8g budget %4g ms:", nu, budget);
+    for (int frame = 0; frame < 8; ++frame) {
+      MixedProblem load = pb;
+      load.u = pb.u;  // the last solution: warm start
+      const double p = 10 * (1 + 0.05 * frame);
+      add_traction(m, load, [&](const Vec3& x) { return std::abs(x.head<2>().norm() - a) < 1e-9; },
+                   [&](const Vec3&, const Vec3& n) -> Vec3 { return -p * n; });
+      const MixedStats st = solver.solve(load.f, load.free, load.u);
+      pb.u = load.u;
+      std::printf(" %d it/%.1f ms/%.0e", st.iterations, st.solve_ms, st.relative_residual);
+      if (csv) csv->row("frames", nu, budget, frame, st.relative_residual, NAN, "amg", st.iterations, st.solve_ms);
+    }
+    std::printf("\n");
+  }
+}
+
 MixedOptions direct() {
   MixedOptions o;
   o.direct = true;
@@ -99,7 +133,8 @@ int main(int argc, char** argv) {
   Args args(argc, argv);
   const bool quick = args.flag("--quick");
   const std::vector<double> nus = args.list("--nu", "0.3,0.45,0.49,0.4999,0.5");
-  const std::string out = args.get("--out", "");
+  const std::string out = args.get("--out", ""), only = args.get("--only", "");
+  auto section = [&](const char* name) { return only.empty() || only == name; };
   std::unique_ptr<Csv> csv;
   if (!out.empty()) csv = std::make_unique<Csv>(out, "fem_mixed.csv", "case,nu,mesh,unknowns,mixed_error,standard_error,precond,iterations,ms");
 
@@ -110,6 +145,7 @@ int main(int argc, char** argv) {
   std::printf("%8s %12s %12s %12s\n", "nu", "mesh", "mixed", "standard");
   for (double nu : nus)
     for (const Mesh3& t : tubes) {
+      if (!section("lame")) break;
       const LameResult r = run_lame(t.a, t.b, t.c, nu, direct());
       const double s = nu < 0.5 ? standard_lame(t.a, t.b, t.c, nu) : NAN;
       const std::string mesh = std::to_string(t.a) + "x" + std::to_string(t.b) + "x" + std::to_string(t.c);
@@ -122,6 +158,7 @@ int main(int argc, char** argv) {
   std::printf("%8s %6s %12s %12s\n", "nu", "cells", "mixed", "standard");
   for (double nu : nus)
     for (int n : beams) {
+      if (!section("cantilever")) break;
       const CantileverResult r = run_cantilever(n, nu, direct());
       const double s = nu < 0.5 ? standard_cantilever(n, nu) : NAN;
       std::printf("%8g %6d %12.4e %12.4e\n", nu, n, r.error, s);
@@ -134,6 +171,7 @@ int main(int argc, char** argv) {
   const int beam = quick ? 2 : 3;
   for (double nu : nus)
     for (MixedPreconditioner pc : {MixedPreconditioner::Amg, MixedPreconditioner::BlockJacobi}) {
+      if (!section("minres")) break;
       MixedOptions o;
       o.preconditioner = pc;
       o.max_iterations = 20000;
@@ -149,5 +187,9 @@ int main(int argc, char** argv) {
         csv->row("cantilever", nu, beam, 0, c.error, NAN, name, c.stats.iterations, c.stats.solve_ms);
       }
     }
+  if (section("frames")) {
+    std::printf("\n4. Frames, cylinder %dx%dx%d, pressure +5%% a frame, warm start (iterations/ms/residual)\n", big.a, big.b, big.c);
+    for (double nu : nus) frames(nu, big.a, big.b, big.c, csv.get());
+  }
   return 0;
 }

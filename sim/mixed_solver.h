@@ -202,8 +202,15 @@ private:
   bool use_amg_ = false;               // of the last setup (else block-Jacobi)
   BlockJacobi jacobi_;
   std::unique_ptr<Krylov> krylov_;
+  Eigen::VectorXd kept_, akept_;       // the kept values of the last fresh start, A times them
+  std::uint64_t akept_version_ = 0;
   mutable Eigen::VectorXd tmp_u_, tmp_z_, scratch_;
-  mutable std::vector<double> tet_div_, tet_psum_;  // per tet: product scratch
+  // Per tet: the pressure block's coefficients, (C_t p)_v = cdiag p_v + coff sum_corners p.
+  std::vector<double> cdiag_, coff_;
+  // The product's per-corner shares (slot 4 t + local: force on u, then the pressure row),
+  // gathered per vertex through its corner slots (rebuilt with the vertex).
+  mutable std::vector<Eigen::Vector4d> corner_;
+  std::vector<std::vector<std::uint32_t>> corner_slots_;
 };
 
 }  // namespace incise
