@@ -559,7 +559,8 @@ MixedStats MixedSolver::solve_minres(const Eigen::VectorXd& b, Eigen::VectorXd& 
     }
     const double target = opt_.tolerance * k.bnorm;
     while (std::abs(k.eta) > target && k.gamma > 0 && st.iterations < opt_.max_iterations) {
-      if (st.iterations > 0 && left() < iter_ms) {
+      // 1.25: iterations vary (shared cores); stopping one early beats overrunning the frame.
+      if (st.iterations > 0 && left() < 1.25 * iter_ms) {
         st.budget_exhausted = true;
         break;
       }
@@ -599,7 +600,7 @@ MixedStats MixedSolver::solve_minres(const Eigen::VectorXd& b, Eigen::VectorXd& 
       ++st.iterations;
       ++k.iterations;
       const double dt = now_ms() - ti;
-      iter_ms = iter_ms == 0 ? dt : 0.8 * iter_ms + 0.2 * dt;
+      iter_ms = iter_ms == 0 ? dt : std::max(dt, 0.8 * iter_ms + 0.2 * dt);
     }
     if (st.breakdown) break;
     // A budgeted stop reports the recurrence's estimate (exact in exact arithmetic): the true
