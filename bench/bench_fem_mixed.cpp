@@ -7,7 +7,8 @@
 //  4. frames: the cylinder's pressure ramped 5% a frame for 8 frames then held, each solve
 //     warm-started from the last (iterations and ms per frame), and the same with a 20 ms budget
 //     per frame (the residual after each budgeted frame; held loads resume the iteration).
-//   bench_fem_mixed [--out DIR] [--quick] [--nu 0.3,0.45,0.49,0.4999,0.5] [--only lame|cantilever|minres|frames]
+//   bench_fem_mixed [--out DIR] [--quick] [--nu 0.3,0.45,0.49,0.4999,0.5] [--only lame|cantilever|minres|frames|product]
+//                   [--cycle additive] [--ring 1]  (the multigrid of the minres section)
 #include <cstdio>
 
 #include <Eigen/SparseCholesky>
@@ -174,6 +175,8 @@ int main(int argc, char** argv) {
       if (!section("minres")) break;
       MixedOptions o;
       o.preconditioner = pc;
+      if (args.get("--cycle", "") == "additive") o.amg.cycle = AggregationAmgOptions::Cycle::Additive;
+      if (args.num("--ring", 2) != 2) o.amg.ring = int(args.num("--ring", 2));
       o.max_iterations = 20000;
       const char* name = pc == MixedPreconditioner::Amg ? "amg" : "block-jacobi";
       const LameResult l = run_lame(big.a, big.b, big.c, nu, o);
