@@ -212,6 +212,7 @@ void MixedSolver::apply(const TopologyChange& change) {
   for (TetId t : change.added_tets)
     for (std::uint32_t v : model_.tet_vertex_ids(t)) compute_vertex(v);
   amg_->apply(change);
+  if (chol_) chol_->apply(change);
   invalidate();
 }
 
@@ -357,24 +358,41 @@ void MixedSolver::full_mask(const std::vector<std::uint8_t>& free) {
 
 void MixedSolver::setup_preconditioner() {
   // At a fresh start after the operator or the constraints changed (a multigrid patch after a
-  // topology change happens here too).
-  if (pc_version_ == version_ && pc_mask_ == mask_) return;
-  if (pc_mask_ != mask_) amg_->mark_stale();
+  // topology change happens here too); the asynchronous factor at every fresh start (it adopts
+  // a finished factorization only then, so a resumed iteration keeps its preconditioner).
+  const bool changed = pc_version_ != version_ || pc_mask_ != mask_;
+  use_chol_ = opt_.preconditioner == MixedPreconditioner::Cholesky && !opt_.direct;
+  if (!changed && !use_chol_) return;
+  if (pc_mask_ != mask_) {
+    amg_->mark_stale();
+    if (chol_) chol_->mark_stale();
+  }
+  if (changed) ublock_ = std::make_unique<UBlock>(model_, a_, c_);
   // The multigrid's coarse space holds only vertices with all three unknowns free, and it
   // cannot be built without one (rollers on every vertex of a thin mesh); the direct path only
   // measures residuals with it: block-Jacobi is enough there.
-  use_amg_ = false;
-  if (opt_.preconditioner == MixedPreconditioner::Amg && !opt_.direct)
-    for (std::size_t v = 0; v < vertex_slots() && !use_amg_; ++v)
-      use_amg_ = umask_[3 * v] && umask_[3 * v + 1] && umask_[3 * v + 2];
-  ublock_ = std::make_unique<UBlock>(model_, a_, c_);
-  if (use_amg_) {
+  bool amg_ok = false;
+  for (std::size_t v = 0; v < vertex_slots() && !amg_ok; ++v)
+    amg_ok = umask_[3 * v] && umask_[3 * v + 1] && umask_[3 * v + 2];
+  use_amg_ = opt_.preconditioner == MixedPreconditioner::Amg && !opt_.direct && amg_ok;
+  if (use_chol_) {
+    if (!chol_) {
+      AsyncCholeskyOptions co = opt_.cholesky;
+      if (opt_.budget_ms > 0) co.wait_for_first = false;
+      chol_ = std::make_unique<AsyncCholesky>(model_, co);
+    }
+    const bool moving = amg_ok && opt_.cholesky.settle_with_amg;
+    chol_->set_moving(moving ? amg_.get() : nullptr);
+    if (moving) amg_->frame(a_, c_, last_iterations_);
+    chol_->frame(umask_, a_, c_, last_iterations_);
+    chol_->setup(*ublock_, &umask_);
+  } else if (use_amg_) {
     amg_->frame(a_, c_, last_iterations_);
     amg_->setup(*ublock_, &umask_);
   } else {
     jacobi_.setup(*ublock_, &umask_);
   }
-  pressure_preconditioner();
+  if (changed) pressure_preconditioner();
   pc_version_ = version_;
   pc_mask_ = mask_;
 }
@@ -412,7 +430,8 @@ void MixedSolver::project(Eigen::VectorXd& v) const {
 void MixedSolver::precondition(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
   const Eigen::Index nu = Eigen::Index(num_dofs()), np = Eigen::Index(vertex_slots());
   tmp_u_ = r.head(nu);
-  if (use_amg_) amg_->apply(tmp_u_, tmp_z_);
+  if (use_chol_) chol_->apply(tmp_u_, tmp_z_);
+  else if (use_amg_) amg_->apply(tmp_u_, tmp_z_);
   else jacobi_.apply(tmp_u_, tmp_z_);
   z.resize(nu + np);
   z.head(nu) = tmp_z_;
