@@ -104,7 +104,7 @@ struct MixedOptions {
 struct MixedStats {
   int iterations = 0;              // MINRES iterations of this call (one product each)
   int total_iterations = 0;        // since the last fresh start (a resumed solve adds up)
-  double relative_residual = 0;    // at exit, recomputed from the true residual
+  double relative_residual = 0;    // at exit: the true residual, MINRES's estimate after a budgeted stop
   double initial_relative_residual = 0;
   bool converged = false;
   bool budget_exhausted = false;
@@ -126,7 +126,8 @@ public:
   void set_options(const MixedOptions& o);
   std::size_t vertex_slots() const { return model_.vertex_slots(); }
   std::size_t num_dofs() const { return model_.num_dofs(); }  // displacement unknowns
-  // The K_mu model (mu per tet, lambda = 0): rotations, lumped mass, per-tet data.
+  // The K_mu model (mu per tet, lambda = 0): rotations, lumped mass, per-tet data. Its
+  // von_mises(u) is the mixed stress's too: sigma = 2 mu eps - p I and -p I has no deviator.
   const FemModel& deviatoric_model() const { return model_; }
 
   // After every mesh edit batch. O(size of the change).
