@@ -1,0 +1,129 @@
+#pragma once
+// Verification cases with closed-form answers for the mixed u-p solver, shared by its tests
+// and its benchmark: Lame's thick-walled cylinder (plane strain) on a quarter tube with
+// symmetry rollers, and the Timoshenko cantilever.
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+#include "mesh/generate.h"
+#include "mesh/tet_mesh.h"
+#include "sim/mixed_solver.h"
+
+namespace incise::testing {
+
+// Quarter tube a <= r <= b, 0 <= theta <= pi/2, 0 <= z <= h: make_box's (r, theta, z) lattice
+// mapped to Cartesian (Jacobian r > 0: orientations kept).
+inline TetMesh make_quarter_tube(double a, double b, double h, int nr, int nt, int nz, int label = 1) {
+  TetMesh m = make_box(Vec3(b - a, std::numbers::pi / 2, h), {nr, nt, nz}, label);
+  for (VertexId v : m.vertices()) {
+    const Vec3 q = m.rest(v);
+    const double r = a + q.x();
+    m.set_rest(v, Vec3(r * std::cos(q.y()), r * std::sin(q.y()), q.z()));
+  }
+  m.discard_change();
+  return m;
+}
+
+// The loads and constraints of one static problem, in the solver's unknowns.
+struct MixedProblem {
+  Eigen::VectorXd f, u;
+  std::vector<std::uint8_t> free;
+  explicit MixedProblem(std::size_t dofs) : f(Eigen::VectorXd::Zero(Eigen::Index(dofs))), u(f), free(dofs, 1) {}
+  void keep(VertexId v, int axis, double value = 0) {
+    free[3 * v.idx() + std::size_t(axis)] = 0;
+    u[3 * Eigen::Index(v.idx()) + axis] = value;
+  }
+};
+
+// Consistent nodal forces of a traction t(x, n) (n the outward normal) on the boundary faces
+// whose three corners pass `on`.
+template <class On, class Traction>
+void add_traction(const TetMesh& m, MixedProblem& pb, On on, Traction traction) {
+  for (const auto& f : m.boundary_faces()) {
+    bool in = true;
+    for (VertexId v : f.vertices) in = in && on(m.rest(v));
+    if (!in) continue;
+    const Vec3 a = m.rest(f.vertices[0]), b = m.rest(f.vertices[1]), c = m.rest(f.vertices[2]);
+    const Vec3 cr = (b - a).cross(c - a);
+    const Vec3 t = traction((a + b + c) / 3, cr.normalized());
+    for (VertexId v : f.vertices) pb.f.segment<3>(3 * Eigen::Index(v.idx())) += t * (0.5 * cr.norm()) / 3;
+  }
+}
+
+// Lame: inner pressure p, rollers on the symmetry planes and on z = 0, h (plane strain).
+inline double lame_radial(double a, double b, double e, double nu, double p, double r) {
+  return (1 + nu) * p * a * a / (e * (b * b - a * a)) * ((1 - 2 * nu) * r + b * b / r);
+}
+
+struct LameResult {
+  double error = 0;      // |mean inner u_r - exact| / exact
+  double max_error = 0;  // max over inner vertices
+  MixedStats stats;
+};
+
+inline LameResult run_lame(int nr, int nt, int nz, double nu, MixedOptions opt = {}, FemKind kind = FemKind::Linear) {
+  const double a = 1, b = 2, h = 0.5, e = 1e4, p = 10, tol = 1e-9;
+  TetMesh m = make_quarter_tube(a, b, h, nr, nt, nz);
+  MixedSolver solver(m, MixedMaterials(Material{e, nu, 1000}), kind, opt);
+  MixedProblem pb(solver.num_dofs());
+  for (VertexId v : m.vertices()) {
+    const Vec3 x = m.rest(v);
+    if (std::abs(x.x()) < tol) pb.keep(v, 0);
+    if (std::abs(x.y()) < tol) pb.keep(v, 1);
+    if (std::abs(x.z()) < tol || std::abs(x.z() - h) < tol) pb.keep(v, 2);
+  }
+  // The fluid pushes the wall along -n (n points out of the solid, into the bore).
+  add_traction(m, pb, [&](const Vec3& x) { return std::abs(x.head<2>().norm() - a) < 1e-9; },
+               [&](const Vec3&, const Vec3& n) -> Vec3 { return -p * n; });
+  LameResult res;
+  res.stats = solver.solve(pb.f, pb.free, pb.u);
+  const double exact = lame_radial(a, b, e, nu, p, a);
+  double sum = 0;
+  int count = 0;
+  for (VertexId v : m.vertices()) {
+    const Vec3 x = m.rest(v);
+    if (std::abs(x.head<2>().norm() - a) > 1e-9) continue;
+    const double ur = pb.u.segment<2>(3 * Eigen::Index(v.idx())).dot(x.head<2>().normalized());
+    sum += ur;
+    ++count;
+    res.max_error = std::max(res.max_error, std::abs(ur - exact) / exact);
+  }
+  res.error = std::abs(sum / count - exact) / exact;
+  return res;
+}
+
+// Cantilever L x h x h clamped at x = 0, shear P along z on the tip face: the mean tip
+// deflection against Timoshenko (Cowper's shear coefficient for a rectangle).
+struct CantileverResult {
+  double tip = 0, theory = 0, error = 0;
+  MixedStats stats;
+};
+
+inline CantileverResult run_cantilever(int n, double nu, MixedOptions opt = {}) {
+  const double len = 8, h = 1, e = 1e6, load = -10;
+  const double inertia = h * h * h * h / 12, area = h * h, g = e / (2 * (1 + nu));
+  const double kappa = 10 * (1 + nu) / (12 + 11 * nu);
+  CantileverResult res;
+  res.theory = load * len * len * len / (3 * e * inertia) + load * len / (kappa * g * area);
+  TetMesh m = make_box(Vec3(len, h, h), {int(len) * n, n, n});
+  MixedSolver solver(m, MixedMaterials(Material{e, nu, 1000}), FemKind::Linear, opt);
+  MixedProblem pb(solver.num_dofs());
+  for (VertexId v : m.vertices())
+    if (m.rest(v).x() < 1e-9)
+      for (int d = 0; d < 3; ++d) pb.keep(v, d);
+  add_traction(m, pb, [&](const Vec3& x) { return x.x() > len - 1e-9; },
+               [&](const Vec3&, const Vec3&) -> Vec3 { return Vec3(0, 0, load / area); });
+  res.stats = solver.solve(pb.f, pb.free, pb.u);
+  int count = 0;
+  for (VertexId v : m.vertices())
+    if (m.rest(v).x() > len - 1e-9) {
+      res.tip += pb.u[3 * Eigen::Index(v.idx()) + 2];
+      ++count;
+    }
+  res.tip /= count;
+  res.error = std::abs(res.tip - res.theory) / std::abs(res.theory);
+  return res;
+}
+
+}  // namespace incise::testing
