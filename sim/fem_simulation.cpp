@@ -8,6 +8,7 @@
 
 #include "mesh/errors.h"
 #include "sim/assembled_stiffness.h"
+#include "sim/mixed_solver.h"
 
 namespace incise {
 
@@ -53,13 +54,30 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
 }  // namespace
 
 FemSimulation::FemSimulation(const TetMesh& mesh, const MaterialTable& materials, const FemSimulationOptions& options)
-    : mesh_(&mesh), opt_(options), model_(mesh, materials, options.kind), cg_(options.cg) {
+    : mesh_(&mesh),
+      opt_(options),
+      // Mixed: the model holds the deviatoric part (lambda = 0), the mixed solver the rest; the
+      // model still gives masses, rotations for stress output and the diagonal.
+      model_(mesh, options.formulation == Formulation::Mixed ? MixedMaterials(materials).deviatoric_table() : materials,
+             options.kind),
+      cg_(options.cg) {
   if (!(opt_.dt > 0) || !std::isfinite(opt_.dt)) throw InvalidArgument("fem: dt: expected a positive number");
   if (!(opt_.damping >= 0)) throw InvalidArgument("fem: damping: expected a number >= 0");
   if (opt_.nonlinear_iterations < 1) throw InvalidArgument("fem: nonlinear_iterations: expected an integer >= 1");
   cg_.set_tolerance(opt_.cg.tolerance);
   cg_.set_max_iterations(opt_.cg.max_iterations);
   cg_.set_budget_ms(opt_.cg.budget_ms);
+  if (opt_.formulation == Formulation::Mixed) {
+    MixedOptions mo;
+    mo.tolerance = opt_.cg.tolerance;
+    mo.max_iterations = opt_.cg.max_iterations;
+    mo.direct = opt_.method == SolverMethod::Direct;
+    mo.amg = opt_.amg;
+    mo.preconditioner = opt_.cg.preconditioner == Preconditioner::Cholesky ? MixedPreconditioner::Cholesky
+                        : opt_.cg.preconditioner == Preconditioner::Amg    ? MixedPreconditioner::Amg
+                                                                           : MixedPreconditioner::BlockJacobi;
+    mixed_ = std::make_unique<MixedSolver>(mesh, MixedMaterials(materials), opt_.kind, mo);
+  }
   grow();
   for (std::size_t v = 0; v < model_.vertex_slots(); ++v) update_free(std::uint32_t(v));
 }
@@ -155,6 +173,7 @@ void FemSimulation::apply(const TopologyChange& change) {
   // path stays local. A cut that frees a part shows up as a CG breakdown or non-convergence;
   // callers that want the precise diagnosis call check_constraints().
   predictor_.apply(change, model_.vertex_slots());
+  if (mixed_) mixed_->apply(change);
   if (cholesky_) cholesky_->apply(change);
   if (amg_) amg_->apply(change);
   if (!change.empty()) assembled_dirty_ = direct_dirty_ = system_dirty_ = true;
@@ -365,6 +384,11 @@ const FrameStats& FemSimulation::step() {
     check_rigid_modes();
     rigid_dirty_ = false;
   }
+  if (mixed_) {
+    step_mixed(t0);
+    stats_.frame_ms = ms_since(t0);
+    return stats_;
+  }
   // The asynchronous factor: adopt a finished one, start a fresh one if due, before anything
   // below decides whether CG resumes (a new factor means a restart).
   if (opt_.method == SolverMethod::Cg && cg_.options().preconditioner == Preconditioner::Cholesky) {
@@ -467,6 +491,82 @@ const FrameStats& FemSimulation::step() {
   }
   stats_.frame_ms = ms_since(t0);
   return stats_;
+}
+
+// The mixed formulation's frame: the same loads, constraints and integrator, solved for
+// displacement and pressure by the MixedSolver (which keeps the pressure and an interrupted
+// MINRES between frames).
+void FemSimulation::step_mixed(std::chrono::steady_clock::time_point t0) {
+  MixedSolver& ms = *mixed_;
+  const double budget = opt_.cg.budget_ms;
+  auto remaining = [&] { return budget <= 0 ? 0.0 : std::max(1e-6, budget - ms_since(t0)); };
+  auto record = [&](const MixedStats& m) {
+    stats_.iterations += m.iterations;
+    stats_.products += m.iterations;
+    stats_.relative_residual = m.relative_residual;
+    if (stats_.products == m.iterations) stats_.initial_relative_residual = m.initial_relative_residual;
+    stats_.resumed = stats_.resumed || m.resumed;
+    stats_.solve_ms += m.solve_ms;
+    stats_.preconditioner_setup_ms += m.setup_ms;
+    stats_.budget_exhausted = m.budget_exhausted;
+    mixed_pending_ = m.budget_exhausted;
+    if (m.budget_exhausted) {
+      stats_.info = SolveInfo::BudgetExhausted;
+    } else if (m.breakdown) {
+      stats_.info = SolveInfo::NumericalIssue;
+      stats_.message = "mixed solver: breakdown (NaN/Inf, or a singular system: is the pressure free to float?)";
+    } else if (!m.converged && !m.budget_exhausted) {
+      stats_.info = SolveInfo::NoConvergence;
+      stats_.message = "mixed solver: not converged within the iteration cap";
+    }
+  };
+  const bool corot = opt_.kind == FemKind::Corotational;
+  stats_.setup_ms = ms_since(t0);
+  if (!opt_.dynamic) {
+    if (ms.mass_coeff() != 0 || ms.stiffness_coeff() != 1) ms.set_system(0, 1);
+    const int rounds = corot ? opt_.nonlinear_iterations : 1;
+    for (int it = 0; it < rounds; ++it) {
+      // An interrupted solve continues on its own linearization (new rotations would restart it).
+      if (corot && !(it == 0 && mixed_pending_)) ms.update_rotations(u_);
+      body_and_external_forces(b_);
+      x_ = opt_.warm_start ? u_ : Eigen::VectorXd::Zero(u_.size());
+      for (std::size_t i = 0; i < free_.size(); ++i)
+        if (!free_[i]) x_[Eigen::Index(i)] = target_[Eigen::Index(i)];
+      ms.set_budget_ms(remaining());
+      record(ms.solve(b_, free_, x_));
+      if (stats_.info == SolveInfo::NumericalIssue) break;
+      u_ = x_.head(u_.size());
+      if (stats_.budget_exhausted) break;
+    }
+    check_finite(u_, stats_);
+    return;
+  }
+  // Backward Euler (see MixedSolver::set_system): unknowns v' and q = p'/dt.
+  const double dt = opt_.dt;
+  ms.set_system(1 + dt * opt_.damping, dt * dt);
+  if (corot) ms.update_rotations(u_);
+  const Eigen::Index nu = Eigen::Index(ms.num_dofs()), np = Eigen::Index(ms.vertex_slots());
+  body_and_external_forces(b_);
+  b_.conservativeResize(nu);
+  Eigen::VectorXd full_u = Eigen::VectorXd::Zero(nu + np), ku, r0 = ms.right_hand_side(Eigen::VectorXd::Zero(nu));
+  full_u.head(std::min(nu, u_.size())) = u_.head(std::min(nu, u_.size()));
+  ms.multiply_static(full_u, ku);  // [K_mu u; -B u]
+  Eigen::VectorXd b(nu + np);
+  b.head(nu) = model_.lumped_mass().head(nu).cwiseProduct(v_.head(nu)) + dt * (b_ + r0.head(nu) - ku.head(nu));
+  b.tail(np) = dt * (r0.tail(np) - ku.tail(np));
+  Eigen::VectorXd x(nu + np);
+  x.head(nu) = opt_.warm_start ? Eigen::VectorXd(v_.head(nu)) : Eigen::VectorXd::Zero(nu);
+  for (std::size_t i = 0; i < free_.size() && Eigen::Index(i) < nu; ++i)
+    if (!free_[i]) x[Eigen::Index(i)] = (target_[Eigen::Index(i)] - u_[Eigen::Index(i)]) / dt;
+  x.tail(np) = ms.pressure() / dt;
+  ms.set_budget_ms(remaining());
+  record(ms.solve_system(b, free_, x));
+  if (stats_.info != SolveInfo::NumericalIssue && x.allFinite()) {
+    v_.head(nu) = x.head(nu);
+    u_ += dt * v_;
+    ms.set_pressure(dt * x.tail(np));
+  }
+  check_finite(u_, stats_);
 }
 
 }  // namespace incise

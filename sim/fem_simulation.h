@@ -38,6 +38,7 @@
 #include "sim/async_cholesky.h"
 #include "sim/cg_solver.h"
 #include "sim/fem_model.h"
+#include "sim/formulation.h"
 #include "sim/material.h"
 #include "sim/warm_start.h"
 
@@ -46,12 +47,17 @@ namespace incise {
 class AssembledStiffness;
 class AsyncCholesky;
 class DirectSolver;
+class MixedSolver;
 
 enum class SolverMethod { Cg, Direct };
 enum class StiffnessBackend { MatrixFree, Assembled };
 
 struct FemSimulationOptions {
   FemKind kind = FemKind::Linear;                       // Linear or Corotational elements
+  // Mixed: displacement and pressure (sim/mixed_solver.h), solved by MINRES (CG's tolerance,
+  // cap and budget; its displacement block preconditioned by the Cholesky factor, the multigrid,
+  // or block-Jacobi for the others) or by SparseLU (method Direct); Poisson's ratio 0.5 allowed.
+  Formulation formulation = Formulation::Standard;
   SolverMethod method = SolverMethod::Cg;               // Direct: SimplicialLDLT reference
   StiffnessBackend backend = StiffnessBackend::MatrixFree;  // operator CG multiplies with
   // tolerance, cap, budget, preconditioner: the asynchronous Cholesky, as in scenes (the
@@ -135,6 +141,8 @@ public:
   const AsyncCholesky* cholesky() const { return cholesky_.get(); }
   // The aggregation multigrid behind Preconditioner::Amg (nullptr until used).
   const AggregationAmg* amg() const { return amg_.get(); }
+  // The mixed formulation's solver (nullptr for the others); its pressure() is per vertex slot.
+  const MixedSolver* mixed() const { return mixed_.get(); }
   FemModel& model() { return model_; }
   const FemModel& model() const { return model_; }
   FemSimulationOptions& options() { return opt_; }
@@ -151,6 +159,7 @@ private:
   void check_finite(const Eigen::VectorXd& x, FrameStats& st) const;
   void relinearize();
   void static_rhs_and_guess();
+  void step_mixed(std::chrono::steady_clock::time_point t0);
 
   const TetMesh* mesh_;
   FemSimulationOptions opt_;
@@ -168,6 +177,8 @@ private:
   WarmStartPredictor predictor_;
   std::unique_ptr<AsyncCholesky> cholesky_;  // Preconditioner::Cholesky: built on first use
   std::unique_ptr<AggregationAmg> amg_;      // Preconditioner::Amg: built on first use
+  std::unique_ptr<MixedSolver> mixed_;       // Formulation::Mixed: it solves every frame
+  bool mixed_pending_ = false;               // the last mixed solve ran out of budget
   Eigen::VectorXd b_rot_;              // corotational right-hand side term
   std::vector<Eigen::VectorXd> d_;     // prediction directions
 

@@ -123,7 +123,10 @@ public:
   ~MixedSolver();
 
   const MixedOptions& options() const { return opt_; }
-  void set_options(const MixedOptions& o);
+  void set_options(const MixedOptions& o);  // restarts: an interrupted solve is not resumed
+  // The wall-clock budget of the next solves alone (a frame gives what its setup left); keeps
+  // an interrupted solve resumable.
+  void set_budget_ms(double ms) { opt_.budget_ms = ms; }
   std::size_t vertex_slots() const { return model_.vertex_slots(); }
   std::size_t num_dofs() const { return model_.num_dofs(); }  // displacement unknowns
   // The K_mu model (mu per tet, lambda = 0): rotations, lumped mass, per-tet data. Its

@@ -617,6 +617,7 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
   } else {
     FemSimulationOptions fo;
     fo.kind = s.model == SceneModel::FemCorotational ? FemKind::Corotational : FemKind::Linear;
+    fo.formulation = s.formulation;
     fo.method = s.method;
     fo.backend = s.backend;
     fo.cg = s.cg;
