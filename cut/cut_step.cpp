@@ -437,8 +437,8 @@ int CutStep::side(const Piece& piece, std::size_t k, VertexId v) {
     // the sheet where it is, the new cut bending through it by at most the snap distance:
     // otherwise the slivers beside it have a short interior edge between two cut vertices,
     // which the link condition forbids contracting. Vertices of the body's surface keep their
-    // side: bending through them would move the cut's rim onto the surface, and change the
-    // area the cut opens (cut/snap_move.h).
+    // side: putting them on the sheet as well made 2 of 60 random straight box cuts open 1.6%
+    // and 2.3% off their swept area (tests/cut/test_cut_progressive.cpp).
     else if (!flattens && piece.contains(x, 0) && (move_snapped(piece, k, v) || on_cut_only(mesh_, v))) s = 0;
   } else if (near && piece.contains(x, 0) && piece.boundary_distance(x) > star_radius(v)) {
     s = 0;
