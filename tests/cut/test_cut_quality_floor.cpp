@@ -81,3 +81,34 @@ TEST_CASE("quality floor: cuts ending inside the liver leave no slivers at the b
     CHECK(double(q.below) <= 1e-3 * double(m.num_tets()));
   }
 }
+
+TEST_CASE("quality floor: a cut finished beside an earlier cut bends through its vertices", "[cut][quality]") {
+  // bench_cut's 100 random steps on the liver (seed 2026). The 15th cut's blade ends near faces
+  // of earlier cuts: vertices of those faces a hair from its plane, beside its sides, kept
+  // their side (their star reached past the rim, and a cut vertex cannot be moved onto the
+  // plane), the edges they have across it were split next to them, and the short interior
+  // edges between two cut vertices left there could not be contracted. Its finish() then added
+  // 19 tets below 10 deg; with those vertices put on the new cut where they are, it removes 22.
+  TetMesh m = read_tet_mesh(std::string(INCISE_SOURCE_DIR) + "/samples/liver.msh");
+  m.discard_change();
+  const auto vol0 = label_volumes(m);
+  const auto blades = random_blades(m, 20, 2026);
+  Cutter cutter(m);
+  double moved = 0;
+  auto below10 = [&] { return quality_range(m, 10.0).below; };
+  std::size_t before_finish = 0, after_finish = 0;
+  for (int i = 0; i <= 14; ++i) {
+    const RandomBlade& b = blades[static_cast<std::size_t>(i)];
+    cutter.start({b.a, b.b});
+    for (int s = 1; s <= 5; ++s) {
+      const Vec3 off = b.sweep * (s / 5.0);
+      moved += cutter.advance({b.a + off, b.b + off}).improve.volume_change;
+    }
+    if (i == 14) before_finish = below10();
+    moved += cutter.finish().improve.volume_change;
+  }
+  after_finish = below10();
+  check_cut_invariants(m, vol0, 1e-9, moved);
+  INFO(before_finish << " tets below 10 deg before the 15th cut's finish, " << after_finish << " after");
+  CHECK(after_finish <= before_finish);
+}
