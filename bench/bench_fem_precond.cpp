@@ -26,8 +26,7 @@
 #include "mesh/io/tet_io.h"
 #include "sim/async_cholesky.h"
 #include "sim/fem_simulation.h"
-#include "sim/scene.h"
-#include "cut/scene_cuts.h"
+#include "scene/run_scene.h"
 #include "tests/support/mesh_edits.h"
 
 using namespace incise;
@@ -388,7 +387,6 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
     std::filesystem::remove_all(dir);
     SceneRunOptions ro;
     ro.out_dir = dir.string();
-    ro.cut_hook = make_scene_cut_hook(sc);
     std::vector<double> pc_setup;  // frames 10-50: the preconditioner's setup inside the solve
     ro.on_frame = [&](int f, const Eigen::VectorXd&, const FrameStats& st) {
       if (f >= 10 && f <= 50) pc_setup.push_back(st.preconditioner_setup_ms);

@@ -13,10 +13,9 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/commands.h"
-#include "cut/scene_cuts.h"
 #include "mesh/errors.h"
 #include "mesh/io/atomic_file.h"
-#include "sim/scene.h"
+#include "scene/run_scene.h"
 
 namespace incise::cli {
 
@@ -121,7 +120,7 @@ void add_simulate(CLI::App& app) {
     ro.progress = o->quiet ? nullptr : &std::cerr;
     SceneRunSummary s;
     try {
-      s = run_scene_with_cuts(scene, ro);
+      s = run_scene(scene, ro);
     } catch (const Error& e) {
       // The frames computed before the failure are kept (docs/scene.md) unless DIR holds an
       // earlier run: that one is not replaced by a broken one.

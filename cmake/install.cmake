@@ -1,11 +1,11 @@
 # `cmake --install BUILD --prefix P` installs:
 #   P/bin/incise                          the command line
 #   P/lib/libincise_*.a                   the static libraries
-#   P/include/incise/{mesh,quality,cut,sim}/...  public headers; the include directory is
+#   P/include/incise/{mesh,quality,cut,sim,scene}/...  public headers; the include directory is
 #                                         P/include/incise, so consumers write the project's
 #                                         own includes ("mesh/tet_mesh.h")
 #   P/lib/cmake/incise/                   package config: find_package(incise) gives
-#                                         incise::mesh, ::quality, ::cut, ::sim (and ::tetra)
+#                                         incise::mesh, ::quality, ::cut, ::sim, ::scene (and ::tetra)
 #   P/lib/python3/dist-packages/incise/   the Python module (python/CMakeLists.txt)
 # Everything is relative to P (relocatable). The static libraries carry their private link
 # dependencies (assimp, zlib, CGAL's gmp/mpfr, OpenVDB) as link-only entries; the package
@@ -16,7 +16,7 @@ include(CMakePackageConfigHelpers)
 set(INCISE_INSTALL_CMAKEDIR ${CMAKE_INSTALL_LIBDIR}/cmake/incise)
 set(INCISE_INSTALL_INCLUDEDIR ${CMAKE_INSTALL_INCLUDEDIR}/incise)
 
-set(_incise_targets incise_mesh incise_quality incise_cut incise_sim incise_warnings)
+set(_incise_targets incise_mesh incise_quality incise_cut incise_sim incise_scene incise_warnings)
 set(INCISE_PACKAGE_TETRA OFF)
 if(TARGET incise_tetra)
   list(APPEND _incise_targets incise_tetra incise_openvdb)
@@ -39,7 +39,7 @@ set(_incise_header_excludes PATTERN "c3t3_to_tet_mesh.h" EXCLUDE PATTERN "mesh3_
 if(NOT TARGET incise_tetra)
   list(APPEND _incise_header_excludes PATTERN "tetrahedralize" EXCLUDE)
 endif()
-foreach(dir mesh quality cut sim)
+foreach(dir mesh quality cut sim scene)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/${dir} DESTINATION ${INCISE_INSTALL_INCLUDEDIR}
     FILES_MATCHING PATTERN "*.h" ${_incise_header_excludes})
 endforeach()

@@ -1,4 +1,4 @@
-// libFuzzer harness for the scene parser (sim/scene.h): any bytes as a scene file.
+// libFuzzer harness for the scene parser (scene/scene.h): any bytes as a scene file.
 // incise::Error is the only acceptable failure (a raw JSON-library exception or a crash is a
 // bug: users see the first as a message without the file's name). A scene that parses must
 // hold what the parser promises the runner, so the fuzzer checks the validation too.
@@ -8,7 +8,7 @@
 #include <string>
 
 #include "mesh/errors.h"
-#include "sim/scene.h"
+#include "scene/scene.h"
 
 namespace {
 

@@ -6,13 +6,12 @@
 #include <filesystem>
 #include <limits>
 
-#include "cut/scene_cuts.h"
 #include "mesh/errors.h"
 #include "mesh/generate.h"
 #include "mesh/io/tet_io.h"
+#include "scene/run_scene.h"
 #include "sim/fem_simulation.h"
 #include "sim/preconditioner.h"
-#include "sim/scene.h"
 #include "sim/spring_model.h"
 
 namespace incise::python {
@@ -174,14 +173,6 @@ std::vector<Vec3> per_vertex(const Springs& s, const std::vector<Vec3>& values) 
   return out;
 }
 
-TetMesh scene_mesh(const Scene& s) {
-  if (!s.generator.empty())
-    return s.generator == "box" ? make_box(s.gen_size, s.gen_cells) : make_ellipsoid(s.gen_size, s.gen_resolution);
-  std::filesystem::path p(s.mesh_file);
-  if (p.is_relative()) p = std::filesystem::path(s.path).parent_path() / p;
-  return read_tet_mesh(p.string());
-}
-
 }  // namespace
 
 void bind_sim(py::module_& m) {
@@ -324,7 +315,7 @@ void bind_sim(py::module_& m) {
       .def_readonly("dt", &Scene::dt)
       .def_readonly("integrator", &Scene::integrator)
       .def_readonly("damping", &Scene::damping)
-      .def("mesh", &scene_mesh, "The scene's mesh: its file (relative to the scene) or its generator");
+      .def("mesh", &load_scene_mesh, "The scene's mesh: its file (relative to the scene) or its generator");
   m.def("load_scene", &load_scene, py::arg("path"), "Reads and checks a scene; raises IoError naming the key");
   m.def(
       "run_scene",
@@ -338,7 +329,7 @@ void bind_sim(py::module_& m) {
             throw InvalidArgument("run_scene: frames: expected an integer in [1, 1000000000] (None: the scene's)");
           o.frames = static_cast<int>(n.data()[0]);
         }
-        const SceneRunSummary r = run_scene_with_cuts(load_scene(path), o);
+        const SceneRunSummary r = run_scene(load_scene(path), o);
         py::dict d;
         d["frames"] = r.frames;
         d["total_iterations"] = r.total_iterations;

@@ -27,7 +27,7 @@
 #include <vector>
 
 #include "sim/formulation.h"
-#include "sim/scene.h"
+#include "scene/run_scene.h"
 
 namespace incise {
 

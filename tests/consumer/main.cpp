@@ -1,6 +1,6 @@
 // Consumer of the installed package: builds a box, writes and reads it back, reports its
 // quality (the JSON writer the CLI uses) and runs a few FEM frames of a clamped beam under
-// a tip load, then cuts it. Exits 1 with a message when an answer is wrong, so the CTest test can fail.
+// a tip load, then cuts it, and steps a scene (incise::scene). Exits 1 with a message when an answer is wrong, so the CTest test can fail.
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -10,6 +10,7 @@
 #include "mesh/io/tet_io.h"
 #include "quality/report.h"
 #include "quality/report_json.h"
+#include "scene/scene_runner.h"
 #include "sim/fem_simulation.h"
 #ifdef CONSUMER_HAVE_TETRA
 #include "mesh/tetrahedralize/tetrahedralize.h"
@@ -79,6 +80,13 @@ int main(int argc, char** argv) {
   check(r.vertices_duplicated + fin.vertices_duplicated > 0 && fem.step().info == SolveInfo::Success,
         "cut, applied locally, solved");
   mesh.validate({.check_orientation = true, .check_manifold_boundary = true});
+
+  // The same beam as a scene, played frame by frame with a probe on the tip from outside.
+  SceneRunner runner(parse_scene(R"({"mesh": {"generate": "box", "size": [1, 0.2, 0.2], "cells": [10, 2, 2]},
+    "fixed": [{"box": [0, 0, 0, 0, 0.2, 0.2]}], "time": {"frames": 2}})", "consumer.json"));
+  runner.set_probe(runner.vertices_near(Vec3(1, 0.1, 0.1), 0.15), Vec3(0, 0, -0.01));
+  const SceneFrame sf = runner.step();
+  check(sf.stats.info == SolveInfo::Success && sf.max_displacement > 0.01 - 1e-9 && sf.max_displacement < 0.011, "scene stepped with a probe");
   std::remove(path.c_str());
   std::printf("consumer: %d failure(s), tip deflection %.6g\n", failures, tip);
   return failures == 0 ? 0 : 1;

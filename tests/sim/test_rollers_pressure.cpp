@@ -9,7 +9,7 @@
 
 #include "mesh/errors.h"
 #include "mesh/generate.h"
-#include "sim/scene.h"
+#include "scene/run_scene.h"
 
 using namespace incise;
 

@@ -7,7 +7,7 @@
 #include <fstream>
 #include <string>
 
-#include "cut/scene_cuts.h"
+#include "scene/run_scene.h"
 #include "mesh/errors.h"
 #include "mesh/io/tet_io.h"
 #include "quality/components.h"
@@ -47,7 +47,7 @@ TEST_CASE("a partial cut over frames: the beam stays one piece, frames mark the 
   const fs::path out = temp_dir("partial");
   SceneRunOptions ro;
   ro.out_dir = out.string();
-  const SceneRunSummary sum = run_scene_with_cuts(s, ro);
+  const SceneRunSummary sum = run_scene(s, ro);
   CHECK(sum.frames == 6);
   CHECK(sum.frames_not_converged == 0);
   CHECK(sum.total_cut_ms > 0);
@@ -76,19 +76,19 @@ TEST_CASE("a through-cut frees the beam's end: the fragments policy decides", "[
   SceneRunOptions ro;
   {
     // Static FEM, default (auto = remove): the free half goes, the solve does not break down.
-    const SceneRunSummary sum = run_scene_with_cuts(parse_scene(beam_scene(cut), "scene.json"), ro);
+    const SceneRunSummary sum = run_scene(parse_scene(beam_scene(cut), "scene.json"), ro);
     CHECK(sum.fragments_handled == 1);
     CHECK(sum.frames_not_converged == 0);
     CHECK(sum.tets < 8 * 2 * 2 * 6);
   }
   {
     const SceneRunSummary sum =
-        run_scene_with_cuts(parse_scene(beam_scene(cut, R"(, "fragments": "fix")"), "scene.json"), ro);
+        run_scene(parse_scene(beam_scene(cut, R"(, "fragments": "fix")"), "scene.json"), ro);
     CHECK(sum.fragments_handled == 1);
     CHECK(sum.frames_not_converged == 0);
     CHECK(sum.tets > 8 * 2 * 2 * 6);
   }
-  CHECK_THROWS_WITH(run_scene_with_cuts(parse_scene(beam_scene(cut, R"(, "fragments": "error")"), "scene.json"), ro),
+  CHECK_THROWS_WITH(run_scene(parse_scene(beam_scene(cut, R"(, "fragments": "error")"), "scene.json"), ro),
                     Catch::Contains("fragment"));
 }
 
@@ -100,7 +100,7 @@ TEST_CASE("a through-cut over many frames detaches exactly like the same sweep i
     std::string scene = beam_scene(cut);
     scene.replace(scene.find(R"("frames": 6)"), 11, R"("frames": 12)");
     SceneRunOptions ro;
-    return run_scene_with_cuts(parse_scene(scene, "scene.json"), ro);
+    return run_scene(parse_scene(scene, "scene.json"), ro);
   };
   const SceneRunSummary one = run(1), many = run(10);
   CHECK(one.fragments_handled == 1);
@@ -121,10 +121,8 @@ TEST_CASE("scene cut errors name the key", "[cut][scene][errors]") {
                                 "s.json"),
                     Catch::Contains("blunt"));
   CHECK_THROWS_WITH(parse_scene(beam_scene("", R"(, "fragments": "explode")"), "s.json"), Catch::Contains("fragments"));
-  // A scene with cuts needs the cut hook: run_scene alone refuses it.
-  SceneRunOptions ro;
-  CHECK_THROWS_AS(run_scene(parse_scene(beam_scene(R"({"blade": [[2, 0, 1.2], [2, 1, 1.2]], "sweep": [0, 0, -1]})"),
-                                        "s.json"),
-                            ro),
-                  Error);
+  // A blade that would move after the last frame never cuts: refused when parsed.
+  CHECK_THROWS_WITH(parse_scene(beam_scene(R"({"blade": [[2, 0, 1.2], [2, 1, 1.2]], "sweep": [0, 0, -1], "to_frame": 6})"),
+                                "s.json"),
+                    Catch::Contains("cuts[0].to_frame: frame 6 is after the run's last frame"));
 }

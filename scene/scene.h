@@ -1,22 +1,20 @@
 #pragma once
 // Scenes: a JSON file that says which mesh, which model, which materials, constraints, loads
-// and probes over time, which solver, how many frames; and the runner that plays it and writes
-// one VTU per frame, a ParaView .pvd series and stats.csv. The format is documented in
-// docs/scene.md (a user-facing contract: names and meanings do not change).
+// and probes over time, which solver, how many frames, which blades cut when. This header is
+// the model and its reader (scene/scene_parse.cpp); scene/scene_runner.h plays a scene one
+// frame at a time, scene/run_scene.h plays all of it and writes one VTU per frame, a ParaView
+// .pvd series and stats.csv. The format is documented in docs/scene.md (a user-facing
+// contract: names and meanings do not change).
 //
 // Errors name the scene file and the key: "beam.json: solver.tolerance: expected a positive
 // number". Everything is checked (including that every box selects vertices) before any
 // output is written. A scene builds only what it uses (no assembled matrix, factorization or
 // spring network unless asked for).
 #include <array>
-#include <functional>
-#include <iosfwd>
-#include <optional>
 #include <string>
 #include <vector>
 
 #include "mesh/tet_mesh.h"
-#include "mesh/topology_change.h"
 #include "sim/fem_simulation.h"
 #include "sim/formulation.h"
 #include "sim/material.h"
@@ -70,20 +68,6 @@ struct SceneCut {
 // part, so one that would keep it is refused with an Error naming the frame.
 enum class FragmentPolicy { Auto, Keep, Fix, Remove, Error };
 
-// What a scene's cuts did before one frame. Cutting lives in cut/, which sim does not depend
-// on: the runner calls a hook (cut/scene_cuts.h provides it) with the current positions and a
-// function that hands each cut step's TopologyChange to the backend (so the next blade of the
-// same frame sees the new vertices' current positions), and a bound on how far any vertex is
-// from its rest position (the cutter's first-contact grid lives in rest space; an O(V) pass,
-// so the hook asks for it only in frames where a blade moves).
-struct SceneCutResult {
-  double ms = 0;                              // cut steps (cut + local improvement)
-  std::vector<std::vector<TetId>> fragments;  // detached parts (tets), as the cutter found them
-};
-using SceneCutHook = std::function<SceneCutResult(int frame, TetMesh& mesh, const std::function<Vec3(VertexId)>& current,
-                                                  const std::function<double()>& max_displacement,
-                                                  const std::function<void(const TopologyChange&)>& apply)>;
-
 struct Scene {
   std::string path;                 // the scene file (messages, relative paths)
   // Mesh: a file (relative to the scene) or a generator.
@@ -126,38 +110,8 @@ struct Scene {
 Scene load_scene(const std::string& path);
 Scene parse_scene(const std::string& json_text, const std::string& path);
 
-struct SceneRunOptions {
-  std::string out_dir;                // created if missing; empty: write nothing
-  int frames = -1;                    // override scene frames when >= 0
-  std::ostream* progress = nullptr;   // one line per frame (stderr in the CLI)
-  SceneCutHook cut_hook;              // required when the scene has cuts (cut/scene_cuts.h)
-  // Called after each frame with its displacement (3 per vertex slot) and stats (incise trade).
-  std::function<void(int frame, const Eigen::VectorXd& displacement, const FrameStats& stats)> on_frame;
-  // Checked after on_frame: true ends the run after this frame (incise trade: a dynamic run
-  // that has settled).
-  std::function<bool(int frame)> stop;
-  // Plays the scene on this mesh instead of its own (incise trade: other resolutions of the
-  // same body); the scene's boxes select on it the same way. Copied, not modified.
-  const TetMesh* mesh = nullptr;
-};
-
-struct SceneRunSummary {
-  int frames = 0;
-  long total_iterations = 0;
-  double total_solve_ms = 0;
-  int frames_budget_exhausted = 0;
-  int frames_not_converged = 0;
-  double total_cut_ms = 0;
-  std::size_t fragments_handled = 0;  // detached parts the policy fixed or removed (kept ones are not counted)
-  double max_displacement = 0;        // at the last frame
-  std::size_t vertices = 0, tets = 0;
-  std::vector<std::string> files;     // written, relative to out_dir
-};
-
-// Loads the mesh, builds the model and plays the frames. Throws Error naming the scene, the
-// frame and the reason on a solver breakdown, on a solution that blew up (NaN/Inf, or a vertex
-// moved by more than 1000 times the body's size: never reported as converged), and when a
-// static FEM scene would keep a part a cut freed.
-SceneRunSummary run_scene(const Scene& scene, const SceneRunOptions& options);
+// The scene's mesh: its file (relative to the scene file) or its generator, with no pending
+// change record. Throws what the reader throws (IoError naming the file).
+TetMesh load_scene_mesh(const Scene& scene);
 
 }  // namespace incise

@@ -1,26 +1,19 @@
-#include "sim/scene.h"
+#include "scene/scene.h"
 
-#include <algorithm>
-#include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <iomanip>
-#include <ostream>
 #include <sstream>
-#include <unordered_map>
+#include <string_view>
 
 #include <nlohmann/json.hpp>
 
 #include "cut/snap_rule.h"
 #include "mesh/errors.h"
 #include "mesh/generate.h"
-#include "mesh/io/atomic_file.h"
 #include "mesh/io/input_checks.h"
 #include "mesh/io/tet_io.h"
 #include "sim/integrator.h"
-#include "sim/spring_model.h"
 
 namespace incise {
 
@@ -174,61 +167,6 @@ SceneLoad read_load(const Reader& rd, const json& j, const std::string& key) {
     rd.fail(key + ".type", "expected \"force\", \"gravity\", \"probe\" or \"pressure\", got \"" + type + "\"");
   }
   return l;
-}
-
-void write_text_atomic(const std::string& path, const std::string& text) {
-  AtomicFile f(path);
-  f.write(text);
-  f.commit();
-}
-
-// A vertex moved by more than this many times the body's size (the diagonal of its rest
-// bounding box) means the solution blew up: no scene asks for that, while a free part under a
-// static solve, an explicit step above the stable limit or loads far beyond the material do.
-constexpr double kBlowUpFactor = 1e3;
-
-// Largest vertex displacement in `disp` (3 per vertex slot); NaN when any is NaN (std::max
-// would skip it), infinite when any is infinite.
-double max_displacement(const Eigen::VectorXd& disp) {
-  double d = 0;
-  for (Eigen::Index i = 0; i + 2 < disp.size(); i += 3) {
-    const double n = disp.segment<3>(i).norm();
-    if (std::isnan(n)) return n;
-    d = std::max(d, n);
-  }
-  return d;
-}
-
-// Throws when a frame's solution blew up: a non-finite displacement or residual, or a vertex
-// moved by more than kBlowUpFactor times the body's size. Such a frame is never "converged".
-void check_solution(const Scene& s, int frame, double max_disp, double residual, double size) {
-  if (max_disp <= kBlowUpFactor * size && std::isfinite(residual)) return;  // false for NaN too
-  std::ostringstream m;
-  m << s.path << ": frame " << frame << ": the solution blew up (";
-  if (!std::isfinite(max_disp)) m << "a displacement is NaN or infinite";
-  else if (!std::isfinite(residual)) m << "relative residual " << residual;
-  else {
-    const double times = max_disp / size;
-    m << std::setprecision(2) << "max displacement " << max_disp << ", ";
-    if (times < 1e6) m << std::fixed << std::setprecision(0);
-    m << times << "x the body's size" << std::defaultfloat;
-  }
-  m << "); ";
-  if (s.model == SceneModel::Springs)
-    m << "reduce time.dt or raise time.substeps, or check the loads";
-  else if (s.integrator == "static")
-    m << "check that every part is fixed or probed and that the loads suit the materials";
-  else
-    m << "reduce time.dt, or check the loads";
-  throw Error(m.str());
-}
-
-// The message for a part a cut detached that holds no fixed or prescribed vertex; `why` ends it.
-std::string detached_part(const Scene& s, int frame, std::size_t tets, const Vec3& near, const std::string& why) {
-  std::ostringstream m;
-  m << s.path << ": frame " << frame << ": a cut detached a part of " << tets << " tets near (" << std::setprecision(3)
-    << near.x() << ", " << near.y() << ", " << near.z() << ") with no fixed vertex" << why;
-  return m.str();
 }
 
 }  // namespace
@@ -514,42 +452,9 @@ Scene load_scene(const std::string& path) {
   return parse_scene(ss.str(), path);
 }
 
-namespace {
-
-// The boundary faces a pressure load selects (by tag, or all three corners in its box) and, per
-// corner vertex, the force of a unit pressure: minus a third of each face's outward rest area
-// vector (pressure pushes into the body).
-std::vector<std::pair<VertexId, Vec3>> pressure_faces(const TetMesh& mesh, const SceneLoad& l, double tol, const Reader& rd) {
-  std::unordered_map<std::uint32_t, Vec3> w;
-  std::size_t faces = 0;
-  for (const BoundaryFace& f : mesh.boundary_faces()) {
-    bool in = l.tag >= 0 ? f.tag == l.tag : true;
-    if (l.tag < 0)
-      for (VertexId v : f.vertices) in = in && l.box.contains(mesh.rest(v), tol);
-    if (!in) continue;
-    ++faces;
-    const Vec3 a = mesh.rest(f.vertices[0]), b = mesh.rest(f.vertices[1]), c = mesh.rest(f.vertices[2]);
-    const Vec3 area = 0.5 * (b - a).cross(c - a);
-    for (VertexId v : f.vertices) w.try_emplace(v.idx(), Vec3::Zero()).first->second -= area / 3;  // Eigen leaves a default Vec3 unset
-  }
-  if (faces == 0)
-    rd.fail(l.key + (l.tag >= 0 ? ".tag" : ".box"),
-            l.tag >= 0 ? "no boundary face has tag " + std::to_string(l.tag) : std::string("selects no boundary face"));
-  std::vector<std::pair<VertexId, Vec3>> out;
-  for (const auto& [v, f] : w) out.emplace_back(VertexId(v), f);
-  std::sort(out.begin(), out.end(), [](const auto& x, const auto& y) { return x.first.idx() < y.first.idx(); });
-  return out;
-}
-
-}  // namespace
-
-SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
-  const Reader rd(s.path);
-  // ---- mesh ---------------------------------------------------------------------------
+TetMesh load_scene_mesh(const Scene& s) {
   TetMesh mesh;
-  if (opt.mesh) {
-    mesh = *opt.mesh;
-  } else if (!s.generator.empty()) {
+  if (!s.generator.empty()) {
     if (s.generator == "box") mesh = make_box(s.gen_size, s.gen_cells);
     else if (s.generator == "tube") mesh = make_tube(s.gen_size[0], s.gen_size[1], s.gen_size[2], s.gen_angle, s.gen_cells);
     else mesh = make_ellipsoid(s.gen_size, s.gen_resolution);
@@ -559,298 +464,7 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
     mesh = read_tet_mesh(p.string());
   }
   mesh.discard_change();
-  if (mesh.num_tets() == 0) rd.fail("mesh", "the mesh has no tetrahedra");
-  if (!s.cuts.empty() && !opt.cut_hook)
-    throw InvalidArgument(s.path + ": the scene has cuts: run it with `incise simulate` or run_scene_with_cuts() "
-                          "(cut/scene_cuts.h)");
-
-  // ---- boxes -> vertex sets (checked before anything is written) -----------------------
-  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
-  for (VertexId v : mesh.vertices()) {
-    lo = lo.cwiseMin(mesh.rest(v));
-    hi = hi.cwiseMax(mesh.rest(v));
-  }
-  const double size = (hi - lo).norm();  // the body's size, for the blow-up check
-  const double tol = 1e-9 * size;
-  auto select = [&](const SceneBox& b, const std::string& key) {
-    std::vector<VertexId> out;
-    for (VertexId v : mesh.vertices())
-      if (!mesh.incident_tets(v).empty() && b.contains(mesh.rest(v), tol)) out.push_back(v);
-    if (out.empty()) {
-      std::ostringstream m;
-      m << "selects no vertex; the mesh spans [" << lo.x() << ", " << lo.y() << ", " << lo.z() << "] to [" << hi.x() << ", "
-        << hi.y() << ", " << hi.z() << "]";
-      rd.fail(key, m.str());
-    }
-    return out;
-  };
-  std::vector<std::pair<VertexId, unsigned>> fixed;  // vertex, held axes
-  for (std::size_t i = 0; i < s.fixed.size(); ++i)
-    for (VertexId v : select(s.fixed[i].box, "fixed[" + std::to_string(i) + "].box")) fixed.emplace_back(v, s.fixed[i].axes);
-  std::vector<std::vector<VertexId>> load_vertices(s.loads.size());
-  // Pressure loads: per vertex, the force of a unit pressure (its share of the selected faces'
-  // rest area vectors, a third per corner), fixed when the scene starts like other loads.
-  std::vector<std::vector<std::pair<VertexId, Vec3>>> pressure_weights(s.loads.size());
-  Vec3 gravity = Vec3::Zero();
-  for (std::size_t i = 0; i < s.loads.size(); ++i) {
-    const SceneLoad& l = s.loads[i];
-    if (l.kind == SceneLoad::Kind::Gravity) gravity += l.value;
-    else if (l.kind == SceneLoad::Kind::Pressure) pressure_weights[i] = pressure_faces(mesh, l, tol, rd);
-    else load_vertices[i] = select(l.box, l.key + ".box");
-  }
-
-
-  // ---- model (only the one the scene uses) ---------------------------------------------
-  std::unique_ptr<FemSimulation> fem;
-  std::unique_ptr<SpringModel> springs;
-  Integrator integrator = Integrator::SymplecticEuler;
-  if (s.model == SceneModel::Springs) {
-    SpringOptions so;
-    so.damping = s.damping;
-    so.cg_tolerance = s.cg.tolerance;
-    so.cg_max_iterations = s.cg.max_iterations;
-    so.compute_energy = false;
-    springs = std::make_unique<SpringModel>(mesh, s.materials, so);
-    integrator = parse_integrator(s.integrator);
-    for (const auto& [v, axes] : fixed) springs->set_fixed(v, true);  // axes == 7: the parser refuses rollers
-    springs->set_gravity(gravity);
-  } else {
-    FemSimulationOptions fo;
-    fo.kind = s.model == SceneModel::FemCorotational ? FemKind::Corotational : FemKind::Linear;
-    fo.formulation = s.formulation;
-    fo.method = s.method;
-    fo.backend = s.backend;
-    fo.cg = s.cg;
-    fo.warm_start = s.warm_start;
-    fo.predict = s.predict;
-    fo.dynamic = s.integrator == "implicit-euler";
-    fo.dt = s.dt;
-    fo.damping = s.damping;
-    fo.nonlinear_iterations = s.nonlinear_iterations;
-    fo.cholesky = s.cholesky;
-    fo.amg = s.amg;
-    fo.gravity = gravity;
-    fem = std::make_unique<FemSimulation>(mesh, s.materials, fo);
-    for (const auto& [v, axes] : fixed) fem->constrain(v, axes);
-    for (std::size_t i = 0; i < s.loads.size(); ++i)
-      if (s.loads[i].kind == SceneLoad::Kind::Probe)
-        for (VertexId v : load_vertices[i]) fem->prescribe(v, Vec3::Zero());
-    if (!fo.dynamic) {
-      try {
-        fem->check_constraints();
-      } catch (const InvalidArgument& e) {
-        rd.fail("fixed", e.what());
-      }
-    }
-  }
-
-  const int frames = opt.frames >= 0 ? opt.frames : s.frames;
-  const bool write = !opt.out_dir.empty();
-  if (write) {
-    std::error_code ec;
-    fs::create_directories(opt.out_dir, ec);
-    if (ec) throw IoError(opt.out_dir, 0, "cannot create output directory: " + ec.message());
-  }
-
-  SceneRunSummary sum;
-  sum.vertices = mesh.num_vertices();
-  sum.tets = mesh.num_tets();
-  std::ostringstream csv, pvd;
-  csv << "frame,time,iterations,relative_residual,solve_ms,budget_exhausted,converged,max_displacement,frame_ms,"
-         "setup_ms,cheaper_preconditioner"
-      << (s.cuts.empty() ? "" : ",cut_ms,tets") << "\n";
-  csv << std::setprecision(9);
-  pvd << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
-         "  <Collection>\n";
-  auto finish = [&] {
-    if (!write) return;
-    pvd << "  </Collection>\n</VTKFile>\n";
-    write_text_atomic((fs::path(opt.out_dir) / "stats.csv").string(), csv.str());
-    write_text_atomic((fs::path(opt.out_dir) / "frames.pvd").string(), pvd.str());
-    sum.files.push_back("stats.csv");
-    sum.files.push_back("frames.pvd");
-  };
-
-  std::vector<Vec3> force(mesh.vertex_capacity());
-  const bool dynamic = s.model == SceneModel::Springs || s.integrator == "implicit-euler";
-  FragmentPolicy policy = s.fragments;
-  if (policy == FragmentPolicy::Auto) policy = dynamic ? FragmentPolicy::Keep : FragmentPolicy::Remove;
-  std::function<void(const TopologyChange&)> apply_change = [&](const TopologyChange& ch) {
-    if (ch.empty()) return;
-    if (fem) fem->apply(ch);
-    else springs->apply(mesh, ch);
-  };
-  // Cuts before this frame's solve: the hook edits the mesh; every backend applies the one
-  // TopologyChange locally. Detached parts without a fixed or prescribed vertex follow the
-  // scene's fragment policy (a static solve has no equilibrium for a free part).
-  auto cut_before = [&](int frame) -> double {
-    if (!opt.cut_hook) return 0;
-    auto current = [&](VertexId v) -> Vec3 {
-      if (fem) return mesh.rest(v) + fem->displacement().segment<3>(3 * v.idx());
-      return springs->positions()[v.idx()];
-    };
-    // One pass over the state vector, like a CG iteration's vector update (interpolated new
-    // vertices never exceed it, so it holds through the frame's cuts).
-    auto max_disp = [&]() -> double {
-      double d = 0;
-      if (fem) {
-        const Eigen::VectorXd& u = fem->displacement();
-        for (Eigen::Index i = 0; i + 2 < u.size(); i += 3) d = std::max(d, u.segment<3>(i).squaredNorm());
-      } else {
-        for (VertexId v : mesh.vertices()) d = std::max(d, (springs->positions()[v.idx()] - mesh.rest(v)).squaredNorm());
-      }
-      return std::sqrt(d);
-    };
-    SceneCutResult cr = opt.cut_hook(frame, mesh, current, max_disp, apply_change);
-    for (const auto& part : cr.fragments) {
-      std::vector<VertexId> verts;
-      bool held = false;
-      std::size_t tets = 0;
-      Vec3 near = Vec3::Zero();  // the rest-space centroid of its tets' corners, for messages
-      for (TetId t : part) {
-        if (!mesh.is_alive(t)) continue;
-        ++tets;
-        for (VertexId v : mesh.tet_vertices(t)) {
-          verts.push_back(v);
-          near += mesh.rest(v);
-          held = held || (fem ? fem->is_constrained(v) : springs->is_fixed(v));
-        }
-      }
-      if (held || verts.empty()) continue;
-      near /= double(verts.size());
-      // Keep is for dynamic scenes, where a free part falls; a static solve has no equilibrium
-      // for it (K is singular there) and would return garbage that looks converged.
-      if (policy == FragmentPolicy::Keep && !dynamic)
-        throw Error(detached_part(s, frame, tets, near,
-                                  "; a static solve has no equilibrium for it (set \"fragments\" to \"remove\" or "
-                                  "\"fix\", or use a dynamic integrator)"));
-      if (policy == FragmentPolicy::Keep) continue;
-      ++sum.fragments_handled;
-      if (policy == FragmentPolicy::Error)
-        throw Error(detached_part(s, frame, tets, near, " (set \"fragments\" to \"remove\", \"fix\" or \"keep\")"));
-      if (policy == FragmentPolicy::Fix) {
-        for (VertexId v : verts) {
-          if (fem) fem->fix(v);
-          else springs->set_fixed(v, true);
-        }
-      } else {  // Remove
-        for (TetId t : part)
-          if (mesh.is_alive(t)) mesh.remove_tet(t);
-        std::sort(verts.begin(), verts.end());
-        verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
-        for (VertexId v : verts)
-          if (mesh.is_alive(v) && mesh.incident_tets(v).empty()) mesh.remove_vertex(v);
-        apply_change(mesh.take_change());
-      }
-    }
-    force.resize(mesh.vertex_capacity());
-    return cr.ms;
-  };
-  try {
-    for (int frame = 0; frame < frames; ++frame) {
-      const double cut_ms = cut_before(frame);
-      sum.total_cut_ms += cut_ms;
-      // Loads and probes at this frame.
-      std::fill(force.begin(), force.end(), Vec3::Zero());
-      for (std::size_t i = 0; i < s.loads.size(); ++i) {
-        const SceneLoad& l = s.loads[i];
-        const double f = l.factor(frame);
-        if (l.kind == SceneLoad::Kind::Force) {
-          for (VertexId v : load_vertices[i]) force[v.idx()] += f * l.value / double(load_vertices[i].size());
-        } else if (l.kind == SceneLoad::Kind::Pressure) {
-          for (const auto& [v, w] : pressure_weights[i]) force[v.idx()] += f * l.value.x() * w;
-        } else if (l.kind == SceneLoad::Kind::Probe) {
-          for (VertexId v : load_vertices[i]) {
-            if (fem) fem->prescribe(v, f * l.value);
-            else springs->set_prescribed(v, mesh.rest(v) + f * l.value);
-          }
-        }
-      }
-      FrameStats st;
-      Eigen::VectorXd disp;
-      if (fem) {
-        fem->clear_forces();
-        for (std::size_t v = 0; v < force.size(); ++v)
-          if (force[v].squaredNorm() > 0) fem->set_force(VertexId(std::uint32_t(v)), force[v]);
-        try {
-          st = fem->step();
-        } catch (const InvalidArgument& e) {
-          rd.fail("fixed", e.what());
-        }
-        if (st.info == SolveInfo::NotPositiveDefinite || st.info == SolveInfo::NumericalIssue)
-          throw Error(s.path + ": frame " + std::to_string(frame) + ": " + st.message);
-        disp = fem->displacement().head(Eigen::Index(3 * mesh.vertex_capacity()));
-      } else {
-        for (std::size_t v = 0; v < force.size(); ++v)
-          if (mesh.is_alive(VertexId(std::uint32_t(v)))) springs->set_external_force(VertexId(std::uint32_t(v)), force[v]);
-        const auto t0 = std::chrono::steady_clock::now();
-        for (int k = 0; k < s.substeps; ++k) {
-          const StepStats ss = springs->step(s.dt, integrator);
-          st.iterations += ss.cg_iterations;
-          st.relative_residual = ss.cg_relative_residual;
-        }
-        st.solve_ms = st.frame_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-        disp = Eigen::VectorXd::Zero(Eigen::Index(3 * mesh.vertex_capacity()));
-        const auto& x = springs->positions();
-        for (VertexId v : mesh.vertices()) disp.segment<3>(3 * v.idx()) = x[v.idx()] - mesh.rest(v);
-      }
-      const double maxd = max_displacement(disp);
-      check_solution(s, frame, maxd, st.relative_residual, size);
-      if (opt.on_frame) opt.on_frame(frame, disp, st);
-      const double time = dynamic ? (frame + 1) * s.dt * (s.model == SceneModel::Springs ? s.substeps : 1) : frame;
-      const bool converged = st.info == SolveInfo::Success;
-      csv << frame << "," << time << "," << st.iterations << "," << st.relative_residual << "," << st.solve_ms << ","
-          << (st.budget_exhausted ? 1 : 0) << "," << (converged ? 1 : 0) << "," << maxd << "," << st.frame_ms << ","
-          << st.setup_ms << "," << (st.cheaper_preconditioner ? 1 : 0);
-      if (!s.cuts.empty()) csv << "," << cut_ms << "," << mesh.num_tets();
-      csv << "\n";
-      sum.total_iterations += st.iterations;
-      sum.total_solve_ms += st.solve_ms;
-      sum.frames_budget_exhausted += st.budget_exhausted;
-      sum.frames_not_converged += !converged;
-      sum.max_displacement = maxd;
-      ++sum.frames;
-
-      if (write && (frame % s.output_every == 0 || frame == frames - 1)) {
-        char name[64];
-        std::snprintf(name, sizeof name, "frame_%04d.vtu", frame);
-        std::vector<Vec3> pts(mesh.vertex_capacity(), Vec3::Zero());
-        for (VertexId v : mesh.vertices()) pts[v.idx()] = mesh.rest(v) + disp.segment<3>(3 * v.idx());
-        MeshFields fields;
-        fields.points = &pts;
-        fields.point_data.push_back(Field{"displacement", 3, std::vector<double>(disp.data(), disp.data() + disp.size())});
-        if (fem) fields.cell_data.push_back(Field{"von_mises", 1, fem->von_mises()});
-        if (!s.cuts.empty()) {
-          // Cut faces per tet (0..4): ParaView's threshold on it shows the cut surfaces.
-          std::vector<double> cut_faces(mesh.tet_capacity(), 0.0);
-          for (TetId t : mesh.tets())
-            for (int f = 0; f < 4; ++f)
-              if (!mesh.neighbor(t, f).is_valid() && mesh.face_tag(t, f) == kTagCut) cut_faces[t.idx()] += 1;
-          fields.cell_data.push_back(Field{"cut_faces", 1, std::move(cut_faces)});
-        }
-        WriteOptions wo;
-        wo.binary = s.output_binary;
-        write_tet_mesh_with_fields(mesh, (fs::path(opt.out_dir) / name).string(), fields, wo);
-        pvd << "    <DataSet timestep=\"" << time << "\" group=\"\" part=\"0\" file=\"" << name << "\"/>\n";
-        sum.files.push_back(name);
-      }
-      if (opt.progress) {
-        // Numbered like the files and stats.csv (frame_0000.vtu is frame 0).
-        *opt.progress << "simulate: frame " << frame << " (0.." << frames - 1 << "): " << st.iterations << " iterations, residual "
-                      << st.relative_residual << ", " << std::fixed << std::setprecision(2) << st.solve_ms << " ms"
-                      << std::defaultfloat << std::setprecision(6) << (st.budget_exhausted ? ", budget exhausted" : "")
-                      << (!converged && !st.budget_exhausted && fem ? ", NOT CONVERGED" : "") << "\n";
-      }
-      if (opt.stop && opt.stop(frame)) break;
-    }
-  } catch (...) {
-    finish();  // keep the series and stats of the frames that were computed
-    throw;
-  }
-  finish();
-  sum.vertices = mesh.num_vertices();  // after the cuts
-  sum.tets = mesh.num_tets();
-  return sum;
+  return mesh;
 }
 
 }  // namespace incise

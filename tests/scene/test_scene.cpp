@@ -10,7 +10,7 @@
 
 #include "mesh/errors.h"
 #include "mesh/io/tet_io.h"
-#include "sim/scene.h"
+#include "scene/run_scene.h"
 
 using namespace incise;
 namespace fs = std::filesystem;

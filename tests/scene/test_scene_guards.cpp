@@ -3,9 +3,9 @@
 // frame instead of being counted as converged, and a solve whose residual is not finite is
 // never reported as converged.
 //
-// The cuts here come from a test-local hook that severs the beam by removing one layer of tets
-// and reports what lies beyond as a fragment, the way the cutter does (test_sim does not link
-// cut/): that is all the runner's fragment rule sees.
+// The cuts here are a test-local edit that severs the beam by removing one layer of tets and
+// reports what lies beyond as a fragment, the way the cutter does (SceneRunner::edit between
+// frames): that is all the runner's fragment rule sees.
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -17,7 +17,8 @@
 #include "mesh/errors.h"
 #include "mesh/generate.h"
 #include "sim/fem_simulation.h"
-#include "sim/scene.h"
+#include "scene/run_scene.h"
+#include "scene/scene_runner.h"
 
 using namespace incise;
 namespace fs = std::filesystem;
@@ -44,21 +45,19 @@ constexpr std::size_t kBeyondTets = 3 * 2 * 2 * 6;  // the three cell layers pas
 
 // Before `frame`'s solve, removes the tets between x = 2 and x = 2.5 (rest space): the beam's
 // end beyond x = 2.5 is then a separate part with no fixed vertex, reported as a fragment.
-SceneCutHook sever_at(int frame) {
-  return [frame](int f, TetMesh& mesh, const auto&, const auto&,
-                 const std::function<void(const TopologyChange&)>& apply) {
-    SceneCutResult r;
-    if (f != frame) return r;
-    std::vector<TetId> beyond;
-    for (TetId t : mesh.tets()) {
-      Vec3 c = Vec3::Zero();
-      for (VertexId v : mesh.tet_vertices(t)) c += mesh.rest(v) / 4;
-      if (c.x() > 2 && c.x() < 2.5) mesh.remove_tet(t);
-      else if (c.x() > 2.5) beyond.push_back(t);
-    }
-    apply(mesh.take_change());
-    r.fragments.push_back(std::move(beyond));
-    return r;
+std::function<void(SceneRunner&)> sever_at(int frame) {
+  return [frame](SceneRunner& runner) {
+    if (runner.frame() != frame) return;
+    runner.edit([](TetMesh& mesh) {
+      std::vector<TetId> beyond;
+      for (TetId t : mesh.tets()) {
+        Vec3 c = Vec3::Zero();
+        for (VertexId v : mesh.tet_vertices(t)) c += mesh.rest(v) / 4;
+        if (c.x() > 2 && c.x() < 2.5) mesh.remove_tet(t);
+        else if (c.x() > 2.5) beyond.push_back(t);
+      }
+      return std::vector<std::vector<TetId>>{std::move(beyond)};
+    });
   };
 }
 
@@ -91,7 +90,7 @@ TEST_CASE("a static scene that keeps a part a cut freed is refused, naming the f
   const fs::path out = temp_dir("keep");
   SceneRunOptions ro;
   ro.out_dir = out.string();
-  ro.cut_hook = sever_at(2);
+  ro.before_frame = sever_at(2);
   const std::string e = error_of(beam(R"(, "fragments": "keep")"), ro);
   // 72 tets between x = 2.5 and 4, centred at (3.25, 0.5, 0.5).
   CHECK_THAT(e, Catch::StartsWith("scene.json: frame 2: a cut detached a part of " + std::to_string(kBeyondTets) +
@@ -107,7 +106,7 @@ TEST_CASE("a static scene that keeps a part a cut freed is refused, naming the f
 
 TEST_CASE("the same severed scene runs with remove, fix, auto, and keeps the part when dynamic", "[scene][guards]") {
   SceneRunOptions ro;
-  ro.cut_hook = sever_at(2);
+  ro.before_frame = sever_at(2);
   SECTION("remove (and auto, which is remove for static FEM): the free part goes") {
     for (const char* policy : {"remove", "auto"}) {
       const SceneRunSummary sum = run_scene(beam(std::string(R"(, "fragments": ")") + policy + "\""), ro);

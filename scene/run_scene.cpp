@@ -1,0 +1,64 @@
+#include "scene/run_scene.h"
+
+#include <iomanip>
+#include <optional>
+#include <ostream>
+
+#include "scene/scene_output.h"
+#include "scene/scene_runner.h"
+
+namespace incise {
+
+SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
+  // Everything the scene says is checked (boxes, constraints) before anything is written.
+  SceneRunner runner(s, opt.mesh);
+  const int frames = opt.frames >= 0 ? opt.frames : s.frames;
+  std::optional<SceneOutput> out;
+  if (!opt.out_dir.empty()) out.emplace(s, opt.out_dir);
+
+  SceneRunSummary sum;
+  sum.vertices = runner.mesh().num_vertices();
+  sum.tets = runner.mesh().num_tets();
+  auto finish = [&] {
+    if (!out) return;
+    for (std::string& f : out->finish()) sum.files.push_back(std::move(f));
+  };
+  try {
+    for (int frame = 0; frame < frames; ++frame) {
+      if (opt.before_frame) opt.before_frame(runner);
+      const SceneFrame f = runner.step();
+      const FrameStats& st = f.stats;
+      if (opt.on_frame) opt.on_frame(frame, f.displacement, st);
+      const bool converged = st.info == SolveInfo::Success;
+      sum.total_iterations += st.iterations;
+      sum.total_solve_ms += st.solve_ms;
+      sum.frames_budget_exhausted += st.budget_exhausted;
+      sum.frames_not_converged += !converged;
+      sum.max_displacement = f.max_displacement;
+      ++sum.frames;
+      if (out) {
+        const std::string vtu = out->add(runner, f, frame % s.output_every == 0 || frame == frames - 1);
+        if (!vtu.empty()) sum.files.push_back(vtu);
+      }
+      if (opt.progress) {
+        // Numbered like the files and stats.csv (frame_0000.vtu is frame 0).
+        *opt.progress << "simulate: frame " << frame << " (0.." << frames - 1 << "): " << st.iterations << " iterations, residual "
+                      << st.relative_residual << ", " << std::fixed << std::setprecision(2) << st.solve_ms << " ms"
+                      << std::defaultfloat << std::setprecision(6) << (st.budget_exhausted ? ", budget exhausted" : "")
+                      << (!converged && !st.budget_exhausted && runner.fem() ? ", NOT CONVERGED" : "") << "\n";
+      }
+      if (opt.stop && opt.stop(frame)) break;
+    }
+  } catch (...) {
+    finish();  // keep the series and stats of the frames that were computed
+    throw;
+  }
+  finish();
+  sum.total_cut_ms = runner.total_cut_ms();
+  sum.fragments_handled = runner.fragments_handled();
+  sum.vertices = runner.mesh().num_vertices();  // after the cuts
+  sum.tets = runner.mesh().num_tets();
+  return sum;
+}
+
+}  // namespace incise

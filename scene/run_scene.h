@@ -1,0 +1,53 @@
+#pragma once
+// run_scene: plays a whole scene (scene/scene_runner.h, frame by frame) and writes one VTU per
+// frame, a ParaView .pvd series and stats.csv (scene/scene_output.h). What `incise simulate`,
+// `incise trade` and Python's run_scene call.
+#include <functional>
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+#include "scene/scene.h"
+
+namespace incise {
+
+class SceneRunner;
+
+struct SceneRunOptions {
+  std::string out_dir;                // created if missing; empty: write nothing
+  int frames = -1;                    // override scene frames when >= 0
+  std::ostream* progress = nullptr;   // one line per frame (stderr in the CLI)
+  // Called before each frame's step (runner.frame() is that frame): input from outside the
+  // scene between frames (a blade, a probe, an edit: scene/scene_runner.h).
+  std::function<void(SceneRunner& runner)> before_frame;
+  // Called after each frame with its displacement (3 per vertex slot) and stats (incise trade).
+  std::function<void(int frame, const Eigen::VectorXd& displacement, const FrameStats& stats)> on_frame;
+  // Checked after on_frame: true ends the run after this frame (incise trade: a dynamic run
+  // that has settled).
+  std::function<bool(int frame)> stop;
+  // Plays the scene on this mesh instead of its own (incise trade: other resolutions of the
+  // same body); the scene's boxes select on it the same way. Copied, not modified.
+  const TetMesh* mesh = nullptr;
+};
+
+struct SceneRunSummary {
+  int frames = 0;
+  long total_iterations = 0;
+  double total_solve_ms = 0;
+  int frames_budget_exhausted = 0;
+  int frames_not_converged = 0;
+  double total_cut_ms = 0;
+  std::size_t fragments_handled = 0;  // detached parts the policy fixed or removed (kept ones are not counted)
+  double max_displacement = 0;        // at the last frame
+  std::size_t vertices = 0, tets = 0;
+  std::vector<std::string> files;     // written, relative to out_dir
+};
+
+// Loads the mesh, builds the model and plays the frames, the scene's cuts included. Throws
+// Error naming the scene, the frame and the reason on a solver breakdown, on a solution that
+// blew up (NaN/Inf, or a vertex moved by more than 1000 times the body's size: never reported
+// as converged), and when a static FEM scene would keep a part a cut freed; the frames computed
+// before stay written.
+SceneRunSummary run_scene(const Scene& scene, const SceneRunOptions& options);
+
+}  // namespace incise

@@ -1,0 +1,457 @@
+#include "scene/scene_runner.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+#include <unordered_map>
+
+#include "mesh/errors.h"
+
+namespace incise {
+
+namespace {
+
+// Content errors name the scene file and the key, as the parser's do.
+[[noreturn]] void fail(const Scene& s, const std::string& key, const std::string& what) {
+  throw IoError(s.path, 0, key + ": " + what);
+}
+
+// A vertex moved by more than this many times the body's size (the diagonal of its rest
+// bounding box) means the solution blew up: no scene asks for that, while a free part under a
+// static solve, an explicit step above the stable limit or loads far beyond the material do.
+constexpr double kBlowUpFactor = 1e3;
+
+// Largest vertex displacement in `disp` (3 per vertex slot); NaN when any is NaN (std::max
+// would skip it), infinite when any is infinite.
+double max_displacement(const Eigen::VectorXd& disp) {
+  double d = 0;
+  for (Eigen::Index i = 0; i + 2 < disp.size(); i += 3) {
+    const double n = disp.segment<3>(i).norm();
+    if (std::isnan(n)) return n;
+    d = std::max(d, n);
+  }
+  return d;
+}
+
+// Throws when a frame's solution blew up: a non-finite displacement or residual, or a vertex
+// moved by more than kBlowUpFactor times the body's size. Such a frame is never "converged".
+void check_solution(const Scene& s, int frame, double max_disp, double residual, double size) {
+  if (max_disp <= kBlowUpFactor * size && std::isfinite(residual)) return;  // false for NaN too
+  std::ostringstream m;
+  m << s.path << ": frame " << frame << ": the solution blew up (";
+  if (!std::isfinite(max_disp)) m << "a displacement is NaN or infinite";
+  else if (!std::isfinite(residual)) m << "relative residual " << residual;
+  else {
+    const double times = max_disp / size;
+    m << std::setprecision(2) << "max displacement " << max_disp << ", ";
+    if (times < 1e6) m << std::fixed << std::setprecision(0);
+    m << times << "x the body's size" << std::defaultfloat;
+  }
+  m << "); ";
+  if (s.model == SceneModel::Springs)
+    m << "reduce time.dt or raise time.substeps, or check the loads";
+  else if (s.integrator == "static")
+    m << "check that every part is fixed or probed and that the loads suit the materials";
+  else
+    m << "reduce time.dt, or check the loads";
+  throw Error(m.str());
+}
+
+// The message for a part a cut detached that holds no fixed or prescribed vertex; `why` ends it.
+std::string detached_part(const Scene& s, int frame, std::size_t tets, const Vec3& near, const std::string& why) {
+  std::ostringstream m;
+  m << s.path << ": frame " << frame << ": a cut detached a part of " << tets << " tets near (" << std::setprecision(3)
+    << near.x() << ", " << near.y() << ", " << near.z() << ") with no fixed vertex" << why;
+  return m.str();
+}
+
+// The boundary faces a pressure load selects (by tag, or all three corners in its box) and, per
+// corner vertex, the force of a unit pressure: minus a third of each face's outward rest area
+// vector (pressure pushes into the body).
+std::vector<std::pair<VertexId, Vec3>> pressure_faces(const TetMesh& mesh, const SceneLoad& l, double tol, const Scene& s) {
+  std::unordered_map<std::uint32_t, Vec3> w;
+  std::size_t faces = 0;
+  for (const BoundaryFace& f : mesh.boundary_faces()) {
+    bool in = l.tag >= 0 ? f.tag == l.tag : true;
+    if (l.tag < 0)
+      for (VertexId v : f.vertices) in = in && l.box.contains(mesh.rest(v), tol);
+    if (!in) continue;
+    ++faces;
+    const Vec3 a = mesh.rest(f.vertices[0]), b = mesh.rest(f.vertices[1]), c = mesh.rest(f.vertices[2]);
+    const Vec3 area = 0.5 * (b - a).cross(c - a);
+    for (VertexId v : f.vertices) w.try_emplace(v.idx(), Vec3::Zero()).first->second -= area / 3;  // Eigen leaves a default Vec3 unset
+  }
+  if (faces == 0)
+    fail(s, l.key + (l.tag >= 0 ? ".tag" : ".box"),
+         l.tag >= 0 ? "no boundary face has tag " + std::to_string(l.tag) : std::string("selects no boundary face"));
+  std::vector<std::pair<VertexId, Vec3>> out;
+  for (const auto& [v, f] : w) out.emplace_back(VertexId(v), f);
+  std::sort(out.begin(), out.end(), [](const auto& x, const auto& y) { return x.first.idx() < y.first.idx(); });
+  return out;
+}
+
+// Fraction of a scene blade's sweep done when `frame` is solved.
+double sweep_fraction(const SceneCut& c, int frame) {
+  if (frame < c.from_frame) return 0;
+  if (c.to_frame <= c.from_frame || frame >= c.to_frame) return 1;
+  return double(frame - c.from_frame + 1) / double(c.to_frame - c.from_frame + 1);
+}
+
+}  // namespace
+
+SceneRunner::SceneRunner(const Scene& scene, const TetMesh* mesh) : scene_(scene) {
+  const Scene& s = scene_;
+  // ---- mesh ---------------------------------------------------------------------------
+  if (mesh) mesh_ = *mesh;
+  else mesh_ = load_scene_mesh(s);
+  mesh_.discard_change();
+  if (mesh_.num_tets() == 0) fail(s, "mesh", "the mesh has no tetrahedra");
+
+  // ---- boxes -> vertex sets (checked before anything is written) -----------------------
+  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+  for (VertexId v : mesh_.vertices()) {
+    lo = lo.cwiseMin(mesh_.rest(v));
+    hi = hi.cwiseMax(mesh_.rest(v));
+  }
+  size_ = (hi - lo).norm();  // the body's size, for the blow-up check
+  const double tol = 1e-9 * size_;
+  auto select = [&](const SceneBox& b, const std::string& key) {
+    std::vector<VertexId> out;
+    for (VertexId v : mesh_.vertices())
+      if (!mesh_.incident_tets(v).empty() && b.contains(mesh_.rest(v), tol)) out.push_back(v);
+    if (out.empty()) {
+      std::ostringstream m;
+      m << "selects no vertex; the mesh spans [" << lo.x() << ", " << lo.y() << ", " << lo.z() << "] to [" << hi.x() << ", "
+        << hi.y() << ", " << hi.z() << "]";
+      fail(s, key, m.str());
+    }
+    return out;
+  };
+  std::vector<std::pair<VertexId, unsigned>> fixed;  // vertex, held axes
+  for (std::size_t i = 0; i < s.fixed.size(); ++i)
+    for (VertexId v : select(s.fixed[i].box, "fixed[" + std::to_string(i) + "].box")) fixed.emplace_back(v, s.fixed[i].axes);
+  load_vertices_.resize(s.loads.size());
+  // Pressure loads: per vertex, the force of a unit pressure (its share of the selected faces'
+  // rest area vectors, a third per corner), fixed when the scene starts like other loads.
+  pressure_weights_.resize(s.loads.size());
+  Vec3 gravity = Vec3::Zero();
+  for (std::size_t i = 0; i < s.loads.size(); ++i) {
+    const SceneLoad& l = s.loads[i];
+    if (l.kind == SceneLoad::Kind::Gravity) gravity += l.value;
+    else if (l.kind == SceneLoad::Kind::Pressure) pressure_weights_[i] = pressure_faces(mesh_, l, tol, s);
+    else load_vertices_[i] = select(l.box, l.key + ".box");
+  }
+
+  // ---- model (only the one the scene uses) ---------------------------------------------
+  if (s.model == SceneModel::Springs) {
+    SpringOptions so;
+    so.damping = s.damping;
+    so.cg_tolerance = s.cg.tolerance;
+    so.cg_max_iterations = s.cg.max_iterations;
+    so.compute_energy = false;
+    springs_ = std::make_unique<SpringModel>(mesh_, s.materials, so);
+    integrator_ = parse_integrator(s.integrator);
+    for (const auto& [v, axes] : fixed) springs_->set_fixed(v, true);  // axes == 7: the parser refuses rollers
+    springs_->set_gravity(gravity);
+  } else {
+    FemSimulationOptions fo;
+    fo.kind = s.model == SceneModel::FemCorotational ? FemKind::Corotational : FemKind::Linear;
+    fo.formulation = s.formulation;
+    fo.method = s.method;
+    fo.backend = s.backend;
+    fo.cg = s.cg;
+    fo.warm_start = s.warm_start;
+    fo.predict = s.predict;
+    fo.dynamic = s.integrator == "implicit-euler";
+    fo.dt = s.dt;
+    fo.damping = s.damping;
+    fo.nonlinear_iterations = s.nonlinear_iterations;
+    fo.cholesky = s.cholesky;
+    fo.amg = s.amg;
+    fo.gravity = gravity;
+    fem_ = std::make_unique<FemSimulation>(mesh_, s.materials, fo);
+    for (const auto& [v, axes] : fixed) fem_->constrain(v, axes);
+    for (std::size_t i = 0; i < s.loads.size(); ++i)
+      if (s.loads[i].kind == SceneLoad::Kind::Probe)
+        for (VertexId v : load_vertices_[i]) fem_->prescribe(v, Vec3::Zero());
+    if (!fo.dynamic) {
+      try {
+        fem_->check_constraints();
+      } catch (const InvalidArgument& e) {
+        fail(s, "fixed", e.what());
+      }
+    }
+  }
+  dynamic_ = s.model == SceneModel::Springs || s.integrator == "implicit-euler";
+  policy_ = s.fragments;
+  if (policy_ == FragmentPolicy::Auto) policy_ = dynamic_ ? FragmentPolicy::Keep : FragmentPolicy::Remove;
+
+  // Every scene blade's cutter (and its first-contact grid, O(mesh)) is made here, as setup;
+  // afterwards each step's change is passed to the other cutters, so no grid goes stale (only
+  // a fragment removal makes them rebuild).
+  for (const SceneCut& c : s.cuts) {
+    CutOptions o;
+    o.mode = c.mode == "remove" ? CutMode::Remove : CutMode::Subdivide;
+    o.snap = c.snap;
+    o.improve = c.improve;
+    cutters_.push_back(std::make_unique<Cutter>(mesh_, o));
+    cutters_.back()->start({c.a, c.b});
+  }
+  swept_.assign(s.cuts.size(), 0.0);
+}
+
+SceneRunner::~SceneRunner() = default;
+
+Vec3 SceneRunner::position(VertexId v) const {
+  if (fem_) return mesh_.rest(v) + fem_->displacement().segment<3>(3 * v.idx());
+  return springs_->positions()[v.idx()];
+}
+
+std::vector<Vec3> SceneRunner::positions() const {
+  std::vector<Vec3> x(mesh_.vertex_capacity(), Vec3::Zero());
+  for (VertexId v : mesh_.vertices()) x[v.idx()] = position(v);
+  return x;
+}
+
+std::vector<VertexId> SceneRunner::vertices_near(const Vec3& point, double radius) const {
+  std::vector<VertexId> out;
+  for (VertexId v : mesh_.vertices())
+    if (!mesh_.incident_tets(v).empty() && (position(v) - point).norm() <= radius) out.push_back(v);
+  return out;
+}
+
+// One pass over the state vector, like a CG iteration's vector update (interpolated new
+// vertices never exceed it, so it holds through a frame's cuts).
+double SceneRunner::max_displacement_bound() const {
+  double d = 0;
+  if (fem_) {
+    const Eigen::VectorXd& u = fem_->displacement();
+    for (Eigen::Index i = 0; i + 2 < u.size(); i += 3) d = std::max(d, u.segment<3>(i).squaredNorm());
+  } else {
+    for (VertexId v : mesh_.vertices()) d = std::max(d, (springs_->positions()[v.idx()] - mesh_.rest(v)).squaredNorm());
+  }
+  return std::sqrt(d);
+}
+
+// A change made by cutter `from` (null: not a cutter) goes to the other cutters' grids and to
+// the backend, which updates locally.
+void SceneRunner::apply_change(const TopologyChange& change, const Cutter* from) {
+  if (change.empty()) return;
+  for (const auto& c : cutters_)
+    if (c.get() != from) c->notify(change);
+  if (blade_ && blade_.get() != from) blade_->notify(change);
+  if (fem_) fem_->apply(change);
+  else springs_->apply(mesh_, change);
+}
+
+bool SceneRunner::held_by_scene(VertexId v) const {
+  if (fem_) return fem_->is_constrained(v);
+  if (springs_->is_fixed(v)) return true;
+  for (std::size_t i = 0; i < scene_.loads.size(); ++i)
+    if (scene_.loads[i].kind == SceneLoad::Kind::Probe &&
+        std::find(load_vertices_[i].begin(), load_vertices_[i].end(), v) != load_vertices_[i].end())
+      return true;
+  return false;
+}
+
+// Detached parts without a fixed or prescribed vertex follow the scene's fragment policy (a
+// static solve has no equilibrium for a free part). Named by the frame they come before.
+void SceneRunner::handle_fragments(const std::vector<std::vector<TetId>>& parts) {
+  const Scene& s = scene_;
+  for (const auto& part : parts) {
+    std::vector<VertexId> verts;
+    bool held = false;
+    std::size_t tets = 0;
+    Vec3 near = Vec3::Zero();  // the rest-space centroid of its tets' corners, for messages
+    for (TetId t : part) {
+      if (!mesh_.is_alive(t)) continue;
+      ++tets;
+      for (VertexId v : mesh_.tet_vertices(t)) {
+        verts.push_back(v);
+        near += mesh_.rest(v);
+        held = held || (fem_ ? fem_->is_constrained(v) : springs_->is_fixed(v));
+      }
+    }
+    if (held || verts.empty()) continue;
+    near /= double(verts.size());
+    // Keep is for dynamic scenes, where a free part falls; a static solve has no equilibrium
+    // for it (K is singular there) and would return garbage that looks converged.
+    if (policy_ == FragmentPolicy::Keep && !dynamic_)
+      throw Error(detached_part(s, frame_, tets, near,
+                                "; a static solve has no equilibrium for it (set \"fragments\" to \"remove\" or "
+                                "\"fix\", or use a dynamic integrator)"));
+    if (policy_ == FragmentPolicy::Keep) continue;
+    ++fragments_handled_;
+    if (policy_ == FragmentPolicy::Error)
+      throw Error(detached_part(s, frame_, tets, near, " (set \"fragments\" to \"remove\", \"fix\" or \"keep\")"));
+    if (policy_ == FragmentPolicy::Fix) {
+      for (VertexId v : verts) {
+        if (fem_) fem_->fix(v);
+        else springs_->set_fixed(v, true);
+      }
+    } else {  // Remove
+      for (TetId t : part)
+        if (mesh_.is_alive(t)) mesh_.remove_tet(t);
+      std::sort(verts.begin(), verts.end());
+      verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+      for (VertexId v : verts)
+        if (mesh_.is_alive(v) && mesh_.incident_tets(v).empty()) mesh_.remove_vertex(v);
+      // The backend takes the removal; the cutters notice it by the mesh's edit counter.
+      const TopologyChange ch = mesh_.take_change();
+      if (!ch.empty()) {
+        if (fem_) fem_->apply(ch);
+        else springs_->apply(mesh_, ch);
+      }
+    }
+  }
+}
+
+// Before frame_'s solve every scene blade advances to its position at that frame (linear from
+// from_frame to to_frame), cutting the current shape; a sweep that is done is finished (the
+// blade withdrawn, its front released). Returns the cutting time.
+double SceneRunner::cut_scene_blades() {
+  const auto current = [this](VertexId v) { return position(v); };
+  double ms = 0;
+  double bound = -1;  // measured once, in the first step that needs it
+  std::vector<std::vector<TetId>> parts;
+  auto take = [&](CutStepReport& r, const Cutter* from) {
+    apply_change(r.change, from);
+    ms += r.ms;
+    for (Fragment& fr : r.fragments) parts.push_back(std::move(fr.tets));
+  };
+  for (std::size_t i = 0; i < cutters_.size(); ++i) {
+    const SceneCut& c = scene_.cuts[i];
+    const double f = sweep_fraction(c, frame_);
+    if (f <= swept_[i]) continue;
+    const Vec3 off = f * c.sweep;
+    if (bound < 0) bound = max_displacement_bound();
+    CutStepReport r = cutters_[i]->advance({c.a + off, c.b + off}, current, bound);
+    swept_[i] = f;
+    take(r, cutters_[i].get());
+    if (f >= 1) {
+      CutStepReport fin = cutters_[i]->finish(current);
+      take(fin, cutters_[i].get());
+    }
+  }
+  handle_fragments(parts);
+  return ms;
+}
+
+CutStepReport SceneRunner::advance_blade(const BladeSegment& blade, const CutOptions& options) {
+  if (!blade_ || !blade_->in_cut()) {
+    // One cutter for every outside cut: its first-contact grid is built once and kept up to
+    // date by the changes it is notified of.
+    if (!blade_) blade_ = std::make_unique<Cutter>(mesh_, options);
+    else blade_->options() = options;
+    blade_->start(blade);
+    return {};
+  }
+  CutStepReport r = blade_->advance(blade, [this](VertexId v) { return position(v); }, max_displacement_bound());
+  apply_change(r.change, blade_.get());
+  total_cut_ms_ += r.ms;
+  std::vector<std::vector<TetId>> parts;
+  for (Fragment& fr : r.fragments) parts.push_back(std::move(fr.tets));
+  r.fragments.clear();
+  handle_fragments(parts);
+  return r;
+}
+
+CutStepReport SceneRunner::finish_blade() {
+  if (!blade_ || !blade_->in_cut()) return {};
+  CutStepReport r = blade_->finish([this](VertexId v) { return position(v); });
+  apply_change(r.change, blade_.get());
+  total_cut_ms_ += r.ms;
+  std::vector<std::vector<TetId>> parts;
+  for (Fragment& fr : r.fragments) parts.push_back(std::move(fr.tets));
+  r.fragments.clear();
+  handle_fragments(parts);
+  return r;
+}
+
+void SceneRunner::set_probe(const std::vector<VertexId>& vertices, const Vec3& displacement) {
+  release_probe();
+  for (VertexId v : vertices)
+    if (mesh_.is_alive(v) && !held_by_scene(v)) probe_.push_back(v);
+  probe_displacement_ = displacement;
+}
+
+void SceneRunner::release_probe() {
+  for (VertexId v : probe_) {
+    if (!mesh_.is_alive(v)) continue;
+    if (fem_) fem_->release(v);
+    else springs_->clear_prescribed(v);
+  }
+  probe_.clear();
+}
+
+void SceneRunner::edit(const std::function<std::vector<std::vector<TetId>>(TetMesh&)>& fn) {
+  const std::vector<std::vector<TetId>> parts = fn(mesh_);
+  apply_change(mesh_.take_change(), nullptr);
+  handle_fragments(parts);
+}
+
+SceneFrame SceneRunner::step() {
+  const Scene& s = scene_;
+  SceneFrame out;
+  out.frame = frame_;
+  out.cut_ms = cut_scene_blades();
+  total_cut_ms_ += out.cut_ms;
+  // Loads and probes at this frame, then the outside probe.
+  force_.assign(mesh_.vertex_capacity(), Vec3::Zero());
+  for (std::size_t i = 0; i < s.loads.size(); ++i) {
+    const SceneLoad& l = s.loads[i];
+    const double f = l.factor(frame_);
+    if (l.kind == SceneLoad::Kind::Force) {
+      for (VertexId v : load_vertices_[i]) force_[v.idx()] += f * l.value / double(load_vertices_[i].size());
+    } else if (l.kind == SceneLoad::Kind::Pressure) {
+      for (const auto& [v, w] : pressure_weights_[i]) force_[v.idx()] += f * l.value.x() * w;
+    } else if (l.kind == SceneLoad::Kind::Probe) {
+      for (VertexId v : load_vertices_[i]) {
+        if (fem_) fem_->prescribe(v, f * l.value);
+        else springs_->set_prescribed(v, mesh_.rest(v) + f * l.value);
+      }
+    }
+  }
+  for (VertexId v : probe_) {
+    if (!mesh_.is_alive(v)) continue;
+    if (fem_) fem_->prescribe(v, probe_displacement_);
+    else springs_->set_prescribed(v, mesh_.rest(v) + probe_displacement_);
+  }
+  FrameStats& st = out.stats;
+  Eigen::VectorXd& disp = out.displacement;
+  if (fem_) {
+    fem_->clear_forces();
+    for (std::size_t v = 0; v < force_.size(); ++v)
+      if (force_[v].squaredNorm() > 0) fem_->set_force(VertexId(std::uint32_t(v)), force_[v]);
+    try {
+      st = fem_->step();
+    } catch (const InvalidArgument& e) {
+      fail(s, "fixed", e.what());
+    }
+    if (st.info == SolveInfo::NotPositiveDefinite || st.info == SolveInfo::NumericalIssue)
+      throw Error(s.path + ": frame " + std::to_string(frame_) + ": " + st.message);
+    disp = fem_->displacement().head(Eigen::Index(3 * mesh_.vertex_capacity()));
+  } else {
+    for (std::size_t v = 0; v < force_.size(); ++v)
+      if (mesh_.is_alive(VertexId(std::uint32_t(v)))) springs_->set_external_force(VertexId(std::uint32_t(v)), force_[v]);
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int k = 0; k < s.substeps; ++k) {
+      const StepStats ss = springs_->step(s.dt, integrator_);
+      st.iterations += ss.cg_iterations;
+      st.relative_residual = ss.cg_relative_residual;
+    }
+    st.solve_ms = st.frame_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    disp = Eigen::VectorXd::Zero(Eigen::Index(3 * mesh_.vertex_capacity()));
+    const auto& x = springs_->positions();
+    for (VertexId v : mesh_.vertices()) disp.segment<3>(3 * v.idx()) = x[v.idx()] - mesh_.rest(v);
+  }
+  out.max_displacement = max_displacement(disp);
+  check_solution(s, frame_, out.max_displacement, st.relative_residual, size_);
+  out.time = dynamic_ ? (frame_ + 1) * s.dt * (s.model == SceneModel::Springs ? s.substeps : 1) : frame_;
+  ++frame_;
+  return out;
+}
+
+}  // namespace incise

@@ -1,0 +1,122 @@
+#pragma once
+// SceneRunner: plays a scene (scene/scene.h) one frame at a time. It owns the mesh, the backend
+// the scene asks for (FEM or springs) and a Cutter per scene blade; step() plays the next frame
+// (the blades due at it, the loads and probes at it, the solve) and returns its stats and
+// displacement. Between frames, input can come from outside (live mode: a viewer's blade and
+// probe, a script): advance_blade()/finish_blade() cut the current (deformed) shape, set_probe()
+// holds vertices displaced, edit() takes any other mesh edit. Every topology change reaches the
+// backend (locally, one TopologyChange each) and the other cutters' first-contact grids, and a
+// part a cut detached follows the scene's "fragments" policy, whoever cut it.
+//
+//   SceneRunner run(load_scene("beam.json"));
+//   for (int k = 0; k < run.scene().frames; ++k) {
+//     run.advance_blade({a, b});            // optional, from outside
+//     SceneFrame f = run.step();            // f.displacement, f.stats
+//   }
+//
+// run_scene (scene/run_scene.h) is this loop plus the output files; `incise simulate`,
+// `incise trade` and Python's run_scene go through it.
+#include <functional>
+#include <memory>
+#include <vector>
+
+#include "cut/blade.h"
+#include "cut/cutter.h"
+#include "scene/scene.h"
+#include "sim/fem_simulation.h"
+#include "sim/integrator.h"
+#include "sim/spring_model.h"
+
+namespace incise {
+
+// One played frame.
+struct SceneFrame {
+  int frame = 0;
+  double time = 0;                  // dynamic: simulated seconds at the frame's end; static: the frame number
+  FrameStats stats;                 // springs: iterations and residual of the implicit solves, timings
+  Eigen::VectorXd displacement;     // 3 per vertex slot (dead slots: 0)
+  double max_displacement = 0;      // largest vertex displacement
+  double cut_ms = 0;                // the scene's blades before the solve (cut + local improvement)
+};
+
+class SceneRunner {
+public:
+  // Builds the mesh (a copy of `mesh` when given: other resolutions of the same body, with the
+  // scene's boxes selecting on it the same way), selects every box, builds the model. Throws
+  // IoError naming the key when a box selects nothing or a static solve is under-constrained.
+  explicit SceneRunner(const Scene& scene, const TetMesh* mesh = nullptr);
+  ~SceneRunner();
+  SceneRunner(const SceneRunner&) = delete;  // the cutters and the backend hold the mesh's address
+  SceneRunner& operator=(const SceneRunner&) = delete;
+
+  // Plays frame(): its blades, loads and probes, the solve; then frame() moves on. Throws Error
+  // naming the scene, the frame and the reason on a solver breakdown, on a solution that blew
+  // up (NaN/Inf, or a vertex moved by more than 1000 times the body's size), and when a static
+  // FEM scene would keep a part a cut freed.
+  SceneFrame step();
+
+  // ---- input between frames -------------------------------------------------------------
+  // A blade from outside, on the current shape: the first call places it (a new cut; `options`
+  // apply to it), later calls cut what it sweeps from its last position (cut/cutter.h). Detached parts follow the
+  // scene's fragment policy at once (named as before frame()). Returns the step's report
+  // (its fragments moved out).
+  CutStepReport advance_blade(const BladeSegment& blade, const CutOptions& options = {});
+  // The blade is withdrawn: its front gets the cutter's final improvement. No-op without one.
+  CutStepReport finish_blade();
+  // Holds `vertices` at their rest position plus `displacement` from the next step on (FEM:
+  // prescribed; springs: the target position), replacing the previous outside probe. Vertices
+  // the scene already holds (fixed boxes, its probes, fixed fragments) are left to the scene.
+  void set_probe(const std::vector<VertexId>& vertices, const Vec3& displacement);
+  // Lets the probed vertices go (free again from the next step).
+  void release_probe();
+  // Any other edit of the mesh: `edit` changes it (its change record is taken afterwards) and
+  // returns the parts it detached, as the cutter reports them; the backend and the blades take
+  // the change and the fragment policy decides the parts.
+  void edit(const std::function<std::vector<std::vector<TetId>>(TetMesh&)>& edit);
+
+  // ---- state ------------------------------------------------------------------------------
+  const Scene& scene() const { return scene_; }
+  int frame() const { return frame_; }                  // the next frame step() plays
+  const TetMesh& mesh() const { return mesh_; }
+  FemSimulation* fem() { return fem_.get(); }            // null for a springs scene
+  const FemSimulation* fem() const { return fem_.get(); }
+  SpringModel* springs() { return springs_.get(); }      // null for an FEM scene
+  const SpringModel* springs() const { return springs_.get(); }
+  bool dynamic() const { return dynamic_; }
+  Vec3 position(VertexId v) const;                       // current (deformed) position
+  std::vector<Vec3> positions() const;                   // per vertex slot (dead slots: zero)
+  // Live vertices whose current position is within `radius` of `point` (what a probe grabs).
+  std::vector<VertexId> vertices_near(const Vec3& point, double radius) const;
+  double body_size() const { return size_; }            // the rest bounding box's diagonal
+  double total_cut_ms() const { return total_cut_ms_; }
+  std::size_t fragments_handled() const { return fragments_handled_; }  // fixed or removed parts
+
+private:
+  void apply_change(const TopologyChange& change, const Cutter* from);
+  double max_displacement_bound() const;
+  void handle_fragments(const std::vector<std::vector<TetId>>& parts);
+  bool held_by_scene(VertexId v) const;
+  double cut_scene_blades();
+
+  Scene scene_;
+  TetMesh mesh_;
+  double size_ = 0;
+  std::unique_ptr<FemSimulation> fem_;
+  std::unique_ptr<SpringModel> springs_;
+  Integrator integrator_ = Integrator::SymplecticEuler;
+  bool dynamic_ = false;
+  FragmentPolicy policy_ = FragmentPolicy::Keep;
+  std::vector<std::vector<VertexId>> load_vertices_;                      // per load (force, probe)
+  std::vector<std::vector<std::pair<VertexId, Vec3>>> pressure_weights_;  // per pressure load
+  std::vector<std::unique_ptr<Cutter>> cutters_;  // per scene cut
+  std::vector<double> swept_;                     // per scene cut: fraction of its sweep done
+  std::unique_ptr<Cutter> blade_;                 // the outside blade
+  std::vector<VertexId> probe_;                   // the outside probe's vertices
+  Vec3 probe_displacement_ = Vec3::Zero();
+  std::vector<Vec3> force_;
+  int frame_ = 0;
+  double total_cut_ms_ = 0;
+  std::size_t fragments_handled_ = 0;
+};
+
+}  // namespace incise
