@@ -51,7 +51,7 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
 }  // namespace
 
 FemSimulation::FemSimulation(const TetMesh& mesh, const MaterialTable& materials, const FemSimulationOptions& options)
-    : mesh_(&mesh), opt_(options), model_(mesh, materials, options.kind), cg_(options.cg) {
+    : mesh_(&mesh), opt_(options), model_(mesh, materials, options.kind, options.formulation), cg_(options.cg) {
   if (!(opt_.dt > 0) || !std::isfinite(opt_.dt)) throw InvalidArgument("fem: dt: expected a positive number");
   if (!(opt_.damping >= 0)) throw InvalidArgument("fem: damping: expected a number >= 0");
   if (opt_.nonlinear_iterations < 1) throw InvalidArgument("fem: nonlinear_iterations: expected an integer >= 1");

@@ -50,6 +50,9 @@ enum class StiffnessBackend { MatrixFree, Assembled };
 
 struct FemSimulationOptions {
   FemKind kind = FemKind::Linear;                       // Linear or Corotational elements
+  // Standard or NodalAveraged (no volumetric locking as Poisson's ratio nears 0.5; same
+  // solvers). Mixed is not a FemModel formulation: the constructor throws InvalidArgument.
+  Formulation formulation = Formulation::Standard;
   SolverMethod method = SolverMethod::Cg;               // Direct: SimplicialLDLT reference
   StiffnessBackend backend = StiffnessBackend::MatrixFree;  // operator CG multiplies with
   // tolerance, cap, budget, preconditioner: the asynchronous Cholesky, as in scenes (the
