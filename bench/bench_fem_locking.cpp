@@ -1,11 +1,14 @@
 // Volumetric locking of linear tets, and what the nodal-averaged formulation (sim/formulation.h)
 // does about it and costs:
-//  1. accuracy: cantilever 10 x 1 x 1 (E = 1e6, tip shear load 1, clamped), direct solve, tip
-//     deflection against Timoshenko beam theory, per Poisson's ratio, mesh and formulation;
+//  1. accuracy: cantilever 10 x 1 x 1 (E = 1e6, tip shear load 1, clamped), tip deflection
+//     against Timoshenko beam theory, per Poisson's ratio, mesh and formulation. Solved by CG
+//     with the (exact, CHOLMOD) Cholesky preconditioner to 1e-12, which equals the direct solve
+//     (tests/sim/test_nodal_averaged.cpp) and is much faster than the SimplicialLDLT direct
+//     solver on the nodal-averaged 2-ring pattern (80x8x8: ~25 s a solve; --direct uses it);
 //  2. solver cost: CG iterations and ms per static solve (cold start, preconditioner set up by a
 //     first frame) per Poisson's ratio, formulation and preconditioner.
 //   bench_fem_locking [--out DIR] [--quick] [--only accuracy|cg] [--nu 0.3,0.45,0.49,0.4999]
-//                     [--meshes 20,40,80] [--cg-meshes 40,80]
+//                     [--meshes 20,40,80,120] [--cg-meshes 40,80] [--direct]
 #include <cmath>
 #include <cstdio>
 
@@ -64,9 +67,25 @@ TetMesh beam(int nx) { return make_box(Vec3(kLen, kH, kH), {nx, std::max(1, nx /
 
 const Formulation kForms[] = {Formulation::Standard, Formulation::NodalAveraged};
 
+// The reference solution of the cantilever: see the header comment.
+FemSimulationOptions reference_options(Formulation f, bool direct) {
+  FemSimulationOptions opt;
+  opt.formulation = f;
+  opt.method = direct ? SolverMethod::Direct : SolverMethod::Cg;
+  opt.cg.tolerance = 1e-12;
+  opt.cg.max_iterations = 1000;
+  opt.cg.preconditioner = Preconditioner::Cholesky;
+  opt.cholesky.background = false;
+  opt.warm_start = false;
+  opt.predict = false;
+  return opt;
+}
+
 void accuracy(const Args& args, const std::vector<double>& nus, Csv& csv) {
-  const std::vector<double> meshes = args.list("--meshes", args.flag("--quick") ? "20,40" : "20,40,80");
-  std::printf("\n== cantilever 10x1x1, E=1e6, tip load 1: tip deflection error against Timoshenko (direct solve)\n");
+  const std::vector<double> meshes = args.list("--meshes", args.flag("--quick") ? "20,40" : "20,40,80,120");
+  const bool direct = args.flag("--direct");
+  std::printf("\n== cantilever 10x1x1, E=1e6, tip load 1: tip deflection error against Timoshenko (%s)\n",
+              direct ? "direct solve" : "CG + exact Cholesky to 1e-12");
   std::printf("%-10s %8s %9s %16s %16s %10s\n", "mesh", "tets", "nu", "standard", "nodal-averaged", "ms (n-a)");
   for (double nxd : meshes) {
     const int nx = int(nxd);
@@ -74,16 +93,15 @@ void accuracy(const Args& args, const std::vector<double>& nus, Csv& csv) {
     for (double nu : nus) {
       double err[2], ms[2];
       for (int k = 0; k < 2; ++k) {
-        FemSimulationOptions opt;
-        opt.method = SolverMethod::Direct;
-        opt.formulation = kForms[k];
+        const FemSimulationOptions opt = reference_options(kForms[k], direct);
         const double t0 = now_ms();
         FemSimulation sim(m, material(nu), opt);
         load(m, sim);
         sim.step();
         ms[k] = now_ms() - t0;
         err[k] = tip(m, sim.displacement()) / timoshenko(nu) - 1;
-        csv.row("accuracy", formulation_name(kForms[k]), nx, m.num_tets(), nu, "direct", err[k], 0, ms[k]);
+        csv.row("accuracy", formulation_name(kForms[k]), nx, m.num_tets(), nu, direct ? "direct" : "cg-cholesky", err[k],
+                0, ms[k]);
       }
       char name[32];
       std::snprintf(name, sizeof name, "%dx%dx%d", nx, std::max(1, nx / 10), std::max(1, nx / 10));
@@ -103,14 +121,11 @@ void cg_cost(const Args& args, const std::vector<double>& nus, Csv& csv) {
     const TetMesh m = beam(nx);
     std::printf("-- %dx%dx%d (%zu tets)\n", nx, nx / 10, nx / 10, m.num_tets());
     std::printf("%-15s %-13s %9s %8s %9s %10s %11s\n", "formulation", "precond", "nu", "iters", "ms/solve", "setup ms",
-                "err/direct");
+                "err/ref");
     for (Formulation f : kForms)
       for (Preconditioner pc : pcs)
         for (double nu : nus) {
-          FemSimulationOptions dopt;
-          dopt.method = SolverMethod::Direct;
-          dopt.formulation = f;
-          FemSimulation direct(m, material(nu), dopt);
+          FemSimulation direct(m, material(nu), reference_options(f, false));
           load(m, direct);
           direct.step();
           FemSimulationOptions opt;
