@@ -248,6 +248,7 @@ void AggregationAmg::patch(const LinearOperator& a, const std::vector<std::uint8
   for (std::uint32_t k : fresh)  // the untouched neighbours' blocks towards the new aggregates
     for (const auto& [b, m] : rows_[k])
       if (std::size_t(b) < first) rows_[std::size_t(b)].emplace_back(std::int32_t(k), m.transpose());
+  if (model_->nodal_averaged()) refresh_halo(first);
   const double t3 = now_ms();
   factor();
   if (!coarse_->ok) stale_ = true;  // setup() rebuilds at once
@@ -259,6 +260,41 @@ void AggregationAmg::patch(const LinearOperator& a, const std::vector<std::uint8
   pending_.clear();
   ++patches_;
   ++version_;
+}
+
+// Nodal-averaged K reaches the 2-ring: a changed vertex's V_a enters the rows of its whole
+// 1-ring. The surviving aggregates (ids below `first`) holding that 1-ring get their rows of
+// A_c recomputed, and their other neighbours the transposed blocks, so the patched A_c is the
+// Galerkin product of the current K, as after a rebuild. O(change): the 1-ring of the pending
+// vertices, an aggregate each.
+void AggregationAmg::refresh_halo(std::size_t first) {
+  const TetMesh& mesh = model_->mesh();
+  std::vector<std::uint32_t> halo;
+  for (std::uint32_t v : pending_) {
+    if (v >= mesh.vertex_capacity() || !mesh.is_alive(VertexId(v))) continue;
+    for (TetId t : mesh.incident_tets(VertexId(v)))
+      for (VertexId w : mesh.tet_vertices(t)) {
+        const std::int32_t a = w.idx() < agg_.of.size() ? agg_.of[w.idx()] : -1;
+        if (a >= 0 && std::size_t(a) < first) halo.push_back(std::uint32_t(a));
+      }
+  }
+  std::sort(halo.begin(), halo.end());
+  halo.erase(std::unique(halo.begin(), halo.end()), halo.end());
+  if (halo.empty()) return;
+  auto in_halo = [&](std::int32_t b) { return std::binary_search(halo.begin(), halo.end(), std::uint32_t(b)); };
+  // The other rows' blocks towards the halo go first (a cut may have ended a coupling); the
+  // fresh aggregates' rows are current already.
+  auto outside = [&](std::int32_t b, std::uint32_t h) { return b != std::int32_t(h) && std::size_t(b) < first && !in_halo(b); };
+  for (std::uint32_t h : halo)
+    for (const auto& [b, m] : rows_[h])
+      if (outside(b, h)) {
+        auto& rb = rows_[std::size_t(b)];
+        rb.erase(std::remove_if(rb.begin(), rb.end(), [&](const auto& e) { return e.first == std::int32_t(h); }), rb.end());
+      }
+  coarse_rows(halo);
+  for (std::uint32_t h : halo)
+    for (const auto& [b, m] : rows_[h])
+      if (outside(b, h)) rows_[std::size_t(b)].emplace_back(std::int32_t(h), m.transpose());
 }
 
 void AggregationAmg::prolongator(const std::vector<std::uint32_t>& which) {

@@ -252,6 +252,42 @@ TEST_CASE("nodal-averaged: CG with every preconditioner equals the direct soluti
     }
 }
 
+TEST_CASE("nodal-averaged: through cuts, CG with the stale factor and the patched multigrid equals the direct solution",
+          "[fem][nodal][preconditioner][cut]") {
+  for (Preconditioner pc : {Preconditioner::Cholesky, Preconditioner::Amg})
+    for (FemKind kind : {FemKind::Linear, FemKind::Corotational}) {
+      INFO(to_string(pc) << ", kind " << int(kind));
+      TetMesh m = make_box(Vec3(4, 1, 1), {16, 4, 4});
+      m.discard_change();
+      FemSimulationOptions opt;
+      opt.kind = kind;
+      opt.formulation = kNodal;
+      opt.cg.tolerance = 1e-8;
+      opt.cg.preconditioner = pc;
+      opt.cholesky.settle_frames = 0;     // the stale factor preconditions through the cuts
+      opt.cholesky.settle_with_amg = false;
+      FemSimulation sim(m, table(1e5, 0.45), opt);  // check_equals_direct's material
+      fix_ends(m, sim);
+      std::vector<VertexId> top;
+      for (VertexId v : m.vertices())
+        if (m.rest(v).z() > 1 - 1e-9) top.push_back(v);
+      for (VertexId v : top) sim.set_force(v, Vec3(0, 0, -2));
+      REQUIRE(sim.step().info == SolveInfo::Success);
+      for (int depth = 1; depth <= 3; ++depth) {
+        crack(m, 0, 2.0, 2, 1.0 - 0.25 * depth - 1e-3);
+        sim.apply(m.take_change());
+        const FrameStats& st = sim.step();
+        INFO("depth " << depth << ": " << st.message);
+        CHECK(st.info == SolveInfo::Success);
+      }
+      check_equals_direct(m, opt, top, sim);
+      if (pc == Preconditioner::Amg) {
+        CHECK(sim.amg()->patches() >= 1);
+        CHECK(sim.amg()->failed_patches() == 0);
+      }
+    }
+}
+
 TEST_CASE("nodal-averaged: the locally updated model equals a fresh one after edits and cuts", "[fem][nodal][local]") {
   for (FemKind kind : {FemKind::Linear, FemKind::Corotational}) {
     INFO("kind " << int(kind));
