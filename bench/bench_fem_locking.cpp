@@ -120,6 +120,16 @@ void cg_cost(const Args& args, const std::vector<double>& nus, Csv& csv) {
     const int nx = int(nxd);
     const TetMesh m = beam(nx);
     std::printf("-- %dx%dx%d (%zu tets)\n", nx, nx / 10, nx / 10, m.num_tets());
+    // The product alone (what an iteration adds to the preconditioner), linear elements.
+    for (Formulation f : kForms) {
+      const FemModel model(m, material(0.49), FemKind::Linear, f);
+      Eigen::VectorXd x = Eigen::VectorXd::Random(model.rows()), y;
+      const double ms = time_ms(9, [&] {
+        for (int k = 0; k < 20; ++k) model.multiply(x, y);
+      }) / 20;
+      std::printf("K x %-15s %.3f ms\n", std::string(formulation_name(f)).c_str(), ms);
+      csv.row("product", formulation_name(f), nx, m.num_tets(), 0.49, "multiply", 0, 0, ms);
+    }
     std::printf("%-15s %-13s %9s %8s %9s %10s %11s\n", "formulation", "precond", "nu", "iters", "ms/solve", "setup ms",
                 "err/ref");
     for (Formulation f : kForms)

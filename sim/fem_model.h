@@ -62,7 +62,7 @@ Eigen::Matrix3d element_block(const Eigen::Matrix3d& bm, double vol, double mu, 
 
 // A copy of the per-tet data K depends on (by TetId, dead slots flagged), for work done off
 // the frame thread, such as a background factorization. Taking it copies the arrays (the
-// rotations rebuilt from their quaternions).
+// rotations rebuilt from their quaternions; NodalAveraged: also builds B, O(mesh), parallel).
 struct FemElements {
   std::vector<std::uint8_t> alive;
   std::vector<std::array<std::uint32_t, 4>> verts;
