@@ -127,7 +127,8 @@ void cg_cost(const Args& args, const std::vector<double>& nus, Csv& csv) {
       const double ms = time_ms(9, [&] {
         for (int k = 0; k < 20; ++k) model.multiply(x, y);
       }) / 20;
-      std::printf("K x %-15s %.3f ms\n", std::string(formulation_name(f)).c_str(), ms);
+      std::printf("K x %-15s %.3f ms, K has %ld nonzeros\n", std::string(formulation_name(f)).c_str(), ms,
+                  long(model.assemble().nonZeros()));
       csv.row("product", formulation_name(f), nx, m.num_tets(), 0.49, "multiply", 0, 0, ms);
     }
     std::printf("%-15s %-13s %9s %8s %9s %10s %11s\n", "formulation", "precond", "nu", "iters", "ms/solve", "setup ms",
