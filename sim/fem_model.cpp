@@ -713,6 +713,7 @@ Eigen::SparseMatrix<double> FemModel::assemble() const {
     const Eigen::SparseMatrix<double, Eigen::RowMajor> b = nodal_b();
     const Eigen::SparseMatrix<double> bc = b, bt = b.transpose();
     k += Eigen::SparseMatrix<double>(bt * bc);
+    k.makeCompressed();  // the assembled backend reads the CSR arrays directly
   }
   return k;
 }
