@@ -38,14 +38,6 @@ void parallel_range(std::size_t n, F&& f) {
 // tets: 0.66 ms a product in parallel on a busy 2-core machine).
 constexpr std::size_t kVolumetricSerialBelow = 8000;
 
-template <class F>
-void maybe_parallel(bool serial, std::size_t n, F&& f) {
-  if (serial)
-    for (std::size_t i = 0; i < n; ++i) f(i);
-  else
-    parallel_range(n, f);
-}
-
 }  // namespace
 
 Eigen::Matrix3d element_block(const Eigen::Matrix3d& bm, double vol, double mu, double lambda, const Eigen::Matrix3d& r,
@@ -365,41 +357,69 @@ Eigen::SparseMatrix<double, Eigen::RowMajor> FemModel::nodal_b() const {
 }
 
 // Pass 1 per tet div_t, pass 2 per vertex kappa_a theta_a, pass 3 per tet the mean pressure and
-// the corner forces; each pass is conflict-free (gather() sums the corners per vertex).
-void FemModel::volumetric_pass(const Eigen::VectorXd* x, bool rotation, double sign) const {
+// the corner forces, added into *y when given. In parallel each pass is conflict-free (vertices
+// gather their corners' div and forces through corner_slots_). Small meshes run serially and
+// scatter instead: every pass then sweeps the tets in order, no per-vertex slot lists to chase
+// and no per-corner scratch (40x4x4: 0.23-0.28 ms a product before, 0.19 ms after).
+void FemModel::volumetric_pass(const Eigen::VectorXd* x, bool rotation, double sign, Eigen::VectorXd* y) const {
   const bool corot = kind_ == FemKind::Corotational;
   const bool serial = tet_capacity_ < kVolumetricSerialBelow;
-  maybe_parallel(serial, tet_capacity_, [&](std::size_t ti) {
-    if (!alive_[ti]) return;
+  auto divergence = [&](std::size_t ti) {
     double d = 0;
-    const Eigen::Matrix3d r = corot ? quat_[ti].toRotationMatrix() : Eigen::Matrix3d::Identity();
     if (x) {
       const auto& v = verts_[ti];
       const Eigen::Vector3d x0 = x->segment<3>(3 * v[0]);
       Eigen::Matrix3d e;
       for (int j = 0; j < 3; ++j) e.col(j) = x->segment<3>(3 * v[j + 1]) - x0;
-      const Eigen::Matrix3d h = e * bm_[ti];
-      d = corot ? r.cwiseProduct(h).sum() : h.trace();  // tr(R^T H)
+      if (corot) e = quat_[ti].toRotationMatrix().transpose() * e;
+      d = e.cwiseProduct(bm_[ti].transpose()).sum();  // tr(R^T E B) = tr(R^T H)
     }
-    if (rotation && corot) d += r.trace() - 3;  // tr(R^T F - I) - tr(R^T H)
-    div_[ti] = d;
-  });
-  maybe_parallel(serial, vertex_capacity_, [&](std::size_t vi) {
-    double s = 0;
-    for (std::uint32_t slot : corner_slots_[vi]) s += vol_[slot / 4] * div_[slot / 4];
-    ptheta_[vi] = nvol_[vi] > 0 ? nkv_[vi] * (s / 4) / (nvol_[vi] * nvol_[vi]) : 0.0;
-  });
-  maybe_parallel(serial, tet_capacity_, [&](std::size_t ti) {
-    if (!alive_[ti]) return;
+    if (rotation && corot) d += quat_[ti].toRotationMatrix().trace() - 3;  // tr(R^T F - I) - tr(R^T H)
+    return d;
+  };
+  auto corner_forces = [&](std::size_t ti) {  // column j: sign V pbar R grad N_{j+1}
     const auto& v = verts_[ti];
     const double p = (ptheta_[v[0]] + ptheta_[v[1]] + ptheta_[v[2]] + ptheta_[v[3]]) / 4;
     pbar_[ti] = p;
-    Eigen::Matrix3d pr = (sign * vol_[ti] * p) * Eigen::Matrix3d::Identity();
-    if (corot) pr = (sign * vol_[ti] * p) * quat_[ti].toRotationMatrix();
-    const Eigen::Matrix3d g = pr * bm_[ti].transpose();  // column j: V p R grad N_{j+1}
+    if (corot) return Eigen::Matrix3d((sign * vol_[ti] * p) * quat_[ti].toRotationMatrix() * bm_[ti].transpose());
+    return Eigen::Matrix3d((sign * vol_[ti] * p) * bm_[ti].transpose());
+  };
+  auto theta = [&](std::size_t vi, double s) {  // s: sum over the corners of V_t div_t
+    ptheta_[vi] = nvol_[vi] > 0 ? nkv_[vi] * (s / 4) / (nvol_[vi] * nvol_[vi]) : 0.0;
+  };
+  if (serial) {
+    std::fill(ptheta_.begin(), ptheta_.end(), 0.0);
+    for (std::size_t ti = 0; ti < tet_capacity_; ++ti)
+      if (alive_[ti]) {
+        const double vd = vol_[ti] * divergence(ti);
+        for (std::uint32_t v : verts_[ti]) ptheta_[v] += vd;
+      }
+    for (std::size_t vi = 0; vi < vertex_capacity_; ++vi) theta(vi, ptheta_[vi]);
+    for (std::size_t ti = 0; ti < tet_capacity_; ++ti) {
+      if (!alive_[ti]) continue;
+      const Eigen::Matrix3d g = corner_forces(ti);
+      if (!y) continue;
+      const auto& v = verts_[ti];
+      y->segment<3>(3 * v[0]) -= g.rowwise().sum();
+      for (int j = 0; j < 3; ++j) y->segment<3>(3 * v[j + 1]) += g.col(j);
+    }
+    return;
+  }
+  parallel_range(tet_capacity_, [&](std::size_t ti) {
+    if (alive_[ti]) div_[ti] = divergence(ti);
+  });
+  parallel_range(vertex_capacity_, [&](std::size_t vi) {
+    double s = 0;
+    for (std::uint32_t slot : corner_slots_[vi]) s += vol_[slot / 4] * div_[slot / 4];
+    theta(vi, s);
+  });
+  parallel_range(tet_capacity_, [&](std::size_t ti) {
+    if (!alive_[ti]) return;
+    const Eigen::Matrix3d g = corner_forces(ti);
     force_[ti].rightCols<3>() = g;
     force_[ti].col(0) = -g.rowwise().sum();
   });
+  if (y) gather(*y, true);
 }
 
 inline Eigen::Matrix3d FemModel::tet_stress(std::uint32_t ti, const Eigen::VectorXd& x, bool subtract_rotation,
@@ -418,8 +438,7 @@ inline Eigen::Matrix3d FemModel::tet_stress(std::uint32_t ti, const Eigen::Vecto
 
 void FemModel::gather(Eigen::VectorXd& y, bool accumulate) const {
   const double* f = force_.data()->data();  // Matrix<double,3,4> is column-major: corner j at 3j
-  const bool serial = nodal_averaged() && tet_capacity_ < kVolumetricSerialBelow;  // standard: as before
-  maybe_parallel(serial, vertex_capacity_, [&](std::size_t vi) {
+  parallel_range(vertex_capacity_, [&](std::size_t vi) {
     Eigen::Vector3d s = Eigen::Vector3d::Zero();
     for (std::uint32_t slot : corner_slots_[vi]) s += Eigen::Map<const Eigen::Vector3d>(f + 3 * std::size_t(slot));
     if (accumulate) y.segment<3>(3 * vi) += s;
@@ -431,8 +450,7 @@ void FemModel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
   if (x.size() != rows()) throw InvalidArgument("fem: K*x with a vector of the wrong size (apply() the last change?)");
   kernel_.multiply(x, y, rows());
   if (nodal_averaged()) {
-    volumetric_pass(&x, false, 1.0);
-    gather(y, true);
+    volumetric_pass(&x, false, 1.0, &y);
   }
 }
 
@@ -443,8 +461,7 @@ void FemModel::add_rotation_rhs(Eigen::VectorXd& b) const {
   if (nodal_averaged()) {
     // The volumetric force of the rotations' own strain tr(R^T - I), negated (as rhs_'s); O(mesh)
     // here rather than kept per vertex, so that apply() stays local.
-    volumetric_pass(nullptr, true, -1.0);
-    gather(b, true);
+    volumetric_pass(nullptr, true, -1.0, &b);
   }
 }
 
@@ -461,8 +478,7 @@ void FemModel::internal_forces(const Eigen::VectorXd& u, Eigen::VectorXd& f) con
   f.resize(rows());
   gather(f, false);
   if (nodal_averaged()) {
-    volumetric_pass(&u, true, -1.0);
-    gather(f, true);
+    volumetric_pass(&u, true, -1.0, &f);
   }
 }
 
@@ -625,7 +641,7 @@ void FemModel::update_rotation_packets(const Eigen::VectorXd& u, bool exact) {
 
 std::vector<double> FemModel::von_mises(const Eigen::VectorXd& u) const {
   std::vector<double> out(tet_capacity_, 0.0);
-  if (nodal_averaged()) volumetric_pass(&u, true, 1.0);  // pbar_ per tet
+  if (nodal_averaged()) volumetric_pass(&u, true, 1.0, nullptr);  // pbar_ per tet
   parallel_range(tet_capacity_, [&](std::size_t ti) {
     if (!alive_[ti]) return;
     Eigen::Matrix3d s = tet_stress(std::uint32_t(ti), u, true, quat_[ti].toRotationMatrix());
@@ -639,7 +655,7 @@ std::vector<double> FemModel::pressure(const Eigen::VectorXd& u) const {
   if (u.size() != rows()) throw InvalidArgument("fem: pressure of a vector of the wrong size");
   std::vector<double> out(tet_capacity_, 0.0);
   if (nodal_averaged()) {
-    volumetric_pass(&u, true, 1.0);
+    volumetric_pass(&u, true, 1.0, nullptr);
     for (std::size_t ti = 0; ti < tet_capacity_; ++ti)
       if (alive_[ti]) out[ti] = pbar_[ti];
     return out;

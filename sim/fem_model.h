@@ -193,9 +193,9 @@ private:
   void volumetric_block(std::uint32_t v, Eigen::Matrix3d& blk) const;  // adds B^T B's block (v, v)
   // The nodal-averaged volumetric term in three passes. Per tet div_t: of x (R^T H_t(x) traced)
   // when x is given, plus tr(R_t) - 3 (the rotation's own volumetric strain) when `rotation`.
-  // Leaves per tet pbar_t in pbar_ and its corner forces V_t pbar_t R_t grad N_j in force_
-  // (scaled by `sign`), for gather().
-  void volumetric_pass(const Eigen::VectorXd* x, bool rotation, double sign) const;
+  // Leaves per tet pbar_t in pbar_ and adds the corner forces sign V_t pbar_t R_t grad N_j
+  // into *y when y is given.
+  void volumetric_pass(const Eigen::VectorXd* x, bool rotation, double sign, Eigen::VectorXd* y) const;
 
   const TetMesh* mesh_;
   MaterialTable materials_;
