@@ -482,8 +482,13 @@ void AggregationAmg::factor() {
   stats_.coarse_nonzeros = std::size_t(ac.nonZeros());
   if (!coarse_) coarse_ = std::make_unique<Coarse>();
   coarse_->rows = n;
-  coarse_->ldlt.compute(ac);
-  coarse_->ok = n > 0 && coarse_->ldlt.info() == Eigen::Success;
+  // No coarse unknowns (no vertex is wholly free, e.g. rollers on every vertex of a plane-strain
+  // slab): the cycle is the smoother alone. CHOLMOD must not see an empty matrix (it crashed).
+  coarse_->ok = false;
+  if (n > 0) {
+    coarse_->ldlt.compute(ac);
+    coarse_->ok = coarse_->ldlt.info() == Eigen::Success;
+  }
 #ifdef INCISE_HAVE_CHOLMOD
   if (coarse_->ok) stats_.factor_nonzeros = std::size_t(coarse_->ldlt.cholmod().lnz);
 #else
