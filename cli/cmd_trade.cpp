@@ -60,7 +60,7 @@ void add_trade(CLI::App& app) {
   cmd->add_option("--frame-budgets", o->frame_budgets, "Frame budgets in ms to recommend a setting for")
       ->capture_default_str();
   cmd->add_option("--json", o->json, "Also write the rows, the reference and the recommendations as JSON");
-  cmd->add_option("--preconditioners", o->preconditioners, "CG preconditioners")->capture_default_str();
+  cmd->add_option("--preconditioners", o->preconditioners, "CG preconditioners of the solver rows")->capture_default_str();
   cmd->add_option("--tolerances", o->tolerances, "CG relative tolerances")->capture_default_str();
   cmd->add_option("--budgets", o->budgets, "Per-frame CG budgets in ms (0: none)")->capture_default_str();
   cmd->add_flag("--no-direct", o->no_direct, "Skip the direct solver runs");

@@ -12,6 +12,7 @@
 #include "scene/run_scene.h"
 #include "sim/fem_simulation.h"
 #include "sim/preconditioner.h"
+#include "sim/mixed_solver.h"
 #include "sim/spring_model.h"
 
 namespace incise::python {
@@ -29,13 +30,14 @@ E parse_choice(const std::string& what, const std::string& s, std::initializer_l
 }
 
 // A Material (every label), a {label: Material} dict (a "*" key: every label not listed;
-// without one, a label of the mesh missing from the dict is an error), or a table.
+// without one, a label of the mesh missing from the dict is an error), or a table. Poisson's
+// ratio 0.5 passes here (the mixed formulation takes it); the models that cannot refuse it.
 MaterialTable to_materials(const py::object& o) {
   if (o.is_none()) return MaterialTable();
   if (py::isinstance<MaterialTable>(o)) return o.cast<MaterialTable>();
   if (py::isinstance<Material>(o)) {
     const Material m = o.cast<Material>();
-    check_material(m, "materials");
+    check_material(m, "materials", true);
     return MaterialTable(m);
   }
   if (py::isinstance<py::dict>(o)) {
@@ -48,7 +50,7 @@ MaterialTable to_materials(const py::object& o) {
                               py::str(py::type::of(v).attr("__name__")).cast<std::string>());
       const Material m = v.cast<Material>();
       if (py::isinstance<py::str>(k) && key == "*") {
-        check_material(m, "materials[*]");
+        check_material(m, "materials[*]", true);
         t.set_default(m);
         continue;
       }
@@ -58,7 +60,7 @@ MaterialTable to_materials(const py::object& o) {
       const long long label = k.cast<long long>();
       if (label < std::numeric_limits<int>::min() || label > std::numeric_limits<int>::max())
         throw InvalidArgument("materials: label " + key + " is out of range (a label is a 32-bit integer)");
-      check_material(m, "materials[" + key + "]");
+      check_material(m, "materials[" + key + "]", true);
       t.set(static_cast<int>(label), m);
     }
     return t;
@@ -133,8 +135,11 @@ std::unique_ptr<Fem> make_fem(const py::object& mesh_obj, const py::object& mate
                               const std::string& method, const std::string& backend, double tolerance,
                               int max_iterations, double budget_ms, const std::string& preconditioner,
                               bool warm_start, bool dynamic, double dt, double damping, int nonlinear_iterations,
-                              const py::object& gravity, bool check_rigid_modes) {
+                              const py::object& gravity, bool check_rigid_modes, const std::string& formulation) {
   FemSimulationOptions o;
+  const auto f = parse_formulation(formulation);
+  if (!f) throw InvalidArgument("formulation: expected \"standard\", \"nodal-averaged\" or \"mixed\", got \"" + formulation + "\"");
+  o.formulation = *f;
   o.kind = parse_choice<FemKind>("kind", kind, {{"linear", FemKind::Linear}, {"corotational", FemKind::Corotational}});
   o.method = parse_choice<SolverMethod>("method", method, {{"cg", SolverMethod::Cg}, {"direct", SolverMethod::Direct}});
   o.backend = parse_choice<StiffnessBackend>(
@@ -200,8 +205,29 @@ void bind_sim(py::module_& m) {
            py::arg("tolerance") = 1e-8, py::arg("max_iterations") = 10000, py::arg("budget_ms") = 0.0,
            py::arg("preconditioner") = "cholesky", py::arg("warm_start") = true, py::arg("dynamic") = false,
            py::arg("dt") = 0.01, py::arg("damping") = 0.0, py::arg("nonlinear_iterations") = 1,
-           py::arg("gravity") = py::make_tuple(0.0, 0.0, 0.0), py::arg("check_rigid_modes") = true)
+           py::arg("gravity") = py::make_tuple(0.0, 0.0, 0.0), py::arg("check_rigid_modes") = true,
+           py::arg("formulation") = "standard")
       .def("fix", [](Fem& f, const py::object& v) { for (VertexId x : to_vertices(f.mesh, v)) f.sim.fix(x); })
+      .def("constrain", [](Fem& f, const py::object& v, const std::string& components, const py::object& d) {
+        unsigned axes = 0;
+        for (char c : components) {
+          const auto at = std::string_view("xyz").find(c);
+          if (at == std::string_view::npos || (axes >> at & 1u))
+            throw InvalidArgument("constrain: components: expected letters of \"xyz\", each once, got \"" + components + "\"");
+          axes |= 1u << at;
+        }
+        if (!axes) throw InvalidArgument("constrain: components: expected at least one of x, y, z");
+        const Vec3 u = to_vec3(d, "displacement");
+        for (VertexId x : to_vertices(f.mesh, v)) f.sim.constrain(x, axes, u);
+      }, py::arg("vertices"), py::arg("components"), py::arg("displacement") = py::make_tuple(0.0, 0.0, 0.0),
+         "Holds only the given components (\"z\", \"xy\"): rollers on symmetry planes")
+      .def_property_readonly("pressure", [](const Fem& f) -> py::object {
+        if (!f.sim.mixed()) return py::none();
+        const Eigen::VectorXd& p = f.sim.mixed()->pressure();
+        py::array_t<double> a(static_cast<py::ssize_t>(f.mesh.vertex_capacity()));
+        for (std::size_t v = 0; v < f.mesh.vertex_capacity(); ++v) a.mutable_data()[v] = Eigen::Index(v) < p.size() ? p[Eigen::Index(v)] : 0.0;
+        return a;
+      }, "Mixed formulation: the pressure per vertex (row = vertex id); None for the others")
       .def("prescribe", [](Fem& f, const py::object& v, const py::object& d) {
         const Vec3 u = to_vec3(d, "displacement");
         for (VertexId x : to_vertices(f.mesh, v)) f.sim.prescribe(x, u);

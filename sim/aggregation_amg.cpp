@@ -15,6 +15,7 @@
 #include <Eigen/SparseCholesky>
 #endif
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 namespace incise {
@@ -247,6 +248,7 @@ void AggregationAmg::patch(const LinearOperator& a, const std::vector<std::uint8
   for (std::uint32_t k : fresh)  // the untouched neighbours' blocks towards the new aggregates
     for (const auto& [b, m] : rows_[k])
       if (std::size_t(b) < first) rows_[std::size_t(b)].emplace_back(std::int32_t(k), m.transpose());
+  if (model_->nodal_averaged()) refresh_halo(first);
   const double t3 = now_ms();
   factor();
   if (!coarse_->ok) stale_ = true;  // setup() rebuilds at once
@@ -258,6 +260,41 @@ void AggregationAmg::patch(const LinearOperator& a, const std::vector<std::uint8
   pending_.clear();
   ++patches_;
   ++version_;
+}
+
+// Nodal-averaged K reaches the 2-ring: a changed vertex's V_a enters the rows of its whole
+// 1-ring. The surviving aggregates (ids below `first`) holding that 1-ring get their rows of
+// A_c recomputed, and their other neighbours the transposed blocks, so the patched A_c is the
+// Galerkin product of the current K, as after a rebuild. O(change): the 1-ring of the pending
+// vertices, an aggregate each.
+void AggregationAmg::refresh_halo(std::size_t first) {
+  const TetMesh& mesh = model_->mesh();
+  std::vector<std::uint32_t> halo;
+  for (std::uint32_t v : pending_) {
+    if (v >= mesh.vertex_capacity() || !mesh.is_alive(VertexId(v))) continue;
+    for (TetId t : mesh.incident_tets(VertexId(v)))
+      for (VertexId w : mesh.tet_vertices(t)) {
+        const std::int32_t a = w.idx() < agg_.of.size() ? agg_.of[w.idx()] : -1;
+        if (a >= 0 && std::size_t(a) < first) halo.push_back(std::uint32_t(a));
+      }
+  }
+  std::sort(halo.begin(), halo.end());
+  halo.erase(std::unique(halo.begin(), halo.end()), halo.end());
+  if (halo.empty()) return;
+  auto in_halo = [&](std::int32_t b) { return std::binary_search(halo.begin(), halo.end(), std::uint32_t(b)); };
+  // The other rows' blocks towards the halo go first (a cut may have ended a coupling); the
+  // fresh aggregates' rows are current already.
+  auto outside = [&](std::int32_t b, std::uint32_t h) { return b != std::int32_t(h) && std::size_t(b) < first && !in_halo(b); };
+  for (std::uint32_t h : halo)
+    for (const auto& [b, m] : rows_[h])
+      if (outside(b, h)) {
+        auto& rb = rows_[std::size_t(b)];
+        rb.erase(std::remove_if(rb.begin(), rb.end(), [&](const auto& e) { return e.first == std::int32_t(h); }), rb.end());
+      }
+  coarse_rows(halo);
+  for (std::uint32_t h : halo)
+    for (const auto& [b, m] : rows_[h])
+      if (outside(b, h)) rows_[std::size_t(b)].emplace_back(std::int32_t(h), m.transpose());
 }
 
 void AggregationAmg::prolongator(const std::vector<std::uint32_t>& which) {
@@ -315,8 +352,20 @@ void AggregationAmg::coarse_rows(const std::vector<std::uint32_t>& which) {
   const TetMesh& mesh = model_->mesh();
   const double c = stiffness_coeff_, am = mass_coeff_;
   const Eigen::VectorXd& mass = model_->lumped_mass();
+  const bool nodal = model_->nodal_averaged();
+  // Nodal-averaged rows reach the 2-ring (~80 vertices): a per-thread position map replaces the
+  // linear search of the 1-ring rows there. Entries are summed in the same order either way.
+  tbb::enumerable_thread_specific<std::vector<std::int32_t>> positions;
+  const std::size_t slots = model_->vertex_slots();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, which.size(), 8), [&](const tbb::blocked_range<std::size_t>& range) {
     std::vector<std::pair<std::uint32_t, Eigen::Matrix3d>> fine;  // v's row: (w, A_vw)
+    std::vector<std::pair<std::uint32_t, Eigen::Vector3d>> brow;  // a row of B
+    std::vector<std::uint32_t> ring;                              // v's 1-ring
+    std::vector<std::int32_t>* pos = nullptr;
+    if (nodal) {
+      pos = &positions.local();
+      if (pos->size() < slots) pos->assign(slots, -1);
+    }
     for (std::size_t wi = range.begin(); wi != range.end(); ++wi) {
       const std::size_t ai = which[wi];
       auto& row = rows_[ai];
@@ -331,7 +380,16 @@ void AggregationAmg::coarse_rows(const std::vector<std::uint32_t>& which) {
       for (std::uint32_t v : agg_.members[ai]) {
         fine.clear();
         fine.emplace_back(v, (am * mass[Eigen::Index(3 * v)]) * Eigen::Matrix3d::Identity());
+        if (pos) (*pos)[v] = 0;
         auto fine_block = [&](std::uint32_t w) -> Eigen::Matrix3d& {
+          if (pos) {
+            std::int32_t& at = (*pos)[w];
+            if (at < 0) {
+              at = std::int32_t(fine.size());
+              fine.emplace_back(w, Eigen::Matrix3d::Zero());
+            }
+            return fine[std::size_t(at)].second;
+          }
           for (auto& [id, m] : fine)
             if (id == w) return m;
           fine.emplace_back(w, Eigen::Matrix3d::Zero());
@@ -360,6 +418,26 @@ void AggregationAmg::coarse_rows(const std::vector<std::uint32_t>& which) {
             a.noalias() += (vlam * hr[i]) * hr[j].transpose();
           }
         }
+        if (nodal) {
+          // The volumetric term's row of v: sum over a in v's 1-ring of B_a^T B_a's blocks (v, w),
+          // (row a of B at v) (row a of B at w)^T, so A_c is the Galerkin product of all of K.
+          ring.clear();
+          for (TetId t : mesh.incident_tets(VertexId(v)))
+            if (model_->tet_alive(t))
+              for (std::uint32_t a : model_->tet_vertex_ids(t)) ring.push_back(a);
+          std::sort(ring.begin(), ring.end());
+          ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
+          for (std::uint32_t a : ring) {
+            model_->nodal_b_row(a, brow);
+            Eigen::Vector3d dv = Eigen::Vector3d::Zero();
+            for (const auto& [w, d] : brow)
+              if (w == v) dv = c * d;
+            for (const auto& [w, d] : brow)
+              if (agg_.of[w] >= 0) fine_block(w).noalias() += dv * d.transpose();
+          }
+        }
+        if (pos)
+          for (const auto& [w, m] : fine) (*pos)[w] = -1;
         const Eigen::Vector3d& pv = pos_[v];
         for (const auto& [w, a] : fine) {
           // B_v^T A B_w with B = [I | -[p]x]: M = A B_w = [A | -A [p_w]x], then (M; p_v x M).
@@ -404,8 +482,13 @@ void AggregationAmg::factor() {
   stats_.coarse_nonzeros = std::size_t(ac.nonZeros());
   if (!coarse_) coarse_ = std::make_unique<Coarse>();
   coarse_->rows = n;
-  coarse_->ldlt.compute(ac);
-  coarse_->ok = n > 0 && coarse_->ldlt.info() == Eigen::Success;
+  // No coarse unknowns (no vertex is wholly free, e.g. rollers on every vertex of a plane-strain
+  // slab): the cycle is the smoother alone. CHOLMOD must not see an empty matrix (it crashed).
+  coarse_->ok = false;
+  if (n > 0) {
+    coarse_->ldlt.compute(ac);
+    coarse_->ok = coarse_->ldlt.info() == Eigen::Success;
+  }
 #ifdef INCISE_HAVE_CHOLMOD
   if (coarse_->ok) stats_.factor_nonzeros = std::size_t(coarse_->ldlt.cholmod().lnz);
 #else

@@ -34,6 +34,10 @@
 // change until a frame needs that many iterations (measured slower than patching). Patches and
 // builds run in setup(), so CG's budget planning sees them (next_setup_ms() says whether one
 // is due) and a budget that cannot afford one uses cheaper() (block-Jacobi) for the frame.
+// Nodal-averaged models (sim/formulation.h): A_c also carries the Galerkin product of the
+// volumetric term, sum_a kappa_a V_a (B_a P)^T (B_a P), summed into the fine rows from the
+// model's rows of B; a patch also recomputes the rows of the surviving aggregates that hold the
+// 1-ring of a changed vertex (K's rows there changed with the V_a they read).
 // Costs and iterations on the organ cut scene: docs/solver.md.
 #include <cstdint>
 #include <memory>
@@ -103,6 +107,7 @@ private:
   void patch(const LinearOperator& a, const std::vector<std::uint8_t>* free);
   void prolongator(const std::vector<std::uint32_t>& aggregates);  // centre, scale, T, P rows
   void coarse_rows(const std::vector<std::uint32_t>& aggregates);   // their rows_ of A_c
+  void refresh_halo(std::size_t first);  // nodal-averaged: rows the patch's 1-ring changed
   void factor();                                                    // A_c from rows_, factored
   double estimate_lambda_max(const LinearOperator& a, const std::vector<std::uint8_t>* free) const;
   void project(Eigen::VectorXd& v) const;

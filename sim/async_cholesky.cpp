@@ -80,6 +80,20 @@ std::shared_ptr<AsyncCholesky::Factor> factorize(const FemElements& e, const Eig
         }
       }
   }
+  // Nodal-averaged: the volumetric term B^T B (the blocks above are the deviatoric part), so
+  // the factor is of the whole K, not an approximation of it.
+  if (e.nodal_b.rows() > 0) {
+    const Eigen::SparseMatrix<double> bc = e.nodal_b, bt = e.nodal_b.transpose();
+    const Eigen::SparseMatrix<double> kv = bt * bc;
+    for (Eigen::Index col = 0; col < kv.outerSize(); ++col) {
+      const std::int32_t cf = col < Eigen::Index(f->index.size()) ? f->index[std::size_t(col)] : -1;
+      if (cf < 0) continue;
+      for (Eigen::SparseMatrix<double>::InnerIterator it(kv, col); it; ++it) {
+        const std::int32_t rf = it.row() < Eigen::Index(f->index.size()) ? f->index[std::size_t(it.row())] : -1;
+        if (rf >= cf) lower.emplace_back(rf, cf, c * it.value());
+      }
+    }
+  }
   if (a != 0)
     for (std::size_t i = 0; i < free.size(); ++i)
       if (f->index[i] >= 0) lower.emplace_back(f->index[i], f->index[i], a * mass[Eigen::Index(i)]);

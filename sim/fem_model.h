@@ -23,6 +23,21 @@
 // previous frame's (kept as quaternions), the exact decomposition where they do not converge;
 // the diagonal blocks and b_R are then per-vertex sums of per-corner terms (the rotation-free
 // part of each vertex's block is kept from the last apply()). For Linear, R = I and b_R = 0.
+//
+// Formulation::NodalAveraged (sim/formulation.h): sigma = 2 mu dev(eps) + kappa tr(eps) I with
+// kappa = lambda + 2 mu / 3, the deviatoric part per tet (the standard element with lambda
+// replaced by -2 mu / 3, so the kernel, corner terms and element blocks are reused unchanged)
+// and the volumetric part averaged at the vertices: V_a = sum_{t∋a} V_t / 4,
+// theta_a = (1 / V_a) sum_{t∋a} (V_t / 4) div_t with div_t = sum_j (R_t grad N_j) . x_j, energy
+// sum_a (kappa_a / 2) V_a theta_a^2. kappa_a is the volume-weighted mean of the kappa of the
+// tets around a: kappa_a V_a = sum_{t∋a} kappa_t V_t / 4, so each tet's quarter volume carries its
+// own material's bulk modulus and a uniform dilatation stores exactly sum_t kappa_t V_t theta^2/2,
+// also at label interfaces (there the interface vertex's constraint mixes both sides: a soft
+// near-incompressible part next to a stiff one shares the interface vertices' pressure).
+// In matrix form K = K_dev + B^T B, B with one row per vertex a: sqrt(kappa_a V_a) d theta_a / dx
+// (nodal_b()); its stencil is the 2-ring. K x adds three parallel passes (div per tet, theta per
+// vertex, mean pressure per tet and corner forces V_t pbar_t R_t grad N_j, gathered).
+// apply() stays local: the touched vertices' V_a, then the diagonal blocks of their 1-ring.
 #include <cstdint>
 #include <vector>
 
@@ -31,6 +46,7 @@
 
 #include "mesh/tet_mesh.h"
 #include "sim/linear_operator.h"
+#include "sim/formulation.h"
 #include "sim/material.h"
 #include "sim/rotation_extraction.h"
 #include "sim/stiffness_kernel.h"
@@ -46,12 +62,15 @@ Eigen::Matrix3d element_block(const Eigen::Matrix3d& bm, double vol, double mu, 
 
 // A copy of the per-tet data K depends on (by TetId, dead slots flagged), for work done off
 // the frame thread, such as a background factorization. Taking it copies the arrays (the
-// rotations rebuilt from their quaternions).
+// rotations rebuilt from their quaternions; NodalAveraged: also builds B, O(mesh), parallel).
 struct FemElements {
   std::vector<std::uint8_t> alive;
   std::vector<std::array<std::uint32_t, 4>> verts;
   std::vector<Eigen::Matrix3d> bm, rot;
-  std::vector<double> vol, mu, lambda;
+  std::vector<double> vol, mu, lambda;  // lambda: -2 mu / 3 for NodalAveraged (deviatoric blocks)
+  // NodalAveraged: B (rows: vertex slots, columns: unknowns) with K = sum of blocks + B^T B;
+  // empty (0 x 0) for Standard.
+  Eigen::SparseMatrix<double, Eigen::RowMajor> nodal_b;
   Eigen::Matrix3d block(std::size_t t, int i, int j) const {
     return element_block(bm[t], vol[t], mu[t], lambda[t], rot[t], i, j);
   }
@@ -69,16 +88,23 @@ struct FemWork {
   std::uint64_t updates = 0;           // apply() calls
   std::uint64_t tets_recomputed = 0;   // per-tet precomputations
   std::uint64_t vertices_updated = 0;  // diagonal / mass entries recomputed
+  // Diagonal blocks recomputed besides those (NodalAveraged: the touched vertices' 1-ring,
+  // whose volumetric block reads the touched vertices' V_a).
+  std::uint64_t blocks_updated = 0;
 };
 
 class FemModel : public LinearOperator {
 public:
-  // O(mesh). Throws InvalidArgument for a bad material and InvalidMesh for a degenerate tet.
-  FemModel(const TetMesh& mesh, const MaterialTable& materials, FemKind kind = FemKind::Linear);
+  // O(mesh). Throws InvalidArgument for a bad material, or for Formulation::Mixed (not a
+  // displacement-only model), and InvalidMesh for a degenerate tet.
+  FemModel(const TetMesh& mesh, const MaterialTable& materials, FemKind kind = FemKind::Linear,
+           Formulation formulation = Formulation::Standard);
   // The model keeps a pointer to its mesh (local updates read it): a temporary would dangle.
-  FemModel(TetMesh&&, const MaterialTable&, FemKind = FemKind::Linear) = delete;
+  FemModel(TetMesh&&, const MaterialTable&, FemKind = FemKind::Linear, Formulation = Formulation::Standard) = delete;
 
   FemKind kind() const { return kind_; }
+  Formulation formulation() const { return formulation_; }
+  bool nodal_averaged() const { return formulation_ == Formulation::NodalAveraged; }
   const TetMesh& mesh() const { return *mesh_; }
   const MaterialTable& materials() const { return materials_; }
   std::size_t num_dofs() const { return 3 * vertex_capacity_; }
@@ -117,12 +143,26 @@ public:
   // f_int(u) with the current rotations (call update_rotations(u) first for corotational).
   void internal_forces(const Eigen::VectorXd& u, Eigen::VectorXd& f) const;
   // Von Mises stress per tet (by TetId; dead slots 0) for displacement u and current rotations.
+  // NodalAveraged: the deviatoric stress plus the tet's averaged pressure (von Mises does not
+  // see the pressure, so it is the deviatoric stress's).
   std::vector<double> von_mises(const Eigen::VectorXd& u) const;
+  // Mean stress tr(sigma) / 3 per tet (by TetId): kappa tr(eps) for Standard, the mean of its
+  // vertices' kappa_a theta_a for NodalAveraged.
+  std::vector<double> pressure(const Eigen::VectorXd& u) const;
 
   // The assembled K (K_R) as a sparse matrix of num_dofs() rows; O(mesh). The assembled
   // backend and the direct solver use it.
+  // NodalAveraged: K_dev + B^T B, the 2-ring pattern.
   Eigen::SparseMatrix<double> assemble() const;
   FemElements elements() const;
+  // NodalAveraged: B of K = K_dev + B^T B (one row per vertex slot, see above); O(mesh).
+  Eigen::SparseMatrix<double, Eigen::RowMajor> nodal_b() const;
+  // Row a of B as (vertex w, 3 entries) pairs, one per vertex of a's 1-ring (a itself
+  // included); empty for a vertex without tets or for Standard. O(incident tets).
+  void nodal_b_row(std::uint32_t a, std::vector<std::pair<std::uint32_t, Eigen::Vector3d>>& row) const;
+  // Per vertex: V_a and kappa_a V_a (NodalAveraged; zero otherwise).
+  double nodal_volume(VertexId v) const { return v.idx() < nvol_.size() ? nvol_[v.idx()] : 0.0; }
+  double nodal_kappa_volume(VertexId v) const { return v.idx() < nkv_.size() ? nkv_[v.idx()] : 0.0; }
 
   // Per-tet access (tests, benchmarks).
   bool tet_alive(TetId t) const { return t.idx() < alive_.size() && alive_[t.idx()]; }
@@ -133,7 +173,8 @@ public:
   const std::array<std::uint32_t, 4>& tet_vertex_ids(TetId t) const { return verts_[t.idx()]; }
   const Eigen::Matrix3d& tet_shape_matrix(TetId t) const { return bm_[t.idx()]; }  // row j-1: grad N_j
   double tet_mu(TetId t) const { return mu_[t.idx()]; }
-  double tet_lambda(TetId t) const { return lambda_[t.idx()]; }
+  double tet_lambda(TetId t) const { return lambda_[t.idx()]; }  // -2 mu / 3 for NodalAveraged
+  double tet_kappa(TetId t) const { return kappa_[t.idx()]; }    // bulk modulus lambda + 2 mu / 3
   const Eigen::Quaterniond& tet_quaternion(TetId t) const { return quat_[t.idx()]; }
 
 private:
@@ -147,10 +188,19 @@ private:
   Eigen::Matrix3d tet_stress(std::uint32_t t, const Eigen::VectorXd& x, bool subtract_rotation,
                              const Eigen::Matrix3d& r) const;  // r: the tet's rotation
   void gather(Eigen::VectorXd& y, bool accumulate) const;
+  void nodal_volume_of(std::uint32_t v);     // nvol_, nkv_ from the incident tets
+  void refresh_ring(const TopologyChange& change);  // diagonal blocks of the touched 1-ring
+  void volumetric_block(std::uint32_t v, Eigen::Matrix3d& blk) const;  // adds B^T B's block (v, v)
+  // The nodal-averaged volumetric term in three passes. Per tet div_t: of x (R^T H_t(x) traced)
+  // when x is given, plus tr(R_t) - 3 (the rotation's own volumetric strain) when `rotation`.
+  // Leaves per tet pbar_t in pbar_ and adds the corner forces sign V_t pbar_t R_t grad N_j
+  // into *y when y is given.
+  void volumetric_pass(const Eigen::VectorXd* x, bool rotation, double sign, Eigen::VectorXd* y) const;
 
   const TetMesh* mesh_;
   MaterialTable materials_;
   FemKind kind_;
+  Formulation formulation_;
   std::size_t vertex_capacity_ = 0, tet_capacity_ = 0;
 
   // Per tet (by TetId).
@@ -158,6 +208,7 @@ private:
   std::vector<std::array<std::uint32_t, 4>> verts_;
   std::vector<Eigen::Matrix3d> bm_;   // inverse rest edge matrix: row j-1 is grad N_j (j=1..3)
   std::vector<double> vol_, mu_, lambda_, rho_;
+  std::vector<double> kappa_;  // bulk modulus; lambda_ is then the deviatoric element's -2 mu / 3
   // R as a unit quaternion (identity for Linear): 32 bytes a tet to write each frame instead of
   // 72, the next frame's start; the passes that need R rebuild it (a few flops).
   std::vector<Eigen::Quaterniond> quat_;
@@ -188,7 +239,12 @@ private:
   std::vector<Eigen::Matrix3d> blocks_;  // per vertex
   std::vector<double> iso_;              // per vertex: sum of V mu |grad N|^2 over its corners
   std::vector<std::uint32_t> corner_begin_, corner_room_;  // per vertex, in corner_
-  Eigen::VectorXd rhs_;  // b_R, summed per vertex with the diagonal blocks
+  Eigen::VectorXd rhs_;  // b_R, summed per vertex with the diagonal blocks (deviatoric part)
+  // NodalAveraged, per vertex: V_a and kappa_a V_a; scratch of the volumetric passes.
+  std::vector<double> nvol_, nkv_;
+  mutable std::vector<double> div_, pbar_;  // per tet
+  mutable std::vector<double> ptheta_;      // per vertex: kappa_a theta_a
+  std::vector<std::uint8_t> ring_mark_;     // per vertex, all clear between apply() calls
   FemWork work_;
 };
 

@@ -56,10 +56,11 @@ double ms_since(std::chrono::steady_clock::time_point t0) {
 FemSimulation::FemSimulation(const TetMesh& mesh, const MaterialTable& materials, const FemSimulationOptions& options)
     : mesh_(&mesh),
       opt_(options),
-      // Mixed: the model holds the deviatoric part (lambda = 0), the mixed solver the rest; the
-      // model still gives masses, rotations for stress output and the diagonal.
+      // Mixed: the model holds the deviatoric part (lambda = 0, the standard element), the mixed
+      // solver the rest; the model still gives masses, rotations and the stress output.
       model_(mesh, options.formulation == Formulation::Mixed ? MixedMaterials(materials).deviatoric_table() : materials,
-             options.kind),
+             options.kind,
+             options.formulation == Formulation::Mixed ? Formulation::Standard : options.formulation),
       cg_(options.cg) {
   if (!(opt_.dt > 0) || !std::isfinite(opt_.dt)) throw InvalidArgument("fem: dt: expected a positive number");
   if (!(opt_.damping >= 0)) throw InvalidArgument("fem: damping: expected a number >= 0");

@@ -54,7 +54,8 @@ enum class StiffnessBackend { MatrixFree, Assembled };
 
 struct FemSimulationOptions {
   FemKind kind = FemKind::Linear;                       // Linear or Corotational elements
-  // Mixed: displacement and pressure (sim/mixed_solver.h), solved by MINRES (CG's tolerance,
+  // Standard, NodalAveraged (no volumetric locking as Poisson's ratio nears 0.5; same solvers),
+  // or Mixed: displacement and pressure (sim/mixed_solver.h), solved by MINRES (CG's tolerance,
   // cap and budget; its displacement block preconditioned by the Cholesky factor, the multigrid,
   // or block-Jacobi for the others) or by SparseLU (method Direct); Poisson's ratio 0.5 allowed.
   Formulation formulation = Formulation::Standard;

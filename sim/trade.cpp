@@ -15,6 +15,8 @@
 #include "mesh/io/tet_io.h"
 #include "mesh/point_locator.h"
 #include "mesh/refine.h"
+#include "sim/fem_model.h"
+#include "sim/mixed_solver.h"
 
 namespace incise {
 
@@ -185,6 +187,20 @@ std::vector<Setting> grid(const Scene& base, const TradeOptions& opt, const std:
   return unique;
 }
 
+// The slowest time scale of the body under the scene's loads: the Rayleigh quotient
+// omega^2 = u.K u / u.M u of the reference's final displacement (close to the first mode's
+// shape under a static load), with the deviatoric stiffness (defined at any Poisson's ratio;
+// lambda only raises omega, so the estimate errs towards a longer time step). Returns 0 for a
+// zero displacement.
+double slowest_omega(const TetMesh& mesh, const Scene& s, const Eigen::VectorXd& u) {
+  const FemModel k(mesh, MixedMaterials(s.materials).deviatoric_table(), FemKind::Linear);
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(k.rows()), ku;
+  x.head(std::min(x.size(), u.size())) = u.head(std::min(x.size(), u.size()));
+  k.multiply(x, ku);
+  const double um = x.dot(k.lumped_mass().cwiseProduct(x));
+  return um > 0 ? std::sqrt(std::max(0.0, x.dot(ku)) / um) : 0;
+}
+
 // The last frame any load ramps in: dynamic runs hold the loads after it and settle.
 int last_ramp_frame(const Scene& s) {
   int f = 0;
@@ -283,6 +299,14 @@ TradeResult run_trade(const Scene& scene, const TradeOptions& opt) {
     SceneRunOptions ro;
     ro.mesh = &m;
     ro.frames = st.dynamic ? std::max(opt.max_settle_frames, ramp_end + 4) : frames;
+    if (st.dynamic) {
+      // At the scene's own step a soft body rings for thousands of frames (implicit Euler damps
+      // a mode by 1/sqrt(1 + (omega dt)^2) a step): settle with a step of at least 1/omega of
+      // the slowest mode, which damps it by 0.7 a step and reaches the same rest state.
+      const double omega = slowest_omega(m, st.scene, sample(ref_mesh, p, ref.back()));
+      if (omega > 0) st.scene.dt = std::max(st.scene.dt, 1 / omega);
+      r.dt = st.scene.dt;
+    }
     ro.on_frame = [&](int f, const Eigen::VectorXd& d, const FrameStats& s) {
       ms += s.frame_ms;
       iterations += s.iterations;

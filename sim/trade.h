@@ -14,7 +14,9 @@
 // error of the largest displacement; static runs take the largest over frames. Dynamic runs
 // (springs, implicit-Euler FEM) are compared at rest: played, with the loads held at their final
 // values, until they settle, then compared with the reference's last frame ("at-rest"); time to
-// settle and time per frame are reported. Time per frame: the mean wall time of a frame's step
+// settle and time per frame are reported. They settle with a time step of at least 1/omega,
+// omega the slowest mode's frequency estimated from the reference (a Rayleigh quotient): at the
+// scene's own step a soft body rings for thousands of frames before it comes to rest. Time per frame: the mean wall time of a frame's step
 // (a background factorization runs on another thread and is not counted).
 //
 // The grid has two parts, so that it stays bounded: discretization rows (each resolution x
@@ -64,6 +66,7 @@ struct TradeRow {
   std::string compared = "per-frame";         // or "at-rest" (dynamic runs)
   int settle_frames = 0;                      // at-rest: frames played until settled (0: per-frame)
   double settle_ms = 0;                       // at-rest: wall time of those frames
+  double dt = 0;                              // at-rest: the time step it settled with (see run_trade)
   bool settled = true;                        // at-rest: false when max_settle_frames ran out
   int frames_not_converged = 0;
   bool pareto = false;                        // no other row is both faster and more accurate
@@ -94,7 +97,7 @@ void mark_pareto(std::vector<TradeRow>& rows);
 std::vector<const TradeRow*> recommend(const std::vector<TradeRow>& rows, const std::vector<double>& budgets_ms);
 
 // CSV with a header: resolution,tets,model,formulation,solver,preconditioner,tolerance,budget_ms,
-// ms_per_frame,iterations,error,max_displacement_error,compared,settle_frames,settle_ms,settled,
+// ms_per_frame,iterations,error,max_displacement_error,compared,settle_frames,settle_ms,dt,settled,
 // frames_not_converged,pareto.
 std::string trade_csv(const std::vector<TradeRow>& rows);
 // The same as JSON, with the reference and the recommendations.

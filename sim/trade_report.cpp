@@ -27,12 +27,12 @@ std::string setting(const TradeRow& r) {
 std::string trade_csv(const std::vector<TradeRow>& rows) {
   std::ostringstream s;
   s << "resolution,tets,model,formulation,solver,preconditioner,tolerance,budget_ms,ms_per_frame,iterations,error,"
-       "max_displacement_error,compared,settle_frames,settle_ms,settled,frames_not_converged,pareto\n";
+       "max_displacement_error,compared,settle_frames,settle_ms,dt,settled,frames_not_converged,pareto\n";
   s << std::setprecision(8);
   for (const TradeRow& r : rows)
     s << r.resolution << "," << r.tets << "," << r.model << "," << r.formulation << "," << r.solver << "," << r.preconditioner
       << "," << r.tolerance << "," << r.budget_ms << "," << r.ms_per_frame << "," << r.iterations << "," << r.error << ","
-      << r.max_displacement_error << "," << r.compared << "," << r.settle_frames << "," << r.settle_ms << ","
+      << r.max_displacement_error << "," << r.compared << "," << r.settle_frames << "," << r.settle_ms << "," << r.dt << ","
       << (r.settled ? 1 : 0) << "," << r.frames_not_converged << "," << (r.pareto ? 1 : 0) << "\n";
   return s.str();
 }
@@ -45,7 +45,7 @@ std::string trade_json(const TradeResult& res, const std::vector<double>& budget
                     {"solver", r.solver}, {"preconditioner", r.preconditioner}, {"tolerance", r.tolerance},
                     {"budget_ms", r.budget_ms}, {"ms_per_frame", r.ms_per_frame}, {"iterations", r.iterations},
                     {"error", r.error}, {"max_displacement_error", r.max_displacement_error}, {"compared", r.compared},
-                    {"settle_frames", r.settle_frames}, {"settle_ms", r.settle_ms}, {"settled", r.settled},
+                    {"settle_frames", r.settle_frames}, {"settle_ms", r.settle_ms}, {"dt", r.dt}, {"settled", r.settled},
                     {"frames_not_converged", r.frames_not_converged}, {"pareto", r.pareto}});
   json recs = json::array();
   const auto best = recommend(res.rows, budgets_ms);

@@ -49,45 +49,114 @@ std::vector<std::map<std::string, std::string>> read_csv(const std::string& text
 
 }  // namespace
 
-TEST_CASE("incise trade writes the grid, the errors and the Pareto plot", "[cli][trade]") {
+TEST_CASE("incise trade writes the grid, the errors against a converged reference and the Pareto plot", "[cli][trade]") {
   const fs::path dir = scratch_dir("cli_trade");
   {
     std::ofstream(dir / "scene.json") << kScene;
   }
   const Run r = run_incise("trade '" + (dir / "scene.json").string() + "' -o '" + (dir / "out").string() +
-                               "' --tolerances 1e-2 1e-6 --budgets 0",
+                               "' --tolerances 1e-2 1e-6 --budgets 0 --resolutions 0 1 --formulations standard nodal-averaged"
+                               " --json '" + (dir / "out" / "trade.json").string() + "'",
                            dir);
   INFO("stderr: " << r.err);
   REQUIRE(r.code == 0);
-  CHECK(r.err.find("trade: reference") != std::string::npos);
-  CHECK(r.err.find("trade: 20/20") != std::string::npos);
+  // The plan, the reference and its error bar, a progress bar, the answer.
+  CHECK(r.err.find("trade: reference: level 2 (12288 tets), fem-corotational mixed, direct") != std::string::npos);
+  CHECK(r.err.find("it differs from level 1 by") != std::string::npos);
+  CHECK(r.err.find("trade: 28 runs; at the first run's pace about") != std::string::npos);
+  CHECK(r.err.find("[####################] 28/28") != std::string::npos);
+  for (const char* line : {"Pareto frontier (fastest first):", "for a 2 ms frame: ", "for a 16 ms frame: ", "for a 33 ms frame: "})
+    CHECK(r.out.find(line) != std::string::npos);
   const std::string csv = slurp(dir / "out" / "trade.csv");
-  REQUIRE(csv.rfind("model,solver,preconditioner,tolerance,budget_ms,ms_per_frame,iterations,error,", 0) == 0);
+  REQUIRE(csv.rfind("resolution,tets,model,formulation,solver,preconditioner,tolerance,budget_ms,ms_per_frame,iterations,"
+                    "error,max_displacement_error,compared,settle_frames,settle_ms,dt,settled,frames_not_converged,pareto\n",
+                    0) == 0);
   const auto rows = read_csv(csv);
-  // Per FEM model: direct + 4 preconditioners x 2 tolerances; springs: 2 tolerances.
-  REQUIRE(rows.size() == 20);
+  // Discretization: 2 levels x (2 FEM models x 2 formulations + springs); solvers: 2 FEM models x
+  // (direct + 4 preconditioners x 2 tolerances).
+  REQUIRE(rows.size() == 28);
   std::map<std::string, double> err;
   int pareto = 0;
   for (const auto& row : rows) {
-    const std::string key = row.at("model") + " " + row.at("solver") + " " + row.at("preconditioner") + " " + row.at("tolerance");
+    const std::string key = row.at("resolution") + " " + row.at("model") + " " + row.at("formulation") + " " + row.at("solver") +
+                            " " + row.at("preconditioner") + " " + row.at("tolerance");
     err[key] = std::stod(row.at("error"));
     CHECK(std::stod(row.at("ms_per_frame")) > 0);
     CHECK(std::isfinite(std::stod(row.at("error"))));
     pareto += row.at("pareto") == "1";
+    if (row.at("model") == "springs") {
+      // Compared at rest, and settled: a meaningful error, not "100% wrong".
+      CHECK(row.at("compared") == "at-rest");
+      CHECK(row.at("settled") == "1");
+      CHECK(std::stoi(row.at("settle_frames")) > 3);
+      CHECK(std::stod(row.at("error")) < 0.5);
+    } else {
+      CHECK(row.at("compared") == "per-frame");
+    }
   }
   CHECK(pareto >= 1);
-  CHECK(err.at("fem-corotational direct  0") == 0);  // the reference's own setting
+  // Tighter tolerances do not get worse; every preconditioner reaches the direct solve's answer.
   for (const char* pc : {"jacobi", "block-jacobi", "cholesky", "amg"}) {
     INFO(pc);
-    CHECK(err.at(std::string("fem-corotational cg ") + pc + " 1e-06") < 1e-4);
-    CHECK(err.at(std::string("fem-corotational cg ") + pc + " 1e-06") <= err.at(std::string("fem-corotational cg ") + pc + " 0.01") + 1e-9);
+    const std::string tight = std::string("0 fem-corotational standard cg ") + pc + " 1e-06";
+    CHECK(err.at(tight) <= err.at(std::string("0 fem-corotational standard cg ") + pc + " 0.01") + 1e-9);
+    CHECK(std::abs(err.at(tight) - err.at("0 fem-corotational standard direct  0")) < 1e-4);
   }
-  // Large rotations: linear elements are measurably off the corotational answer.
-  CHECK(err.at("fem-linear direct  0") > 1e-3);
+  // The finer mesh is closer to the converged reference, for each model and formulation.
+  for (const char* mf : {"fem-linear standard", "fem-corotational standard", "fem-corotational nodal-averaged"}) {
+    INFO(mf);
+    const std::string tail = std::string(" ") + mf + " cg cholesky 1e-08";
+    CHECK(err.at("1" + tail) < err.at("0" + tail));
+  }
+  // Large rotations: linear elements are off the corotational answer by more than the mesh is.
+  CHECK(err.at("1 fem-linear standard cg cholesky 1e-08") > err.at("1 fem-corotational standard cg cholesky 1e-08"));
   const std::string svg = slurp(dir / "out" / "trade.svg");
   CHECK(svg.rfind("<svg", 0) == 0);
   CHECK(svg.find("<polyline") != std::string::npos);
   CHECK(svg.find("Pareto") != std::string::npos);
+  CHECK(svg.find(">16 ms</text>") != std::string::npos);  // the frame budgets
+  CHECK(svg.find("mesh level 1 (refined)") != std::string::npos);
+  CHECK(svg.find("fem-corotational nodal-averaged") != std::string::npos);
+  const std::string json = slurp(dir / "out" / "trade.json");
+  CHECK(json.find("\"recommendations\"") != std::string::npos);
+  CHECK(json.find("\"change_from_coarser\"") != std::string::npos);
+}
+
+TEST_CASE("incise trade: a finer resolution never reports a larger error on the cantilever", "[cli][trade]") {
+  // Timoshenko's cantilever as a scene: clamped at x = 0, a tip load. The reference is two levels
+  // above the scene's mesh; the coarser (-1), scene (0) and refined (1) meshes must come closer
+  // to it in turn, for every formulation, at nu = 0.45 where standard tets lock.
+  const fs::path dir = scratch_dir("cli_trade_cantilever");
+  {
+    std::ofstream(dir / "beam.json") << R"({
+      "mesh": {"generate": "box", "size": [10, 1, 1], "cells": [20, 2, 2]},
+      "model": "fem-linear",
+      "materials": {"*": {"young": 1e6, "poisson": 0.45}},
+      "fixed": [{"box": [-0.01, -0.01, -0.01, 0.01, 1.01, 1.01]}],
+      "loads": [{"type": "force", "box": [9.99, -0.01, -0.01, 10.01, 1.01, 1.01], "total": [0, 0, -1]}],
+      "solver": {"method": "direct"},
+      "time": {"frames": 1}
+    })";
+  }
+  const Run r = run_incise("trade '" + (dir / "beam.json").string() + "' -o '" + (dir / "out").string() +
+                               "' --models fem-linear --preconditioners cholesky --tolerances 1e-8 --budgets 0 --no-direct"
+                               " --resolutions -1 0 1",
+                           dir);
+  INFO("stderr: " << r.err);
+  REQUIRE(r.code == 0);
+  const auto rows = read_csv(slurp(dir / "out" / "trade.csv"));
+  REQUIRE(rows.size() == 10);  // 3 levels x 3 formulations with the scene's direct solver, one CG row
+  std::map<std::string, std::map<int, double>> by;
+  for (const auto& row : rows)
+    if (row.at("solver") == "direct") by[row.at("formulation")][std::stoi(row.at("resolution"))] = std::stod(row.at("error"));
+  for (const auto& [f, e] : by) {
+    INFO(f << ": " << e.at(-1) << " " << e.at(0) << " " << e.at(1));
+    CHECK(e.at(0) <= e.at(-1));
+    CHECK(e.at(1) <= e.at(0));
+  }
+  // Locking: at the scene's mesh the standard tets are further off than the other two.
+  CHECK(by.at("standard").at(0) > by.at("nodal-averaged").at(0));
+  CHECK(by.at("standard").at(0) > by.at("mixed").at(0));
 }
 
 TEST_CASE("incise trade: bad input is one line, nothing written", "[cli][trade][errors]") {
@@ -102,5 +171,14 @@ TEST_CASE("incise trade: bad input is one line, nothing written", "[cli][trade][
   r = run_incise("trade '" + (dir / "scene.json").string() + "' -o '" + (dir / "out").string() + "' --preconditioners ilu", dir);
   CHECK(r.code == 1);
   CHECK(r.err.find("--preconditioners: expected \"jacobi\"") != std::string::npos);
+  CHECK(!fs::exists(dir / "out" / "trade.csv"));
+  r = run_incise("trade '" + (dir / "scene.json").string() + "' -o '" + (dir / "out").string() + "' --formulations bar", dir);
+  CHECK(r.code == 1);
+  CHECK(r.err.find("--formulations: expected standard, nodal-averaged or mixed, got \"bar\"") != std::string::npos);
+  r = run_incise("trade '" + (dir / "scene.json").string() + "' -o '" + (dir / "out").string() +
+                     "' --resolutions 0 1 --reference-level 1",
+                 dir);
+  CHECK(r.code == 1);
+  CHECK(r.err.find("the reference level (1) must be above the finest resolution (1)") != std::string::npos);
   CHECK(!fs::exists(dir / "out" / "trade.csv"));
 }

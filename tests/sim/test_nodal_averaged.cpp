@@ -1,0 +1,448 @@
+// Nodal-averaged (average nodal pressure) tets, Formulation::NodalAveraged: patch test, the
+// matrix-free product and the per-vertex blocks against the assembled matrix, CG with every
+// preconditioner against the direct solve, local updates after edits and cuts against a fresh
+// model (and their locality), the cantilever against Timoshenko beam theory as Poisson's ratio
+// nears 0.5, and the volume change of a compressed block going to zero.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <random>
+
+#include "mesh/errors.h"
+#include "mesh/generate.h"
+#include "sim/fem_model.h"
+#include "sim/fem_simulation.h"
+#include "tests/sim/fem_test_util.h"
+
+using namespace incise;
+using namespace incise::testing;
+
+namespace {
+
+constexpr Formulation kNodal = Formulation::NodalAveraged;
+
+MaterialTable two_materials() {
+  Material soft{2e4, 0.49, 900};
+  Material hard{5e7, 0.2, 1900};
+  MaterialTable t(soft);
+  t.set(2, hard);
+  return t;
+}
+
+Eigen::VectorXd random_vector(Eigen::Index n, std::mt19937& rng, double scale = 1) {
+  std::normal_distribution<double> nd;
+  Eigen::VectorXd x(n);
+  for (Eigen::Index i = 0; i < n; ++i) x[i] = scale * nd(rng);
+  return x;
+}
+
+// Relative difference of K x, diagonal, diagonal blocks and mass of two models on the mesh's
+// vertex range, and (corotational) of b_R.
+double model_difference(const FemModel& a, const FemModel& b, const TetMesh& m, std::mt19937& rng) {
+  const Eigen::Index n = Eigen::Index(3 * m.vertex_capacity());
+  Eigen::VectorXd xa = Eigen::VectorXd::Zero(a.rows()), xb = Eigen::VectorXd::Zero(b.rows()), ya, yb;
+  xa.head(n) = xb.head(n) = random_vector(n, rng);
+  a.multiply(xa, ya);
+  b.multiply(xb, yb);
+  double d = (ya.head(n) - yb.head(n)).norm() / yb.head(n).norm();
+  d = std::max(d, (a.diagonal().head(n) - b.diagonal().head(n)).norm() / b.diagonal().head(n).norm());
+  d = std::max(d, (a.lumped_mass().head(n) - b.lumped_mass().head(n)).norm() / b.lumped_mass().head(n).norm());
+  double blocks = 0, scale = 0;
+  for (std::size_t v = 0; v < m.vertex_capacity(); ++v) {
+    blocks += (a.diagonal_blocks()[v] - b.diagonal_blocks()[v]).squaredNorm();
+    scale += b.diagonal_blocks()[v].squaredNorm();
+  }
+  d = std::max(d, std::sqrt(blocks / scale));
+  if (a.kind() == FemKind::Corotational) {
+    Eigen::VectorXd ra = Eigen::VectorXd::Zero(a.rows()), rb = Eigen::VectorXd::Zero(b.rows());
+    a.add_rotation_rhs(ra);
+    b.add_rotation_rhs(rb);
+    d = std::max(d, (ra.head(n) - rb.head(n)).norm() / std::max(rb.head(n).norm(), 1e-300));
+  }
+  if (a.rows() > n) d = std::max(d, ya.tail(a.rows() - n).norm() + a.diagonal().tail(a.rows() - n).norm());
+  return d;
+}
+
+// Cantilever L x h x h (L = 10 h), clamped at x = 0, a total shear load P (z) spread over the
+// tip face; returns the mean tip deflection and Timoshenko's (Cowper's shear coefficient).
+struct Cantilever {
+  double fem = 0, theory = 0;
+  double error() const { return fem / theory - 1; }  // negative: too stiff
+};
+// Solved by CG with the exact (CHOLMOD) Cholesky preconditioner to 1e-12: the direct solver's
+// SimplicialLDLT takes ~25 s on the nodal-averaged 80x8x8 (2-ring pattern), CG ~2.5 s, and CG
+// equals the direct solve (test above).
+Cantilever cantilever(int nx, double nu, Formulation f) {
+  const double len = 10, h = 1, e = 1e6, p = -1;
+  const double inertia = h * h * h * h / 12, area = h * h, g = e / (2 * (1 + nu));
+  const double shear = 10 * (1 + nu) / (12 + 11 * nu);
+  Cantilever c;
+  c.theory = p * len * len * len / (3 * e * inertia) + p * len / (shear * g * area);
+  TetMesh m = make_box(Vec3(len, h, h), {nx, nx / 10, nx / 10});
+  FemSimulationOptions opt;
+  opt.formulation = f;
+  opt.cg.tolerance = 1e-12;
+  opt.cg.preconditioner = Preconditioner::Cholesky;
+  opt.cholesky.background = false;
+  opt.warm_start = false;
+  FemSimulation sim(m, table(e, nu), opt);
+  for (VertexId v : m.vertices())
+    if (m.rest(v).x() < 1e-9) sim.fix(v);
+  add_face_traction(m, sim, 0, len, Vec3(0, 0, p / area), 1e-9);
+  REQUIRE(sim.step().info == SolveInfo::Success);
+  int count = 0;
+  for (VertexId v : m.vertices())
+    if (m.rest(v).x() > len - 1e-9) {
+      c.fem += sim.displacement()[3 * v.idx() + 2];
+      ++count;
+    }
+  c.fem /= count;
+  return c;
+}
+
+}  // namespace
+
+TEST_CASE("nodal-averaged: the mixed formulation is refused, the standard one unchanged", "[fem][nodal]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {2, 2, 2});
+  CHECK_THROWS_AS(FemModel(m, table(1e5, 0.3), FemKind::Linear, Formulation::Mixed), InvalidArgument);
+  const FemModel s(m, table(1e5, 0.3)), n(m, table(1e5, 0.3), FemKind::Linear, kNodal);
+  CHECK(s.formulation() == Formulation::Standard);
+  CHECK(n.nodal_averaged());
+  CHECK(s.nodal_b().rows() == 0);
+  std::mt19937 rng(1);
+  const Eigen::VectorXd x = random_vector(s.rows(), rng);
+  Eigen::VectorXd ys, yn;
+  s.multiply(x, ys);
+  n.multiply(x, yn);
+  CHECK((ys - yn).norm() > 1e-3 * ys.norm());  // a different operator
+}
+
+TEST_CASE("nodal-averaged: patch test, an affine field is reproduced exactly", "[fem][nodal][verification]") {
+  TetMesh m = make_box(Vec3(2, 1, 1.5), {6, 3, 4});
+  jitter(m, 0.25, 11);
+  const auto boundary = boundary_vertices(m);
+  Eigen::Matrix3d a;
+  a << 0.01, 0.02, -0.01, 0.005, -0.03, 0.02, 0.0, 0.01, 0.015;
+  const Vec3 shift(0.1, -0.2, 0.05);
+  auto exact = [&](const Vec3& x) -> Vec3 { return a * x + shift; };
+  for (FemKind kind : {FemKind::Linear, FemKind::Corotational})
+    for (double nu : {0.3, 0.49, 0.4999}) {
+      INFO("kind " << int(kind) << ", nu " << nu);
+      FemSimulationOptions opt;
+      opt.kind = kind;
+      opt.formulation = kNodal;
+      opt.method = SolverMethod::Direct;
+      opt.nonlinear_iterations = 6;
+      FemSimulation sim(m, table(1e5, nu), opt);
+      for (VertexId v : m.vertices())
+        if (boundary[v.idx()]) sim.prescribe(v, exact(m.rest(v)));
+      // The corotational frames re-linearize without geometric stiffness: the fixed-point
+      // iteration contracts only while the pressure is small against mu (at nu = 0.4999 this
+      // field's pressure is ~25 mu, and the iterates stall near 4e-4). There the discrete
+      // equilibrium below is the patch test.
+      if (kind == FemKind::Linear || nu <= 0.49) {
+        for (int f = 0; f < (kind == FemKind::Linear ? 1 : 3); ++f) REQUIRE(sim.step().info == SolveInfo::Success);
+        double err = 0, ref = 0;
+        for (VertexId v : m.vertices()) {
+          err = std::max(err, (sim.displacement().segment<3>(3 * v.idx()) - exact(m.rest(v))).norm());
+          ref = std::max(ref, exact(m.rest(v)).norm());
+        }
+        CHECK(err <= 1e-9 * ref);
+      }
+      // The internal force of the affine field vanishes at interior vertices, and every tet
+      // carries the same pressure, kappa tr(eps) (linear).
+      FemModel& model = sim.model();
+      Eigen::VectorXd u = Eigen::VectorXd::Zero(model.rows()), f;
+      for (VertexId v : m.vertices()) u.segment<3>(3 * v.idx()) = exact(m.rest(v));
+      model.update_rotations(u);
+      model.internal_forces(u, f);
+      double interior = 0, all = 0;
+      for (VertexId v : m.vertices()) {
+        all = std::max(all, f.segment<3>(3 * v.idx()).norm());
+        if (!boundary[v.idx()]) interior = std::max(interior, f.segment<3>(3 * v.idx()).norm());
+      }
+      CHECK(interior <= 1e-9 * all);
+      if (kind == FemKind::Linear) {
+        const Material mat{1e5, nu, 1000};
+        const double expected = (mat.lambda() + 2 * mat.mu() / 3) * a.trace();
+        const std::vector<double> p = model.pressure(u);
+        for (TetId t : m.tets()) REQUIRE(p[t.idx()] == Approx(expected).epsilon(1e-9));
+      }
+    }
+}
+
+TEST_CASE("nodal-averaged: K x, diagonal, blocks, b_R and f_int match the assembled matrix", "[fem][nodal]") {
+  TetMesh m = make_box(Vec3(2, 1, 1), {6, 3, 3});
+  jitter(m, 0.25, 5);
+  for (TetId t : m.tets())
+    if (t.idx() % 3 == 0) m.set_label(t, 2);
+  std::mt19937 rng(3);
+  for (FemKind kind : {FemKind::Linear, FemKind::Corotational}) {
+    INFO("kind " << int(kind));
+    FemModel model(m, two_materials(), kind, kNodal);
+    const Eigen::VectorXd u = random_vector(model.rows(), rng, 0.2);  // large rotations
+    model.update_rotations(u);
+    const Eigen::SparseMatrix<double> k = model.assemble();
+    CHECK((Eigen::SparseMatrix<double>(k.transpose()) - k).norm() <= 1e-12 * k.norm());
+    const Eigen::VectorXd x = random_vector(model.rows(), rng);
+    Eigen::VectorXd y;
+    model.multiply(x, y);
+    CHECK((y - k * x).norm() <= 1e-12 * y.norm());
+    CHECK((model.diagonal() - Eigen::VectorXd(k.diagonal())).norm() <= 1e-12 * model.diagonal().norm());
+    const Eigen::MatrixXd dense(k);
+    for (VertexId v : m.vertices())
+      REQUIRE((model.diagonal_blocks()[v.idx()] - dense.block<3, 3>(3 * v.idx(), 3 * v.idx())).norm() <=
+              1e-12 * dense.block<3, 3>(3 * v.idx(), 3 * v.idx()).norm());
+    // The element snapshot the Cholesky factors: deviatoric blocks + B^T B is K.
+    const FemElements e = model.elements();
+    Eigen::MatrixXd ke = Eigen::MatrixXd(Eigen::SparseMatrix<double>(e.nodal_b.transpose()) * Eigen::SparseMatrix<double>(e.nodal_b));
+    for (std::size_t t = 0; t < e.alive.size(); ++t)
+      if (e.alive[t])
+        for (int i = 0; i < 4; ++i)
+          for (int j = 0; j < 4; ++j) ke.block<3, 3>(3 * e.verts[t][i], 3 * e.verts[t][j]) += e.block(t, i, j);
+    CHECK((ke - dense).norm() <= 1e-12 * dense.norm());
+    // f_int(u) = -(K_R u - b_R) with the rotations of u.
+    Eigen::VectorXd f, b = Eigen::VectorXd::Zero(model.rows());
+    model.internal_forces(u, f);
+    model.add_rotation_rhs(b);
+    CHECK((f + k * u - b).norm() <= 1e-11 * f.norm());
+    // The pattern reaches the 2-ring: wider than the standard element's.
+    const FemModel standard(m, two_materials(), kind);
+    CHECK(k.nonZeros() > standard.assemble().nonZeros());
+  }
+}
+
+TEST_CASE("nodal-averaged: CG with every preconditioner equals the direct solution", "[fem][nodal][preconditioner]") {
+  TetMesh m = make_box(Vec3(4, 1, 1), {16, 4, 4});
+  jitter(m, 0.25, 7);
+  const Preconditioner all[] = {Preconditioner::Jacobi, Preconditioner::BlockJacobi, Preconditioner::Cholesky,
+                                Preconditioner::Amg};
+  for (bool dynamic : {false, true})
+    for (FemKind kind : {FemKind::Linear, FemKind::Corotational}) {
+      auto run = [&](SolverMethod method, Preconditioner pc, StiffnessBackend backend = StiffnessBackend::MatrixFree) {
+        FemSimulationOptions opt;
+        opt.kind = kind;
+        opt.formulation = kNodal;
+        opt.method = method;
+        opt.backend = backend;
+        opt.dynamic = dynamic;
+        opt.cg.tolerance = 1e-11;
+        opt.cg.max_iterations = 20000;
+        opt.cg.preconditioner = pc;
+        opt.cholesky.background = false;
+        opt.gravity = Vec3(0, 0, -9.81);
+        FemSimulation sim(m, table(1e5, 0.49), opt);
+        fix_ends(m, sim);
+        sim.set_force(VertexId(40), Vec3(0, 30, 5));
+        int iterations = 0;
+        for (int f = 0; f < 3; ++f) {
+          const FrameStats& st = sim.step();
+          INFO(st.message);
+          REQUIRE(st.info == SolveInfo::Success);
+          iterations += st.iterations;
+        }
+        return std::pair<Eigen::VectorXd, int>(sim.displacement(), iterations);
+      };
+      const auto [ref, _] = run(SolverMethod::Direct, Preconditioner::Jacobi);
+      for (Preconditioner pc : all) {
+        const auto [u, it] = run(SolverMethod::Cg, pc);
+        INFO("dynamic " << dynamic << ", kind " << int(kind) << ", " << to_string(pc) << ": " << it << " iterations");
+        CHECK((u - ref).norm() <= 1e-7 * ref.norm());
+        if (pc == Preconditioner::Cholesky && kind == FemKind::Linear) CHECK(it <= 3 * 3);  // the exact factor
+      }
+      const auto [ua, ita] = run(SolverMethod::Cg, Preconditioner::BlockJacobi, StiffnessBackend::Assembled);
+      INFO("assembled backend: " << ita << " iterations");
+      CHECK((ua - ref).norm() <= 1e-7 * ref.norm());
+    }
+}
+
+TEST_CASE("nodal-averaged: through cuts, CG with the stale factor and the patched multigrid equals the direct solution",
+          "[fem][nodal][preconditioner][cut]") {
+  for (Preconditioner pc : {Preconditioner::Cholesky, Preconditioner::Amg})
+    for (FemKind kind : {FemKind::Linear, FemKind::Corotational}) {
+      INFO(to_string(pc) << ", kind " << int(kind));
+      TetMesh m = make_box(Vec3(4, 1, 1), {16, 4, 4});
+      m.discard_change();
+      FemSimulationOptions opt;
+      opt.kind = kind;
+      opt.formulation = kNodal;
+      opt.cg.tolerance = 1e-8;
+      opt.cg.preconditioner = pc;
+      opt.cholesky.settle_frames = 0;     // the stale factor preconditions through the cuts
+      opt.cholesky.settle_with_amg = false;
+      FemSimulation sim(m, table(1e5, 0.45), opt);  // check_equals_direct's material
+      fix_ends(m, sim);
+      std::vector<VertexId> top;
+      for (VertexId v : m.vertices())
+        if (m.rest(v).z() > 1 - 1e-9) top.push_back(v);
+      for (VertexId v : top) sim.set_force(v, Vec3(0, 0, -2));
+      REQUIRE(sim.step().info == SolveInfo::Success);
+      for (int depth = 1; depth <= 3; ++depth) {
+        crack(m, 0, 2.0, 2, 1.0 - 0.25 * depth - 1e-3);
+        sim.apply(m.take_change());
+        const FrameStats& st = sim.step();
+        INFO("depth " << depth << ": " << st.message);
+        CHECK(st.info == SolveInfo::Success);
+      }
+      check_equals_direct(m, opt, top, sim);
+      if (pc == Preconditioner::Amg) {
+        CHECK(sim.amg()->patches() >= 1);
+        CHECK(sim.amg()->failed_patches() == 0);
+      }
+    }
+}
+
+TEST_CASE("nodal-averaged: the locally updated model equals a fresh one after edits and cuts", "[fem][nodal][local]") {
+  for (FemKind kind : {FemKind::Linear, FemKind::Corotational}) {
+    INFO("kind " << int(kind));
+    TetMesh m = make_box(Vec3(1, 1.5, 1), {5, 6, 5});
+    jitter(m, 0.25, 21);
+    for (TetId t : m.tets())
+      if (t.idx() % 4 == 0) m.set_label(t, 2);
+    m.discard_change();
+    const MaterialTable mats = two_materials();
+    FemModel local(m, mats, kind, kNodal);
+    std::mt19937 rng(77), check_rng(5);
+    Eigen::VectorXd u = random_vector(local.rows(), rng, 0.05);
+    local.update_rotations(u);
+    auto compare = [&](const char* what) {
+      m.validate();
+      FemModel scratch(m, mats, kind, kNodal);
+      Eigen::VectorXd us = u.head(3 * m.vertex_capacity());
+      local.update_rotations(u);
+      scratch.update_rotations(us);
+      INFO(what << ", " << m.num_tets() << " tets");
+      CHECK(model_difference(local, scratch, m, check_rng) <= 1e-12);
+    };
+    int edits = 0;
+    for (int batch = 0; edits < 1500; ++batch) {
+      for (int k = 0; k < 1 + batch % 5; ++k) edits += random_edit(m, rng, true);
+      const TopologyChange change = m.take_change();
+      local.apply(change);
+      interpolate_added_vertices(change, local.vertex_slots(), u);
+      if (batch % 100 == 0) compare("random edits");
+    }
+    // A crack deepened cell by cell; without update_rotations in between for the linear model
+    // (the blocks after apply() alone must be current).
+    for (int depth = 1; depth <= 3; ++depth) {
+      crack(m, 0, 0.5, 2, 1.0 - 0.2 * depth - 1e-3);
+      const TopologyChange change = m.take_change();
+      local.apply(change);
+      interpolate_added_vertices(change, local.vertex_slots(), u);
+      if (kind == FemKind::Linear) {
+        FemModel scratch(m, mats, kind, kNodal);
+        CHECK(model_difference(local, scratch, m, check_rng) <= 1e-12);
+      }
+    }
+    compare("crack");
+  }
+}
+
+TEST_CASE("nodal-averaged: work per local update does not grow with mesh size", "[fem][nodal][local][locality]") {
+  auto work_per_update = [](int n) {
+    TetMesh m = make_box(Vec3(1, 1, 1), {n, n, n});
+    m.discard_change();
+    FemModel model(m, two_materials(), FemKind::Linear, kNodal);
+    model.reset_work();
+    std::mt19937 rng(3);
+    for (int i = 0; i < 1000; ++i) {
+      random_edit(m, rng, true);
+      model.apply(m.take_change());
+    }
+    const FemWork& w = model.work();
+    const double u = double(w.updates);
+    return std::array<double, 3>{double(w.tets_recomputed) / u, double(w.vertices_updated) / u,
+                                 double(w.blocks_updated) / u};
+  };
+  const auto small = work_per_update(6);   // 1.3k tets
+  const auto large = work_per_update(30);  // 162k tets
+  WARN("per update (1.3k vs 162k tets): tets " << small[0] << " vs " << large[0] << ", vertices " << small[1]
+                                               << " vs " << large[1] << ", 1-ring blocks " << small[2] << " vs "
+                                               << large[2]);
+  for (int i = 0; i < 3; ++i) CHECK(large[std::size_t(i)] < 1.5 * small[std::size_t(i)]);
+  CHECK(large[2] > 0);
+  CHECK(large[2] < 200);  // a 1-ring, not the mesh
+}
+
+TEST_CASE("nodal-averaged: no volumetric locking in the cantilever, and the bending error left converges with h",
+          "[fem][nodal][verification]") {
+  // Measured (bench_fem_locking), error against Timoshenko at nu = 0.3 / 0.45 / 0.49 / 0.4999:
+  //   standard        40x4x4  -21.3 / -40.2 / -71.2 / -98.6 %   80x8x8  -7.0 / -16.4 / -41.9 / -97.2 %
+  //   nodal-averaged  40x4x4  -12.3 / -15.1 / -16.9 / -20.9 %   80x8x8  -4.0 /  -5.6 /  -6.4 /  -7.0 %
+  //                                                           120x12x12 -2.2 / -3.5 / -4.1 / -4.4 %
+  // The 5% target is met from 120x12x12 (17 s a solve: the hidden test below), not at 80x8x8
+  // above nu = 0.3: linear tets are also too stiff in bending (their constant strain cannot
+  // bend; standard tets at nu = 0.3 are 7.0% too stiff at 80x8x8), which no volumetric
+  // treatment removes. The nodal-averaged error at nu = 0.4999 equals the standard one at 0.3,
+  // and it falls ~3x per halving of h at every nu (the standard one at 0.4999 does not move).
+  double coarse_std = 0;
+  for (double nu : {0.3, 0.45, 0.49, 0.4999}) {
+    const Cantilever s40 = cantilever(40, nu, Formulation::Standard);
+    const Cantilever n40 = cantilever(40, nu, kNodal);
+    const Cantilever n80 = cantilever(80, nu, kNodal);
+    WARN("nu " << nu << ": standard 40x4x4 " << 100 * s40.error() << "%, nodal-averaged 40x4x4 " << 100 * n40.error()
+               << "%, 80x8x8 " << 100 * n80.error() << "%");
+    CHECK(n80.error() < 0);                      // still on the stiff side (bending)
+    CHECK(std::abs(n80.error()) <= 0.075);       // measured 4.0 - 7.0%
+    CHECK(std::abs(n40.error()) >= 2.5 * std::abs(n80.error()));  // converging with h (measured 2.6 - 3.1x)
+    CHECK(std::abs(n40.error()) < 0.6 * std::abs(s40.error()));
+    if (nu == 0.3) {
+      CHECK(std::abs(n80.error()) <= 0.05);
+      coarse_std = std::abs(s40.error());
+    }
+    // No locking: at nu -> 0.5 no stiffer than the standard element at nu = 0.3.
+    CHECK(std::abs(n40.error()) <= coarse_std);
+  }
+}
+
+TEST_CASE("nodal-averaged: 120x12x12 cantilever within 5% of Timoshenko at nu = 0.4999", "[.][slow][fem][nodal]") {
+  const Cantilever n = cantilever(120, 0.4999, kNodal);
+  WARN("120x12x12, nu 0.4999: nodal-averaged " << 100 * n.error() << "%");
+  CHECK(std::abs(n.error()) <= 0.05);
+}
+
+TEST_CASE("nodal-averaged: a compressed block's volume change goes to zero as nu -> 0.5", "[fem][nodal][verification]") {
+  // Unit cube, bottom face clamped, uniform pressure on the top face. The volume change is
+  // sum_t V_t div_t(u) = sum_a V_a theta_a, exact for the piecewise-linear field.
+  TetMesh m = make_box(Vec3(1, 1, 1), {6, 6, 6});
+  auto run = [&](double nu) {
+    FemSimulationOptions opt;
+    opt.formulation = kNodal;
+    opt.method = SolverMethod::Direct;
+    FemSimulation sim(m, table(1e5, nu), opt);
+    for (VertexId v : m.vertices())
+      if (m.rest(v).z() < 1e-9) sim.fix(v);
+    add_face_traction(m, sim, 2, 1.0, Vec3(0, 0, -1e3), 1e-9);
+    REQUIRE(sim.step().info == SolveInfo::Success);
+    const Eigen::VectorXd& u = sim.displacement();
+    double dv = 0, top = 0;
+    int count = 0;
+    for (TetId t : m.tets()) {
+      const auto& v = m.tet_vertices(t);
+      Eigen::Matrix3d d0, d;
+      for (int j = 0; j < 3; ++j) {
+        d0.col(j) = m.rest(v[j + 1]) - m.rest(v[0]);
+        d.col(j) = u.segment<3>(3 * v[j + 1].idx()) - u.segment<3>(3 * v[0].idx());
+      }
+      dv += (d * d0.inverse()).trace() * d0.determinant() / 6;
+    }
+    for (VertexId v : m.vertices())
+      if (m.rest(v).z() > 1 - 1e-9) {
+        top += u[3 * v.idx() + 2];
+        ++count;
+      }
+    return std::pair<double, double>(dv, top / count);
+  };
+  const auto [dv3, top3] = run(0.3);
+  double prev = std::abs(dv3);
+  for (double nu : {0.45, 0.49, 0.499, 0.4999}) {
+    const auto [dv, top] = run(nu);
+    WARN("nu " << nu << ": volume change " << dv << " (nu 0.3: " << dv3 << "), top " << top << " (nu 0.3: " << top3
+               << ")");
+    CHECK(std::abs(dv) < prev);
+    prev = std::abs(dv);
+    // The compliance itself does not lock: the block still shortens (bulging sideways).
+    CHECK(top < 0.3 * top3);  // both negative: at least 30% of the nu = 0.3 shortening
+  }
+  CHECK(prev <= 2e-3 * std::abs(dv3));
+}
