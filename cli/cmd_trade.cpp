@@ -11,7 +11,7 @@
 #include "mesh/errors.h"
 #include "mesh/io/atomic_file.h"
 #include "sim/formulation.h"
-#include "sim/trade.h"
+#include "scene/trade.h"
 
 namespace incise::cli {
 

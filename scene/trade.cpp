@@ -1,4 +1,4 @@
-#include "sim/trade.h"
+#include "scene/trade.h"
 
 #include <algorithm>
 #include <chrono>

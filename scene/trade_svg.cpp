@@ -5,7 +5,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "sim/trade.h"
+#include "scene/trade.h"
 
 namespace incise {
 

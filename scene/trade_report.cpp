@@ -6,7 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "sim/trade.h"
+#include "scene/trade.h"
 
 namespace incise {
 
