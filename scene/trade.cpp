@@ -214,8 +214,20 @@ TradeResult run_trade(const Scene& scene, const TradeOptions& opt) {
   if (!scene.cuts.empty())
     throw InvalidArgument(scene.path + ": trade compares settings on an uncut body; remove the scene's \"cuts\" (a copy of "
                                        "the scene without them) to trade it");
+  std::map<int, std::unique_ptr<TetMesh>> meshes;
+  auto mesh = [&](int level) -> const TetMesh& {
+    auto& m = meshes[level];
+    if (!m) m = std::make_unique<TetMesh>(body_at(scene, level));
+    return *m;
+  };
   std::vector<int> levels = opt.resolutions;
-  if (levels.empty()) levels = scene.generator.empty() ? std::vector<int>{0, 1} : std::vector<int>{-1, 0, 1};
+  if (levels.empty()) {
+    // A coarser level where the mesh is generated, and a refined one when its reference (64x
+    // the scene's tets) stays within what a direct solve does in seconds.
+    if (!scene.generator.empty()) levels.push_back(-1);
+    levels.push_back(0);
+    if (64 * mesh(0).num_tets() <= opt.max_reference_tets) levels.push_back(1);
+  }
   std::sort(levels.begin(), levels.end());
   levels.erase(std::unique(levels.begin(), levels.end()), levels.end());
   const int ref_level = opt.reference_level >= 0 ? opt.reference_level : levels.back() + 1;
@@ -224,12 +236,6 @@ TradeResult run_trade(const Scene& scene, const TradeOptions& opt) {
                           ") must be above the finest resolution (" + std::to_string(levels.back()) + ")");
   const int frames = opt.frames >= 0 ? opt.frames : scene.frames;
 
-  std::map<int, std::unique_ptr<TetMesh>> meshes;
-  auto mesh = [&](int level) -> const TetMesh& {
-    auto& m = meshes[level];
-    if (!m) m = std::make_unique<TetMesh>(body_at(scene, level));
-    return *m;
-  };
 
   // ---- the reference, and the same one level coarser for its error bar ------------------
   TradeResult result;

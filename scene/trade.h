@@ -37,8 +37,10 @@ struct TradeOptions {
   std::vector<SceneModel> models{SceneModel::FemLinear, SceneModel::FemCorotational, SceneModel::Springs};
   std::vector<Formulation> formulations{Formulation::Standard, Formulation::NodalAveraged, Formulation::Mixed};
   // Mesh levels: 0 the scene's mesh, k > 0 refined k times, -1 one coarser (generated meshes
-  // only: half the cells). Empty: {-1, 0, 1} for generated meshes, {0, 1} for mesh files.
+  // only: half the cells). Empty: -1 for generated meshes, 0, and 1 when the reference two
+  // levels up has at most max_reference_tets tets.
   std::vector<int> resolutions;
+  std::size_t max_reference_tets = 200000;
   int reference_level = -1;  // -1: one above the finest resolution
   std::vector<Preconditioner> preconditioners{Preconditioner::Jacobi, Preconditioner::BlockJacobi,
                                               Preconditioner::Cholesky, Preconditioner::Amg};
