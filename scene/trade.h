@@ -3,8 +3,9 @@
 // frame and the error against a converged reference, so a user can pick settings for a scene.
 //
 // Reference: the scene's body refined uniformly (1:8 per level, mesh/refine.h) one level
-// beyond the finest run, solved by the direct solver with static corotational FEM in the most
-// accurate formulation (mixed: pressure as an unknown, exact at any Poisson's ratio),
+// beyond the finest run, solved by the direct solver (MINRES to a relative residual of 1e-10
+// with the exact factor above 20k tets) with static corotational FEM in the most accurate
+// formulation (mixed: pressure as an unknown, exact at any Poisson's ratio),
 // re-linearized solver.nonlinear_iterations times per frame like the runs. Its own error bar
 // is the difference between it and the same reference one level coarser (reference_change).
 //
@@ -41,6 +42,8 @@ struct TradeOptions {
   // levels up has at most max_reference_tets tets.
   std::vector<int> resolutions;
   std::size_t max_reference_tets = 200000;
+  // The reference is solved directly up to this many tets, by MINRES to 1e-10 above (see trade.cpp).
+  std::size_t direct_reference_tets = 20000;
   int reference_level = -1;  // -1: one above the finest resolution
   std::vector<Preconditioner> preconditioners{Preconditioner::Jacobi, Preconditioner::BlockJacobi,
                                               Preconditioner::Cholesky, Preconditioner::Amg};
@@ -78,6 +81,7 @@ struct TradeReference {
   int level = 0;
   std::size_t tets = 0;
   std::string formulation;
+  std::string method;  // "direct" or "minres 1e-10"
   double seconds = 0;
   // Relative L2 difference, at the scene mesh's vertices, between this reference and the same
   // solve one level coarser: the reference's own error bar (-1 when level 0 has no coarser).

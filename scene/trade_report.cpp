@@ -54,7 +54,7 @@ std::string trade_json(const TradeResult& res, const std::vector<double>& budget
                     {"row", best[i] ? json(std::size_t(best[i] - res.rows.data())) : json(nullptr)},
                     {"setting", best[i] ? json(setting(*best[i])) : json(nullptr)}});
   json out = {{"reference",
-               {{"level", res.reference.level}, {"tets", res.reference.tets}, {"formulation", res.reference.formulation},
+               {{"level", res.reference.level}, {"tets", res.reference.tets}, {"formulation", res.reference.formulation}, {"method", res.reference.method},
                 {"seconds", res.reference.seconds},
                 {"change_from_coarser", res.reference.change >= 0 ? json(res.reference.change) : json(nullptr)}}},
               {"rows", rows},
@@ -66,7 +66,7 @@ std::string trade_summary(const TradeResult& res, const std::vector<double>& bud
   std::ostringstream s;
   s << std::setprecision(3);
   s << "trade: " << res.rows.size() << " runs against a level-" << res.reference.level << " reference ("
-    << res.reference.tets << " tets, fem-corotational " << res.reference.formulation << ", direct";
+    << res.reference.tets << " tets, fem-corotational " << res.reference.formulation << ", " << res.reference.method;
   if (res.reference.change >= 0) s << "; it moves by " << res.reference.change << " from one level coarser";
   s << ")\nPareto frontier (fastest first):\n";
   std::vector<const TradeRow*> front;
