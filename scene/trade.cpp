@@ -210,10 +210,16 @@ int last_ramp_frame(const Scene& s) {
 
 }  // namespace
 
-TradeResult run_trade(const Scene& scene, const TradeOptions& opt) {
-  if (!scene.cuts.empty())
-    throw InvalidArgument(scene.path + ": trade compares settings on an uncut body; remove the scene's \"cuts\" (a copy of "
-                                       "the scene without them) to trade it");
+TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
+  // Meshes of different resolutions cut by one blade give different bodies, so there is no
+  // shared reference through a cut: settings are compared on the uncut body, and it is said.
+  Scene scene = cut_scene;
+  if (!scene.cuts.empty()) {
+    if (opt.progress)
+      *opt.progress << "trade: the scene's " << scene.cuts.size()
+                    << " cut(s) are left out: settings are compared on the uncut body\n";
+    scene.cuts.clear();
+  }
   std::map<int, std::unique_ptr<TetMesh>> meshes;
   auto mesh = [&](int level) -> const TetMesh& {
     auto& m = meshes[level];
