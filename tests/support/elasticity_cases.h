@@ -15,14 +15,7 @@ namespace incise::testing {
 // Quarter tube a <= r <= b, 0 <= theta <= pi/2, 0 <= z <= h: make_box's (r, theta, z) lattice
 // mapped to Cartesian (Jacobian r > 0: orientations kept).
 inline TetMesh make_quarter_tube(double a, double b, double h, int nr, int nt, int nz, int label = 1) {
-  TetMesh m = make_box(Vec3(b - a, std::numbers::pi / 2, h), {nr, nt, nz}, label);
-  for (VertexId v : m.vertices()) {
-    const Vec3 q = m.rest(v);
-    const double r = a + q.x();
-    m.set_rest(v, Vec3(r * std::cos(q.y()), r * std::sin(q.y()), q.z()));
-  }
-  m.discard_change();
-  return m;
+  return make_tube(a, b, h, 90, {nr, nt, nz}, label);  // the library's generator (mesh/generate.h)
 }
 
 // The loads and constraints of one static problem, in the solver's unknowns.
