@@ -42,7 +42,7 @@ void add_trade(CLI::App& app) {
     bool no_direct = false, quiet = false;
   };
   auto o = std::make_shared<Opts>();
-  auto* cmd = app.add_subcommand("trade", "Speed against accuracy of a scene under a grid of solver settings");
+  auto* cmd = app.add_subcommand("trade", "Speed against accuracy of a scene: resolutions, models, formulations and solver settings against a converged reference");
   cmd->add_option("scene", o->scene, "Scene file (.json, see docs/scene.md)")->required();
   cmd->add_option("-o,--output", o->out, "Output directory: trade.csv, trade.svg")->required();
   cmd->add_option("--frames", o->frames, "Override the scene's number of frames (at least 1)")
