@@ -26,18 +26,10 @@ namespace {
 
 // Standard tets on the same problem (nu < 0.5 only): K u = f on the free unknowns, LDL^T.
 double standard_lame(int nr, int nt, int nz, double nu) {
-  const double a = 1, b = 2, h = 0.5, e = 1e4, p = 10, tol = 1e-9;
+  const double a = 1, b = 2, h = 0.5, e = 1e4, p = 10;
   TetMesh m = make_quarter_tube(a, b, h, nr, nt, nz);
   FemModel model(m, MaterialTable(Material{e, nu, 1000}));
-  MixedProblem pb(model.num_dofs());
-  for (VertexId v : m.vertices()) {
-    const Vec3 x = m.rest(v);
-    if (std::abs(x.x()) < tol) pb.keep(v, 0);
-    if (std::abs(x.y()) < tol) pb.keep(v, 1);
-    if (std::abs(x.z()) < tol || std::abs(x.z() - h) < tol) pb.keep(v, 2);
-  }
-  add_traction(m, pb, [&](const Vec3& x) { return std::abs(x.head<2>().norm() - a) < 1e-9; },
-               [&](const Vec3&, const Vec3& n) -> Vec3 { return -p * n; });
+  MixedProblem pb = lame_problem(m, model.num_dofs(), a, h, p);
   Eigen::SparseMatrix<double> k = model.assemble();
   for (Eigen::Index i = 0; i < k.rows(); ++i)  // kept unknowns: identity rows, zero load
     if (!pb.free[std::size_t(i)] || model.diagonal()[i] == 0) {

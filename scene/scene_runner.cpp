@@ -349,6 +349,12 @@ CutStepReport SceneRunner::advance_blade(const BladeSegment& blade, const CutOpt
     return {};
   }
   CutStepReport r = blade_->advance(blade, [this](VertexId v) { return position(v); }, max_displacement_bound());
+  return took_blade_step(std::move(r));
+}
+
+// An outside blade's step reaches the backend and the other cutters, and its detached parts
+// follow the fragment policy; the report goes back without them.
+CutStepReport SceneRunner::took_blade_step(CutStepReport r) {
   apply_change(r.change, blade_.get());
   total_cut_ms_ += r.ms;
   std::vector<std::vector<TetId>> parts;
@@ -361,13 +367,7 @@ CutStepReport SceneRunner::advance_blade(const BladeSegment& blade, const CutOpt
 CutStepReport SceneRunner::finish_blade() {
   if (!blade_ || !blade_->in_cut()) return {};
   CutStepReport r = blade_->finish([this](VertexId v) { return position(v); });
-  apply_change(r.change, blade_.get());
-  total_cut_ms_ += r.ms;
-  std::vector<std::vector<TetId>> parts;
-  for (Fragment& fr : r.fragments) parts.push_back(std::move(fr.tets));
-  r.fragments.clear();
-  handle_fragments(parts);
-  return r;
+  return took_blade_step(std::move(r));
 }
 
 void SceneRunner::set_probe(const std::vector<VertexId>& vertices, const Vec3& displacement) {

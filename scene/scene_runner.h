@@ -95,6 +95,7 @@ private:
   void apply_change(const TopologyChange& change, const Cutter* from);
   double max_displacement_bound() const;
   void handle_fragments(const std::vector<std::vector<TetId>>& parts);
+  CutStepReport took_blade_step(CutStepReport r);  // an outside blade step: change, time, fragments
   bool held_by_scene(VertexId v) const;
   double cut_scene_blades();
 

@@ -55,11 +55,11 @@ struct LameResult {
   MixedStats stats;
 };
 
-inline LameResult run_lame(int nr, int nt, int nz, double nu, MixedOptions opt = {}, FemKind kind = FemKind::Linear) {
-  const double a = 1, b = 2, h = 0.5, e = 1e4, p = 10, tol = 1e-9;
-  TetMesh m = make_quarter_tube(a, b, h, nr, nt, nz);
-  MixedSolver solver(m, MixedMaterials(Material{e, nu, 1000}), kind, opt);
-  MixedProblem pb(solver.num_dofs());
+// The Lame cylinder's constraints and load on a quarter tube of inner radius a and height h:
+// rollers on the symmetry planes x = 0, y = 0 and the end faces, pressure p on the bore.
+inline MixedProblem lame_problem(const TetMesh& m, std::size_t dofs, double a, double h, double p) {
+  const double tol = 1e-9;
+  MixedProblem pb(dofs);
   for (VertexId v : m.vertices()) {
     const Vec3 x = m.rest(v);
     if (std::abs(x.x()) < tol) pb.keep(v, 0);
@@ -67,8 +67,16 @@ inline LameResult run_lame(int nr, int nt, int nz, double nu, MixedOptions opt =
     if (std::abs(x.z()) < tol || std::abs(x.z() - h) < tol) pb.keep(v, 2);
   }
   // The fluid pushes the wall along -n (n points out of the solid, into the bore).
-  add_traction(m, pb, [&](const Vec3& x) { return std::abs(x.head<2>().norm() - a) < 1e-9; },
+  add_traction(m, pb, [&](const Vec3& x) { return std::abs(x.head<2>().norm() - a) < tol; },
                [&](const Vec3&, const Vec3& n) -> Vec3 { return -p * n; });
+  return pb;
+}
+
+inline LameResult run_lame(int nr, int nt, int nz, double nu, MixedOptions opt = {}, FemKind kind = FemKind::Linear) {
+  const double a = 1, b = 2, h = 0.5, e = 1e4, p = 10;
+  TetMesh m = make_quarter_tube(a, b, h, nr, nt, nz);
+  MixedSolver solver(m, MixedMaterials(Material{e, nu, 1000}), kind, opt);
+  MixedProblem pb = lame_problem(m, solver.num_dofs(), a, h, p);
   LameResult res;
   res.stats = solver.solve(pb.f, pb.free, pb.u);
   const double exact = lame_radial(a, b, e, nu, p, a);
