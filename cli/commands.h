@@ -16,5 +16,6 @@ void add_prepare(CLI::App& app);
 void add_cut(CLI::App& app);
 void add_improve(CLI::App& app);
 void add_trade(CLI::App& app);
+void add_view(CLI::App& app);  // cli/cmd_view.cpp when built with INCISE_WITH_VIEW
 
 }  // namespace incise::cli

@@ -50,6 +50,9 @@ int main(int argc, char** argv) {
   incise::cli::add_cut(app);
   incise::cli::add_improve(app);
   incise::cli::add_trade(app);
+#ifdef INCISE_HAVE_VIEW
+  incise::cli::add_view(app);
+#endif
   try {
     refuse_non_finite_words(argc, argv);
     app.parse(argc, argv);

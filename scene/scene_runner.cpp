@@ -244,6 +244,7 @@ void SceneRunner::apply_change(const TopologyChange& change, const Cutter* from)
   if (blade_ && blade_.get() != from) blade_->notify(change);
   if (fem_) fem_->apply(change);
   else springs_->apply(mesh_, change);
+  if (observer_) observer_(change);
 }
 
 bool SceneRunner::held_by_scene(VertexId v) const {
@@ -303,6 +304,7 @@ void SceneRunner::handle_fragments(const std::vector<std::vector<TetId>>& parts)
       if (!ch.empty()) {
         if (fem_) fem_->apply(ch);
         else springs_->apply(mesh_, ch);
+        if (observer_) observer_(ch);
       }
     }
   }

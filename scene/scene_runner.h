@@ -74,6 +74,11 @@ public:
   // the change and the fragment policy decides the parts.
   void edit(const std::function<std::vector<std::vector<TetId>>(TetMesh&)>& edit);
 
+  // Called with every change of the mesh after the backend took it (scene and outside blades,
+  // edits, removed fragments): what a viewer needs to keep its copy of the boundary up to date
+  // locally. One observer; an empty function removes it.
+  void set_change_observer(std::function<void(const TopologyChange&)> observer) { observer_ = std::move(observer); }
+
   // ---- state ------------------------------------------------------------------------------
   const Scene& scene() const { return scene_; }
   int frame() const { return frame_; }                  // the next frame step() plays
@@ -118,6 +123,7 @@ private:
   int frame_ = 0;
   double total_cut_ms_ = 0;
   std::size_t fragments_handled_ = 0;
+  std::function<void(const TopologyChange&)> observer_;
 };
 
 }  // namespace incise

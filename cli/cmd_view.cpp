@@ -1,0 +1,44 @@
+// incise view SCENE.json: the scene played live in a browser (docs/view.md). Starts the local
+// server, prints its URL on stdout, and serves until interrupted (Ctrl-C).
+#include <iostream>
+#include <memory>
+
+#include "cli/commands.h"
+#include "scene/scene.h"
+#include "view/live_session.h"
+#include "view/server.h"
+
+namespace incise::cli {
+
+void add_view(CLI::App& app) {
+  struct Opts {
+    std::string scene, host = "127.0.0.1", web_dir = INCISE_VIEW_WEB_DIR;
+    int port = 0;
+    bool paused = false;
+  };
+  auto o = std::make_shared<Opts>();
+  auto* cmd = app.add_subcommand("view", "Play a scene live in the browser: cut it with the mouse (docs/view.md)");
+  cmd->add_option("scene", o->scene, "Scene file (.json, see docs/scene.md)")->required();
+  cmd->add_option("--port", o->port, "TCP port; 0 (default): a free one")->check(CLI::Range(0, 65535));
+  cmd->add_option("--host", o->host,
+                  "IP address to listen on; default 127.0.0.1 (this machine only). Another address exposes the "
+                  "simulation to the network: give it deliberately");
+  cmd->add_option("--web-dir", o->web_dir, "Where the page's files are (default: the build tree's view/web)");
+  cmd->add_flag("--paused", o->paused, "Start paused (Step or Resume on the page)");
+  cmd->callback([o] {
+    const Scene scene = load_scene(o->scene);
+    view::LiveSession live(scene);
+    view::ServerOptions so;
+    so.host = o->host;
+    so.port = static_cast<unsigned short>(o->port);
+    so.web_dir = o->web_dir;
+    view::ViewServer server(live, so);
+    if (o->paused) live.post({view::InputKind::Pause});
+    live.start();
+    std::cout << "incise view: " << server.url() << "  (" << o->scene << "; Ctrl-C stops)" << std::endl;
+    server.run();
+    live.stop();
+  });
+}
+
+}  // namespace incise::cli

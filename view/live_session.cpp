@@ -1,0 +1,370 @@
+#include "view/live_session.h"
+
+#include <chrono>
+#include <cmath>
+
+#include <nlohmann/json.hpp>
+
+#include "mesh/errors.h"
+#include "quality/metrics.h"
+#include "scene/scene_runner.h"
+#include "view/boundary_tracker.h"
+#include "view/quality_watch.h"
+
+namespace incise::view {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+// Colours are recomputed every this many frames (von Mises is a pass over every tet) and after
+// each cut step; in between the page keeps the last ones.
+constexpr int kColourEvery = 30;
+// Within this distance (relative to the body's size) of the blade's plane a move counts as in
+// it: far above single-precision noise, far below a hand's wobble.
+constexpr double kInPlane = 1e-5;
+}  // namespace
+
+// The runner and everything that follows its mesh; a reset makes a new one.
+class LiveState {
+public:
+  explicit LiveState(const Scene& scene) : runner(scene) {
+    const TetMesh& mesh = runner.mesh();
+    fixed.assign(mesh.vertex_capacity(), 0);
+    for (VertexId v : mesh.vertices())
+      fixed[v.idx()] = runner.fem() ? runner.fem()->is_constrained(v) : runner.springs()->is_fixed(v);
+    tracker = std::make_unique<BoundaryTracker>(mesh, [this](VertexId v) { return v.idx() < fixed.size() && fixed[v.idx()]; });
+    quality = std::make_unique<QualityWatch>(mesh);
+    runner.set_change_observer([this](const TopologyChange& c) {
+      tracker->apply(c);
+      quality->apply(c);
+    });
+  }
+  SceneRunner runner;
+  std::vector<char> fixed;  // held by the scene when it started (the fixed regions drawn)
+  std::unique_ptr<BoundaryTracker> tracker;
+  std::unique_ptr<QualityWatch> quality;
+
+  // input state
+  bool paused = false, step_once = false, blade = false;
+  // The blade translates: its edge (b - a) is fixed when it starts. Moves that stay in the plane
+  // of its last straight stretch are put exactly in it (the page's numbers are single
+  // precision), so the cutter grows one swept polygon instead of starting a new one each step.
+  Vec3 blade_edge = Vec3::Zero(), blade_at = Vec3::Zero(), plane_origin = Vec3::Zero(), plane_normal = Vec3::Zero();
+  std::uint32_t colour = 0;
+  std::vector<VertexId> probe;
+  Vec3 probe_base = Vec3::Zero();
+  std::string error;
+
+  // the last frame's figures and totals
+  SceneFrame last;
+  double frame_cut_ms = 0, frame_ms = 0;
+  std::size_t frames = 0, blade_steps = 0;
+  double total_frame_ms = 0, max_frame_ms = 0, total_blade_ms = 0, max_blade_ms = 0;
+  std::vector<float> scalars;
+  float scalar_lo = 0, scalar_hi = 0;
+  std::uint32_t scalar_version = 0;
+  int frames_since_colour = 1 << 20;
+};
+
+// Where the blade's a end goes for a move to `a`: into the plane of its current straight
+// stretch when the move stays in it, else it starts a new stretch (the cutter starts a new
+// swept polygon there anyway).
+Vec3 LiveSession::blade_position(LiveState& s, const Vec3& a) const {
+  if (s.plane_normal.isZero()) {
+    const Vec3 n = s.blade_edge.cross(a - s.blade_at);
+    if (n.norm() <= 1e-12 * s.blade_edge.norm() * (a - s.blade_at).norm()) return a;  // along the edge
+    s.plane_normal = n.normalized();
+    s.plane_origin = s.blade_at;
+    return a;
+  }
+  const double off = s.plane_normal.dot(a - s.plane_origin);
+  if (std::abs(off) <= kInPlane * body_size_) return a - off * s.plane_normal;
+  s.plane_normal = Vec3::Zero();
+  return blade_position(s, a);
+}
+
+LiveSession::LiveSession(const Scene& scene) : scene_(scene), state_(std::make_unique<LiveState>(scene)) {
+  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+  for (VertexId v : state_->runner.mesh().vertices()) {
+    lo = lo.cwiseMin(state_->runner.mesh().rest(v));
+    hi = hi.cwiseMax(state_->runner.mesh().rest(v));
+  }
+  body_size_ = (hi - lo).norm();
+  body_center_ = 0.5 * (lo + hi);
+  publish();
+}
+
+LiveSession::~LiveSession() { stop(); }
+
+void LiveSession::start() {
+  if (thread_.joinable()) return;
+  stop_ = false;
+  thread_ = std::thread([this] { loop(); });
+}
+
+void LiveSession::stop() {
+  stop_ = true;
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void LiveSession::set_listener(std::function<void()> listener) {
+  std::lock_guard lock(mutex_);
+  listener_ = std::move(listener);
+}
+
+std::shared_ptr<const Snapshot> LiveSession::snapshot() const {
+  std::lock_guard lock(mutex_);
+  return snapshot_;
+}
+
+std::string LiveSession::status_json() const {
+  std::lock_guard lock(mutex_);
+  return status_;
+}
+
+std::string LiveSession::check(const InputMessage& in) const {
+  auto inside = [&](float x, float y, float z) { return (Vec3(x, y, z) - body_center_).norm() <= 2 * body_size_; };
+  switch (in.kind) {
+    case InputKind::BladeStart:
+    case InputKind::BladeMove: {
+      if (!inside(in.v[0], in.v[1], in.v[2]) || !inside(in.v[3], in.v[4], in.v[5]))
+        return "blade: far outside the body";
+      const double len = (Vec3(in.v[0], in.v[1], in.v[2]) - Vec3(in.v[3], in.v[4], in.v[5])).norm();
+      if (!(len > 1e-6 * body_size_)) return "blade: its ends coincide";
+      return "";
+    }
+    case InputKind::ProbeGrab:
+      if (!inside(in.v[0], in.v[1], in.v[2])) return "probe: far outside the body";
+      if (in.v[3] > 0.25 * body_size_) return "probe: radius above a quarter of the body's size";
+      return "";
+    case InputKind::ProbeMove:
+      if (Vec3(in.v[0], in.v[1], in.v[2]).norm() > body_size_) return "probe: moved by more than the body's size";
+      return "";
+    case InputKind::Ack: return "ack: not for the simulation";
+    default: return "";
+  }
+}
+
+std::string LiveSession::post(const InputMessage& input) {
+  const std::string why = check(input);
+  if (!why.empty()) return why;
+  {
+    std::lock_guard lock(mutex_);
+    if (pending_.size() >= kMaxPending) return "too many inputs waiting for the next frame";
+    pending_.push_back(input);
+  }
+  wake_.notify_all();
+  return "";
+}
+
+void LiveSession::loop() {
+  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / kMaxFps));
+  while (!stop_) {
+    const auto frame_start = Clock::now();
+    std::deque<InputMessage> in;
+    {
+      std::lock_guard lock(mutex_);
+      in.swap(pending_);
+    }
+    LiveState* s = state_.get();
+    s->frame_cut_ms = 0;
+    bool changed = !in.empty();
+    try {
+      for (std::size_t i = 0; i < in.size(); ++i) {
+        const InputMessage& m = in[i];
+        const Vec3 a(m.v[0], m.v[1], m.v[2]), b(m.v[3], m.v[4], m.v[5]);
+        switch (m.kind) {
+          case InputKind::BladeStart:
+            if (s->blade) s->frame_cut_ms += s->runner.finish_blade().ms;
+            s->runner.advance_blade({a, b});  // places it
+            s->blade = true;
+            s->blade_edge = b - a;
+            s->blade_at = a;
+            s->plane_normal = Vec3::Zero();
+            break;
+          case InputKind::BladeMove: {
+            // Moves queued behind each other make one step (the cut does not depend on how a
+            // motion is sliced, cut/cutter.h), so a fast mouse cannot queue up work.
+            if (!s->blade || (i + 1 < in.size() && in[i + 1].kind == InputKind::BladeMove)) break;
+            const Vec3 at = blade_position(*s, a);
+            if ((at - s->blade_at).norm() <= 1e-9 * body_size_) break;  // did not move
+            s->blade_at = at;
+            const auto t0 = Clock::now();
+            s->runner.advance_blade({at, at + s->blade_edge});
+            const double ms = ms_since(t0);
+            s->frame_cut_ms += ms;
+            ++s->blade_steps;
+            s->total_blade_ms += ms;
+            s->max_blade_ms = std::max(s->max_blade_ms, ms);
+            s->frames_since_colour = 1 << 20;
+            break;
+          }
+          case InputKind::BladeEnd:
+            if (s->blade) s->frame_cut_ms += s->runner.finish_blade().ms;
+            s->blade = false;
+            break;
+          case InputKind::ProbeGrab: {
+            s->probe = s->runner.vertices_near(a, m.v[3]);  // O(mesh), once per grab
+            s->probe_base = Vec3::Zero();
+            for (VertexId v : s->probe) s->probe_base += s->runner.position(v) - s->runner.mesh().rest(v);
+            if (!s->probe.empty()) s->probe_base /= double(s->probe.size());
+            s->runner.set_probe(s->probe, s->probe_base);
+            break;
+          }
+          case InputKind::ProbeMove:
+            if (!s->probe.empty()) s->runner.set_probe(s->probe, s->probe_base + a);
+            break;
+          case InputKind::ProbeRelease:
+            s->runner.release_probe();
+            s->probe.clear();
+            break;
+          case InputKind::Pause: s->paused = true; break;
+          case InputKind::Resume:
+            s->paused = false;
+            s->error.clear();
+            break;
+          case InputKind::Step: s->step_once = true; break;
+          case InputKind::Reset: {
+            const std::uint32_t colour = s->colour;
+            const bool paused = s->paused;
+            state_ = std::make_unique<LiveState>(scene_);  // O(mesh): a user's reset, not a frame
+            s = state_.get();
+            s->colour = colour;
+            s->paused = paused;
+            ++generation_;
+            break;
+          }
+          case InputKind::Colour:
+            s->colour = m.value;
+            s->frames_since_colour = 1 << 20;
+            break;
+          case InputKind::Ack: break;
+        }
+      }
+      if (!s->paused || s->step_once) {
+        s->step_once = false;
+        const auto t0 = Clock::now();
+        s->last = s->runner.step();
+        s->frame_ms = ms_since(t0);
+        s->frame_cut_ms += s->last.cut_ms;
+        ++s->frames;
+        s->total_frame_ms += s->frame_ms;
+        s->max_frame_ms = std::max(s->max_frame_ms, s->frame_ms);
+        changed = true;
+      }
+    } catch (const std::exception& e) {
+      // A solver breakdown or a part the scene cannot keep: the run stops here, the page says why.
+      s->error = e.what();
+      s->paused = true;
+      s->blade = false;
+      changed = true;
+    }
+    if (changed) publish();
+    std::unique_lock lock(mutex_);
+    if (s->paused && !s->step_once)
+      wake_.wait_for(lock, std::chrono::milliseconds(100), [&] { return stop_ || !pending_.empty(); });
+    else
+      wake_.wait_until(lock, frame_start + period, [&] { return bool(stop_); });
+  }
+}
+
+void LiveSession::publish() {
+  LiveState& s = *state_;
+  const SceneRunner& r = s.runner;
+  const BoundaryTracker& tr = *s.tracker;
+  auto snap = std::make_shared<Snapshot>();
+  snap->generation = generation_;
+  snap->frame = std::uint32_t(r.frame());
+  snap->position_epsilon = float(1e-5 * body_size_);
+  snap->positions.assign(3 * tr.vertices().size(), NAN);
+  for (std::size_t i = 0; i < tr.vertices().size(); ++i) {
+    const VertexId v = tr.vertices()[i];
+    if (!v.is_valid()) continue;
+    const Vec3 p = r.position(v);
+    for (int k = 0; k < 3; ++k) snap->positions[3 * i + k] = float(p[k]);
+  }
+  snap->tris.assign(4 * tr.triangles().size(), kNoSlot);
+  for (std::size_t i = 0; i < tr.triangles().size(); ++i) {
+    const auto& t = tr.triangles()[i];
+    if (t.v[0] == kNoSlot) continue;
+    for (int k = 0; k < 3; ++k) snap->tris[4 * i + k] = t.v[k];
+    snap->tris[4 * i + 3] = t.flags;
+  }
+  // Colours: every kColourEvery frames and after cut steps (von Mises is O(mesh)).
+  if (s.colour != 0 && ++s.frames_since_colour >= kColourEvery) {
+    s.frames_since_colour = 0;
+    std::vector<double> vm;
+    if (s.colour == 1 && r.fem()) vm = s.runner.fem()->von_mises();
+    s.scalars.assign(tr.triangles().size(), 0.f);
+    float lo = 1e30f, hi = -1e30f;
+    for (std::size_t i = 0; i < tr.triangles().size(); ++i) {
+      const auto& t = tr.triangles()[i];
+      if (t.v[0] == kNoSlot || !r.mesh().is_alive(t.tet)) continue;
+      float x = 0;
+      if (s.colour == 1) {
+        x = t.tet.idx() < vm.size() ? float(vm[t.tet.idx()]) : 0.f;
+      } else {
+        const auto& tv = r.mesh().tet_vertices(t.tet);
+        x = float(tet_quality(r.position(tv[0]), r.position(tv[1]), r.position(tv[2]), r.position(tv[3])).min_dihedral);
+      }
+      s.scalars[i] = x;
+      lo = std::min(lo, x);
+      hi = std::max(hi, x);
+    }
+    s.scalar_lo = lo <= hi ? lo : 0;
+    s.scalar_hi = lo <= hi ? hi : 1;
+    ++s.scalar_version;
+  }
+  if (s.colour != 0) {
+    snap->scalars = s.scalars;
+    snap->scalars.resize(tr.triangles().size(), 0.f);
+    snap->scalar_lo = s.scalar_lo;
+    snap->scalar_hi = s.scalar_hi;
+    snap->scalar_version = s.scalar_version;
+  }
+  snap->triangles = tr.triangle_count();
+  snap->cut_triangles = tr.cut_triangle_count();
+  snap->tets = r.mesh().num_tets();
+  snap->vertices = r.mesh().num_vertices();
+  const FrameStats& st = s.last.stats;
+  nlohmann::json j = {{"frame", r.frame()},
+                      {"generation", generation_},
+                      {"paused", s.paused},
+                      {"blade", s.blade},
+                      {"probe", s.probe.size()},
+                      {"colour", s.colour},
+                      {"tets", snap->tets},
+                      {"vertices", snap->vertices},
+                      {"triangles", snap->triangles},
+                      {"cut_triangles", snap->cut_triangles},
+                      {"frame_ms", s.frame_ms},
+                      {"cut_ms", s.frame_cut_ms},
+                      {"solve_ms", st.solve_ms},
+                      {"iterations", st.iterations},
+                      {"residual", st.relative_residual},
+                      {"min_dihedral", s.quality->min_dihedral()},
+                      {"below", s.quality->below()},
+                      {"below_deg", s.quality->below_deg()},
+                      {"scalar_lo", s.scalar_lo},
+                      {"scalar_hi", s.scalar_hi},
+                      {"error", s.error}};
+  snap->stats_json = j.dump();
+  j["frames_played"] = s.frames;
+  j["mean_frame_ms"] = s.frames ? s.total_frame_ms / double(s.frames) : 0.0;
+  j["max_frame_ms"] = s.max_frame_ms;
+  j["blade_steps"] = s.blade_steps;
+  j["mean_blade_step_ms"] = s.blade_steps ? s.total_blade_ms / double(s.blade_steps) : 0.0;
+  j["max_blade_step_ms"] = s.max_blade_ms;
+  j["fragments_handled"] = r.fragments_handled();
+  std::function<void()> listener;
+  {
+    std::lock_guard lock(mutex_);
+    snapshot_ = std::move(snap);
+    status_ = j.dump();
+    listener = listener_;
+  }
+  if (listener) listener();
+}
+
+}  // namespace incise::view

@@ -1,0 +1,32 @@
+#include "view/quality_watch.h"
+
+#include "quality/metrics.h"
+
+namespace incise::view {
+
+QualityWatch::QualityWatch(const TetMesh& mesh, double below_deg) : mesh_(mesh), below_deg_(below_deg) {
+  for (TetId t : mesh.tets()) add(t);
+}
+
+void QualityWatch::add(TetId t) {
+  if (angle_.size() <= t.idx()) angle_.resize(mesh_.tet_capacity(), -1.0);
+  if (angle_[t.idx()] >= 0) return;
+  const double a = tet_quality(mesh_, t).min_dihedral;
+  angle_[t.idx()] = a;
+  angles_.insert(a);
+  if (a < below_deg_) ++below_;
+}
+
+void QualityWatch::apply(const TopologyChange& change) {
+  for (TetId t : change.removed_tets) {
+    if (t.idx() >= angle_.size() || angle_[t.idx()] < 0) continue;
+    const double a = angle_[t.idx()];
+    angles_.erase(angles_.find(a));
+    if (a < below_deg_) --below_;
+    angle_[t.idx()] = -1.0;
+  }
+  for (TetId t : change.added_tets)
+    if (mesh_.is_alive(t)) add(t);
+}
+
+}  // namespace incise::view

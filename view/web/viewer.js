@@ -1,0 +1,282 @@
+// The page of `incise view` (docs/view.md): draws the boundary the server streams and sends the
+// mouse's blade and probe. It simulates nothing: every figure comes from the server.
+import * as THREE from 'three';
+import { OrbitControls } from './OrbitControls.js';
+
+// ---- wire format (view/wire_format.h) ---------------------------------------------------
+const Kind = { BladeStart: 1, BladeMove: 2, BladeEnd: 3, ProbeGrab: 4, ProbeMove: 5, ProbeRelease: 6,
+               Pause: 7, Resume: 8, Step: 9, Reset: 10, Colour: 11, Ack: 12 };
+const TRI_CUT = 1, TRI_FIXED = 2;
+
+function encodeInput(kind, floats = [], value = null) {
+  const buf = new ArrayBuffer(1 + 4 * floats.length + (value === null ? 0 : 4));
+  const dv = new DataView(buf);
+  dv.setUint8(0, kind);
+  floats.forEach((x, i) => dv.setFloat32(1 + 4 * i, x, true));
+  if (value !== null) dv.setUint32(1 + 4 * floats.length, value, true);
+  return buf;
+}
+
+function decodeFrame(buf) {
+  const dv = new DataView(buf);
+  let at = 0;
+  const u8 = () => dv.getUint8(at++);
+  const u16 = () => { const x = dv.getUint16(at, true); at += 2; return x; };
+  const u32 = () => { const x = dv.getUint32(at, true); at += 4; return x; };
+  const f32 = () => { const x = dv.getFloat32(at, true); at += 4; return x; };
+  if (u8() !== 1) throw new Error('not a frame message');
+  const m = { reset: (u8() & 1) === 1 };
+  if (u16() !== 1) throw new Error('unknown wire version');
+  m.frame = u32(); m.vertexSlots = u32(); m.triangleSlots = u32();
+  m.positions = []; for (let n = u32(), i = 0; i < n; ++i) m.positions.push([u32(), f32(), f32(), f32()]);
+  m.removed = []; for (let n = u32(), i = 0; i < n; ++i) m.removed.push(u32());
+  m.set = []; for (let n = u32(), i = 0; i < n; ++i) m.set.push([u32(), u32(), u32(), u32(), u32()]);
+  const ns = u32(); m.scalarLo = f32(); m.scalarHi = f32();
+  m.scalars = ns ? new Float32Array(buf.slice(at, at + 4 * ns)) : null; at += 4 * ns;
+  const nj = u32();
+  m.stats = JSON.parse(new TextDecoder().decode(new Uint8Array(buf, at, nj)));
+  return m;
+}
+
+// ---- state mirrored from the server ---------------------------------------------------------
+let pos = new Float32Array(0);      // 3 per vertex slot
+let tris = new Uint32Array(0);      // 5 per triangle slot: a, b, c, flags, alive
+let scalars = null, scalarLo = 0, scalarHi = 1;
+let stats = {};
+const view = window.inciseView = { triangles: 0, cutTriangles: 0, frame: -1, messages: 0, bytes: 0,
+                                   fps: 0, bytesPerFrame: 0, errors: [], connected: false };
+
+function grow(a, n, Type, fill) {
+  if (a.length >= n) return a;
+  const b = new Type(Math.max(n, 2 * a.length)); if (fill !== undefined) b.fill(fill); b.set(a); return b;
+}
+
+function apply(m) {
+  if (m.reset) { pos = new Float32Array(0); tris = new Uint32Array(0); scalars = null; fitted = false; }
+  pos = grow(pos, 3 * m.vertexSlots, Float32Array);
+  tris = grow(tris, 5 * m.triangleSlots, Uint32Array, 0);
+  for (const [s, x, y, z] of m.positions) { pos[3 * s] = x; pos[3 * s + 1] = y; pos[3 * s + 2] = z; }
+  for (const s of m.removed) tris[5 * s + 4] = 0;
+  for (const [s, a, b, c, f] of m.set) tris.set([a, b, c, f, 1], 5 * s);
+  for (let s = m.triangleSlots; s < tris.length / 5; ++s) tris[5 * s + 4] = 0;
+  if (m.scalars) { scalars = m.scalars; scalarLo = m.scalarLo; scalarHi = m.scalarHi; }
+  stats = m.stats;
+  if (!stats.colour) scalars = null;
+  triangleSlots = m.triangleSlots;
+  rebuild();
+}
+
+// ---- drawing ------------------------------------------------------------------------------
+const container = document.getElementById('view');
+const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+renderer.setPixelRatio(window.devicePixelRatio);
+container.appendChild(renderer.domElement);
+const scene = new THREE.Scene();
+scene.background = new THREE.Color(0x1b1e23);
+const camera = new THREE.PerspectiveCamera(40, 1, 0.1, 1e5);
+scene.add(new THREE.HemisphereLight(0xffffff, 0x404050, 1.2));
+const sun = new THREE.DirectionalLight(0xffffff, 1.6);
+camera.add(sun); sun.position.set(0.3, 0.5, 1);
+scene.add(camera);
+const controls = new OrbitControls(camera, renderer.domElement);
+controls.mouseButtons = { LEFT: null, MIDDLE: THREE.MOUSE.DOLLY, RIGHT: THREE.MOUSE.ROTATE };
+
+const geometry = new THREE.BufferGeometry();
+const surface = new THREE.Mesh(geometry, new THREE.MeshStandardMaterial({
+  vertexColors: true, flatShading: true, side: THREE.DoubleSide, roughness: 0.7, metalness: 0.0 }));
+const wire = new THREE.Mesh(geometry, new THREE.MeshBasicMaterial({ color: 0x101010, wireframe: true }));
+wire.visible = false;
+scene.add(surface, wire);
+let triangleSlots = 0, fitted = false;
+const box = new THREE.Box3(), center = new THREE.Vector3();
+let bodySize = 1;
+
+const TISSUE = [0.85, 0.47, 0.45], CUT = [0.98, 0.85, 0.30], FIXED = [0.45, 0.55, 0.85];
+function colourmap(t) {  // blue -> green -> red
+  t = Math.min(1, Math.max(0, t));
+  return [Math.min(1, Math.max(0, 2 * t - 0.5)), 1 - Math.abs(2 * t - 1) * 0.8, Math.min(1, Math.max(0, 1.5 - 2 * t))];
+}
+
+function rebuild() {
+  const n = triangleSlots;
+  const p = new Float32Array(9 * n), c = new Float32Array(9 * n);
+  let count = 0, cut = 0;
+  for (let s = 0; s < n; ++s) {
+    if (!tris[5 * s + 4]) continue;
+    ++count;
+    const flags = tris[5 * s + 3];
+    if (flags & TRI_CUT) ++cut;
+    let col = flags & TRI_CUT ? CUT : flags & TRI_FIXED ? FIXED : TISSUE;
+    if (scalars && s < scalars.length && !(flags & TRI_CUT))
+      col = colourmap((scalars[s] - scalarLo) / Math.max(1e-30, scalarHi - scalarLo));
+    for (let k = 0; k < 3; ++k) {
+      const v = tris[5 * s + k];
+      p.set(pos.subarray(3 * v, 3 * v + 3), 9 * s + 3 * k);
+      c.set(col, 9 * s + 3 * k);
+    }
+  }
+  geometry.setAttribute('position', new THREE.BufferAttribute(p, 3));
+  geometry.setAttribute('color', new THREE.BufferAttribute(c, 3));
+  geometry.computeBoundingSphere();
+  geometry.computeBoundingBox();
+  view.triangles = count;
+  view.cutTriangles = cut;
+  document.getElementById('tri-count').textContent = String(count);
+  if (!fitted && count > 0) {
+    fitted = true;
+    box.copy(geometry.boundingBox); box.getCenter(center);
+    bodySize = box.getSize(new THREE.Vector3()).length();
+    camera.near = bodySize / 100; camera.far = bodySize * 100; camera.updateProjectionMatrix();
+    camera.position.copy(center).add(new THREE.Vector3(0, -0.35, 1).normalize().multiplyScalar(1.6 * bodySize));
+    camera.up.set(0, 0, 1);
+    controls.target.copy(center); controls.update();
+  }
+}
+
+function resize() {
+  renderer.setSize(container.clientWidth, container.clientHeight);
+  camera.aspect = container.clientWidth / Math.max(1, container.clientHeight);
+  camera.updateProjectionMatrix();
+}
+window.addEventListener('resize', resize);
+resize();
+renderer.setAnimationLoop(() => { controls.update(); renderer.render(scene, camera); });
+
+// ---- connection -------------------------------------------------------------------------------
+const socket = new WebSocket(`ws://${location.host}/ws`);
+socket.binaryType = 'arraybuffer';
+const send = (buf) => { if (socket.readyState === WebSocket.OPEN) socket.send(buf); };
+let windowStart = performance.now(), windowFrames = 0, windowBytes = 0;
+socket.onopen = () => { view.connected = true; };
+socket.onclose = () => { view.connected = false; overlay.textContent = 'disconnected (the server stopped?)'; };
+socket.onmessage = (ev) => {
+  if (typeof ev.data === 'string') {  // an error frame: our input was refused, nothing changed
+    const e = JSON.parse(ev.data).error;
+    view.errors.push(e);
+    document.getElementById('error').textContent = e;
+    return;
+  }
+  const m = decodeFrame(ev.data);
+  apply(m);
+  view.frame = m.frame; view.messages++; view.bytes += ev.data.byteLength;
+  windowFrames++; windowBytes += ev.data.byteLength;
+  const now = performance.now();
+  if (now - windowStart > 1000) {
+    view.fps = 1000 * windowFrames / (now - windowStart);
+    view.bytesPerFrame = windowBytes / windowFrames;
+    windowStart = now; windowFrames = 0; windowBytes = 0;
+  }
+  showStats();
+  send(encodeInput(Kind.Ack, [], m.frame));  // ready for the next one
+};
+
+const overlay = document.getElementById('overlay');
+const f = (x, d = 2) => (x === undefined || x === null ? '-' : Number(x).toFixed(d));
+function showStats() {
+  const s = stats;
+  overlay.textContent =
+    `frame ${s.frame}${s.paused ? '  (paused)' : ''}   ${f(view.fps, 1)} fps to this page, ${f(view.bytesPerFrame / 1024, 1)} KiB/frame\n` +
+    `frame ${f(s.frame_ms)} ms: cut ${f(s.cut_ms)} ms, solve ${f(s.solve_ms)} ms\n` +
+    `CG ${s.iterations} iterations, residual ${Number(s.residual).toExponential(1)}\n` +
+    `${s.tets} tets, ${s.vertices} vertices, ${s.triangles} boundary triangles (${s.cut_triangles} cut)\n` +
+    `min dihedral ${f(s.min_dihedral, 1)} deg, ${s.below} tets below ${s.below_deg} deg (rest shape)` +
+    (s.colour ? `\ncolour ${s.colour === 1 ? 'von Mises' : 'min dihedral'}: ${Number(s.scalar_lo).toPrecision(3)} .. ${Number(s.scalar_hi).toPrecision(3)}` : '');
+  document.getElementById('pause').textContent = s.paused ? 'Resume' : 'Pause';
+  if (s.error) document.getElementById('error').textContent = s.error;
+}
+
+// ---- controls -------------------------------------------------------------------------------
+let mode = 'cut';
+function setMode(m) {
+  mode = m;
+  for (const k of ['cut', 'probe', 'orbit']) document.getElementById('mode-' + k).classList.toggle('on', k === m);
+  controls.mouseButtons.LEFT = m === 'orbit' ? THREE.MOUSE.ROTATE : null;
+}
+for (const k of ['cut', 'probe', 'orbit']) document.getElementById('mode-' + k).onclick = () => setMode(k);
+document.getElementById('pause').onclick = () => send(encodeInput(stats.paused ? Kind.Resume : Kind.Pause));
+document.getElementById('step').onclick = () => send(encodeInput(Kind.Step));
+document.getElementById('reset').onclick = () => { document.getElementById('error').textContent = ''; send(encodeInput(Kind.Reset)); };
+document.getElementById('wire').onclick = (e) => { wire.visible = !wire.visible; e.target.classList.toggle('on', wire.visible); };
+document.getElementById('colour').onchange = (e) => send(encodeInput(Kind.Colour, [], Number(e.target.value)));
+window.addEventListener('keydown', (e) => {
+  if (e.key === ' ') send(encodeInput(stats.paused ? Kind.Resume : Kind.Pause));
+  else if (e.key === 's') send(encodeInput(Kind.Step));
+  else if (e.key === 'w') document.getElementById('wire').click();
+});
+
+// ---- blade and probe ------------------------------------------------------------------------
+// The blade is the segment of the mouse's ray from just before where it enters the body down
+// to `depth` x the body's size: dragging sweeps it through the body, each move one blade step
+// on the server (on the current, deformed shape).
+const raycaster = new THREE.Raycaster();
+const ndc = new THREE.Vector2();
+function rayAt(ev) {
+  const r = renderer.domElement.getBoundingClientRect();
+  ndc.set(((ev.clientX - r.left) / r.width) * 2 - 1, -((ev.clientY - r.top) / r.height) * 2 + 1);
+  raycaster.setFromCamera(ndc, camera);
+  return raycaster.ray;
+}
+let drag = null;  // {kind: "blade", edge, plane} or {kind: "probe", point, plane}
+let pendingMove = null;
+// The blade keeps the direction of the ray it started on and translates in the plane facing
+// the camera through its entry end, following the mouse (the server keeps straight stretches
+// exactly planar, so a straight drag is one swept polygon).
+function bladeAt(ray) {
+  const a = ray.intersectPlane(drag.plane, new THREE.Vector3());
+  if (!a) return null;
+  const b = a.clone().add(drag.edge);
+  return [a.x, a.y, a.z, b.x, b.y, b.z];
+}
+renderer.domElement.addEventListener('pointerdown', (ev) => {
+  if (ev.button !== 0 || mode === 'orbit' || !fitted) return;
+  const ray = rayAt(ev);
+  const hit = raycaster.intersectObject(surface, false)[0];
+  if (mode === 'probe' || ev.shiftKey) {
+    if (!hit) return;
+    const normal = camera.getWorldDirection(new THREE.Vector3());
+    drag = { kind: 'probe', point: hit.point.clone(), plane: new THREE.Plane().setFromNormalAndCoplanarPoint(normal, hit.point) };
+    send(encodeInput(Kind.ProbeGrab, [hit.point.x, hit.point.y, hit.point.z, 0.04 * bodySize]));
+  } else {
+    const depth = Number(document.getElementById('depth').value) * bodySize;
+    const entry = hit ? hit.distance : ray.origin.distanceTo(center) - 0.5 * bodySize;
+    const t0 = Math.max(camera.near, entry - 0.02 * bodySize);
+    const a = ray.at(t0, new THREE.Vector3());
+    drag = { kind: 'blade', edge: ray.direction.clone().multiplyScalar(depth),
+             plane: new THREE.Plane().setFromNormalAndCoplanarPoint(camera.getWorldDirection(new THREE.Vector3()), a) };
+    send(encodeInput(Kind.BladeStart, bladeAt(ray)));
+  }
+  renderer.domElement.setPointerCapture(ev.pointerId);
+});
+renderer.domElement.addEventListener('pointermove', (ev) => {
+  if (!drag) return;
+  pendingMove = { clientX: ev.clientX, clientY: ev.clientY };
+});
+// Moves go at most once per animation frame (the server takes one blade step per frame anyway).
+function flushMove() {
+  if (drag && pendingMove) {
+    const ray = rayAt(pendingMove);
+    if (drag.kind === 'blade') { const s = bladeAt(ray); if (s) send(encodeInput(Kind.BladeMove, s)); }
+    else {
+      const p = ray.intersectPlane(drag.plane, new THREE.Vector3());
+      if (p) { p.sub(drag.point); send(encodeInput(Kind.ProbeMove, [p.x, p.y, p.z])); }
+    }
+    pendingMove = null;
+  }
+  requestAnimationFrame(flushMove);
+}
+requestAnimationFrame(flushMove);
+function endDrag(ev) {
+  if (!drag) return;
+  if (pendingMove) { flushMoveOnce(); }
+  send(encodeInput(drag.kind === 'blade' ? Kind.BladeEnd : Kind.ProbeRelease));
+  drag = null;
+  try { renderer.domElement.releasePointerCapture(ev.pointerId); } catch (e) { /* already released */ }
+}
+function flushMoveOnce() {
+  const ray = rayAt(pendingMove);
+  const s = drag.kind === 'blade' ? bladeAt(ray) : null;
+  if (s) send(encodeInput(Kind.BladeMove, s));
+  pendingMove = null;
+}
+renderer.domElement.addEventListener('pointerup', endDrag);
+renderer.domElement.addEventListener('pointercancel', endDrag);
