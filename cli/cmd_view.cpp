@@ -14,6 +14,7 @@ void add_view(CLI::App& app) {
   struct Opts {
     std::string scene, host = "127.0.0.1", web_dir = INCISE_VIEW_WEB_DIR;
     int port = 0;
+    double budget_ms = -1;
     bool paused = false;
   };
   auto o = std::make_shared<Opts>();
@@ -24,9 +25,14 @@ void add_view(CLI::App& app) {
                   "IP address to listen on; default 127.0.0.1 (this machine only). Another address exposes the "
                   "simulation to the network: give it deliberately");
   cmd->add_option("--web-dir", o->web_dir, "Where the page's files are (default: the build tree's view/web)");
+  cmd->add_option("--budget-ms", o->budget_ms,
+                  "Solver budget per frame in ms, instead of the scene's solver.budget_ms (0: none); a budget "
+                  "keeps the frame rate while a cut makes the solve slow (docs/view.md)")
+      ->check(CLI::Range(0.0, 1e6));
   cmd->add_flag("--paused", o->paused, "Start paused (Step or Resume on the page)");
   cmd->callback([o] {
-    const Scene scene = load_scene(o->scene);
+    Scene scene = load_scene(o->scene);
+    if (o->budget_ms >= 0) scene.cg.budget_ms = o->budget_ms;
     view::LiveSession live(scene);
     view::ServerOptions so;
     so.host = o->host;

@@ -17,7 +17,7 @@ ALL_TARGETS=(gmsh medit vtk vtu tetgen surface scene cut)
 if [ $# -gt 0 ]; then TARGETS=("$@"); else TARGETS=("${ALL_TARGETS[@]}"); fi
 
 if [ ! -f "$BUILD/build.ninja" ]; then
-  CXX=clang++ cmake -S "$ROOT" -B "$BUILD" -G Ninja -DINCISE_FUZZ=ON -DINCISE_WITH_CGAL=OFF \
+  CXX=clang++ cmake -S "$ROOT" -B "$BUILD" -G Ninja -DINCISE_FUZZ=ON -DINCISE_WITH_CGAL=OFF -DINCISE_WITH_VIEW=OFF \
     -DINCISE_BUILD_TESTS=OFF -DINCISE_BUILD_BENCH=OFF >"$WORK/cmake.log" 2>&1 ||
     { cat "$WORK/cmake.log"; echo "run-fuzzers: cmake failed" >&2; exit 1; }
 fi

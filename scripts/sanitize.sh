@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
 # AddressSanitizer + UndefinedBehaviorSanitizer build of everything but the CGAL/OpenVDB
-# meshing target (its templates take too long to compile instrumented on 2 cores), and the
-# test suite under it.
+# meshing target (its templates take too long to compile instrumented on 2 cores) and the live
+# viewer (its Beast server and browser test are covered by the Release run), and the test
+# suite under it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
 BUILD_DIR=${BUILD_DIR:-build-asan}
 cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DINCISE_SANITIZE=ON \
-  -DINCISE_WITH_CGAL=OFF -DINCISE_BUILD_BENCH=OFF >/dev/null
+  -DINCISE_WITH_CGAL=OFF -DINCISE_WITH_VIEW=OFF -DINCISE_BUILD_BENCH=OFF >/dev/null
 cmake --build "$BUILD_DIR" -j "${JOBS:-$(nproc)}"
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1

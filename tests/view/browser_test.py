@@ -6,7 +6,7 @@ draws them, then lets the scene play and prints what was delivered (frames per s
 page, bytes per frame, the server's frame and cut-step times; printed, not asserted).
 Screenshots go to OUT_DIR.
 
-usage: browser_test.py INCISE SCENE.json OUT_DIR
+usage: browser_test.py INCISE SCENE.json OUT_DIR [incise view options...]
 """
 import json
 import os
@@ -43,7 +43,7 @@ def wait_for(what, fn, timeout=20.0, every=0.1):
 def main():
     incise, scene, out_dir = sys.argv[1:4]
     os.makedirs(out_dir, exist_ok=True)
-    server = subprocess.Popen([incise, "view", scene, "--port", "0", "--paused"], stdout=subprocess.PIPE,
+    server = subprocess.Popen([incise, "view", scene, "--port", "0", "--paused"] + sys.argv[4:], stdout=subprocess.PIPE,
                               stderr=subprocess.PIPE, text=True)
     url = None
     lines = []
@@ -90,56 +90,68 @@ def main():
         time.sleep(0.5)  # a rendered frame for the screenshot
         driver.save_screenshot(os.path.join(out_dir, "view_before.png"))
 
-        # A blade dragged across the middle of the body with real mouse events.
         canvas = driver.find_element(By.TAG_NAME, "canvas")
-        t0 = time.time()
-        chain = ActionChains(driver, duration=20)
-        chain.move_to_element_with_offset(canvas, -150, 10).click_and_hold()
-        for _ in range(30):
-            chain.move_by_offset(10, 0).pause(0.03)
-        chain.release().perform()
-        drag_s = time.time() - t0
+        pause = driver.find_element(By.ID, "pause")
 
-        s1 = wait_for("cut faces on the server", lambda: (lambda s: s if s["cut_triangles"] > 0 else None)(status()))
-        wait_for("the page to draw the cut faces",
-                 lambda: (lambda p, s: p["cutTriangles"] == s["cut_triangles"] and p["triangles"] == s["triangles"])(
-                     page(), status()))
-        s1 = status()
-        p1 = page()
-        print(f"cut: {s1['cut_triangles']} cut triangles on the server and on the page; "
-              f"{s1['tets']} tets (+{s1['tets'] - s0['tets']}); {s1['blade_steps']} blade steps in a {drag_s:.1f} s drag, "
-              f"mean {s1['mean_blade_step_ms']:.2f} ms, max {s1['max_blade_step_ms']:.2f} ms; "
-              f"page errors: {p1['errors']}", flush=True)
+        def drag(x0, y0, dx, dy, steps):
+            chain = ActionChains(driver, duration=20)
+            chain.move_to_element_with_offset(canvas, x0, y0).click_and_hold()
+            for _ in range(steps):
+                chain.move_by_offset(dx, dy).pause(0.03)
+            chain.release().perform()
+
+        def synced():  # the page shows the server's newest frame
+            p, s = page(), status()
+            return p["frame"] == s["frame"] and p["triangles"] == s["triangles"] and \
+                p["cutTriangles"] == s["cut_triangles"]
+
+        def measure(what, seconds, during=None):
+            p0, s0, t0 = page(), status(), time.time()
+            if during:
+                during()
+            time.sleep(max(0.0, seconds - (time.time() - t0)))
+            p1, s1, dt = page(), status(), time.time() - t0
+            frames = p1["messages"] - p0["messages"]
+            played = s1["frames_played"] - s0["frames_played"]
+            if frames <= 0 or played <= 0:
+                fail(what + ": no frames played or delivered")
+            print(f"{what}: {frames / dt:.1f} frames/s delivered to the page "
+                  f"({played / dt:.1f} played by the server), {(p1['bytes'] - p0['bytes']) / frames / 1024:.1f} KiB/frame "
+                  f"on the wire; server frames mean {s1['mean_frame_ms']:.1f} ms, max {s1['max_frame_ms']:.1f} ms "
+                  f"(all so far); {s1['tets']} tets, {s1['cut_triangles']} cut triangles, min dihedral "
+                  f"{s1['min_dihedral']:.2f} deg, {s1['below']} tets below {s1['below_deg']} deg", flush=True)
+
+        # Play the scene (it sags under gravity) and measure what the page gets.
+        pause.click()
+        wait_for("the first frames (the first solve factors K)", lambda: status()["frames_played"] >= 3, timeout=30)
+        measure("playing, uncut", 2.0)
+
+        # Paused, a blade dragged across the middle of the body with real mouse events: the
+        # server's mesh gains cut faces and the page draws them.
+        pause.click()
+        wait_for("the pause", lambda: status()["paused"])
+        wait_for("the page to catch up", synced)
+        c0 = status()["cut_triangles"]
+        t0 = time.time()
+        drag(-150, 10, 10, 0, 30)
+        drag_s = time.time() - t0
+        wait_for("cut faces on the server", lambda: status()["cut_triangles"] > c0)
+        wait_for("the page to draw the cut faces", synced)
+        s1, p1 = status(), page()
+        print(f"cut (paused): {s1['cut_triangles'] - c0} new cut triangles on the server, the page draws "
+              f"{p1['cutTriangles']} of {s1['cut_triangles']}; {s1['tets']} tets; {s1['blade_steps']} blade steps "
+              f"in a {drag_s:.1f} s drag, mean {s1['mean_blade_step_ms']:.2f} ms, max "
+              f"{s1['max_blade_step_ms']:.2f} ms", flush=True)
         if p1["errors"]:
             fail("the page got error frames: " + str(p1["errors"]))
         time.sleep(0.3)
         driver.save_screenshot(os.path.join(out_dir, "view_after_cut.png"))
 
-        # Play: the scene runs live (its own blade enters at frame 5); measure what the page gets.
-        driver.find_element(By.ID, "pause").click()
-        m0, b0, t0 = p1["messages"], p1["bytes"], time.time()
-        time.sleep(4.0)
-        p2, s2 = page(), status()
-        dt = time.time() - t0
-        frames = p2["messages"] - m0
-        if frames <= 0:
-            fail("no frames delivered while playing")
-        print(f"playing: {frames / dt:.1f} frames/s delivered to the page, "
-              f"{(p2['bytes'] - b0) / frames / 1024:.1f} KiB/frame on the wire; server: {s2['frames_played']} frames, "
-              f"mean {s2['mean_frame_ms']:.1f} ms, max {s2['max_frame_ms']:.1f} ms per frame; "
-              f"now {s2['triangles']} triangles ({s2['cut_triangles']} cut), min dihedral {s2['min_dihedral']:.1f} deg, "
-              f"{s2['below']} tets below {s2['below_deg']} deg", flush=True)
-        # A second cut while the simulation runs (the deformed shape).
-        chain = ActionChains(driver, duration=20)
-        chain.move_to_element_with_offset(canvas, 10, -120).click_and_hold()
-        for _ in range(20):
-            chain.move_by_offset(0, 10).pause(0.03)
-        chain.release().perform()
-        time.sleep(1.0)
-        s3 = status()
-        wait_for("the page to catch up", lambda: (lambda p, s: p["triangles"] == s["triangles"])(page(), status()))
-        print(f"cut while playing: {s3['blade_steps']} blade steps in all, mean {s3['mean_blade_step_ms']:.2f} ms; "
-              f"{s3['cut_triangles']} cut triangles", flush=True)
+        # Cutting while the scene plays (the blade cuts the deformed shape).
+        pause.click()
+        wait_for("the play", lambda: not status()["paused"])
+        measure("playing, cutting", 4.0, during=lambda: drag(10, -120, 0, 10, 24))
+        time.sleep(0.5)
         driver.save_screenshot(os.path.join(out_dir, "view_playing.png"))
         if server.poll() is not None:
             fail("incise view stopped: " + server.stderr.read())

@@ -12,7 +12,9 @@
 #include "mesh/errors.h"
 #include "mesh/generate.h"
 #include "view/boundary_tracker.h"
+#include "quality/metrics.h"
 #include "view/frame_diff.h"
+#include "view/quality_watch.h"
 #include "view/wire_format.h"
 
 using namespace incise;
@@ -150,6 +152,7 @@ Snapshot snapshot_of(const TetMesh& m, const BoundaryTracker& t, std::uint32_t f
 TEST_CASE("the tracked boundary follows progressive cuts, and the page's copy follows the messages") {
   TetMesh m = make_box(Vec3(1, 1, 1), {5, 5, 5});
   BoundaryTracker tracker(m, {});
+  QualityWatch quality(m, 10.0);
   CHECK(tracked(tracker) == recount(m));
   CHECK(tracker.cut_triangle_count() == 0);
 
@@ -164,8 +167,17 @@ TEST_CASE("the tracked boundary follows progressive cuts, and the page's copy fo
     const double z = 1.2 - 0.15 * step;
     CutStepReport r = cutter.advance({Vec3(0.43, -0.2, z), Vec3(0.43, 1.2, z)});
     tracker.apply(r.change);
-    if (step == 8) tracker.apply(cutter.finish().change);
+    quality.apply(r.change);
+    if (step == 8) {
+      const TopologyChange fin = cutter.finish().change;
+      tracker.apply(fin);
+      quality.apply(fin);
+    }
     REQUIRE(tracked(tracker) == recount(m));
+    // The incremental quality figures against a pass over every tet.
+    const QualityRange all = quality_range(m, 10.0);
+    CHECK(quality.min_dihedral() == all.min_dihedral);
+    CHECK(quality.below() == all.below);
     // Every other frame the body "moves" (all positions change); in between only topology does.
     const Snapshot s = snapshot_of(m, tracker, std::uint32_t(step), step % 2 ? 0.f : 0.01f * float(step));
     const FrameMessage msg = decode_frame(encode(diff(s, mirror)));
