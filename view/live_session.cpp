@@ -1,5 +1,6 @@
 #include "view/live_session.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -297,7 +298,7 @@ void LiveSession::publish() {
     std::vector<double> vm;
     if (s.colour == 1 && r.fem()) vm = s.runner.fem()->von_mises();
     s.scalars.assign(tr.triangles().size(), 0.f);
-    float lo = 1e30f, hi = -1e30f;
+    std::vector<float> seen;
     for (std::size_t i = 0; i < tr.triangles().size(); ++i) {
       const auto& t = tr.triangles()[i];
       if (t.v[0] == kNoSlot || !r.mesh().is_alive(t.tet)) continue;
@@ -309,11 +310,20 @@ void LiveSession::publish() {
         x = float(tet_quality(r.position(tv[0]), r.position(tv[1]), r.position(tv[2]), r.position(tv[3])).min_dihedral);
       }
       s.scalars[i] = x;
-      lo = std::min(lo, x);
-      hi = std::max(hi, x);
+      seen.push_back(x);
     }
-    s.scalar_lo = lo <= hi ? lo : 0;
-    s.scalar_hi = lo <= hi ? hi : 1;
+    // The scale spans the 2nd to 98th percentile: a few slivers' stresses would otherwise
+    // squeeze every other triangle into one colour.
+    s.scalar_lo = 0, s.scalar_hi = 1;
+    if (!seen.empty()) {
+      auto at = [&](double q) {
+        auto it = seen.begin() + std::ptrdiff_t(q * double(seen.size() - 1));
+        std::nth_element(seen.begin(), it, seen.end());
+        return *it;
+      };
+      s.scalar_lo = at(0.02);
+      s.scalar_hi = std::max(at(0.98), s.scalar_lo);
+    }
     ++s.scalar_version;
   }
   if (s.colour != 0) {

@@ -22,6 +22,8 @@ from selenium.webdriver.chrome.options import Options
 from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
+from selenium.webdriver.common.keys import Keys
+from selenium.webdriver.support.ui import Select
 
 
 def fail(msg):
@@ -153,6 +155,64 @@ def main():
         measure("playing, cutting", 4.0, during=lambda: drag(10, -120, 0, 10, 24))
         time.sleep(0.5)
         driver.save_screenshot(os.path.join(out_dir, "view_playing.png"))
+        # Probe (Shift+drag), colour by stress, then a reset: no error frames, the page follows.
+        chain = ActionChains(driver, duration=20)
+        chain.move_to_element_with_offset(canvas, 60, 40).key_down(Keys.SHIFT).click_and_hold()
+        for _ in range(8):
+            chain.move_by_offset(0, -6).pause(0.03)
+        chain.release().key_up(Keys.SHIFT).perform()
+        Select(driver.find_element(By.ID, "colour")).select_by_value("1")
+        wait_for("von Mises colours", lambda: status()["colour"] == 1)
+        time.sleep(0.8)
+        driver.save_screenshot(os.path.join(out_dir, "view_stress.png"))
+        if page()["errors"]:
+            fail("the page got error frames: " + str(page()["errors"]))
+        driver.find_element(By.ID, "reset").click()
+        wait_for("the reset", lambda: status()["cut_triangles"] == 0 and status()["tets"] == s0["tets"])
+        wait_for("the page to draw the reset body", lambda: page()["cutTriangles"] == 0 and
+                 page()["triangles"] == s0["triangles"])
+        print("probe, colour and reset: no error frames; after the reset the page draws "
+              f"{page()['triangles']} triangles again", flush=True)
+
+        # Security: bad inputs get an error frame and change nothing; other origins are refused.
+        pause.click()  # paused, so that the scene's own blade changes nothing either
+        wait_for("the pause", lambda: status()["paused"])
+        before = status()
+        replies = driver.execute_async_script("""
+            const done = arguments[arguments.length - 1];
+            const ws = new WebSocket(`ws://${location.host}/ws`);
+            ws.binaryType = 'arraybuffer';
+            const errors = [];
+            ws.onmessage = (e) => { if (typeof e.data === 'string') errors.push(JSON.parse(e.data).error); };
+            ws.onopen = () => {
+              ws.send(new Uint8Array([99]));                 // unknown kind
+              ws.send(new Uint8Array([2, 0, 0]));            // a blade move cut short
+              ws.send('pause');                              // text is not an input
+              const far = new DataView(new ArrayBuffer(25)); far.setUint8(0, 1);
+              for (let i = 0; i < 6; ++i) far.setFloat32(1 + 4 * i, 1e9 * (i % 2 ? 1 : -1), true);
+              ws.send(far.buffer);                           // a blade far outside the body
+              setTimeout(() => { ws.close(); done(errors); }, 1000);
+            };
+            ws.onerror = () => done(['socket failed']);""")
+        after = status()
+        if len(replies) != 4 or after["tets"] != before["tets"] or after["blade_steps"] != before["blade_steps"] or \
+                after["paused"] != before["paused"]:
+            fail(f"bad inputs: replies {replies}, status before {before}, after {after}")
+        import http.client
+        host = url.split("/")[2]
+        conn = http.client.HTTPConnection(host, timeout=5)
+        conn.request("GET", "/ws", headers={"Connection": "Upgrade", "Upgrade": "websocket",
+                                            "Sec-WebSocket-Version": "13", "Sec-WebSocket-Key": "dGhlIHNhbXBsZSBub25jZQ==",
+                                            "Origin": "http://evil.example"})
+        other_origin = conn.getresponse().status
+        conn = http.client.HTTPConnection(host, timeout=5)
+        conn.request("GET", "/../../etc/passwd")
+        outside = conn.getresponse().status
+        if other_origin != 403 or outside != 404:
+            fail(f"another origin got {other_origin}, a path outside the page {outside}")
+        print(f"security: 4 bad inputs, 4 error frames ({'; '.join(replies)}), nothing changed; "
+              f"another origin {other_origin}, a file outside the page {outside}", flush=True)
+
         if server.poll() is not None:
             fail("incise view stopped: " + server.stderr.read())
         print("PASS: screenshots in", out_dir, flush=True)
