@@ -102,6 +102,11 @@ def main():
                 chain.move_by_offset(dx, dy).pause(0.03)
             chain.release().perform()
 
+        def set_paused(want):
+            if status()["paused"] != want:
+                pause.click()
+            wait_for("pause" if want else "play", lambda: status()["paused"] == want)
+
         def synced():  # the page shows the server's newest frame
             p, s = page(), status()
             return p["frame"] == s["frame"] and p["triangles"] == s["triangles"] and \
@@ -124,14 +129,13 @@ def main():
                   f"{s1['min_dihedral']:.2f} deg, {s1['below']} tets below {s1['below_deg']} deg", flush=True)
 
         # Play the scene (it sags under gravity) and measure what the page gets.
-        pause.click()
+        set_paused(False)
         wait_for("the first frames (the first solve factors K)", lambda: status()["frames_played"] >= 3, timeout=30)
         measure("playing, uncut", 2.0)
 
         # Paused, a blade dragged across the middle of the body with real mouse events: the
         # server's mesh gains cut faces and the page draws them.
-        pause.click()
-        wait_for("the pause", lambda: status()["paused"])
+        set_paused(True)
         wait_for("the page to catch up", synced)
         c0 = status()["cut_triangles"]
         t0 = time.time()
@@ -150,8 +154,7 @@ def main():
         driver.save_screenshot(os.path.join(out_dir, "view_after_cut.png"))
 
         # Cutting while the scene plays (the blade cuts the deformed shape).
-        pause.click()
-        wait_for("the play", lambda: not status()["paused"])
+        set_paused(False)
         measure("playing, cutting", 4.0, during=lambda: drag(10, -120, 0, 10, 24))
         time.sleep(0.5)
         driver.save_screenshot(os.path.join(out_dir, "view_playing.png"))
@@ -167,6 +170,19 @@ def main():
         driver.save_screenshot(os.path.join(out_dir, "view_stress.png"))
         if page()["errors"]:
             fail("the page got error frames: " + str(page()["errors"]))
+        # Stretch: a blade through the whole depth, dragged across the body from edge to edge,
+        # detaches the far part; the scene's fragment policy (static FEM: remove) takes it away.
+        set_paused(True)
+        sb = status()
+        driver.execute_script("document.getElementById('depth').value = '1'")
+        drag(80, -200, 0, 10, 40)
+        time.sleep(1.0)
+        wait_for("the page to catch up", synced)
+        sa = status()
+        print(f"through-cut: fragments handled {sb['fragments_handled']} -> {sa['fragments_handled']}, "
+              f"{sb['tets']} -> {sa['tets']} tets, {sb['triangles']} -> {sa['triangles']} triangles "
+              f"{sa['blade_steps'] - sb['blade_steps']} blade steps, page errors {page()['errors']} (not asserted)", flush=True)
+        driver.save_screenshot(os.path.join(out_dir, "view_through_cut.png"))
         driver.find_element(By.ID, "reset").click()
         wait_for("the reset", lambda: status()["cut_triangles"] == 0 and status()["tets"] == s0["tets"])
         wait_for("the page to draw the reset body", lambda: page()["cutTriangles"] == 0 and
@@ -175,8 +191,7 @@ def main():
               f"{page()['triangles']} triangles again", flush=True)
 
         # Security: bad inputs get an error frame and change nothing; other origins are refused.
-        pause.click()  # paused, so that the scene's own blade changes nothing either
-        wait_for("the pause", lambda: status()["paused"])
+        set_paused(True)  # so that the scene's own blade changes nothing either
         before = status()
         replies = driver.execute_async_script("""
             const done = arguments[arguments.length - 1];
