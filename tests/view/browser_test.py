@@ -175,7 +175,7 @@ def main():
         set_paused(True)
         sb = status()
         driver.execute_script("document.getElementById('depth').value = '1'")
-        drag(80, -200, 0, 10, 40)
+        drag(-60, -220, 0, 10, 44)
         time.sleep(1.0)
         wait_for("the page to catch up", synced)
         sa = status()

@@ -61,7 +61,7 @@ TEST_CASE("frame messages round-trip and refuse damaged bytes") {
   CHECK_THROWS_AS(decode_frame(corner), InvalidArgument);
 }
 
-TEST_CASE("inputs round-trip; wrong sizes, kinds and numbers are refused") {
+TEST_CASE("inputs round-trip, and wrong sizes, kinds and numbers are refused") {
   for (std::uint8_t k = 1; k <= std::uint8_t(InputKind::Ack); ++k) {
     InputMessage in;
     in.kind = InputKind(k);
