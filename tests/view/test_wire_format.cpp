@@ -13,6 +13,7 @@
 #include "mesh/generate.h"
 #include "view/boundary_tracker.h"
 #include "quality/metrics.h"
+#include "scene/scene_runner.h"
 #include "view/frame_diff.h"
 #include "view/quality_watch.h"
 #include "view/wire_format.h"
@@ -199,4 +200,31 @@ TEST_CASE("the tracked boundary follows progressive cuts, and the page's copy fo
   CHECK(quiet.set.empty());
   CHECK(quiet.removed.empty());
   CHECK(sent_positions > 0);
+}
+
+TEST_CASE("through the runner's change observer the boundary follows outside blades and removed fragments") {
+  // The sample liver scene (static FEM: a detached part is removed). A blade through the whole
+  // depth swept across the body at x = 150 cuts off the part away from the fixed side.
+  SceneRunner run(load_scene(std::string(INCISE_SOURCE_DIR) + "/samples/scenes/liver_cut.json"));
+  const TetMesh& m = run.mesh();
+  BoundaryTracker tracker(m, {});
+  QualityWatch quality(m, 10.0);
+  run.set_change_observer([&](const TopologyChange& c) {
+    tracker.apply(c);
+    quality.apply(c);
+  });
+  const std::size_t tets_before = m.num_tets();
+  run.advance_blade({Vec3(150, 0, 0), Vec3(150, 0, 220)});
+  for (int k = 1; k <= 11; ++k) {
+    run.advance_blade({Vec3(150, 20.0 * k, 0), Vec3(150, 20.0 * k, 220)});
+    REQUIRE(tracked(tracker) == recount(m));
+  }
+  run.finish_blade();
+  CHECK(tracked(tracker) == recount(m));
+  CHECK(run.fragments_handled() == 1);
+  CHECK(m.num_tets() < tets_before);  // the far part went
+  const QualityRange all = quality_range(m, 10.0);
+  CHECK(quality.min_dihedral() == all.min_dihedral);
+  CHECK(quality.below() == all.below);
+  CHECK(tracker.cut_triangle_count() > 0);
 }
