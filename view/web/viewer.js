@@ -205,9 +205,9 @@ window.addEventListener('keydown', (e) => {
 });
 
 // ---- blade and probe ------------------------------------------------------------------------
-// The blade is the segment of the mouse's ray from just before where it enters the body down
-// to `depth` x the body's size: dragging sweeps it through the body, each move one blade step
-// on the server (on the current, deformed shape).
+// The blade is the segment of the mouse's ray from in front of the body down to `depth` x the
+// body's size below where the ray enters it: dragging sweeps it through the body, each move
+// one blade step on the server (on the current, deformed shape).
 const raycaster = new THREE.Raycaster();
 const ndc = new THREE.Vector2();
 function rayAt(ev) {
@@ -237,11 +237,14 @@ renderer.domElement.addEventListener('pointerdown', (ev) => {
     drag = { kind: 'probe', point: hit.point.clone(), plane: new THREE.Plane().setFromNormalAndCoplanarPoint(normal, hit.point) };
     send(encodeInput(Kind.ProbeGrab, [hit.point.x, hit.point.y, hit.point.z, 0.04 * bodySize]));
   } else {
+    // The near end starts in front of the whole body (so no part of it nearer to the camera
+    // escapes the blade as it moves); the far end reaches `depth` below where the ray enters.
     const depth = Number(document.getElementById('depth').value) * bodySize;
-    const entry = hit ? hit.distance : ray.origin.distanceTo(center) - 0.5 * bodySize;
-    const t0 = Math.max(camera.near, entry - 0.02 * bodySize);
+    const toCenter = ray.origin.distanceTo(center);
+    const entry = hit ? hit.distance : toCenter - 0.5 * bodySize;
+    const t0 = Math.max(camera.near, toCenter - 0.6 * bodySize);
     const a = ray.at(t0, new THREE.Vector3());
-    drag = { kind: 'blade', edge: ray.direction.clone().multiplyScalar(depth),
+    drag = { kind: 'blade', edge: ray.direction.clone().multiplyScalar(Math.max(entry + depth - t0, 0.01 * bodySize)),
              plane: new THREE.Plane().setFromNormalAndCoplanarPoint(camera.getWorldDirection(new THREE.Vector3()), a) };
     send(encodeInput(Kind.BladeStart, bladeAt(ray)));
   }
