@@ -86,7 +86,7 @@ public:
     int done = 0;
     for (int pass = 0; pass < opt_.passes; ++pass) {
       const int before = done;
-      for (VertexId v : m_.vertices()) push_edges(v);
+      for (VertexId v : m_.vertices()) push_edges(v, true);
       while (!queue_.empty()) {
         const auto [len, a, b] = queue_.top();
         queue_.pop();
@@ -155,11 +155,13 @@ private:
     return false;
   }
 
-  void push_edges(VertexId v) {
+  // The edges at v shorter than the target (only those to higher ids: each edge once when
+  // every vertex is pushed).
+  void push_edges(VertexId v, bool higher_only = false) {
     std::vector<VertexId> seen;
     for (TetId t : m_.incident_tets(v))
       for (VertexId w : m_.tet_vertices(t)) {
-        if (w == v || std::find(seen.begin(), seen.end(), w) != seen.end()) continue;
+        if (w == v || (higher_only && w.idx() < v.idx()) || std::find(seen.begin(), seen.end(), w) != seen.end()) continue;
         seen.push_back(w);
         const double l = (m_.rest(v) - m_.rest(w)).norm();
         if (l < collapse_below_) queue_.push({l, std::min(v.idx(), w.idx()), std::max(v.idx(), w.idx())});
