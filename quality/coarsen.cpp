@@ -75,10 +75,12 @@ struct RemovedPoint {
 class Coarsener {
 public:
   Coarsener(TetMesh& m, const CoarsenOptions& o, double target, double deviation)
-      : m_(m), opt_(o), target_(target), deviation_(deviation), collapse_below_(target),
+      : m_(m), opt_(o), deviation_(deviation), collapse_below_(target),
         longest_(o.max_edge_factor * target) {
-    targets_.min_deg = 35;
-    targets_.max_deg = 135;
+    // The improvement pass's default targets: between two valid directions, the one whose
+    // tets it would rate better.
+    targets_.min_deg = ImproveOptions{}.target_dihedral_deg;
+    targets_.max_deg = ImproveOptions{}.target_max_dihedral_deg;
     classify();
   }
 
@@ -329,7 +331,7 @@ private:
 
   TetMesh& m_;
   const CoarsenOptions& opt_;
-  double target_, deviation_, collapse_below_, longest_;
+  double deviation_, collapse_below_, longest_;
   AngleTargets targets_;
   std::vector<Kind> kind_;
   std::vector<std::vector<RemovedPoint>> owned_;  // input surface vertices contracted into this one
