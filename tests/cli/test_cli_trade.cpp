@@ -164,7 +164,9 @@ TEST_CASE("incise trade: a scene whose mesh is a file gets a coarser resolution 
   // level -1 is the file's mesh coarsened by edge contraction (480 -> about 60 tets); the
   // finer resolutions must not be further from the reference.
   const fs::path dir = scratch_dir("cli_trade_mesh_file");
-  Run g = run_incise("generate box --size 10 1 1 --cells 20 2 2 -o '" + (dir / "beam.msh").string() + "'", dir);
+  std::string gen = "generate box --size 10 1 1 --cells 20 2 2 -o ";
+  gen += q(dir / "beam.msh");
+  const Run g = run_incise(gen, dir);
   REQUIRE(g.code == 0);
   {
     std::ofstream(dir / "beam.json") << R"({
@@ -177,11 +179,14 @@ TEST_CASE("incise trade: a scene whose mesh is a file gets a coarser resolution 
       "time": {"frames": 1}
     })";
   }
-  const Run r = run_incise("trade '" + (dir / "beam.json").string() + "' -o '" + (dir / "out").string() +
-                               "' --models fem-linear --formulations standard mixed --preconditioners cholesky"
-                               " --tolerances 1e-8 --budgets 0 --no-direct --json '" +
-                               (dir / "out" / "trade.json").string() + "'",
-                           dir);
+  std::string args = "trade ";
+  args += q(dir / "beam.json");
+  args += " -o ";
+  args += q(dir / "out");
+  args += " --models fem-linear --formulations standard mixed --preconditioners cholesky --tolerances 1e-8 --budgets 0"
+          " --no-direct --json ";
+  args += q(dir / "out" / "trade.json");
+  const Run r = run_incise(args, dir);
   INFO("stderr: " << r.err);
   REQUIRE(r.code == 0);
   CHECK(r.err.find("trade: level -1: beam.msh coarsened by edge contraction: 480 -> ") != std::string::npos);
