@@ -49,7 +49,7 @@ std::vector<std::map<std::string, std::string>> read_csv(const std::string& text
 
 }  // namespace
 
-TEST_CASE("incise trade writes the grid, the errors against a converged reference and the Pareto plot", "[cli][trade]") {
+TEST_CASE("incise trade writes the grid, the errors against a converged reference and the Pareto plot", "[cli][trade][long]") {
   const fs::path dir = scratch_dir("cli_trade");
   {
     std::ofstream(dir / "scene.json") << kScene;
@@ -122,7 +122,7 @@ TEST_CASE("incise trade writes the grid, the errors against a converged referenc
   CHECK(json.find("\"change_from_coarser\"") != std::string::npos);
 }
 
-TEST_CASE("incise trade: a finer resolution never reports a larger error on the cantilever", "[cli][trade]") {
+TEST_CASE("incise trade: a finer resolution never reports a larger error on the cantilever", "[cli][trade][long]") {
   // Timoshenko's cantilever as a scene: clamped at x = 0, a tip load. The reference is two levels
   // above the scene's mesh; the coarser (-1), scene (0) and refined (1) meshes must come closer
   // to it in turn, for every formulation, at nu = 0.45 where standard tets lock.
@@ -159,7 +159,7 @@ TEST_CASE("incise trade: a finer resolution never reports a larger error on the 
   CHECK(by.at("standard").at(0) > by.at("mixed").at(0));
 }
 
-TEST_CASE("incise trade: a scene whose mesh is a file gets a coarser resolution by default", "[cli][trade]") {
+TEST_CASE("incise trade: a scene whose mesh is a file gets a coarser resolution by default", "[cli][trade][long]") {
   // The cantilever again, its mesh read from a file: nothing can regenerate it coarser, so
   // level -1 is the file's mesh coarsened by edge contraction (480 -> about 60 tets); the
   // finer resolutions must not be further from the reference.
