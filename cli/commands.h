@@ -15,6 +15,7 @@ void add_tetra(CLI::App& app);
 void add_prepare(CLI::App& app);
 void add_cut(CLI::App& app);
 void add_improve(CLI::App& app);
+void add_coarsen(CLI::App& app);
 void add_trade(CLI::App& app);
 void add_view(CLI::App& app);  // cli/cmd_view.cpp when built with INCISE_WITH_VIEW
 

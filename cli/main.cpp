@@ -49,6 +49,7 @@ int main(int argc, char** argv) {
   incise::cli::add_prepare(app);
   incise::cli::add_cut(app);
   incise::cli::add_improve(app);
+  incise::cli::add_coarsen(app);
   incise::cli::add_trade(app);
 #ifdef INCISE_HAVE_VIEW
   incise::cli::add_view(app);

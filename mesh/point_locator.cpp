@@ -22,7 +22,9 @@ bool barycentric(const TetMesh& m, TetId t, const Vec3& p, std::array<double, 4>
   return true;
 }
 
-// The point of triangle abc nearest to p, by the Voronoi regions of its corners and edges.
+}  // namespace
+
+// By the Voronoi regions of the triangle's corners and edges.
 Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
   const Vec3 ab = b - a, ac = c - a, ap = p - a;
   const double d1 = ab.dot(ap), d2 = ac.dot(ap);
@@ -42,8 +44,6 @@ Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3
   const double den = 1 / (va + vb + vc);
   return a + ab * (vb * den) + ac * (vc * den);
 }
-
-}  // namespace
 
 PointLocator::PointLocator(const TetMesh& mesh) : mesh_(&mesh) {
   if (mesh.num_tets() == 0) return;

@@ -19,6 +19,9 @@ struct PointLocation {
   double distance = 0;           // from the point to that location: 0 inside the mesh
 };
 
+// The point of triangle abc nearest to p (any triangle, flat ones too).
+Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c);
+
 class PointLocator {
 public:
   explicit PointLocator(const TetMesh& mesh);  // O(mesh); the mesh must outlive it

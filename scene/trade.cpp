@@ -15,6 +15,7 @@
 #include "mesh/io/tet_io.h"
 #include "mesh/point_locator.h"
 #include "mesh/refine.h"
+#include "quality/coarsen.h"
 #include "sim/fem_model.h"
 #include "sim/mixed_solver.h"
 
@@ -41,29 +42,49 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// The scene's body at mesh level `level` (see TradeOptions::resolutions), compacted.
-TetMesh body_at(const Scene& s, int level) {
+// The scene's file mesh (relative to the scene, as run_scene reads it), compacted.
+TetMesh read_scene_mesh(const Scene& s) {
+  std::filesystem::path file(s.mesh_file);
+  if (file.is_relative()) file = std::filesystem::path(s.path).parent_path() / file;
+  TetMesh m = read_tet_mesh(file.string());
+  m.compact();
+  return m;
+}
+
+// The scene's body at mesh level `level` (see TradeOptions::resolutions), compacted; `how`
+// (level -1) says how the coarser mesh was made.
+TetMesh body_at(const Scene& s, int level, std::string* how) {
+  if (level < -1) throw InvalidArgument("trade: resolutions below -1 are not supported");
   TetMesh m;
   if (level < 0) {
-    if (s.generator.empty())
-      throw InvalidArgument("trade: resolution -1 (coarser) needs a generated mesh; \"" + s.mesh_file +
-                            "\" is a file (make a coarser one with incise prepare and trade that scene)");
-    if (level < -1) throw InvalidArgument("trade: resolutions below -1 are not supported");
     auto half = [](int n) { return std::max(1, n / 2); };
     const std::array<int, 3> c{half(s.gen_cells[0]), half(s.gen_cells[1]), half(s.gen_cells[2])};
     if (s.generator == "box") m = make_box(s.gen_size, c);
     else if (s.generator == "tube") m = make_tube(s.gen_size[0], s.gen_size[1], s.gen_size[2], s.gen_angle, c);
-    else m = make_ellipsoid(s.gen_size, half(s.gen_resolution));
+    else if (s.generator == "ellipsoid") m = make_ellipsoid(s.gen_size, half(s.gen_resolution));
+    if (!s.generator.empty()) {
+      if (how) *how = "the " + s.generator + " generator with half the cells";
+      return m;
+    }
+    // A file: nothing regenerates it coarser, so contract its edges to about twice their
+    // length (quality/coarsen.h: same labels, tags and body within a bounded distance).
+    m = read_scene_mesh(s);
+    const CoarsenReport r = coarsen(m);
+    m.discard_change();
+    m.compact();
+    if (how) {
+      std::ostringstream t;
+      t << std::setprecision(3) << std::filesystem::path(s.mesh_file).filename().string()
+        << " coarsened by edge contraction: " << r.tets_before << " -> " << r.tets_after << " tets, mean edge "
+        << r.mean_edge_before << " -> " << r.mean_edge_after << ", surface within " << r.max_deviation;
+      *how = t.str();
+    }
     return m;
   }
   if (s.generator == "box") m = make_box(s.gen_size, s.gen_cells);
   else if (s.generator == "tube") m = make_tube(s.gen_size[0], s.gen_size[1], s.gen_size[2], s.gen_angle, s.gen_cells);
   else if (s.generator == "ellipsoid") m = make_ellipsoid(s.gen_size, s.gen_resolution);
-  else {
-    std::filesystem::path file(s.mesh_file);  // relative to the scene, as run_scene reads it
-    if (file.is_relative()) file = std::filesystem::path(s.path).parent_path() / file;
-    m = read_tet_mesh(file.string());
-  }
+  else m = read_scene_mesh(s);
   m.compact();
   for (int k = 0; k < level; ++k) m = refine_uniform(m);
   m.discard_change();
@@ -220,17 +241,22 @@ TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
                     << " cut(s) are left out: settings are compared on the uncut body\n";
     scene.cuts.clear();
   }
+  TradeResult result;
   std::map<int, std::unique_ptr<TetMesh>> meshes;
   auto mesh = [&](int level) -> const TetMesh& {
     auto& m = meshes[level];
-    if (!m) m = std::make_unique<TetMesh>(body_at(scene, level));
+    if (!m) {
+      m = std::make_unique<TetMesh>(body_at(scene, level, level < 0 ? &result.coarser : nullptr));
+      if (level < 0 && opt.progress) *opt.progress << "trade: level -1: " << result.coarser << "\n";
+    }
     return *m;
   };
   std::vector<int> levels = opt.resolutions;
   if (levels.empty()) {
-    // A coarser level where the mesh is generated, and a refined one when its reference (64x
-    // the scene's tets) stays within what a direct solve does in seconds.
-    if (!scene.generator.empty()) levels.push_back(-1);
+    // A coarser level (generated with half the cells, or the file's mesh coarsened), the
+    // scene's, and a refined one when its reference (64x the scene's tets) stays within what a
+    // direct solve does in seconds.
+    levels.push_back(-1);
     levels.push_back(0);
     if (64 * mesh(0).num_tets() <= opt.max_reference_tets) levels.push_back(1);
   }
@@ -244,7 +270,6 @@ TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
 
 
   // ---- the reference, and the same one level coarser for its error bar ------------------
-  TradeResult result;
   const Formulation best = Formulation::Mixed;
   auto solve_reference = [&](int level) {
     Scene rs = scene;

@@ -37,9 +37,11 @@ namespace incise {
 struct TradeOptions {
   std::vector<SceneModel> models{SceneModel::FemLinear, SceneModel::FemCorotational, SceneModel::Springs};
   std::vector<Formulation> formulations{Formulation::Standard, Formulation::NodalAveraged, Formulation::Mixed};
-  // Mesh levels: 0 the scene's mesh, k > 0 refined k times, -1 one coarser (generated meshes
-  // only: half the cells). Empty: -1 for generated meshes, 0, and 1 when the reference two
-  // levels up has at most max_reference_tets tets.
+  // Mesh levels: 0 the scene's mesh, k > 0 refined k times, -1 one coarser: a generated mesh
+  // with half the cells, a mesh file coarsened to about twice its edge length
+  // (quality/coarsen.h: 1/4 .. 1/8 of the tets, same labels and tags, the surface within a
+  // tenth of the new edge length). Empty: -1, 0, and 1 when the reference two levels up has at
+  // most max_reference_tets tets.
   std::vector<int> resolutions;
   std::size_t max_reference_tets = 200000;
   // The reference is solved directly up to this many tets, by MINRES to 1e-10 above (see trade.cpp).
@@ -90,6 +92,7 @@ struct TradeReference {
 
 struct TradeResult {
   TradeReference reference;
+  std::string coarser;  // how level -1 was made (empty when it was not run)
   std::vector<TradeRow> rows;
 };
 

@@ -57,6 +57,7 @@ std::string trade_json(const TradeResult& res, const std::vector<double>& budget
                {{"level", res.reference.level}, {"tets", res.reference.tets}, {"formulation", res.reference.formulation}, {"method", res.reference.method},
                 {"seconds", res.reference.seconds},
                 {"change_from_coarser", res.reference.change >= 0 ? json(res.reference.change) : json(nullptr)}}},
+              {"coarser", res.coarser.empty() ? json(nullptr) : json(res.coarser)},
               {"rows", rows},
               {"recommendations", recs}};
   return out.dump(2) + "\n";
@@ -68,7 +69,9 @@ std::string trade_summary(const TradeResult& res, const std::vector<double>& bud
   s << "trade: " << res.rows.size() << " runs against a level-" << res.reference.level << " reference ("
     << res.reference.tets << " tets, fem-corotational " << res.reference.formulation << ", " << res.reference.method;
   if (res.reference.change >= 0) s << "; it moves by " << res.reference.change << " from one level coarser";
-  s << ")\nPareto frontier (fastest first):\n";
+  s << ")\n";
+  if (!res.coarser.empty()) s << "level -1: " << res.coarser << "\n";
+  s << "Pareto frontier (fastest first):\n";
   std::vector<const TradeRow*> front;
   for (const TradeRow& r : res.rows)
     if (r.pareto) front.push_back(&r);

@@ -49,7 +49,7 @@ std::vector<std::map<std::string, std::string>> read_csv(const std::string& text
 
 }  // namespace
 
-TEST_CASE("incise trade writes the grid, the errors against a converged reference and the Pareto plot", "[cli][trade]") {
+TEST_CASE("incise trade writes the grid, the errors against a converged reference and the Pareto plot", "[cli][trade][long]") {
   const fs::path dir = scratch_dir("cli_trade");
   {
     std::ofstream(dir / "scene.json") << kScene;
@@ -122,7 +122,7 @@ TEST_CASE("incise trade writes the grid, the errors against a converged referenc
   CHECK(json.find("\"change_from_coarser\"") != std::string::npos);
 }
 
-TEST_CASE("incise trade: a finer resolution never reports a larger error on the cantilever", "[cli][trade]") {
+TEST_CASE("incise trade: a finer resolution never reports a larger error on the cantilever", "[cli][trade][long]") {
   // Timoshenko's cantilever as a scene: clamped at x = 0, a tip load. The reference is two levels
   // above the scene's mesh; the coarser (-1), scene (0) and refined (1) meshes must come closer
   // to it in turn, for every formulation, at nu = 0.45 where standard tets lock.
@@ -157,6 +157,59 @@ TEST_CASE("incise trade: a finer resolution never reports a larger error on the 
   // Locking: at the scene's mesh the standard tets are further off than the other two.
   CHECK(by.at("standard").at(0) > by.at("nodal-averaged").at(0));
   CHECK(by.at("standard").at(0) > by.at("mixed").at(0));
+}
+
+TEST_CASE("incise trade: a scene whose mesh is a file gets a coarser resolution by default", "[cli][trade][long]") {
+  // The cantilever again, its mesh read from a file: nothing can regenerate it coarser, so
+  // level -1 is the file's mesh coarsened by edge contraction (480 -> about 60 tets); the
+  // finer resolutions must not be further from the reference.
+  const fs::path dir = scratch_dir("cli_trade_mesh_file");
+  std::string gen = "generate box --size 10 1 1 --cells 20 2 2 -o ";
+  gen += q(dir / "beam.msh");
+  const Run g = run_incise(gen, dir);
+  REQUIRE(g.code == 0);
+  {
+    std::ofstream(dir / "beam.json") << R"({
+      "mesh": "beam.msh",
+      "model": "fem-linear",
+      "materials": {"*": {"young": 1e6, "poisson": 0.3}},
+      "fixed": [{"box": [-0.01, -0.01, -0.01, 0.01, 1.01, 1.01]}],
+      "loads": [{"type": "force", "box": [9.99, -0.01, -0.01, 10.01, 1.01, 1.01], "total": [0, 0, -1]}],
+      "solver": {"method": "direct"},
+      "time": {"frames": 1}
+    })";
+  }
+  std::string args = "trade ";
+  args += q(dir / "beam.json");
+  args += " -o ";
+  args += q(dir / "out");
+  args += " --models fem-linear --formulations standard mixed --preconditioners cholesky --tolerances 1e-8 --budgets 0"
+          " --no-direct --json ";
+  args += q(dir / "out" / "trade.json");
+  const Run r = run_incise(args, dir);
+  INFO("stderr: " << r.err);
+  REQUIRE(r.code == 0);
+  CHECK(r.err.find("trade: level -1: beam.msh coarsened by edge contraction: 480 -> ") != std::string::npos);
+  CHECK(r.out.find("level -1: beam.msh coarsened by edge contraction") != std::string::npos);
+  CHECK(slurp(dir / "out" / "trade.json").find("\"coarser\": \"beam.msh coarsened by edge contraction") != std::string::npos);
+  const auto rows = read_csv(slurp(dir / "out" / "trade.csv"));
+  std::map<std::string, std::map<int, double>> by;
+  std::map<int, int> tets;
+  for (const auto& row : rows) {
+    tets[std::stoi(row.at("resolution"))] = std::stoi(row.at("tets"));
+    if (row.at("solver") == "direct") by[row.at("formulation")][std::stoi(row.at("resolution"))] = std::stod(row.at("error"));
+  }
+  // -1, 0 and (64 x 480 tets within the reference cap) 1.
+  REQUIRE(tets.size() == 3);
+  CHECK(tets.at(0) == 480);
+  CHECK(tets.at(-1) * 4 <= tets.at(0));
+  CHECK(tets.at(1) == 8 * 480);
+  REQUIRE(by.size() == 2);
+  for (const auto& [f, e] : by) {
+    INFO(f << ": " << e.at(-1) << " " << e.at(0) << " " << e.at(1));
+    CHECK(e.at(0) <= e.at(-1));
+    CHECK(e.at(1) <= e.at(0));
+  }
 }
 
 TEST_CASE("incise trade: bad input is one line, nothing written", "[cli][trade][errors]") {

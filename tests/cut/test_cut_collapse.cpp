@@ -44,7 +44,7 @@ void cut_three(Cutter& cutter, Step step) {
 
 }  // namespace
 
-TEST_CASE("contractions after a cut leave a better worst tet than flips and smoothing alone", "[cut][collapse]") {
+TEST_CASE("contractions after a cut leave a better worst tet than flips and smoothing alone", "[cut][collapse][long]") {
   TetMesh cut = jittered_two_label_box();
   const auto vol0 = label_volumes(cut);
   CutOptions opt;

@@ -82,7 +82,7 @@ TEST_CASE("quality floor: cuts ending inside the liver leave no slivers at the b
   }
 }
 
-TEST_CASE("quality floor: a cut finished beside an earlier cut bends through its vertices", "[cut][quality]") {
+TEST_CASE("quality floor: a cut finished beside an earlier cut bends through its vertices", "[cut][quality][long]") {
   // bench_cut's 100 random steps on the liver (seed 2026). The 15th cut's blade ends near faces
   // of earlier cuts: vertices of those faces a hair from its plane, beside its sides, kept
   // their side (their star reached past the rim, and a cut vertex cannot be moved onto the

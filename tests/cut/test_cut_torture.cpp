@@ -54,7 +54,7 @@ std::vector<Case> torture_meshes() {
 
 }  // namespace
 
-TEST_CASE("torture: random progressive cuts keep every invariant after every step", "[cut][torture]") {
+TEST_CASE("torture: random progressive cuts keep every invariant after every step", "[cut][torture][long]") {
   const char* env = std::getenv("INCISE_TORTURE_STEPS");
   const long total = env ? std::atol(env) : 10000;
   std::vector<Case> cases = torture_meshes();

@@ -10,7 +10,7 @@ constexpr bool kGraded = false;  // stuff() and check() default to this mode
 
 using namespace incise;
 
-TEST_CASE("stuffing: analytic shapes at several resolutions and scales", "[stuffing]") {
+TEST_CASE("stuffing: analytic shapes at several resolutions and scales", "[stuffing][long]") {
   for (double scale : {1.0, 1e-3, 1e3}) {
     for (const Shape& base : shapes()) {
       Shape s = scaled(base, scale);

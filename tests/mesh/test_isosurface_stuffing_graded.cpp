@@ -12,7 +12,7 @@ constexpr bool kGraded = true;  // stuff() and check() default to this mode
 
 using namespace incise;
 
-TEST_CASE("graded stuffing: analytic shapes at several resolutions and scales", "[stuffing][graded]") {
+TEST_CASE("graded stuffing: analytic shapes at several resolutions and scales", "[stuffing][graded][long]") {
   for (double scale : {1.0, 1e-3, 1e3}) {
     for (const Shape& base : shapes()) {
       Shape s = scaled(base, scale);

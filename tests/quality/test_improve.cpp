@@ -188,7 +188,7 @@ TEST_CASE("improve: jittered box, one and two labels, three scales", "[improve]"
     }
 }
 
-TEST_CASE("improve: sliver-laden mesh from random splits and flips", "[improve]") {
+TEST_CASE("improve: sliver-laden mesh from random splits and flips", "[improve][long]") {
   TetMesh m = make_box(Vec3(1, 1, 1), {3, 3, 3});
   std::mt19937 rng(5);
   for (int i = 0; i < 300; ++i) testing::random_edit(m, rng);

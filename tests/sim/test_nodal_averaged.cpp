@@ -212,7 +212,7 @@ TEST_CASE("nodal-averaged: K x, diagonal, blocks, b_R and f_int match the assemb
   }
 }
 
-TEST_CASE("nodal-averaged: CG with every preconditioner equals the direct solution", "[fem][nodal][preconditioner]") {
+TEST_CASE("nodal-averaged: CG with every preconditioner equals the direct solution", "[fem][nodal][preconditioner][long]") {
   TetMesh m = make_box(Vec3(4, 1, 1), {16, 4, 4});
   jitter(m, 0.25, 7);
   const Preconditioner all[] = {Preconditioner::Jacobi, Preconditioner::BlockJacobi, Preconditioner::Cholesky,
@@ -365,7 +365,7 @@ TEST_CASE("nodal-averaged: work per local update does not grow with mesh size", 
 }
 
 TEST_CASE("nodal-averaged: no volumetric locking in the cantilever, and the bending error left converges with h",
-          "[fem][nodal][verification]") {
+          "[fem][nodal][verification][long]") {
   // Measured (bench_fem_locking), error against Timoshenko at nu = 0.3 / 0.45 / 0.49 / 0.4999:
   //   standard        40x4x4  -21.3 / -40.2 / -71.2 / -98.6 %   80x8x8  -7.0 / -16.4 / -41.9 / -97.2 %
   //   nodal-averaged  40x4x4  -12.3 / -15.1 / -16.9 / -20.9 %   80x8x8  -4.0 /  -5.6 /  -6.4 /  -7.0 %

@@ -294,7 +294,7 @@ TEST_CASE("implicit Euler is stable at 100x the explicit limit", "[springs]") {
   CHECK(e.step(dt, Integrator::SymplecticEuler).stable_step_exceeded);
 }
 
-TEST_CASE("damping decays energy", "[springs]") {
+TEST_CASE("damping decays energy", "[springs][long]") {
   TetMesh m = make_ellipsoid(Vec3(1, 0.6, 0.5), 2);
   for (Integrator integ : kAll) {
     SpringOptions o;
@@ -513,7 +513,7 @@ TEST_CASE("work per local update does not grow with mesh size", "[springs][local
 }
 
 TEST_CASE("extremes: E from 1e1 to 1e9 and scale x1e-3..x1e3 give finite, self-similar results",
-          "[springs]") {
+          "[springs][long]") {
   // Gravity chosen so the load strain rho g L / E is 1e-3 and damping a fixed fraction of
   // w_max: in these units every case is the same problem, so u/L must agree.
   std::vector<double> sag;
