@@ -112,4 +112,30 @@ TetMesh make_tube(double inner, double outer, double height, double angle_deg, c
   return m;
 }
 
+TetMesh make_cook_membrane(int cells, double thickness, int label) {
+  if (cells < 1) throw InvalidArgument("make_cook_membrane: cell count must be at least 1");
+  if (!(thickness > 0) || !std::isfinite(thickness))
+    throw InvalidArgument("make_cook_membrane: thickness must be positive and finite");
+  const int n = cells;
+  // x = 48 i / n; y between the bottom and top edges at that x (dy/dj > 0: orientation kept).
+  TetMesh m = kuhn_lattice(
+      {n, n, 1},
+      [&](int i, int j, int k) {
+        const double x = 48.0 * i / n, bottom = 44.0 * i / n, top = 44.0 + 16.0 * i / n;
+        return Vec3(x, bottom + (top - bottom) * j / n, thickness * k);
+      },
+      label);
+  // The edges' faces: all three corners on x = 0 or x = 48 (lattice values, exact).
+  auto on_x = [&](const std::array<VertexId, 3>& f, double x) {
+    for (VertexId v : f)
+      if (m.rest(v).x() != x) return false;
+    return true;
+  };
+  for (const BoundaryFace& f : m.boundary_faces()) {
+    if (on_x(f.vertices, 0.0)) m.set_face_tag(f.tet, f.local, kTagCookClamped);
+    else if (on_x(f.vertices, 48.0)) m.set_face_tag(f.tet, f.local, kTagCookLoaded);
+  }
+  return m;
+}
+
 }  // namespace incise

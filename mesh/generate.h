@@ -27,6 +27,16 @@ constexpr std::uint16_t kTagTubeInner = 16, kTagTubeOuter = 17;
 TetMesh make_tube(double inner, double outer, double height, double angle_deg, const std::array<int, 3>& cells,
                   int label = 1);
 
+// Cook's membrane (Cook 1974), the plane benchmark for distorted meshes and near-incompressibility:
+// the trapezoid (0,0), (48,44), (48,60), (0,44) in x-y, extruded to z in [0, thickness] as one
+// layer. cells x cells quads, each column x = const mapped linearly from the bottom edge
+// (y = 44 x / 48) to the top edge (y = 44 + 16 x / 48), times one layer, each hexahedron split
+// into 6 tets. The clamped edge x = 0 is tagged kTagCookClamped, the loaded edge x = 48
+// kTagCookLoaded, the rest kTagSurface. Plane strain: hold z on every vertex. cells >= 1,
+// thickness > 0.
+constexpr std::uint16_t kTagCookClamped = 18, kTagCookLoaded = 19;
+TetMesh make_cook_membrane(int cells, double thickness = 1, int label = 1);
+
 // Tags every boundary face kTagSurface (used by generators and readers).
 void tag_boundary(TetMesh& mesh, std::uint16_t tag = kTagSurface);
 

@@ -50,20 +50,10 @@ TetMesh body_at(const Scene& s, int level) {
                             "\" is a file (make a coarser one with incise prepare and trade that scene)");
     if (level < -1) throw InvalidArgument("trade: resolutions below -1 are not supported");
     auto half = [](int n) { return std::max(1, n / 2); };
-    const std::array<int, 3> c{half(s.gen_cells[0]), half(s.gen_cells[1]), half(s.gen_cells[2])};
-    if (s.generator == "box") m = make_box(s.gen_size, c);
-    else if (s.generator == "tube") m = make_tube(s.gen_size[0], s.gen_size[1], s.gen_size[2], s.gen_angle, c);
-    else m = make_ellipsoid(s.gen_size, half(s.gen_resolution));
-    return m;
+    if (s.generator == "ellipsoid") return generate_scene_mesh(s, {half(s.gen_resolution), 0, 0});
+    return generate_scene_mesh(s, {half(s.gen_cells[0]), half(s.gen_cells[1]), half(s.gen_cells[2])});
   }
-  if (s.generator == "box") m = make_box(s.gen_size, s.gen_cells);
-  else if (s.generator == "tube") m = make_tube(s.gen_size[0], s.gen_size[1], s.gen_size[2], s.gen_angle, s.gen_cells);
-  else if (s.generator == "ellipsoid") m = make_ellipsoid(s.gen_size, s.gen_resolution);
-  else {
-    std::filesystem::path file(s.mesh_file);  // relative to the scene, as run_scene reads it
-    if (file.is_relative()) file = std::filesystem::path(s.path).parent_path() / file;
-    m = read_tet_mesh(file.string());
-  }
+  m = load_scene_mesh(s);  // its file (relative to the scene) or its generator, as run_scene reads it
   m.compact();
   for (int k = 0; k < level; ++k) m = refine_uniform(m);
   m.discard_change();
