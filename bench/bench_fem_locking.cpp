@@ -8,7 +8,8 @@
 //  2. solver cost: CG iterations and ms per static solve (cold start, preconditioner set up by a
 //     first frame) per Poisson's ratio, formulation and preconditioner.
 //   bench_fem_locking [--out DIR] [--quick] [--only accuracy|cg] [--nu 0.3,0.45,0.49,0.4999]
-//                     [--meshes 20,40,80,120] [--cg-meshes 40,80] [--direct]
+//                     [--meshes 20,40,80,120] [--cg-meshes 40,80] [--direct] [--split kuhn|mirrored]
+//   --split: how make_box splits each cube (mesh/generate.h BoxSplit).
 #include <cmath>
 #include <cstdio>
 
@@ -63,7 +64,11 @@ double tip(const TetMesh& m, const Eigen::VectorXd& u) {
   return s / n;
 }
 
-TetMesh beam(int nx) { return make_box(Vec3(kLen, kH, kH), {nx, std::max(1, nx / 10), std::max(1, nx / 10)}); }
+BoxSplit g_split = BoxSplit::Kuhn;  // --split
+
+TetMesh beam(int nx) {
+  return make_box(Vec3(kLen, kH, kH), {nx, std::max(1, nx / 10), std::max(1, nx / 10)}, 1, g_split);
+}
 
 const Formulation kForms[] = {Formulation::Standard, Formulation::NodalAveraged};
 
@@ -169,6 +174,12 @@ int main(int argc, char** argv) {
   const Args args(argc, argv);
   const std::vector<double> nus = args.list("--nu", "0.3,0.45,0.49,0.4999");
   const std::string only = args.get("--only", "");
+  const std::string split = args.get("--split", "kuhn");
+  if (split != "kuhn" && split != "mirrored") {
+    std::fprintf(stderr, "bench_fem_locking: --split: expected kuhn or mirrored, got %s\n", split.c_str());
+    return 1;
+  }
+  if (split == "mirrored") g_split = BoxSplit::Mirrored;
   Csv csv(args.get("--out", "bench_out"), "fem_locking.csv", "section,formulation,nx,tets,nu,solver,error,iterations,ms");
   if (only.empty() || only == "accuracy") accuracy(args, nus, csv);
   if (only.empty() || only == "cg") cg_cost(args, nus, csv);

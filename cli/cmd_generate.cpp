@@ -1,4 +1,4 @@
-// incise generate box|ellipsoid|tube: structured meshes for tests, benchmarks and users.
+// incise generate box|ellipsoid|tube|cook: structured meshes for tests, benchmarks and users.
 #include <iostream>
 
 #include "cli/commands.h"
@@ -71,6 +71,26 @@ void add_generate(CLI::App& app) {
                           {tube->cells[0], tube->cells[1], tube->cells[2]}, tube->label);
     write_tet_mesh(m, tube->out);
     std::cerr << "generate: " << m.num_vertices() << " vertices, " << m.num_tets() << " tets -> " << tube->out << "\n";
+  });
+
+  struct CookOpts {
+    int cells = 16;
+    double thickness = 1;
+    int label = 1;
+    std::string out;
+  };
+  auto cook = std::make_shared<CookOpts>();
+  auto* c = gen->add_subcommand(
+      "cook", "Cook's membrane: the trapezoid (0,0) (48,44) (48,60) (0,44), one layer thick (clamped edge x = 0 tagged 18, "
+              "loaded edge x = 48 tagged 19, the rest 1)");
+  c->add_option("--cells", cook->cells, "Cells along each side of the trapezoid (N x N x 1)")->capture_default_str();
+  c->add_option("--thickness", cook->thickness, "Thickness along z")->capture_default_str();
+  c->add_option("--label", cook->label, "Region label of every tet")->capture_default_str();
+  c->add_option("-o,--output", cook->out, "Output mesh (format by extension)")->required();
+  c->callback([cook] {
+    TetMesh m = make_cook_membrane(cook->cells, cook->thickness, cook->label);
+    write_tet_mesh(m, cook->out);
+    std::cerr << "generate: " << m.num_vertices() << " vertices, " << m.num_tets() << " tets -> " << cook->out << "\n";
   });
 }
 

@@ -17,9 +17,10 @@ namespace {
 
 // Lattice of (nx+1)(ny+1)(nz+1) points given by `pos(i,j,k)`, split into Kuhn tets. The
 // orientation is decided on the undeformed lattice so a mapping that flips a tet shows up
-// in validate() instead of being silently repaired.
+// in validate() instead of being silently repaired. Mirrored: cubes with an odd index along an
+// axis are reflected along it (their diagonals alternate; still conforming, see BoxSplit).
 template <class Pos>
-TetMesh kuhn_lattice(const std::array<int, 3>& n, Pos pos, int label) {
+TetMesh kuhn_lattice(const std::array<int, 3>& n, Pos pos, int label, BoxSplit split = BoxSplit::Kuhn) {
   TetMesh m;
   const std::size_t nv = std::size_t(n[0] + 1) * (n[1] + 1) * (n[2] + 1);
   m.reserve(nv, 6 * std::size_t(n[0]) * n[1] * n[2]);
@@ -34,15 +35,25 @@ TetMesh kuhn_lattice(const std::array<int, 3>& n, Pos pos, int label) {
     for (int j = 0; j < n[1]; ++j)
       for (int i = 0; i < n[0]; ++i)
         for (const auto& p : perms) {
-          int c[3] = {i, j, k};
+          const int base[3] = {i, j, k};
+          const bool flip[3] = {split == BoxSplit::Mirrored && (i & 1), split == BoxSplit::Mirrored && (j & 1),
+                                split == BoxSplit::Mirrored && (k & 1)};
+          int l[3] = {0, 0, 0};  // the corner in the cube's own (possibly reflected) frame
+          auto corner = [&] {
+            int g[3];
+            for (int d = 0; d < 3; ++d) g[d] = base[d] + (flip[d] ? 1 - l[d] : l[d]);
+            return id(g[0], g[1], g[2]);
+          };
           VertexId v[4];
-          v[0] = id(c[0], c[1], c[2]);
+          v[0] = corner();
           for (int s = 0; s < 3; ++s) {
-            ++c[p[s]];
-            v[s + 1] = id(c[0], c[1], c[2]);
+            l[p[s]] = 1;
+            v[s + 1] = corner();
           }
-          // Parity of the permutation decides the orientation in the reference lattice.
+          // Parity of the permutation decides the orientation in the reference lattice, and each
+          // reflection reverses it.
           bool odd = (p[0] == 0 && p[1] == 2) || (p[0] == 1 && p[1] == 0) || (p[0] == 2 && p[1] == 1);
+          odd ^= flip[0] ^ flip[1] ^ flip[2];
           // Kuhn tet (0, e_p0, e_p0+e_p1, 1) has det = sign(permutation) (identity: +1).
           if (odd)
             m.add_tet(v[0], v[1], v[3], v[2], label);
@@ -56,13 +67,13 @@ TetMesh kuhn_lattice(const std::array<int, 3>& n, Pos pos, int label) {
 
 }  // namespace
 
-TetMesh make_box(const Vec3& size, const std::array<int, 3>& cells, int label) {
+TetMesh make_box(const Vec3& size, const std::array<int, 3>& cells, int label, BoxSplit split) {
   for (int d = 0; d < 3; ++d) {
     if (!(size[d] > 0) || !std::isfinite(size[d])) throw InvalidArgument("make_box: sizes must be positive and finite");
     if (cells[d] < 1) throw InvalidArgument("make_box: cell counts must be at least 1");
   }
   Vec3 h(size[0] / cells[0], size[1] / cells[1], size[2] / cells[2]);
-  return kuhn_lattice(cells, [&](int i, int j, int k) { return Vec3(i * h[0], j * h[1], k * h[2]); }, label);
+  return kuhn_lattice(cells, [&](int i, int j, int k) { return Vec3(i * h[0], j * h[1], k * h[2]); }, label, split);
 }
 
 TetMesh make_ellipsoid(const Vec3& radii, int n, int label) {
@@ -108,6 +119,32 @@ TetMesh make_tube(double inner, double outer, double height, double angle_deg, c
   for (const BoundaryFace& f : m.boundary_faces()) {
     if (on_radius(f.vertices, inner)) m.set_face_tag(f.tet, f.local, kTagTubeInner);
     else if (on_radius(f.vertices, outer)) m.set_face_tag(f.tet, f.local, kTagTubeOuter);
+  }
+  return m;
+}
+
+TetMesh make_cook_membrane(int cells, double thickness, int label) {
+  if (cells < 1) throw InvalidArgument("make_cook_membrane: cell count must be at least 1");
+  if (!(thickness > 0) || !std::isfinite(thickness))
+    throw InvalidArgument("make_cook_membrane: thickness must be positive and finite");
+  const int n = cells;
+  // x = 48 i / n; y between the bottom and top edges at that x (dy/dj > 0: orientation kept).
+  TetMesh m = kuhn_lattice(
+      {n, n, 1},
+      [&](int i, int j, int k) {
+        const double x = 48.0 * i / n, bottom = 44.0 * i / n, top = 44.0 + 16.0 * i / n;
+        return Vec3(x, bottom + (top - bottom) * j / n, thickness * k);
+      },
+      label);
+  // The edges' faces: all three corners on x = 0 or x = 48 (lattice values, exact).
+  auto on_x = [&](const std::array<VertexId, 3>& f, double x) {
+    for (VertexId v : f)
+      if (m.rest(v).x() != x) return false;
+    return true;
+  };
+  for (const BoundaryFace& f : m.boundary_faces()) {
+    if (on_x(f.vertices, 0.0)) m.set_face_tag(f.tet, f.local, kTagCookClamped);
+    else if (on_x(f.vertices, 48.0)) m.set_face_tag(f.tet, f.local, kTagCookLoaded);
   }
   return m;
 }

@@ -36,11 +36,13 @@ struct SceneFixed {
 };
 
 struct SceneLoad {
-  enum class Kind { Force, Gravity, Probe, Pressure } kind = Kind::Force;
+  enum class Kind { Force, Gravity, Probe, Pressure, Traction } kind = Kind::Force;
   std::string key;           // "loads[2]", for messages
-  SceneBox box;              // force, probe; pressure when tag < 0
-  int tag = -1;              // pressure: the boundary faces with this tag (instead of a box)
-  Vec3 value = Vec3::Zero(); // force: total [N]; gravity: g [m/s^2]; probe: displacement [m]; pressure: (p [Pa], 0, 0)
+  SceneBox box;              // force, probe; pressure and traction when tag < 0
+  int tag = -1;              // pressure, traction: the boundary faces with this tag (instead of a box)
+  // force: total [N]; gravity: g [m/s^2]; probe: displacement [m]; pressure: (p [Pa], 0, 0);
+  // traction: force per rest area [Pa]
+  Vec3 value = Vec3::Zero();
   int from_frame = 0;        // probe (and optionally force): ramp start
   int to_frame = 0;          // ramp end (== from_frame: a step)
   bool ramp = false;         // force: ramped only when from_frame/to_frame are given
@@ -72,9 +74,9 @@ struct Scene {
   std::string path;                 // the scene file (messages, relative paths)
   // Mesh: a file (relative to the scene) or a generator.
   std::string mesh_file;
-  std::string generator;            // "", "box", "ellipsoid" or "tube"
-  Vec3 gen_size = Vec3::Ones();     // box size, ellipsoid radii, tube (inner radius, outer radius, height)
-  std::array<int, 3> gen_cells{4, 4, 4};  // box; tube (across the wall, around, along)
+  std::string generator;            // "", "box", "ellipsoid", "tube" or "cook"
+  Vec3 gen_size = Vec3::Ones();     // box size, ellipsoid radii, tube (inner radius, outer radius, height), cook (-, -, thickness)
+  std::array<int, 3> gen_cells{4, 4, 4};  // box; tube (across the wall, around, along); cook (n, n, 1)
   double gen_angle = 90;            // tube: sector angle [deg]
   int gen_resolution = 4;
   SceneModel model = SceneModel::FemLinear;
@@ -113,5 +115,9 @@ Scene parse_scene(const std::string& json_text, const std::string& path);
 // The scene's mesh: its file (relative to the scene file) or its generator, with no pending
 // change record. Throws what the reader throws (IoError naming the file).
 TetMesh load_scene_mesh(const Scene& scene);
+
+// The scene's generator run with `cells` instead of its own counts (the ellipsoid's resolution is
+// cells[0]); the generated body at another resolution (incise trade). Needs a generator.
+TetMesh generate_scene_mesh(const Scene& scene, const std::array<int, 3>& cells);
 
 }  // namespace incise

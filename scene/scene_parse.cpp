@@ -121,7 +121,7 @@ unsigned read_axes(const Reader& rd, const json& j, const std::string& key) {
 
 SceneLoad read_load(const Reader& rd, const json& j, const std::string& key) {
   if (!j.is_object()) rd.fail(key, "expected an object");
-  if (!j.contains("type")) rd.fail(key + ".type", "missing; expected \"force\", \"gravity\", \"probe\" or \"pressure\"");
+  if (!j.contains("type")) rd.fail(key + ".type", "missing; expected \"force\", \"gravity\", \"probe\", \"pressure\" or \"traction\"");
   const std::string type = rd.string(j["type"], key + ".type");
   SceneLoad l;
   l.key = key;
@@ -153,18 +153,23 @@ SceneLoad read_load(const Reader& rd, const json& j, const std::string& key) {
     l.value = rd.vec3(need("displacement"), key + ".displacement");
     ramp();
     l.ramp = true;
-  } else if (type == "pressure") {
-    // On boundary faces chosen by tag or box (all three corners inside), pushing against each
-    // face's outward normal with p times its rest area.
+  } else if (type == "pressure" || type == "traction") {
+    // On boundary faces chosen by tag or box (all three corners inside): a pressure pushes against
+    // each face's outward normal with p times its rest area, a traction adds the vector times it.
     rd.keys(j, key, {"type", "value", "tag", "box", "from_frame", "to_frame"});
-    l.kind = SceneLoad::Kind::Pressure;
-    l.value = Vec3(rd.number(need("value"), key + ".value"), 0, 0);
+    if (type == "pressure") {
+      l.kind = SceneLoad::Kind::Pressure;
+      l.value = Vec3(rd.number(need("value"), key + ".value"), 0, 0);
+    } else {
+      l.kind = SceneLoad::Kind::Traction;
+      l.value = rd.vec3(need("value"), key + ".value");
+    }
     if (j.contains("tag") == j.contains("box")) rd.fail(key, "expected exactly one of \"tag\" and \"box\" to select the faces");
     if (j.contains("tag")) l.tag = rd.integer(j["tag"], key + ".tag", 0);
     else l.box = rd.box(j["box"], key + ".box");
     ramp();
   } else {
-    rd.fail(key + ".type", "expected \"force\", \"gravity\", \"probe\" or \"pressure\", got \"" + type + "\"");
+    rd.fail(key + ".type", "expected \"force\", \"gravity\", \"probe\", \"pressure\" or \"traction\", got \"" + type + "\"");
   }
   return l;
 }
@@ -206,7 +211,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     s.mesh_file = jm.get<std::string>();
     if (s.mesh_file.empty()) rd.fail("mesh", "expected a non-empty file name");
   } else if (jm.is_object()) {
-    if (!jm.contains("generate")) rd.fail("mesh.generate", "missing; expected \"box\", \"ellipsoid\" or \"tube\"");
+    if (!jm.contains("generate")) rd.fail("mesh.generate", "missing; expected \"box\", \"ellipsoid\", \"tube\" or \"cook\"");
     s.generator = rd.string(jm["generate"], "mesh.generate");
     if (s.generator == "box") {
       rd.keys(jm, "mesh", {"generate", "size", "cells"});
@@ -245,8 +250,18 @@ Scene parse_scene(const std::string& text, const std::string& path) {
         if (!c.is_array() || c.size() != 3) rd.fail("mesh.cells", "expected an array of 3 integers >= 1");
         for (int i = 0; i < 3; ++i) s.gen_cells[std::size_t(i)] = rd.integer(c[std::size_t(i)], "mesh.cells[" + std::to_string(i) + "]", 1);
       }
+    } else if (s.generator == "cook") {
+      // Cook's membrane, cells x cells x 1 (mesh/generate.h): tags 18 (clamped edge), 19 (loaded edge).
+      rd.keys(jm, "mesh", {"generate", "cells", "thickness"});
+      s.gen_size = Vec3(48, 60, 1);
+      s.gen_cells = {16, 16, 1};
+      if (jm.contains("cells")) {
+        const int n = rd.integer(jm["cells"], "mesh.cells", 1);
+        s.gen_cells = {n, n, 1};
+      }
+      if (jm.contains("thickness")) s.gen_size[2] = rd.positive(jm["thickness"], "mesh.thickness");
     } else {
-      rd.fail("mesh.generate", "expected \"box\", \"ellipsoid\" or \"tube\", got \"" + s.generator + "\"");
+      rd.fail("mesh.generate", "expected \"box\", \"ellipsoid\", \"tube\" or \"cook\", got \"" + s.generator + "\"");
     }
   } else {
     rd.fail("mesh", "expected a mesh file name or {\"generate\": \"box\", ...}");
@@ -452,12 +467,18 @@ Scene load_scene(const std::string& path) {
   return parse_scene(ss.str(), path);
 }
 
+TetMesh generate_scene_mesh(const Scene& s, const std::array<int, 3>& cells) {
+  if (s.generator == "box") return make_box(s.gen_size, cells);
+  if (s.generator == "tube") return make_tube(s.gen_size[0], s.gen_size[1], s.gen_size[2], s.gen_angle, cells);
+  if (s.generator == "cook") return make_cook_membrane(cells[0], s.gen_size[2]);
+  if (s.generator == "ellipsoid") return make_ellipsoid(s.gen_size, cells[0]);
+  throw InvalidArgument("generate_scene_mesh: the scene has no generator");
+}
+
 TetMesh load_scene_mesh(const Scene& s) {
   TetMesh mesh;
   if (!s.generator.empty()) {
-    if (s.generator == "box") mesh = make_box(s.gen_size, s.gen_cells);
-    else if (s.generator == "tube") mesh = make_tube(s.gen_size[0], s.gen_size[1], s.gen_size[2], s.gen_angle, s.gen_cells);
-    else mesh = make_ellipsoid(s.gen_size, s.gen_resolution);
+    mesh = generate_scene_mesh(s, s.generator == "ellipsoid" ? std::array<int, 3>{s.gen_resolution, 0, 0} : s.gen_cells);
   } else {
     fs::path p(s.mesh_file);
     if (p.is_relative()) p = fs::path(s.path).parent_path() / p;

@@ -67,11 +67,11 @@ std::string detached_part(const Scene& s, int frame, std::size_t tets, const Vec
   return m.str();
 }
 
-// The boundary faces a pressure load selects (by tag, or all three corners in its box) and, per
-// corner vertex, the force of a unit pressure: minus a third of each face's outward rest area
-// vector (pressure pushes into the body).
-std::vector<std::pair<VertexId, Vec3>> pressure_faces(const TetMesh& mesh, const SceneLoad& l, double tol, const Scene& s) {
-  std::unordered_map<std::uint32_t, Vec3> w;
+// The boundary faces a pressure or traction load selects (by tag, or all three corners in its
+// box) and, per corner vertex, a third of each face's rest area: as a vector (outward), whose
+// negative is the force of a unit pressure, and as a number, the force of a unit traction.
+std::vector<FaceShare> face_shares(const TetMesh& mesh, const SceneLoad& l, double tol, const Scene& s) {
+  std::unordered_map<std::uint32_t, FaceShare> w;
   std::size_t faces = 0;
   for (const BoundaryFace& f : mesh.boundary_faces()) {
     bool in = l.tag >= 0 ? f.tag == l.tag : true;
@@ -81,14 +81,18 @@ std::vector<std::pair<VertexId, Vec3>> pressure_faces(const TetMesh& mesh, const
     ++faces;
     const Vec3 a = mesh.rest(f.vertices[0]), b = mesh.rest(f.vertices[1]), c = mesh.rest(f.vertices[2]);
     const Vec3 area = 0.5 * (b - a).cross(c - a);
-    for (VertexId v : f.vertices) w.try_emplace(v.idx(), Vec3::Zero()).first->second -= area / 3;  // Eigen leaves a default Vec3 unset
+    for (VertexId v : f.vertices) {
+      FaceShare& share = w.try_emplace(v.idx(), FaceShare{v, Vec3::Zero(), 0.0}).first->second;  // Eigen leaves a default Vec3 unset
+      share.area_vector += area / 3;
+      share.area += area.norm() / 3;
+    }
   }
   if (faces == 0)
     fail(s, l.key + (l.tag >= 0 ? ".tag" : ".box"),
          l.tag >= 0 ? "no boundary face has tag " + std::to_string(l.tag) : std::string("selects no boundary face"));
-  std::vector<std::pair<VertexId, Vec3>> out;
-  for (const auto& [v, f] : w) out.emplace_back(VertexId(v), f);
-  std::sort(out.begin(), out.end(), [](const auto& x, const auto& y) { return x.first.idx() < y.first.idx(); });
+  std::vector<FaceShare> out;
+  for (const auto& [v, share] : w) out.push_back(share);
+  std::sort(out.begin(), out.end(), [](const FaceShare& x, const FaceShare& y) { return x.vertex.idx() < y.vertex.idx(); });
   return out;
 }
 
@@ -133,14 +137,15 @@ SceneRunner::SceneRunner(const Scene& scene, const TetMesh* mesh) : scene_(scene
   for (std::size_t i = 0; i < s.fixed.size(); ++i)
     for (VertexId v : select(s.fixed[i].box, "fixed[" + std::to_string(i) + "].box")) fixed.emplace_back(v, s.fixed[i].axes);
   load_vertices_.resize(s.loads.size());
-  // Pressure loads: per vertex, the force of a unit pressure (its share of the selected faces'
-  // rest area vectors, a third per corner), fixed when the scene starts like other loads.
-  pressure_weights_.resize(s.loads.size());
+  // Pressure and traction loads: per vertex, its share of the selected faces' rest areas (a third
+  // per corner), fixed when the scene starts like other loads.
+  face_shares_.resize(s.loads.size());
   Vec3 gravity = Vec3::Zero();
   for (std::size_t i = 0; i < s.loads.size(); ++i) {
     const SceneLoad& l = s.loads[i];
     if (l.kind == SceneLoad::Kind::Gravity) gravity += l.value;
-    else if (l.kind == SceneLoad::Kind::Pressure) pressure_weights_[i] = pressure_faces(mesh_, l, tol, s);
+    else if (l.kind == SceneLoad::Kind::Pressure || l.kind == SceneLoad::Kind::Traction)
+      face_shares_[i] = face_shares(mesh_, l, tol, s);
     else load_vertices_[i] = select(l.box, l.key + ".box");
   }
 
@@ -408,7 +413,9 @@ SceneFrame SceneRunner::step() {
     if (l.kind == SceneLoad::Kind::Force) {
       for (VertexId v : load_vertices_[i]) force_[v.idx()] += f * l.value / double(load_vertices_[i].size());
     } else if (l.kind == SceneLoad::Kind::Pressure) {
-      for (const auto& [v, w] : pressure_weights_[i]) force_[v.idx()] += f * l.value.x() * w;
+      for (const FaceShare& w : face_shares_[i]) force_[w.vertex.idx()] -= f * l.value.x() * w.area_vector;
+    } else if (l.kind == SceneLoad::Kind::Traction) {
+      for (const FaceShare& w : face_shares_[i]) force_[w.vertex.idx()] += f * w.area * l.value;
     } else if (l.kind == SceneLoad::Kind::Probe) {
       for (VertexId v : load_vertices_[i]) {
         if (fem_) fem_->prescribe(v, f * l.value);

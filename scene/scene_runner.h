@@ -29,6 +29,14 @@
 
 namespace incise {
 
+// A vertex's share of the boundary faces a pressure or traction load selects: a third of each
+// incident selected face's rest area, as the outward area vector and as its magnitude.
+struct FaceShare {
+  VertexId vertex;
+  Vec3 area_vector;
+  double area = 0;
+};
+
 // One played frame.
 struct SceneFrame {
   int frame = 0;
@@ -113,7 +121,7 @@ private:
   bool dynamic_ = false;
   FragmentPolicy policy_ = FragmentPolicy::Keep;
   std::vector<std::vector<VertexId>> load_vertices_;                      // per load (force, probe)
-  std::vector<std::vector<std::pair<VertexId, Vec3>>> pressure_weights_;  // per pressure load
+  std::vector<std::vector<FaceShare>> face_shares_;  // per pressure or traction load
   std::vector<std::unique_ptr<Cutter>> cutters_;  // per scene cut
   std::vector<double> swept_;                     // per scene cut: fraction of its sweep done
   std::unique_ptr<Cutter> blade_;                 // the outside blade

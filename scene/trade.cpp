@@ -42,33 +42,24 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// The scene's file mesh (relative to the scene, as run_scene reads it), compacted.
-TetMesh read_scene_mesh(const Scene& s) {
-  std::filesystem::path file(s.mesh_file);
-  if (file.is_relative()) file = std::filesystem::path(s.path).parent_path() / file;
-  TetMesh m = read_tet_mesh(file.string());
-  m.compact();
-  return m;
-}
-
 // The scene's body at mesh level `level` (see TradeOptions::resolutions), compacted; `how`
 // (level -1) says how the coarser mesh was made.
 TetMesh body_at(const Scene& s, int level, std::string* how) {
   if (level < -1) throw InvalidArgument("trade: resolutions below -1 are not supported");
   TetMesh m;
   if (level < 0) {
-    auto half = [](int n) { return std::max(1, n / 2); };
-    const std::array<int, 3> c{half(s.gen_cells[0]), half(s.gen_cells[1]), half(s.gen_cells[2])};
-    if (s.generator == "box") m = make_box(s.gen_size, c);
-    else if (s.generator == "tube") m = make_tube(s.gen_size[0], s.gen_size[1], s.gen_size[2], s.gen_angle, c);
-    else if (s.generator == "ellipsoid") m = make_ellipsoid(s.gen_size, half(s.gen_resolution));
     if (!s.generator.empty()) {
+      auto half = [](int n) { return std::max(1, n / 2); };
       if (how) *how = "the " + s.generator + " generator with half the cells";
+      if (s.generator == "ellipsoid") m = generate_scene_mesh(s, {half(s.gen_resolution), 0, 0});
+      else m = generate_scene_mesh(s, {half(s.gen_cells[0]), half(s.gen_cells[1]), half(s.gen_cells[2])});
+      m.compact();
       return m;
     }
     // A file: nothing regenerates it coarser, so contract its edges to about twice their
     // length (quality/coarsen.h: same labels, tags and body within a bounded distance).
-    m = read_scene_mesh(s);
+    m = load_scene_mesh(s);
+    m.compact();
     const CoarsenReport r = coarsen(m);
     m.discard_change();
     m.compact();
@@ -81,10 +72,7 @@ TetMesh body_at(const Scene& s, int level, std::string* how) {
     }
     return m;
   }
-  if (s.generator == "box") m = make_box(s.gen_size, s.gen_cells);
-  else if (s.generator == "tube") m = make_tube(s.gen_size[0], s.gen_size[1], s.gen_size[2], s.gen_angle, s.gen_cells);
-  else if (s.generator == "ellipsoid") m = make_ellipsoid(s.gen_size, s.gen_resolution);
-  else m = read_scene_mesh(s);
+  m = load_scene_mesh(s);  // its file (relative to the scene) or its generator, as run_scene reads it
   m.compact();
   for (int k = 0; k < level; ++k) m = refine_uniform(m);
   m.discard_change();

@@ -32,6 +32,14 @@ TEST_CASE("generated meshes are valid, closed and have the analytic volume", "[m
   CHECK(box.num_vertices() == 4 * 5 * 6);
   CHECK(box.total_volume() == Approx(24.0).epsilon(1e-12));
   CHECK(tagged_area(box, kTagSurface) == Approx(2 * (6 + 8 + 12)).epsilon(1e-12));
+  // The mirrored split (diagonals alternate) conforms too: no face left open inside, so the
+  // tagged boundary is the box's surface alone.
+  TetMesh mirrored = make_box(Vec3(2, 3, 4), {3, 4, 5}, 1, BoxSplit::Mirrored);
+  mirrored.validate({true, true});
+  CHECK(mirrored.num_tets() == 6 * 3 * 4 * 5);
+  CHECK(mirrored.boundary_faces().size() == box.boundary_faces().size());
+  CHECK(mirrored.total_volume() == Approx(24.0).epsilon(1e-12));
+  CHECK(tagged_area(mirrored, kTagSurface) == Approx(2 * (6 + 8 + 12)).epsilon(1e-12));
 
   for (int n : {1, 2, 5, 10}) {
     TetMesh ball = make_ellipsoid(Vec3(1, 1, 1), n);

@@ -71,14 +71,14 @@ TEST_CASE("scene errors name the key and what was expected", "[scene][errors]") 
   CHECK_THAT(error_of(with("materials", R"({"3": {"young": 0}})")), Catch::Contains("materials.3.young: expected a positive number"));
   CHECK_THAT(error_of(with("fixed", R"([{"box": [0, 0, 0, 1, 1]}])")), Catch::Contains("fixed[0].box: expected [xmin, ymin, zmin, xmax, ymax, zmax]"));
   CHECK_THAT(error_of(with("fixed", R"([{"box": [1, 0, 0, 0, 1, 1]}])")), Catch::Contains("fixed[0].box: expected min <= max"));
-  CHECK_THAT(error_of(with("loads", R"([{"type": "push"}])")), Catch::Contains("loads[0].type: expected \"force\", \"gravity\", \"probe\" or \"pressure\""));
+  CHECK_THAT(error_of(with("loads", R"([{"type": "push"}])")), Catch::Contains("loads[0].type: expected \"force\", \"gravity\", \"probe\", \"pressure\" or \"traction\""));
   CHECK_THAT(error_of(with("loads", R"([{"type": "force", "box": [0,0,0,1,1,1]}])")), Catch::Contains("loads[0].total: missing"));
   CHECK_THAT(error_of(with("loads", R"([{"type": "gravity", "g": [0, 0]}])")), Catch::Contains("loads[0].g: expected an array of 3 numbers"));
   CHECK_THAT(error_of(with("loads", R"([{"type": "probe", "box": [0,0,0,1,1,1], "displacement": [0,0,1], "from_frame": 5, "to_frame": 2}])")),
              Catch::Contains("loads[0].to_frame: expected an integer >= from_frame"));
   CHECK_THAT(error_of(with("time", R"({"frames": 0})")), Catch::Contains("time.frames: expected an integer >= 1"));
   CHECK_THAT(error_of(with("time", R"({"integrator": "verlet"})")), Catch::Contains("time.integrator: expected \"static\" or \"implicit-euler\""));
-  CHECK_THAT(error_of(with("mesh", R"({"generate": "torus"})")), Catch::Contains("mesh.generate: expected \"box\", \"ellipsoid\" or \"tube\""));
+  CHECK_THAT(error_of(with("mesh", R"({"generate": "torus"})")), Catch::Contains("mesh.generate: expected \"box\", \"ellipsoid\", \"tube\" or \"cook\""));
   CHECK_THAT(error_of(with("mesh", "42")), Catch::Contains("mesh: expected a mesh file name"));
   CHECK_THAT(error_of(std::string(kGood) + "x"), Catch::StartsWith("scene.json:9: invalid JSON"));
   CHECK_THAT(error_of("{\n \"mesh\": \"a.vtu\",\n \"oops\": 1}"), Catch::Contains("scene.json: oops: unknown key"));
