@@ -1,4 +1,6 @@
-// incise view SCENE.json: the scene played live in a browser (docs/view.md). Starts the local
+// incise view SCENE.json | MESH | REPORT.json | RUN_DIR (docs/view.md): a scene played live in a
+// browser, or files looked at (a mesh, a quality report's mesh, a run directory's frames). The
+// mode comes from the argument (view/look_session.h classify_view_argument). Starts the local
 // server, prints its URL on stdout, and serves until interrupted (Ctrl-C).
 #include <iostream>
 #include <memory>
@@ -6,6 +8,7 @@
 #include "cli/commands.h"
 #include "scene/scene.h"
 #include "view/live_session.h"
+#include "view/look_session.h"
 #include "view/server.h"
 
 namespace incise::cli {
@@ -18,8 +21,12 @@ void add_view(CLI::App& app) {
     bool paused = false;
   };
   auto o = std::make_shared<Opts>();
-  auto* cmd = app.add_subcommand("view", "Play a scene live in the browser: cut it with the mouse (docs/view.md)");
-  cmd->add_option("scene", o->scene, "Scene file (.json, see docs/scene.md)")->required();
+  auto* cmd = app.add_subcommand("view", "Play a scene live in the browser and cut it with the mouse, or look at a mesh, "
+                                         "a quality report's mesh or a run directory (docs/view.md)");
+  cmd->add_option("input", o->scene,
+                  "Scene file (.json, docs/scene.md): live; a mesh file, a report of `incise quality --json`, or a "
+                  "directory of `incise simulate -o`: look")
+      ->required();
   cmd->add_option("--port", o->port, "TCP port; 0 (default): a free one")->check(CLI::Range(0, 65535));
   cmd->add_option("--host", o->host,
                   "IP address to listen on; default 127.0.0.1 (this machine only). Another address exposes the "
@@ -32,6 +39,22 @@ void add_view(CLI::App& app) {
       ->check(CLI::Range(0.0, 1e6));
   cmd->add_flag("--paused", o->paused, "Start paused (Step or Resume on the page)");
   cmd->callback([o] {
+    view::ServerOptions so;
+    so.host = o->host;
+    so.port = static_cast<unsigned short>(o->port);
+    so.web_dir = o->web_dir;
+    const view::ViewArgument kind = view::classify_view_argument(o->scene);
+    if (kind != view::ViewArgument::Scene) {
+      std::unique_ptr<view::LookSession> look = kind == view::ViewArgument::Run    ? view::LookSession::open_run(o->scene)
+                                                : kind == view::ViewArgument::Report ? view::LookSession::open_report(o->scene)
+                                                                                     : view::LookSession::open_mesh(o->scene);
+      view::ViewServer server(*look, so);
+      std::cout << "incise view: " << server.url() << "  (" << o->scene << ": "
+                << (kind == view::ViewArgument::Run ? std::to_string(look->frame_count()) + " frames" : std::string("look"))
+                << "; Ctrl-C stops)" << std::endl;
+      server.run();
+      return;
+    }
     Scene scene = load_scene(o->scene);
     // Live, a frame must come back in time: without a budget the solves right after a cut took
     // up to 2.8 s on the sample liver. Scenes written for `incise simulate` rarely set one.
@@ -39,10 +62,6 @@ void add_view(CLI::App& app) {
     if (o->budget_ms >= 0) scene.cg.budget_ms = o->budget_ms;
     else if (scene.cg.budget_ms <= 0) scene.cg.budget_ms = kLiveBudgetMs;
     view::LiveSession live(scene);
-    view::ServerOptions so;
-    so.host = o->host;
-    so.port = static_cast<unsigned short>(o->port);
-    so.web_dir = o->web_dir;
     view::ViewServer server(live, so);
     if (o->paused) live.post({view::InputKind::Pause});
     live.start();

@@ -145,6 +145,8 @@ std::string LiveSession::check(const InputMessage& in) const {
       if (Vec3(in.v[0], in.v[1], in.v[2]).norm() > body_size_) return "probe: moved by more than the body's size";
       return "";
     case InputKind::Ack: return "ack: not for the simulation";
+    case InputKind::Colour: return in.value <= 2 ? "" : "colour: label and boundary-tag colours are look mode's";
+    case InputKind::Frame: return "frame: only a run directory has frames to pick (incise view RUN_DIR)";
     default: return "";
   }
 }
@@ -242,7 +244,8 @@ void LiveSession::loop() {
             s->colour = m.value;
             s->frames_since_colour = 1 << 20;
             break;
-          case InputKind::Ack: break;
+          case InputKind::Ack:
+          case InputKind::Frame: break;  // refused by check()
         }
       }
       if (!s->paused || s->step_once) {

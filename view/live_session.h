@@ -19,21 +19,20 @@
 #include <thread>
 
 #include "scene/scene.h"
-#include "view/frame_diff.h"
-#include "view/wire_format.h"
+#include "view/view_source.h"
 
 namespace incise::view {
 
 class LiveState;  // the runner and what follows it (live_session.cpp)
 
-class LiveSession {
+class LiveSession : public ViewSource {
 public:
   static constexpr double kMaxFps = 60;
   static constexpr std::size_t kMaxPending = 256;  // inputs waiting for the next frame
 
   // Builds the runner (throws what SceneRunner throws: IoError naming the scene and key).
   explicit LiveSession(const Scene& scene);
-  ~LiveSession();  // stops the thread
+  ~LiveSession() override;  // stops the thread
   LiveSession(const LiveSession&) = delete;
   LiveSession& operator=(const LiveSession&) = delete;
 
@@ -41,12 +40,12 @@ public:
   void stop();
   // Queues an input for the next frame. Returns "" or why it was refused (a blade or probe
   // far outside the body, a full queue); a refused input changes nothing.
-  std::string post(const InputMessage& input);
+  std::string post(const InputMessage& input) override;
   // Called on the simulation thread after each publish (keep it short: post to a network loop).
-  void set_listener(std::function<void()> listener);
-  std::shared_ptr<const Snapshot> snapshot() const;
+  void set_listener(std::function<void()> listener) override;
+  std::shared_ptr<const Snapshot> snapshot() const override;
   // The figures of /status: counts, frame, timings so far (JSON).
-  std::string status_json() const;
+  std::string status_json() const override;
 
 private:
   void loop();

@@ -53,7 +53,7 @@ constexpr std::size_t kMaxMessage = 64;     // the largest input is 25 bytes
 class WsSession;
 
 struct ViewServer::Impl : std::enable_shared_from_this<ViewServer::Impl> {
-  LiveSession& session;
+  ViewSource& session;
   ServerOptions opt;
   asio::io_context ioc{1};
   tcp::acceptor acceptor{ioc};
@@ -62,7 +62,7 @@ struct ViewServer::Impl : std::enable_shared_from_this<ViewServer::Impl> {
   std::vector<std::string> allowed_hosts;  // Host header values naming this server
   unsigned short port = 0;
 
-  Impl(LiveSession& s, const ServerOptions& o) : session(s), opt(o) {}
+  Impl(ViewSource& s, const ServerOptions& o) : session(s), opt(o) {}
   void accept();
   void frame_ready();
   bool host_ok(const http::request<http::string_body>& req) const {
@@ -270,7 +270,7 @@ void ViewServer::Impl::frame_ready() {
   });
 }
 
-ViewServer::ViewServer(LiveSession& session, const ServerOptions& options)
+ViewServer::ViewServer(ViewSource& session, const ServerOptions& options)
     : impl_(std::make_shared<Impl>(session, options)) {
   Impl& m = *impl_;
   for (const auto& [target, file] : page_files()) {

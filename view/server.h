@@ -1,6 +1,6 @@
 #pragma once
 // ViewServer: the HTTP + WebSocket server of `incise view` (Boost.Beast, one port, one network
-// thread). It serves only its own page files (a fixed list read from the web directory at
+// thread) over a ViewSource (a live scene or files looked at). It serves only its own page files (a fixed list read from the web directory at
 // start), a JSON status at /status, and the live stream at /ws. Beast stays inside server.cpp:
 // this header and the rest of incise_view do not see Boost.
 //
@@ -12,7 +12,7 @@
 #include <memory>
 #include <string>
 
-#include "view/live_session.h"
+#include "view/view_source.h"
 
 namespace incise::view {
 
@@ -28,7 +28,7 @@ public:
   static constexpr double kMaxInputsPerSecond = 240;  // per page, averaged over a burst of as many
 
   // Reads the page files and binds; throws Error (a missing file, an address in use).
-  ViewServer(LiveSession& session, const ServerOptions& options);
+  ViewServer(ViewSource& session, const ServerOptions& options);
   ~ViewServer();
   ViewServer(const ViewServer&) = delete;
   ViewServer& operator=(const ViewServer&) = delete;

@@ -146,7 +146,8 @@ std::size_t input_size(std::uint8_t kind) {
     case InputKind::ProbeGrab: return 1 + 4 * 4;
     case InputKind::ProbeMove: return 1 + 3 * 4;
     case InputKind::Colour:
-    case InputKind::Ack: return 1 + 4;
+    case InputKind::Ack:
+    case InputKind::Frame: return 1 + 4;
     case InputKind::BladeEnd:
     case InputKind::ProbeRelease:
     case InputKind::Pause:
@@ -167,7 +168,7 @@ int floats_of(InputKind k) {
     default: return 0;
   }
 }
-bool has_value(InputKind k) { return k == InputKind::Colour || k == InputKind::Ack; }
+bool has_value(InputKind k) { return k == InputKind::Colour || k == InputKind::Ack || k == InputKind::Frame; }
 }  // namespace
 
 std::vector<std::uint8_t> encode(const InputMessage& m) {

@@ -21,6 +21,7 @@ inline constexpr std::uint16_t kWireVersion = 1;
 // Triangle flags (FrameMessage::Triangle::flags).
 inline constexpr std::uint32_t kTriangleCut = 1;    // a face a cut opened (kTagCut)
 inline constexpr std::uint32_t kTriangleFixed = 2;  // its three corners are held by the scene
+inline constexpr std::uint32_t kTriangleWorst = 4;  // a face of one of the worst elements (look mode)
 
 struct FrameMessage {
   bool reset = false;                // the page drops every slot first (a new run or a reset)
@@ -61,13 +62,15 @@ enum class InputKind : std::uint8_t {
   Reset,           // the scene from its start
   Colour,          // value: 0 none, 1 von Mises stress, 2 element quality (min dihedral)
   Ack,             // value: the frame the page has drawn (the next one may be sent)
+  Frame,           // value: which frame of a run directory to show (look mode)
 };
-inline constexpr std::uint32_t kColourModes = 3;
+// 0 plain, 1 von Mises, 2 element quality; look mode adds 3 label, 4 boundary tag.
+inline constexpr std::uint32_t kColourModes = 5;
 
 struct InputMessage {
   InputKind kind = InputKind::Pause;
   std::array<float, 6> v{};  // BladeStart/Move: a, b; ProbeGrab: point, radius; ProbeMove: d
-  std::uint32_t value = 0;   // Colour: mode; Ack: frame
+  std::uint32_t value = 0;   // Colour: mode; Ack, Frame: frame
 };
 
 // Exact size of an input's encoding (each kind has one), 0 for an unknown kind byte.

@@ -1,12 +1,14 @@
 // The page of `incise view` (docs/view.md): draws the boundary the server streams and sends the
-// mouse's blade and probe. It simulates nothing: every figure comes from the server.
+// mouse's blade and probe (live), or the frame picked on the time slider (look mode: the server
+// says which in each frame's figures, `mode`). It simulates nothing: every figure comes from the
+// server.
 import * as THREE from 'three';
 import { OrbitControls } from './OrbitControls.js';
 
 // ---- wire format (view/wire_format.h) ---------------------------------------------------
 const Kind = { BladeStart: 1, BladeMove: 2, BladeEnd: 3, ProbeGrab: 4, ProbeMove: 5, ProbeRelease: 6,
-               Pause: 7, Resume: 8, Step: 9, Reset: 10, Colour: 11, Ack: 12 };
-const TRI_CUT = 1, TRI_FIXED = 2;
+               Pause: 7, Resume: 8, Step: 9, Reset: 10, Colour: 11, Ack: 12, Frame: 13 };
+const TRI_CUT = 1, TRI_FIXED = 2, TRI_WORST = 4;
 
 function encodeInput(kind, floats = [], value = null) {
   const buf = new ArrayBuffer(1 + 4 * floats.length + (value === null ? 0 : 4));
@@ -43,8 +45,9 @@ let pos = new Float32Array(0);      // 3 per vertex slot
 let tris = new Uint32Array(0);      // 5 per triangle slot: a, b, c, flags, alive
 let scalars = null, scalarLo = 0, scalarHi = 1;
 let stats = {};
-const view = window.inciseView = { triangles: 0, cutTriangles: 0, frame: -1, messages: 0, bytes: 0,
-                                   fps: 0, bytesPerFrame: 0, errors: [], connected: false };
+const view = window.inciseView = { triangles: 0, cutTriangles: 0, worstTriangles: 0, frame: -1, messages: 0, bytes: 0,
+                                   fps: 0, bytesPerFrame: 0, errors: [], connected: false, mode: null,
+                                   positionSum: 0 };
 
 function grow(a, n, Type, fill) {
   if (a.length >= n) return a;
@@ -62,6 +65,7 @@ function apply(m) {
   if (m.scalars) { scalars = m.scalars; scalarLo = m.scalarLo; scalarHi = m.scalarHi; }
   stats = m.stats;
   if (!stats.colour) scalars = null;
+  if (view.mode === null) setViewMode(stats.mode || 'live');
   triangleSlots = m.triangleSlots;
   rebuild();
 }
@@ -86,7 +90,12 @@ const surface = new THREE.Mesh(geometry, new THREE.MeshStandardMaterial({
   vertexColors: true, flatShading: true, side: THREE.DoubleSide, roughness: 0.7, metalness: 0.0 }));
 const wire = new THREE.Mesh(geometry, new THREE.MeshBasicMaterial({ color: 0x101010, wireframe: true }));
 wire.visible = false;
-scene.add(surface, wire);
+// Look mode's worst elements: drawn over everything (they are mostly inside the body).
+const worstGeometry = new THREE.BufferGeometry();
+const worstMesh = new THREE.Mesh(worstGeometry, new THREE.MeshBasicMaterial({
+  color: 0xff3030, side: THREE.DoubleSide, depthTest: false, transparent: true, opacity: 0.85 }));
+worstMesh.renderOrder = 1;
+scene.add(surface, wire, worstMesh);
 let triangleSlots = 0, fitted = false;
 const box = new THREE.Box3(), center = new THREE.Vector3();
 let bodySize = 1;
@@ -97,10 +106,13 @@ function colourmap(t) {  // blue -> green -> red
   return [Math.min(1, Math.max(0, 2 * t - 0.5)), 1 - Math.abs(2 * t - 1) * 0.8, Math.min(1, Math.max(0, 1.5 - 2 * t))];
 }
 
+// Labels and boundary tags (look mode's colours 3 and 4) are categories, not a scale.
+const PALETTE = [[0.85, 0.47, 0.45], [0.45, 0.70, 0.90], [0.98, 0.85, 0.30], [0.55, 0.80, 0.45], [0.75, 0.55, 0.85],
+                 [0.95, 0.60, 0.25], [0.40, 0.80, 0.75], [0.85, 0.85, 0.85]];
 function rebuild() {
   const n = triangleSlots;
-  const p = new Float32Array(9 * n), c = new Float32Array(9 * n);
-  let count = 0, cut = 0;
+  const p = new Float32Array(9 * n), c = new Float32Array(9 * n), wp = [];
+  let count = 0, cut = 0, worst = 0, sum = 0;
   for (let s = 0; s < n; ++s) {
     if (!tris[5 * s + 4]) continue;
     ++count;
@@ -108,13 +120,21 @@ function rebuild() {
     if (flags & TRI_CUT) ++cut;
     let col = flags & TRI_CUT ? CUT : flags & TRI_FIXED ? FIXED : TISSUE;
     if (scalars && s < scalars.length && !(flags & TRI_CUT))
-      col = colourmap((scalars[s] - scalarLo) / Math.max(1e-30, scalarHi - scalarLo));
+      col = stats.colour >= 3 ? PALETTE[Math.abs(Math.round(scalars[s])) % PALETTE.length]
+                              : colourmap((scalars[s] - scalarLo) / Math.max(1e-30, scalarHi - scalarLo));
     for (let k = 0; k < 3; ++k) {
       const v = tris[5 * s + k];
       p.set(pos.subarray(3 * v, 3 * v + 3), 9 * s + 3 * k);
       c.set(col, 9 * s + 3 * k);
+      sum += pos[3 * v] + pos[3 * v + 1] + pos[3 * v + 2];
+      if (flags & TRI_WORST) wp.push(pos[3 * v], pos[3 * v + 1], pos[3 * v + 2]);
     }
+    if (flags & TRI_WORST) ++worst;
   }
+  worstGeometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(wp), 3));
+  worstGeometry.computeBoundingSphere();
+  view.worstTriangles = worst;
+  view.positionSum = sum;
   geometry.setAttribute('position', new THREE.BufferAttribute(p, 3));
   geometry.setAttribute('color', new THREE.BufferAttribute(c, 3));
   geometry.computeBoundingSphere();
@@ -174,6 +194,7 @@ const overlay = document.getElementById('overlay');
 const f = (x, d = 2) => (x === undefined || x === null ? '-' : Number(x).toFixed(d));
 function showStats() {
   const s = stats;
+  if (s.mode) return showLookStats(s);
   overlay.textContent =
     `frame ${s.frame}${s.paused ? '  (paused)' : ''}   ${f(view.fps, 1)} fps to this page, ${f(view.bytesPerFrame / 1024, 1)} KiB/frame\n` +
     `frame ${f(s.frame_ms)} ms: cut ${f(s.cut_ms)} ms, solve ${f(s.solve_ms)} ms\n` +
@@ -283,3 +304,70 @@ function flushMoveOnce() {
 }
 renderer.domElement.addEventListener('pointerup', endDrag);
 renderer.domElement.addEventListener('pointercancel', endDrag);
+
+// ---- look mode (incise view MESH | REPORT | RUN_DIR) -------------------------------------------
+// Nothing plays: the live controls go, colours by label and boundary tag come, and a run
+// directory gets a time slider and its stats.csv curves (from /status, once).
+let runStats = null;
+function setViewMode(m) {
+  view.mode = m;
+  if (m === 'live') return;
+  for (const id of ['mode-cut', 'mode-probe', 'pause', 'step', 'reset', 'depth-label'])
+    document.getElementById(id).style.display = 'none';
+  setMode('orbit');
+  const sel = document.getElementById('colour');
+  sel.innerHTML = '<option value="0">plain</option><option value="3">label</option>' +
+                  '<option value="4">boundary tag</option><option value="2">element quality (min dihedral)</option>';
+  document.getElementById('help').textContent = 'drag: orbit · right drag: orbit · Shift+right drag: pan · wheel: zoom · red: the worst elements';
+  if ((stats.labels || []).length > 1) { sel.value = '3'; send(encodeInput(Kind.Colour, [], 3)); }
+  if (m === 'run') {
+    document.getElementById('run').style.display = 'block';
+    const slider = document.getElementById('frame');
+    slider.max = String(stats.frames - 1);
+    slider.oninput = () => send(encodeInput(Kind.Frame, [], Number(slider.value)));
+    fetch('/status').then((r) => r.json()).then((st) => {
+      runStats = st.stats;
+      const pick = document.getElementById('curve');
+      if (!runStats) { pick.style.display = 'none'; return; }
+      runStats.columns.forEach((name, i) => { if (name !== 'frame' && name !== 'time') pick.add(new Option(name, String(i))); });
+      const preferred = runStats.columns.indexOf('max_displacement');
+      if (preferred >= 0) pick.value = String(preferred);
+      pick.onchange = plot;
+      plot();
+    });
+  }
+}
+function plot() {
+  const svg = document.getElementById('plot');
+  if (!runStats || !runStats.rows.length) { svg.innerHTML = ''; return; }
+  const col = Number(document.getElementById('curve').value), W = 300, H = 90;
+  const ys = runStats.rows.map((r) => r[col]).filter((y) => y !== null);
+  const lo = Math.min(...ys), hi = Math.max(...ys), n = runStats.rows.length;
+  const x = (i) => 4 + (W - 8) * (n > 1 ? i / (n - 1) : 0.5), y = (v) => H - 12 - (H - 20) * (hi > lo ? (v - lo) / (hi - lo) : 0.5);
+  const pts = runStats.rows.map((r, i) => (r[col] === null ? null : `${x(i).toFixed(1)},${y(r[col]).toFixed(1)}`)).filter(Boolean);
+  // The marker is at the row of the frame shown (rows are frames in order, frames.pvd lists a subset).
+  const frameCol = runStats.columns.indexOf('frame');
+  const shownTime = stats.time;
+  const timeCol = runStats.columns.indexOf('time');
+  let at = runStats.rows.findIndex((r) => timeCol >= 0 && Math.abs(r[timeCol] - shownTime) <= 1e-9 * Math.max(1, Math.abs(shownTime)));
+  if (at < 0 && frameCol >= 0) at = Math.min(n - 1, stats.frame);
+  svg.innerHTML = `<polyline fill="none" stroke="#7fb3ff" stroke-width="1.5" points="${pts.join(' ')}"/>` +
+    (at >= 0 ? `<line x1="${x(at)}" x2="${x(at)}" y1="2" y2="${H - 10}" stroke="#ffd54f"/>` : '') +
+    `<text x="4" y="${H - 1}" fill="#9aa3b2" font-size="10">${lo.toPrecision(3)} .. ${hi.toPrecision(3)}</text>`;
+}
+function showLookStats(s) {
+  const colourName = { 2: 'min dihedral', 3: 'label', 4: 'boundary tag' }[s.colour];
+  overlay.textContent =
+    `${s.file}${s.mode === 'run' ? `   frame ${s.frame + 1} of ${s.frames}, t = ${Number(s.time).toPrecision(4)}` : ''}\n` +
+    `${s.tets} tets, ${s.vertices} vertices, ${s.triangles} triangles drawn (${s.cut_triangles} cut, ` +
+    `${view.worstTriangles} of the worst elements)\n` +
+    `labels ${(s.labels || []).join(', ')}\n` +
+    `min dihedral ${f(s.min_dihedral, 1)} deg, ${s.slivers} slivers, ${s.inverted} inverted\n` +
+    `worst ${(s.worst || []).length} (red; ${s.worst_from}): tets ${(s.worst || []).slice(0, 10).join(' ')}` +
+    (colourName ? `\ncolour ${colourName}: ${Number(s.scalar_lo).toPrecision(3)} .. ${Number(s.scalar_hi).toPrecision(3)}` : '');
+  if (s.mode === 'run') {
+    document.getElementById('frame-label').textContent = `frame ${s.frame + 1}/${s.frames}`;
+    document.getElementById('frame').value = String(s.frame);
+    plot();
+  }
+}
