@@ -48,7 +48,8 @@ bool is_report(const nlohmann::json& j) {
 // frames.pvd's DataSets in order: (time, file). Files must be plain names in the directory.
 std::vector<std::pair<double, std::string>> read_pvd(const std::string& pvd) {
   std::istringstream in(read_text(pvd));
-  static const std::regex kDataSet(R"(<DataSet\b[^>]*>)"), kTime(R"(timestep="([^"]*)")"), kFile(R"(file="([^"]*)")");
+  static const std::regex kDataSet(R"re(<DataSet\b[^>]*>)re"), kTime(R"re(timestep="([^"]*)")re"),
+      kFile(R"re(\bfile="([^"]*)")re");
   std::vector<std::pair<double, std::string>> out;
   std::string line;
   for (long n = 1; std::getline(in, line); ++n) {

@@ -14,6 +14,7 @@
 #include "mesh/generate.h"
 #include "mesh/io/tet_io.h"
 #include "quality/report.h"
+#include "view/boundary_tracker.h"
 #include "view/look_session.h"
 
 using namespace incise;

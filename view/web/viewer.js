@@ -109,6 +109,12 @@ function colourmap(t) {  // blue -> green -> red
 // Labels and boundary tags (look mode's colours 3 and 4) are categories, not a scale.
 const PALETTE = [[0.85, 0.47, 0.45], [0.45, 0.70, 0.90], [0.98, 0.85, 0.30], [0.55, 0.80, 0.45], [0.75, 0.55, 0.85],
                  [0.95, 0.60, 0.25], [0.40, 0.80, 0.75], [0.85, 0.85, 0.85]];
+// Labels take the palette in the order the mesh has them (85, 127, 255 would otherwise share
+// colours); tags are small numbers already.
+function category(x) {
+  const i = stats.colour === 3 ? (stats.labels || []).indexOf(Math.round(x)) : Math.round(x);
+  return i < 0 ? PALETTE.length - 1 : i;
+}
 function rebuild() {
   const n = triangleSlots;
   const p = new Float32Array(9 * n), c = new Float32Array(9 * n), wp = [];
@@ -120,7 +126,7 @@ function rebuild() {
     if (flags & TRI_CUT) ++cut;
     let col = flags & TRI_CUT ? CUT : flags & TRI_FIXED ? FIXED : TISSUE;
     if (scalars && s < scalars.length && !(flags & TRI_CUT))
-      col = stats.colour >= 3 ? PALETTE[Math.abs(Math.round(scalars[s])) % PALETTE.length]
+      col = stats.colour >= 3 ? PALETTE[category(scalars[s]) % PALETTE.length]
                               : colourmap((scalars[s] - scalarLo) / Math.max(1e-30, scalarHi - scalarLo));
     for (let k = 0; k < 3; ++k) {
       const v = tris[5 * s + k];
@@ -361,7 +367,7 @@ function showLookStats(s) {
     `${s.file}${s.mode === 'run' ? `   frame ${s.frame + 1} of ${s.frames}, t = ${Number(s.time).toPrecision(4)}` : ''}\n` +
     `${s.tets} tets, ${s.vertices} vertices, ${s.triangles} triangles drawn (${s.cut_triangles} cut, ` +
     `${view.worstTriangles} of the worst elements)\n` +
-    `labels ${(s.labels || []).join(', ')}\n` +
+    `labels ${(s.labels || []).map((l, i) => (s.colour === 3 ? `${l} (${['red', 'blue', 'yellow', 'green', 'violet', 'orange', 'teal', 'grey'][i % 8]})` : l)).join(', ')}\n` +
     `min dihedral ${f(s.min_dihedral, 1)} deg, ${s.slivers} slivers, ${s.inverted} inverted\n` +
     `worst ${(s.worst || []).length} (red; ${s.worst_from}): tets ${(s.worst || []).slice(0, 10).join(' ')}` +
     (colourName ? `\ncolour ${colourName}: ${Number(s.scalar_lo).toPrecision(3)} .. ${Number(s.scalar_hi).toPrecision(3)}` : '');
