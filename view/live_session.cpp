@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 
@@ -47,9 +48,11 @@ public:
 
   // input state
   bool paused = false, step_once = false, blade = false;
-  // The blade translates: its edge (b - a) is fixed when it starts; its a end moves along
-  // straight stretches (blade_position()).
-  Vec3 blade_edge = Vec3::Zero(), blade_at = Vec3::Zero(), stretch_origin = Vec3::Zero(), stretch_dir = Vec3::Zero();
+  // The blade's ends move along straight stretches (blade_position()), each end on its own
+  // line, both lines in one plane.
+  Vec3 blade_at = Vec3::Zero(), blade_b = Vec3::Zero();
+  Vec3 stretch_origin = Vec3::Zero(), stretch_dir = Vec3::Zero(), stretch_origin_b = Vec3::Zero(),
+       stretch_dir_b = Vec3::Zero();
   std::uint32_t colour = 0;
   std::vector<VertexId> probe;
   Vec3 probe_base = Vec3::Zero();
@@ -66,24 +69,41 @@ public:
   int frames_since_colour = 1 << 20;
 };
 
-// Where the blade's a end goes for a move to `a`: onto the line of its current straight
-// stretch when the move stays within kStraight of it and goes on forward, else `a` itself,
-// starting a new stretch from where the blade is. A straight stretch is one swept polygon in
-// the cutter (cut/sheet.h), whatever the number of steps; a hand's wobble and the page's single
-// precision would otherwise bend every step out of line and start a new polygon each time
-// (measured on the liver: a 400-pixel drag grew it from 7.9k to 14.2k tets instead of ~1k more).
-Vec3 LiveSession::blade_position(LiveState& s, const Vec3& a) const {
+// Where the blade's ends go for a move to (a, b): each onto the line of its end's current
+// straight stretch when both stay within kStraight of them and go on forward, else (a, b)
+// themselves, starting a new stretch from where the blade is, b put into the plane of the
+// blade and a's motion so that the stretch's two lines are coplanar. A straight stretch is
+// one swept polygon in the cutter (cut/sheet.h), whatever the number of steps; a hand's
+// wobble and the page's single precision would otherwise bend every step out of the plane
+// and start a new polygon each time (measured on the liver: a 400-pixel drag grew it from
+// 7.9k to 14.2k tets instead of ~1k more). The ends may move by different amounts: the page
+// keeps the blade on the mouse's ray (a fan from the eye), whose far end moves further than
+// its near end; a blade that only translated lagged behind the ray at depth and stopped short
+// of the far side of the body (no through-cut from the page).
+std::pair<Vec3, Vec3> LiveSession::blade_position(LiveState& s, const Vec3& a, const Vec3& b) const {
   if (!s.stretch_dir.isZero()) {
-    const Vec3 r = a - s.stretch_origin;
-    const double along = r.dot(s.stretch_dir);
-    const double now = (s.blade_at - s.stretch_origin).dot(s.stretch_dir);
-    if ((r - along * s.stretch_dir).norm() <= kStraight * body_size_ && along >= now)
-      return s.stretch_origin + along * s.stretch_dir;
+    auto onto = [&](const Vec3& p, const Vec3& origin, const Vec3& dir, const Vec3& at) -> std::optional<Vec3> {
+      const Vec3 r = p - origin;
+      const double along = r.dot(dir);
+      if ((r - along * dir).norm() > kStraight * body_size_ || along < (at - origin).dot(dir)) return std::nullopt;
+      return Vec3(origin + along * dir);
+    };
+    const auto a2 = onto(a, s.stretch_origin, s.stretch_dir, s.blade_at);
+    // An end that stood still at the stretch's start stays there while the other one moves.
+    const auto b2 = !s.stretch_dir_b.isZero() ? onto(b, s.stretch_origin_b, s.stretch_dir_b, s.blade_b)
+                    : (b - s.stretch_origin_b).norm() <= kStraight * body_size_ ? std::optional<Vec3>(s.stretch_origin_b)
+                                                                                : std::nullopt;
+    if (a2 && b2) return {*a2, *b2};
   }
   const Vec3 d = a - s.blade_at;
   s.stretch_dir = d.norm() > 0 ? Vec3(d.normalized()) : Vec3::Zero();
   s.stretch_origin = s.blade_at;
-  return a;
+  s.stretch_origin_b = s.blade_b;
+  Vec3 db = b - s.blade_b;
+  const Vec3 n = s.stretch_dir.cross(s.blade_b - s.blade_at);
+  if (n.norm() > 0) db -= db.dot(n.normalized()) * n.normalized();  // into the plane
+  s.stretch_dir_b = db.norm() > 0 ? Vec3(db.normalized()) : Vec3::Zero();
+  return {a, s.blade_b + db};
 }
 
 LiveSession::LiveSession(const Scene& scene) : scene_(scene), state_(std::make_unique<LiveState>(scene)) {
@@ -184,19 +204,21 @@ void LiveSession::loop() {
             if (s->blade) s->frame_cut_ms += s->runner.finish_blade().ms;
             s->runner.advance_blade({a, b});  // places it
             s->blade = true;
-            s->blade_edge = b - a;
             s->blade_at = a;
+            s->blade_b = b;
             s->stretch_dir = Vec3::Zero();
             break;
           case InputKind::BladeMove: {
             // Moves queued behind each other make one step (the cut does not depend on how a
             // motion is sliced, cut/cutter.h), so a fast mouse cannot queue up work.
             if (!s->blade || (i + 1 < in.size() && in[i + 1].kind == InputKind::BladeMove)) break;
-            const Vec3 at = blade_position(*s, a);
-            if ((at - s->blade_at).norm() <= 1e-9 * body_size_) break;  // did not move
+            const auto [at, bt] = blade_position(*s, a, b);
+            if ((at - s->blade_at).norm() + (bt - s->blade_b).norm() <= 1e-9 * body_size_) break;  // did not move
+            if (!((at - bt).norm() > 1e-6 * body_size_)) break;  // its ends would coincide
             s->blade_at = at;
+            s->blade_b = bt;
             const auto t0 = Clock::now();
-            s->runner.advance_blade({at, at + s->blade_edge});
+            s->runner.advance_blade({at, bt});
             const double ms = ms_since(t0);
             s->frame_cut_ms += ms;
             ++s->blade_steps;

@@ -17,6 +17,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <utility>
 
 #include "scene/scene.h"
 #include "view/view_source.h"
@@ -51,7 +52,7 @@ private:
   void loop();
   void publish();
   std::string check(const InputMessage& input) const;
-  Vec3 blade_position(LiveState& s, const Vec3& a) const;
+  std::pair<Vec3, Vec3> blade_position(LiveState& s, const Vec3& a, const Vec3& b) const;
 
   Scene scene_;
   std::unique_ptr<LiveState> state_;

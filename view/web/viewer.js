@@ -243,15 +243,18 @@ function rayAt(ev) {
   raycaster.setFromCamera(ndc, camera);
   return raycaster.ray;
 }
-let drag = null;  // {kind: "blade", edge, plane} or {kind: "probe", point, plane}
+let drag = null;  // {kind: "blade", plane, farPlane} or {kind: "probe", point, plane}
 let pendingMove = null;
-// The blade keeps the direction of the ray it started on and translates in the plane facing
-// the camera through its entry end, following the mouse (the server keeps straight stretches
-// exactly planar, so a straight drag is one swept polygon).
+// The blade stays on the mouse's ray: its ends are where the ray meets two planes facing the
+// camera, through its start's near and far ends. A straight drag sweeps a plane through the
+// eye (the server keeps straight stretches exactly planar: one swept polygon), and where the
+// mouse has left the body's outline so has the whole blade. (A blade that kept its start's
+// direction and translated lagged behind the ray at depth, by perspective, and never left
+// the body's far side: a depth-1 drag across the liver cut it but detached nothing.)
 function bladeAt(ray) {
   const a = ray.intersectPlane(drag.plane, new THREE.Vector3());
-  if (!a) return null;
-  const b = a.clone().add(drag.edge);
+  const b = ray.intersectPlane(drag.farPlane, new THREE.Vector3());
+  if (!a || !b) return null;
   return [a.x, a.y, a.z, b.x, b.y, b.z];
 }
 renderer.domElement.addEventListener('pointerdown', (ev) => {
@@ -271,8 +274,10 @@ renderer.domElement.addEventListener('pointerdown', (ev) => {
     const entry = hit ? hit.distance : toCenter - 0.5 * bodySize;
     const t0 = Math.max(camera.near, toCenter - 0.6 * bodySize);
     const a = ray.at(t0, new THREE.Vector3());
-    drag = { kind: 'blade', edge: ray.direction.clone().multiplyScalar(Math.max(entry + depth - t0, 0.01 * bodySize)),
-             plane: new THREE.Plane().setFromNormalAndCoplanarPoint(camera.getWorldDirection(new THREE.Vector3()), a) };
+    const b = ray.at(t0 + Math.max(entry + depth - t0, 0.01 * bodySize), new THREE.Vector3());
+    const facing = camera.getWorldDirection(new THREE.Vector3());
+    drag = { kind: 'blade', plane: new THREE.Plane().setFromNormalAndCoplanarPoint(facing, a),
+             farPlane: new THREE.Plane().setFromNormalAndCoplanarPoint(facing, b) };
     send(encodeInput(Kind.BladeStart, bladeAt(ray)));
   }
   renderer.domElement.setPointerCapture(ev.pointerId);
