@@ -84,6 +84,7 @@ void add_prepare(CLI::App& app) {
         write_tet_mesh(mesh, out, {}, tx);
         {
           nlohmann::json j = quality_report_json(q);
+          j["file"] = out;  // the mesh it reports on, as `incise quality` names it (incise view REPORT opens it)
           nlohmann::json prep;
           prep["input"] = rep.input;
           prep["image"] = rep.image;

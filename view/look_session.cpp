@@ -131,16 +131,26 @@ std::unique_ptr<LookSession> LookSession::open_mesh(const std::string& path) {
 std::unique_ptr<LookSession> LookSession::open_report(const std::string& report) {
   const nlohmann::json j = parse_json(report);
   if (!is_report(j)) throw IoError(report, 0, "not a quality report (no \"schema\": \"incise.quality/1\")");
-  if (!j.contains("file") || !j["file"].is_string()) throw IoError(report, 0, "no \"file\": which mesh it reports on");
   // "file" is as given on the command line: relative to where `incise quality` ran, which is
-  // often here; else beside the report.
-  std::string mesh = j["file"];
+  // often here; else beside the report. A report of `incise prepare` before it wrote "file" is
+  // NAME.quality.json beside its mesh NAME.<mesh extension>.
   std::error_code ec;
-  if (!fs::exists(mesh, ec) && fs::path(mesh).is_relative()) {
-    const fs::path beside = fs::path(report).parent_path() / mesh;
-    if (fs::exists(beside, ec)) mesh = beside.string();
+  std::vector<std::string> tries;
+  if (j.contains("file") && j["file"].is_string()) {
+    const std::string file = j["file"];
+    tries.push_back(file);
+    if (fs::path(file).is_relative()) tries.push_back((fs::path(report).parent_path() / file).string());
+  } else if (const std::string name = fs::path(report).filename().string();
+             name.size() > 13 && name.ends_with(".quality.json")) {
+    for (const char* ext : {".msh", ".vtu", ".mesh", ".vtk", ".node"})
+      tries.push_back((fs::path(report).parent_path() / (name.substr(0, name.size() - 13) + ext)).string());
   }
-  if (!fs::exists(mesh, ec)) throw IoError(report, 0, "its mesh '" + j["file"].get<std::string>() + "' is not found");
+  std::string mesh;
+  for (const std::string& t : tries)
+    if (mesh.empty() && fs::is_regular_file(t, ec)) mesh = t;
+  if (mesh.empty())
+    throw IoError(report, 0, tries.empty() ? "no \"file\": which mesh it reports on"
+                                           : "its mesh is not found (tried " + tries.front() + ")");
   std::vector<int> worst;
   if (j.contains("worst") && j["worst"].contains("elements"))
     for (const auto& e : j["worst"]["elements"])

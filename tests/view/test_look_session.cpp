@@ -100,6 +100,12 @@ TEST_CASE("look mode draws a mesh's boundary and its worst elements, computed or
   auto from_report = LookSession::open_report((dir.path / "report.json").string());
   CHECK(nlohmann::json::parse(from_report->status_json())["worst"].get<std::vector<int>>() == picked);
   CHECK(from_report->snapshot()->triangles == boundary_faces(mesh) + interior_faces(mesh, picked));
+  // A report without "file" named NAME.quality.json (an older `incise prepare`'s) is NAME's.
+  write(dir.path / "liver.quality.json", nlohmann::json{{"schema", "incise.quality/1"}}.dump());
+  auto beside = LookSession::open_report((dir.path / "liver.quality.json").string());
+  CHECK(beside->snapshot()->tets == mesh.num_tets());
+  write(dir.path / "other.json", nlohmann::json{{"schema", "incise.quality/1"}, {"file", "nowhere.msh"}}.dump());
+  CHECK_THROWS_AS(LookSession::open_report((dir.path / "other.json").string()), IoError);
 }
 
 TEST_CASE("a run directory's frames are shown one at a time, at the positions they were written with") {
