@@ -24,21 +24,7 @@ from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.by import By
 from selenium.webdriver.support.ui import Select
 
-
-def fail(msg):
-    print("FAIL:", msg, flush=True)
-    sys.exit(1)
-
-
-def wait_for(what, fn, timeout=20.0, every=0.1):
-    end = time.time() + timeout
-    while True:
-        value = fn()
-        if value:
-            return value
-        if time.time() > end:
-            fail("timed out waiting for " + what)
-        time.sleep(every)
+from browser_util import fail, wait_for
 
 
 class Viewer:
