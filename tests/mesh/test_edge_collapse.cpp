@@ -9,8 +9,11 @@
 #include "mesh/edge_collapse.h"
 #include "mesh/generate.h"
 #include "tests/support/mesh_edits.h"
+#include "tests/support/mesh_measures.h"
 
 using namespace incise;
+using incise::testing::label_volumes;
+using incise::testing::tag_areas;
 
 namespace {
 
@@ -21,18 +24,6 @@ VertexId vertex_at(const TetMesh& m, const Vec3& p) {
   return {};
 }
 
-std::map<int, double> label_volumes(const TetMesh& m) {
-  std::map<int, double> v;
-  for (TetId t : m.tets()) v[m.label(t)] += m.volume(t);
-  return v;
-}
-
-std::map<std::uint16_t, double> tag_areas(const TetMesh& m) {
-  std::map<std::uint16_t, double> a;
-  for (const auto& f : m.boundary_faces())
-    a[f.tag] += 0.5 * (m.rest(f.vertices[1]) - m.rest(f.vertices[0])).cross(m.rest(f.vertices[2]) - m.rest(f.vertices[0])).norm();
-  return a;
-}
 
 void check_same(const std::map<int, double>& a, const std::map<int, double>& b) {
   REQUIRE(a.size() == b.size());

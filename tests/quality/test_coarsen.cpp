@@ -13,23 +13,14 @@
 #include "mesh/point_locator.h"
 #include "quality/coarsen.h"
 #include "quality/metrics.h"
+#include "tests/support/mesh_measures.h"
 
 using namespace incise;
+using incise::testing::label_volumes;
+using incise::testing::tag_areas;
 
 namespace {
 
-std::map<int, double> label_volumes(const TetMesh& m) {
-  std::map<int, double> v;
-  for (TetId t : m.tets()) v[m.label(t)] += m.volume(t);
-  return v;
-}
-
-std::map<std::uint16_t, double> tag_areas(const TetMesh& m) {
-  std::map<std::uint16_t, double> a;
-  for (const auto& f : m.boundary_faces())
-    a[f.tag] += 0.5 * (m.rest(f.vertices[1]) - m.rest(f.vertices[0])).cross(m.rest(f.vertices[2]) - m.rest(f.vertices[0])).norm();
-  return a;
-}
 
 // Largest distance from a boundary vertex of `from` to the boundary surface of `to`.
 double surface_distance(const TetMesh& from, const TetMesh& to) {
