@@ -10,14 +10,9 @@
 #include "cut/cutter.h"
 #include "mesh/tet_mesh.h"
 #include "quality/components.h"
+#include "tests/support/mesh_measures.h"  // label_volumes
 
 namespace incise::testing {
-
-inline std::map<int, double> label_volumes(const TetMesh& m) {
-  std::map<int, double> v;
-  for (TetId t : m.tets()) v[m.label(t)] += m.volume(t);
-  return v;
-}
 
 inline double tagged_area(const TetMesh& m, std::uint16_t tag) {
   double a = 0;

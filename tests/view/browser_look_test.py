@@ -18,13 +18,10 @@ import threading
 import time
 import urllib.request
 
-from selenium import webdriver
-from selenium.webdriver.chrome.options import Options
-from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.by import By
 from selenium.webdriver.support.ui import Select
 
-from browser_util import fail, wait_for
+from browser_util import fail, start_chromium, wait_for
 
 
 class Viewer:
@@ -76,13 +73,7 @@ def main():
     if sim.returncode != 0:
         fail("incise simulate: " + sim.stderr)
 
-    opts = Options()
-    opts.binary_location = "/usr/bin/chromium"
-    for a in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1000,760",
-              "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--disable-gpu-sandbox"):
-        opts.add_argument(a)
-    driver = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=opts)
-    driver.set_page_load_timeout(30)
+    driver = start_chromium()
     page = lambda: driver.execute_script("return window.inciseView || null")
     viewer = None
     try:
