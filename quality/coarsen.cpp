@@ -16,6 +16,7 @@
 #include "mesh/errors.h"
 #include "mesh/point_locator.h"
 #include "quality/dihedral_objective.h"
+#include "quality/surface_star.h"
 
 namespace incise {
 
@@ -26,44 +27,6 @@ std::uint64_t edge_key(VertexId a, VertexId b) {
   if (x > y) std::swap(x, y);
   return (std::uint64_t(x) << 32) | y;
 }
-
-// A face on a surface: the boundary (outside the mesh) or a label interface.
-bool is_surface_face(const TetMesh& m, TetId t, int f) {
-  const TetId u = m.neighbor(t, f);
-  return !u.is_valid() || m.label(u) != m.label(t);
-}
-
-// Which surface a face is on: a boundary tag, or the pair of labels it separates.
-std::uint64_t patch_of(const TetMesh& m, TetId t, int f) {
-  const TetId u = m.neighbor(t, f);
-  if (!u.is_valid()) return (std::uint64_t(1) << 63) | m.face_tag(t, f);
-  auto a = std::uint32_t(m.label(t)), b = std::uint32_t(m.label(u));
-  if (a > b) std::swap(a, b);
-  return (std::uint64_t(a) << 32) | b;
-}
-
-// Which sheet a face is on for the deviation bound: the boundary (whatever its tags: they only
-// partition it), or the interface between a pair of labels.
-std::uint64_t sheet_of(const TetMesh& m, TetId t, int f) {
-  const TetId u = m.neighbor(t, f);
-  return u.is_valid() ? patch_of(m, t, f) : std::uint64_t(1) << 63;
-}
-
-// Unit normal of a surface face, oriented the same way across its patch: outward on the
-// boundary, from the smaller label to the larger on an interface.
-Vec3 patch_normal(const TetMesh& m, TetId t, int f) {
-  const auto fv = m.face_vertices(t, f);
-  Vec3 n = (m.rest(fv[1]) - m.rest(fv[0])).cross(m.rest(fv[2]) - m.rest(fv[0]));
-  const TetId u = m.neighbor(t, f);
-  if (u.is_valid() && m.label(u) < m.label(t)) n = -n;
-  const double l = n.norm();
-  return l > 0 ? Vec3(n / l) : Vec3::Zero();
-}
-
-struct SurfaceFace {
-  std::array<VertexId, 3> v;
-  std::uint64_t sheet;
-};
 
 // An input surface vertex removed by a contraction, once per sheet it was on: it must stay
 // near that sheet.
@@ -170,78 +133,13 @@ private:
       }
   }
 
-  // Surface faces around v after contracting `remove` into `keep` (read through the mapping;
-  // faces holding both vanish), each once.
-  std::vector<SurfaceFace> faces_after(VertexId v, VertexId keep, VertexId remove) const {
-    std::vector<SurfaceFace> out;
-    std::set<std::array<std::uint32_t, 3>> seen;
-    auto gather = [&](VertexId at) {
-      for (TetId t : m_.incident_tets(at))
-        for (int f = 0; f < 4; ++f) {
-          if (m_.tet_vertices(t)[f] == at || !is_surface_face(m_, t, f)) continue;
-          auto fv = m_.face_vertices(t, f);
-          for (VertexId& w : fv)
-            if (w == remove) w = keep;
-          if (fv[0] == fv[1] || fv[1] == fv[2] || fv[0] == fv[2]) continue;
-          if (std::find(fv.begin(), fv.end(), v) == fv.end()) continue;
-          std::array<std::uint32_t, 3> k{fv[0].idx(), fv[1].idx(), fv[2].idx()};
-          std::sort(k.begin(), k.end());
-          if (seen.insert(k).second) out.push_back({fv, sheet_of(m_, t, f)});
-        }
-    };
-    gather(v);
-    if (v == keep) gather(remove);
-    return out;
-  }
-
-  // The sheets v is on, each once.
-  std::vector<std::uint64_t> sheets(VertexId v) const {
-    std::vector<std::uint64_t> out;
-    for (TetId t : m_.incident_tets(v))
-      for (int f = 0; f < 4; ++f)
-        if (m_.tet_vertices(t)[f] != v && is_surface_face(m_, t, f)) out.push_back(sheet_of(m_, t, f));
-    std::sort(out.begin(), out.end());
-    out.erase(std::unique(out.begin(), out.end()), out.end());
-    return out;
-  }
-
-  // Vertices joined to v by an edge of a surface face.
-  std::vector<std::uint32_t> surface_neighbours(VertexId v) const {
-    std::vector<std::uint32_t> out;
-    for (TetId t : m_.incident_tets(v))
-      for (int f = 0; f < 4; ++f) {
-        if (m_.tet_vertices(t)[f] == v || !is_surface_face(m_, t, f)) continue;
-        for (VertexId w : m_.face_vertices(t, f))
-          if (w != v) out.push_back(w.idx());
-      }
-    std::sort(out.begin(), out.end());
-    out.erase(std::unique(out.begin(), out.end()), out.end());
-    return out;
-  }
-
-  // The surface stays a surface: the vertices both ends see along surface edges are exactly
-  // the apexes of the surface faces on the edge (else the contraction glues two sheets or
-  // pinches one), and a crease does not fold onto another feature line.
+  // The surface stays a surface (surface_link_ok), and a crease does not fold onto another
+  // feature line.
   bool surface_link_ok(VertexId keep, VertexId remove) const {
-    const auto nk = surface_neighbours(keep), nr = surface_neighbours(remove);
-    if (!std::binary_search(nr.begin(), nr.end(), keep.idx())) return false;  // not a surface edge
-    std::vector<std::uint32_t> common, apex;
-    std::set_intersection(nk.begin(), nk.end(), nr.begin(), nr.end(), std::back_inserter(common));
-    for (TetId t : m_.incident_tets(remove)) {
-      if (m_.local_index(t, keep) < 0) continue;
-      for (int f = 0; f < 4; ++f) {
-        const VertexId opp = m_.tet_vertices(t)[f];
-        if (opp == keep || opp == remove || !is_surface_face(m_, t, f)) continue;
-        for (VertexId w : m_.face_vertices(t, f))
-          if (w != keep && w != remove) apex.push_back(w.idx());
-      }
-    }
-    std::sort(apex.begin(), apex.end());
-    apex.erase(std::unique(apex.begin(), apex.end()), apex.end());
-    if (common != apex) return false;
+    if (!incise::surface_link_ok(m_, keep, remove)) return false;
     if (kind_[remove.idx()] == Kind::Crease) {
       if (!feature_.count(edge_key(keep, remove))) return false;  // a crease vertex stays on its line
-      for (std::uint32_t w : nr)
+      for (std::uint32_t w : surface_neighbours(m_, remove))
         if (w != keep.idx() && feature_.count(edge_key(remove, VertexId(w))) && feature_.count(edge_key(keep, VertexId(w))))
           return false;
     }
@@ -254,10 +152,10 @@ private:
     std::vector<RemovedPoint> pts = owned_[v.idx()];
     if (v == keep) {
       pts.insert(pts.end(), owned_[remove.idx()].begin(), owned_[remove.idx()].end());
-      for (std::uint64_t s : sheets(remove)) pts.push_back({m_.rest(remove), s});
+      for (std::uint64_t s : surface_sheets(m_, remove)) pts.push_back({m_.rest(remove), s});
     }
     if (pts.empty()) return true;
-    const auto faces = faces_after(v, keep, remove);
+    const auto faces = surface_faces_after(m_, v, keep, remove);
     for (const RemovedPoint& q : pts) {
       double best = 1e300;
       for (const SurfaceFace& f : faces) {
@@ -294,7 +192,7 @@ private:
       return false;
     if (surface) {
       if (!deviation_ok(keep, keep, remove)) return false;
-      for (std::uint32_t w : surface_neighbours(remove))
+      for (std::uint32_t w : surface_neighbours(m_, remove))
         if (w != keep.idx() && !deviation_ok(VertexId(w), keep, remove)) return false;
     }
     out.plan = std::move(c.plan);
@@ -315,12 +213,12 @@ private:
     if (kind_[remove.idx()] != Kind::Interior) {
       auto& into = owned_[keep.idx()];
       into.insert(into.end(), owned_[remove.idx()].begin(), owned_[remove.idx()].end());
-      for (std::uint64_t s : sheets(remove)) into.push_back({m_.rest(remove), s});
+      for (std::uint64_t s : surface_sheets(m_, remove)) into.push_back({m_.rest(remove), s});
       owned_[remove.idx()].clear();
       owned_[remove.idx()].shrink_to_fit();
       if (kind_[remove.idx()] == Kind::Crease) {  // its other feature edge now ends at `keep`
         feature_.erase(edge_key(keep, remove));
-        for (std::uint32_t w : surface_neighbours(remove))
+        for (std::uint32_t w : surface_neighbours(m_, remove))
           if (feature_.erase(edge_key(remove, VertexId(w)))) feature_.insert(edge_key(keep, VertexId(w)));
       }
     }

@@ -19,6 +19,14 @@ struct CollapseOptions {
   const std::unordered_set<std::uint32_t>* frozen = nullptr;  // never removed
   double tolerance = 0;  // check_collapse's: tiny edges may contract on curved boundary and interfaces
   bool remove_boundary = true;  // false: boundary vertices stay (ImproveOptions::move_surface / move_cut off)
+  // > 0: where check_collapse refuses a surface vertex (its surface is curved or bent there), it
+  // may still be contracted along its surface: not across a feature (an edge between two tags
+  // or label pairs, or bent more than feature_angle_deg: along it only; corners stay), keeping
+  // the surface a surface (surface_link_ok), with the removed vertex within this times its mean
+  // surface edge of the surface after the contraction. The cut leaves short edges on bent cut
+  // sheets and rims that nothing else removes (ImproveOptions::collapse_deviation).
+  double surface_deviation = 0;
+  double feature_angle_deg = 30;
 };
 
 struct CollapseOutcome {

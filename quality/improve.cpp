@@ -112,6 +112,8 @@ public:
     if (opt.slide_curved) smooth_.volume = &volume_;
     collapse_.edge_ratio = opt.collapse_edge_ratio;
     collapse_.tolerance = opt.collapse_tolerance;
+    collapse_.surface_deviation = opt.collapse_deviation;
+    collapse_.feature_angle_deg = opt.feature_angle_deg;
     // Boundary vertices that may not slide may not be contracted away either (the boundary's
     // triangulation then stays as it is).
     collapse_.remove_boundary = opt.move_surface && opt.move_cut;

@@ -44,6 +44,10 @@ struct ImproveOptions {
                                      // may contract where the boundary or a label interface is curved,
                                      // creased or a corner (moving it by that edge; volume_change says how
                                      // much). 0: the boundary and interfaces stay exactly (cutter: 0.01)
+  double collapse_deviation = 0;     // > 0: a boundary or interface vertex may also be contracted along its
+                                     // curved or bent surface (never across a feature edge: see
+                                     // feature_angle_deg), when it stays within this times its mean surface
+                                     // edge of the surface after (quality/collapse.h; cutter: 0.05, its snap)
   double max_growth = 1.5;           // tet count stays <= max_growth x input (region in local mode)
   bool move_surface = true;          // boundary vertices may slide within the (flat part of the) surface
   bool move_cut = true;              // vertices on cut-tagged faces may slide within their plane
