@@ -395,7 +395,7 @@ TEST_CASE("nodal-averaged: no volumetric locking in the cantilever, and the bend
   }
 }
 
-TEST_CASE("nodal-averaged: 120x12x12 cantilever within 5% of Timoshenko at nu = 0.4999", "[.][slow][fem][nodal]") {
+TEST_CASE("nodal-averaged: 120x12x12 cantilever within 5% of Timoshenko at nu = 0.4999", "[long][fem][nodal]") {
   const Cantilever n = cantilever(120, 0.4999, kNodal);
   WARN("120x12x12, nu 0.4999: nodal-averaged " << 100 * n.error() << "%");
   CHECK(std::abs(n.error()) <= 0.05);
