@@ -12,16 +12,14 @@ namespace incise {
 
 namespace {
 
-constexpr std::uint64_t kBoundarySheet = std::uint64_t(1) << 63;  // surface_star.h's sheet_of()
-
 Vec3 face_normal(const TetMesh& m, const SurfaceFace& f) {
   const Vec3 n = (m.rest(f.v[1]) - m.rest(f.v[0])).cross(m.rest(f.v[2]) - m.rest(f.v[0]));
   const double l = n.norm();
   return l > 0 ? Vec3(n / l) : Vec3::Zero();
 }
 
-// The contraction of surface vertex `remove` into `keep` along its surface (see
-// CollapseOptions::surface_deviation), or a refusal.
+}  // namespace
+
 CollapseCheck check_surface_contraction(const TetMesh& mesh, VertexId keep, VertexId remove,
                                         const CollapseOptions& opt) {
   CollapseCheck refused;
@@ -72,8 +70,6 @@ CollapseCheck check_surface_contraction(const TetMesh& mesh, VertexId keep, Vert
   }
   return c;
 }
-
-}  // namespace
 
 std::optional<CollapseOutcome> improve_by_collapse(TetMesh& mesh, TetId t, const ImproveScope& scope,
                                                    const CollapseOptions& opt) {

@@ -9,6 +9,7 @@
 #include <unordered_set>
 #include <vector>
 
+#include "mesh/edge_collapse.h"
 #include "mesh/tet_mesh.h"
 #include "quality/improve_scope.h"
 
@@ -35,6 +36,12 @@ struct CollapseOutcome {
   std::vector<TetId> rebuilt;  // the ones still alive (same ids, rebuilt on `kept`)
   double volume_change = 0;    // sum over labels of |volume change| (tolerance mode only)
 };
+
+// The contraction of surface (boundary or interface) vertex `remove` into `keep` along its
+// surface, as opt.surface_deviation allows (see there): a plan of check_collapse's tolerant
+// mode, or a refusal (Boundary when the surface checks refuse). O(the two stars).
+CollapseCheck check_surface_contraction(const TetMesh& mesh, VertexId keep, VertexId remove,
+                                        const CollapseOptions& opt);
 
 std::optional<CollapseOutcome> improve_by_collapse(TetMesh& mesh, TetId t, const ImproveScope& scope,
                                                    const CollapseOptions& opt);

@@ -14,7 +14,7 @@ bool is_surface_face(const TetMesh& m, TetId t, int f) {
 
 std::uint64_t patch_of(const TetMesh& m, TetId t, int f) {
   const TetId u = m.neighbor(t, f);
-  if (!u.is_valid()) return (std::uint64_t(1) << 63) | m.face_tag(t, f);
+  if (!u.is_valid()) return kBoundarySheet | m.face_tag(t, f);
   auto a = std::uint32_t(m.label(t)), b = std::uint32_t(m.label(u));
   if (a > b) std::swap(a, b);
   return (std::uint64_t(a) << 32) | b;
@@ -22,7 +22,7 @@ std::uint64_t patch_of(const TetMesh& m, TetId t, int f) {
 
 std::uint64_t sheet_of(const TetMesh& m, TetId t, int f) {
   const TetId u = m.neighbor(t, f);
-  return u.is_valid() ? patch_of(m, t, f) : std::uint64_t(1) << 63;
+  return u.is_valid() ? patch_of(m, t, f) : kBoundarySheet;
 }
 
 Vec3 patch_normal(const TetMesh& m, TetId t, int f) {

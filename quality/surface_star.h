@@ -15,7 +15,8 @@ namespace incise {
 bool is_surface_face(const TetMesh& m, TetId t, int f);
 
 // Which sheet a face is on for deviation bounds: the boundary (whatever its tags: they only
-// partition it), or the interface between a pair of labels.
+// partition it: kBoundarySheet), or the interface between a pair of labels.
+inline constexpr std::uint64_t kBoundarySheet = std::uint64_t(1) << 63;
 std::uint64_t sheet_of(const TetMesh& m, TetId t, int f);
 
 // Which patch a face is on: a boundary tag, or the pair of labels it separates. An edge

@@ -1,0 +1,98 @@
+// Contraction along a curved or bent surface (CollapseOptions::surface_deviation): a surface
+// vertex that check_collapse refuses (its faces are not one flat disc) may still go into a
+// neighbour on its surface when it stays within the bound of the surface after; never across a
+// feature line, never at a corner. Checked on a unit cube of 4x4x4 cells whose top face is
+// bent by lifting one vertex by a known height.
+#include <catch2/catch.hpp>
+
+#include <limits>
+
+#include "mesh/edge_collapse.h"
+#include "mesh/generate.h"
+#include "mesh/point_locator.h"
+#include "quality/collapse.h"
+#include "quality/surface_star.h"
+
+using namespace incise;
+
+namespace {
+
+VertexId at(const TetMesh& m, const Vec3& p) {
+  for (VertexId v : m.vertices())
+    if ((m.rest(v) - p).norm() < 1e-9) return v;
+  FAIL("no vertex at " << p.transpose());
+  return {};
+}
+
+// Distance from p to the boundary faces around v.
+double distance_to_surface(const TetMesh& m, VertexId v, const Vec3& p) {
+  double best = std::numeric_limits<double>::infinity();
+  for (const SurfaceFace& f : surface_faces_after(m, v, {}, {}))
+    best = std::min(best, (p - closest_on_triangle(p, m.rest(f.v[0]), m.rest(f.v[1]), m.rest(f.v[2]))).norm());
+  return best;
+}
+
+// Mean length of the surface edges at v (what the deviation bound is relative to).
+double mean_surface_edge(const TetMesh& m, VertexId v) {
+  double sum = 0;
+  const auto around = surface_neighbours(m, v);
+  for (std::uint32_t w : around) sum += (m.rest(VertexId(w)) - m.rest(v)).norm();
+  return sum / double(around.size());
+}
+
+}  // namespace
+
+TEST_CASE("surface contraction: a vertex of a bent face goes within the deviation bound, not beyond it",
+          "[quality][collapse]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {4, 4, 4});
+  const VertexId v = at(m, Vec3(0.5, 0.5, 1)), keep = at(m, Vec3(0.75, 0.5, 1));
+  const double lift = 0.01;
+  m.set_rest(v, Vec3(0.5, 0.5, 1 + lift));
+  m.discard_change();
+  // The plain check keeps every vertex of a surface that is not flat around it.
+  CHECK(check_collapse(m, keep, v).refusal == CollapseRefusal::Boundary);
+  const double h = mean_surface_edge(m, v);
+  CollapseOptions opt;
+  SECTION("a bound above the lift: contracted, the removed point within it of the surface after") {
+    opt.surface_deviation = 1.5 * lift / h;
+    const CollapseCheck c = check_surface_contraction(m, keep, v, opt);
+    REQUIRE(c.ok());
+    const Vec3 p = m.rest(v);
+    const double volume = m.total_volume();
+    collapse_edge(m, c.plan);
+    m.validate({.check_orientation = true, .check_manifold_boundary = true});
+    CHECK_FALSE(m.is_alive(v));
+    // The top face is flat again: the point was `lift` above it, and the volume under it is gone.
+    CHECK(distance_to_surface(m, keep, p) == Approx(lift).epsilon(1e-9));
+    CHECK(m.total_volume() == Approx(1.0).epsilon(1e-12));
+    CHECK(volume > 1.0);
+  }
+  SECTION("a bound below the lift: refused") {
+    opt.surface_deviation = 0.5 * lift / h;
+    CHECK(check_surface_contraction(m, keep, v, opt).refusal == CollapseRefusal::Boundary);
+  }
+  SECTION("off: improve_by_collapse's caller never asks, the check itself still refuses a zero bound") {
+    opt.surface_deviation = 0;
+    CHECK_FALSE(check_surface_contraction(m, keep, v, opt).ok());
+  }
+}
+
+TEST_CASE("surface contraction: a crease vertex moves only along its crease, a corner never",
+          "[quality][collapse]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {4, 4, 4});
+  // A vertex of the top front edge (y = 0, z = 1), lifted: the crease bends there.
+  const VertexId v = at(m, Vec3(0.5, 0, 1));
+  m.set_rest(v, Vec3(0.5, 0, 1.005));
+  m.discard_change();
+  CollapseOptions opt;
+  opt.surface_deviation = 0.1;
+  CHECK(check_surface_contraction(m, at(m, Vec3(0.75, 0, 1)), v, opt).ok());    // along the crease
+  CHECK_FALSE(check_surface_contraction(m, at(m, Vec3(0.5, 0.25, 1)), v, opt).ok());  // onto the top face
+  CHECK_FALSE(check_surface_contraction(m, at(m, Vec3(0.5, 0, 0.75)), v, opt).ok());  // onto the front face
+  // A corner of the box keeps its place whatever the bound.
+  const VertexId corner = at(m, Vec3(1, 1, 1));
+  opt.surface_deviation = 10;
+  CHECK_FALSE(check_surface_contraction(m, at(m, Vec3(0.75, 1, 1)), corner, opt).ok());
+  // An interior vertex is not the surface contraction's business.
+  CHECK_FALSE(check_surface_contraction(m, at(m, Vec3(0.75, 0.5, 0.5)), at(m, Vec3(0.5, 0.5, 0.5)), opt).ok());
+}
