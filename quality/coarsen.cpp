@@ -72,14 +72,7 @@ private:
   void classify() {
     kind_.assign(m_.vertex_capacity(), Kind::Interior);
     owned_.assign(m_.vertex_capacity(), {});
-    struct EdgeFaces {
-      int count = 0;
-      std::uint64_t patch = 0;
-      bool mixed = false;
-      Vec3 n = Vec3::Zero();
-      double min_dot = 1;
-    };
-    std::unordered_map<std::uint64_t, EdgeFaces> edges;
+    std::unordered_map<std::uint64_t, EdgeFaceTally> edges;
     const double cos_feature = std::cos(opt_.feature_angle_deg * std::numbers::pi / 180);
     for (TetId t : m_.tets())
       for (int f = 0; f < 4; ++f) {
@@ -91,20 +84,12 @@ private:
         const Vec3 n = patch_normal(m_, t, f);
         for (int i = 0; i < 3; ++i) {
           kind_[fv[i].idx()] = Kind::Smooth;
-          EdgeFaces& e = edges[edge_key(fv[i], fv[(i + 1) % 3])];
-          if (e.count == 0) {
-            e.patch = patch;
-            e.n = n;
-          } else {
-            e.mixed = e.mixed || e.patch != patch;
-            e.min_dot = std::min(e.min_dot, e.n.dot(n));
-          }
-          ++e.count;
+          edges[edge_key(fv[i], fv[(i + 1) % 3])].add(patch, n);
         }
       }
     std::vector<int> features(m_.vertex_capacity(), 0);
     for (const auto& [key, e] : edges)
-      if (e.count != 2 || e.mixed || e.min_dot < cos_feature) {
+      if (e.feature(cos_feature)) {
         feature_.insert(key);
         ++features[key >> 32];
         ++features[key & 0xffffffffu];

@@ -100,14 +100,7 @@ bool surface_link_ok(const TetMesh& m, VertexId keep, VertexId remove) {
 }
 
 std::vector<std::uint32_t> feature_neighbours(const TetMesh& m, VertexId v, double cos_feature) {
-  struct EdgeFaces {
-    int count = 0;
-    std::uint64_t patch = 0;
-    bool mixed = false;
-    Vec3 n = Vec3::Zero();
-    double min_dot = 1;
-  };
-  std::map<std::uint32_t, EdgeFaces> edges;
+  std::map<std::uint32_t, EdgeFaceTally> edges;
   std::set<std::array<std::uint32_t, 3>> seen;  // an interface face is seen from both sides
   for (TetId t : m.incident_tets(v))
     for (int f = 0; f < 4; ++f) {
@@ -118,22 +111,12 @@ std::vector<std::uint32_t> feature_neighbours(const TetMesh& m, VertexId v, doub
       if (!seen.insert(k).second) continue;
       const std::uint64_t patch = patch_of(m, t, f);
       const Vec3 n = patch_normal(m, t, f);
-      for (VertexId w : fv) {
-        if (w == v) continue;
-        EdgeFaces& e = edges[w.idx()];
-        if (e.count == 0) {
-          e.patch = patch;
-          e.n = n;
-        } else {
-          e.mixed = e.mixed || e.patch != patch;
-          e.min_dot = std::min(e.min_dot, e.n.dot(n));
-        }
-        ++e.count;
-      }
+      for (VertexId w : fv)
+        if (w != v) edges[w.idx()].add(patch, n);
     }
   std::vector<std::uint32_t> out;
   for (const auto& [w, e] : edges)
-    if (e.count != 2 || e.mixed || e.min_dot < cos_feature) out.push_back(w);
+    if (e.feature(cos_feature)) out.push_back(w);
   return out;
 }
 

@@ -3,6 +3,7 @@
 // surface needs (quality/coarsen.h over a whole mesh, quality/collapse.h after a cut). A
 // surface is the boundary or an interface between two labels; all of it is read from the tets
 // around the vertices involved (O(star)), never from the whole mesh.
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -46,6 +47,28 @@ std::vector<std::uint32_t> surface_neighbours(const TetMesh& m, VertexId v);
 // and the vertices both ends see along surface edges are exactly the apexes of the surface
 // faces on that edge (else the contraction glues two sheets or pinches one).
 bool surface_link_ok(const TetMesh& m, VertexId keep, VertexId remove);
+
+// The surface faces on one edge, tallied one at a time: the edge is a feature when it is on
+// other than two surface faces, between two patches, or bent more than the angle whose cosine
+// is given.
+struct EdgeFaceTally {
+  int count = 0;
+  std::uint64_t patch = 0;
+  bool mixed = false;
+  Vec3 n = Vec3::Zero();
+  double min_dot = 1;
+  void add(std::uint64_t face_patch, const Vec3& face_normal) {
+    if (count == 0) {
+      patch = face_patch;
+      n = face_normal;
+    } else {
+      mixed = mixed || patch != face_patch;
+      min_dot = std::min(min_dot, n.dot(face_normal));
+    }
+    ++count;
+  }
+  bool feature(double cos_feature) const { return count != 2 || mixed || min_dot < cos_feature; }
+};
 
 // The surface edges at v that are features: on other than two surface faces, between two
 // patches, or bent more than the angle whose cosine is `cos_feature`. Returns the far ends.
