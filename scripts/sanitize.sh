@@ -1,21 +1,18 @@
 #!/usr/bin/env bash
-# AddressSanitizer + UndefinedBehaviorSanitizer build (clang) of everything but the CGAL/OpenVDB
+# AddressSanitizer + UndefinedBehaviorSanitizer build of everything but the CGAL/OpenVDB
 # meshing target (its templates take too long to compile instrumented on 2 cores) and the live
 # viewer (its Beast server and browser test are covered by the Release run), and the test
-# suite under it. The same tree builds the libFuzzer targets (INCISE_FUZZ: the libraries they
-# drive get coverage instrumentation), so scripts/run-fuzzers.sh can run them from here
-# (FUZZ_BUILD_DIR=build-asan, as .ci/run does) instead of compiling every library a third time.
+# suite under it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
 BUILD_DIR=${BUILD_DIR:-build-asan}
-# A tree configured earlier with another compiler is configured afresh (CMake keeps the first).
-if [ -f "$BUILD_DIR/CMakeCache.txt" ] && ! grep -q '^CMAKE_CXX_COMPILER:[A-Z]*=.*clang' "$BUILD_DIR/CMakeCache.txt"; then
-  rm -rf "$BUILD_DIR/CMakeCache.txt" "$BUILD_DIR/CMakeFiles"
-fi
 # -g1 (line tables only): reports keep file:line; full debug info made the instrumented
-# Eigen-heavy files compile about 15% slower.
-CXX=clang++ cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DINCISE_SANITIZE=ON -DINCISE_FUZZ=ON \
+# Eigen-heavy files compile about 15% slower. The compiler is the default (gcc): a clang tree
+# that also built the fuzz targets would save run-fuzzers.sh its own build, but four tests fail
+# there (explicit spring integrators reach NaN; three cut-quality tests see other meshes), for
+# reasons not found yet.
+cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DINCISE_SANITIZE=ON \
   "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG" \
   -DINCISE_WITH_CGAL=OFF -DINCISE_WITH_VIEW=OFF -DINCISE_BUILD_BENCH=OFF >/dev/null
 cmake --build "$BUILD_DIR" -j "${JOBS:-$(nproc)}"
