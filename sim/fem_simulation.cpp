@@ -462,8 +462,13 @@ const FrameStats& FemSimulation::step() {
       refresh_operator();
       static_rhs_and_guess();
       std::span<const Eigen::VectorXd> prediction;
-      if (opt_.warm_start && opt_.predict && it == 0 && opt_.method == SolverMethod::Cg && !resumable())
-        prediction = std::span<const Eigen::VectorXd>(d_.data(), std::size_t(predictor_.directions(free_, d_)));
+      if (opt_.warm_start && opt_.predict && it == 0 && opt_.method == SolverMethod::Cg && !resumable()) {
+        // directions() fills (and may reallocate) d_: take its data after the call, not in the
+        // same argument list (the order arguments are evaluated in is unspecified; clang took
+        // data() first and handed CG a null or stale pointer).
+        const auto n = std::size_t(predictor_.directions(free_, d_));
+        prediction = std::span<const Eigen::VectorXd>(d_.data(), n);
+      }
       solve_system(*k, 0.0, 1.0, b_, x_, remaining(), stats_, prediction);
       if (stats_.info == SolveInfo::NotPositiveDefinite || stats_.info == SolveInfo::NumericalIssue) break;
       u_ = x_;
