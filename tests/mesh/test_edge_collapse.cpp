@@ -12,17 +12,11 @@
 #include "tests/support/mesh_measures.h"
 
 using namespace incise;
+using incise::testing::vertex_at;
 using incise::testing::label_volumes;
 using incise::testing::tag_areas;
 
 namespace {
-
-VertexId vertex_at(const TetMesh& m, const Vec3& p) {
-  for (VertexId v : m.vertices())
-    if ((m.rest(v) - p).norm() < 1e-12) return v;
-  FAIL("no vertex at " << p.transpose());
-  return {};
-}
 
 
 void check_same(const std::map<int, double>& a, const std::map<int, double>& b) {

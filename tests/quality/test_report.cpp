@@ -8,8 +8,10 @@
 #include "mesh/errors.h"
 #include "mesh/generate.h"
 #include "quality/report.h"
+#include "tests/support/mesh_measures.h"
 
 using namespace incise;
+using incise::testing::vertex_at;
 
 namespace {
 
@@ -22,12 +24,6 @@ void append(TetMesh& dst, const TetMesh& src, const Vec3& offset, int label_shif
     dst.add_tet(map[v[0].idx()], map[v[1].idx()], map[v[2].idx()], map[v[3].idx()], src.label(t) + label_shift);
   }
   dst.discard_change();
-}
-
-VertexId vertex_at(const TetMesh& m, const Vec3& p) {
-  for (VertexId v : m.vertices())
-    if ((m.rest(v) - p).norm() < 1e-9) return v;
-  return {};
 }
 
 // Percentile by sorting, linear interpolation (numpy's default).

@@ -12,17 +12,12 @@
 #include "mesh/point_locator.h"
 #include "quality/collapse.h"
 #include "quality/surface_star.h"
+#include "tests/support/mesh_measures.h"
 
 using namespace incise;
+using incise::testing::vertex_at;
 
 namespace {
-
-VertexId at(const TetMesh& m, const Vec3& p) {
-  for (VertexId v : m.vertices())
-    if ((m.rest(v) - p).norm() < 1e-9) return v;
-  FAIL("no vertex at " << p.transpose());
-  return {};
-}
 
 // Distance from p to the boundary faces around v.
 double distance_to_surface(const TetMesh& m, VertexId v, const Vec3& p) {
@@ -45,7 +40,7 @@ double mean_surface_edge(const TetMesh& m, VertexId v) {
 TEST_CASE("surface contraction: a vertex of a bent face goes within the deviation bound, not beyond it",
           "[quality][collapse]") {
   TetMesh m = make_box(Vec3(1, 1, 1), {4, 4, 4});
-  const VertexId v = at(m, Vec3(0.5, 0.5, 1)), keep = at(m, Vec3(0.75, 0.5, 1));
+  const VertexId v = vertex_at(m, Vec3(0.5, 0.5, 1)), keep = vertex_at(m, Vec3(0.75, 0.5, 1));
   const double lift = 0.01;
   m.set_rest(v, Vec3(0.5, 0.5, 1 + lift));
   m.discard_change();
@@ -81,18 +76,18 @@ TEST_CASE("surface contraction: a crease vertex moves only along its crease, a c
           "[quality][collapse]") {
   TetMesh m = make_box(Vec3(1, 1, 1), {4, 4, 4});
   // A vertex of the top front edge (y = 0, z = 1), lifted: the crease bends there.
-  const VertexId v = at(m, Vec3(0.5, 0, 1));
+  const VertexId v = vertex_at(m, Vec3(0.5, 0, 1));
   m.set_rest(v, Vec3(0.5, 0, 1.005));
   m.discard_change();
   CollapseOptions opt;
   opt.surface_deviation = 0.1;
-  CHECK(check_surface_contraction(m, at(m, Vec3(0.75, 0, 1)), v, opt).ok());    // along the crease
-  CHECK_FALSE(check_surface_contraction(m, at(m, Vec3(0.5, 0.25, 1)), v, opt).ok());  // onto the top face
-  CHECK_FALSE(check_surface_contraction(m, at(m, Vec3(0.5, 0, 0.75)), v, opt).ok());  // onto the front face
+  CHECK(check_surface_contraction(m, vertex_at(m, Vec3(0.75, 0, 1)), v, opt).ok());    // along the crease
+  CHECK_FALSE(check_surface_contraction(m, vertex_at(m, Vec3(0.5, 0.25, 1)), v, opt).ok());  // onto the top face
+  CHECK_FALSE(check_surface_contraction(m, vertex_at(m, Vec3(0.5, 0, 0.75)), v, opt).ok());  // onto the front face
   // A corner of the box keeps its place whatever the bound.
-  const VertexId corner = at(m, Vec3(1, 1, 1));
+  const VertexId corner = vertex_at(m, Vec3(1, 1, 1));
   opt.surface_deviation = 10;
-  CHECK_FALSE(check_surface_contraction(m, at(m, Vec3(0.75, 1, 1)), corner, opt).ok());
+  CHECK_FALSE(check_surface_contraction(m, vertex_at(m, Vec3(0.75, 1, 1)), corner, opt).ok());
   // An interior vertex is not the surface contraction's business.
-  CHECK_FALSE(check_surface_contraction(m, at(m, Vec3(0.75, 0.5, 0.5)), at(m, Vec3(0.5, 0.5, 0.5)), opt).ok());
+  CHECK_FALSE(check_surface_contraction(m, vertex_at(m, Vec3(0.75, 0.5, 0.5)), vertex_at(m, Vec3(0.5, 0.5, 0.5)), opt).ok());
 }
