@@ -6,6 +6,7 @@
 #include <memory>
 
 #include "cli/commands.h"
+#include "mesh/errors.h"
 #include "scene/scene.h"
 #include "view/live_session.h"
 #include "view/look_session.h"
@@ -15,7 +16,7 @@ namespace incise::cli {
 
 void add_view(CLI::App& app) {
   struct Opts {
-    std::string scene, host = "127.0.0.1", web_dir = INCISE_VIEW_WEB_DIR;
+    std::string scene, host = "127.0.0.1", web_dir = INCISE_VIEW_WEB_DIR, record;
     int port = 0;
     double budget_ms = -1;
     bool paused = false;
@@ -38,13 +39,20 @@ void add_view(CLI::App& app) {
                   "solve slow, and an unfinished solve goes on next frame (docs/view.md)")
       ->check(CLI::Range(0.0, 1e6));
   cmd->add_flag("--paused", o->paused, "Start paused (Step or Resume on the page)");
-  cmd->callback([o] {
+  cmd->add_option("--record", o->record,
+                  "Live: where the page's Record button writes its takes (DIR/take-N: the frames recorded, "
+                  "frames.pvd, stats.csv, and scene.json, which `incise simulate` replays; docs/view.md)");
+  cmd->callback([o, cmd] {
     view::ServerOptions so;
     so.host = o->host;
     so.port = static_cast<unsigned short>(o->port);
     so.web_dir = o->web_dir;
     const view::ViewArgument kind = view::classify_view_argument(o->scene);
     if (kind != view::ViewArgument::Scene) {
+      // Look mode plays nothing: options of a live scene would be silently void.
+      for (const char* opt : {"--paused", "--budget-ms", "--record"})
+        if (cmd->count(opt) > 0)
+          throw InvalidArgument("view: " + std::string(opt) + " is for a scene (live mode); " + o->scene + " is looked at");
       std::unique_ptr<view::LookSession> look = kind == view::ViewArgument::Run    ? view::LookSession::open_run(o->scene)
                                                 : kind == view::ViewArgument::Report ? view::LookSession::open_report(o->scene)
                                                                                      : view::LookSession::open_mesh(o->scene);
@@ -61,7 +69,7 @@ void add_view(CLI::App& app) {
     constexpr double kLiveBudgetMs = 30;
     if (o->budget_ms >= 0) scene.cg.budget_ms = o->budget_ms;
     else if (scene.cg.budget_ms <= 0) scene.cg.budget_ms = kLiveBudgetMs;
-    view::LiveSession live(scene);
+    view::LiveSession live(scene, o->record);
     view::ViewServer server(live, so);
     if (o->paused) live.post({view::InputKind::Pause});
     live.start();

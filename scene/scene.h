@@ -65,6 +65,20 @@ struct SceneCut {
   bool improve = true;
 };
 
+// Input from outside the scene, as a viewer's blade and probe give it between frames (scene
+// "inputs", docs/scene.md): `incise view --record` writes them, and SceneRunner replays them before
+// frame `frame`'s solve, in the order listed, ahead of the scene's own cuts of that frame.
+struct SceneInput {
+  enum class Kind { Blade, Finish, Grab, Probe, Release } kind = Kind::Blade;
+  int frame = 0;
+  Vec3 a = Vec3::Zero(), b = Vec3::Zero();  // blade: its ends; grab: the point (a); probe: displacement (a)
+  double radius = 0;                        // grab: vertices within this distance of the point
+  // blade: the options of a blade that starts a cut (the first after none or a finish)
+  std::string mode = "subdivide";
+  double snap = 0.05;
+  bool improve = true;
+};
+
 // What a part that a cut detached (and that holds no fixed or prescribed vertex) becomes.
 // Keep is for dynamic scenes (the part falls): a static FEM scene has no equilibrium for a free
 // part, so one that would keep it is refused with an Error naming the frame.
@@ -72,6 +86,7 @@ enum class FragmentPolicy { Auto, Keep, Fix, Remove, Error };
 
 struct Scene {
   std::string path;                 // the scene file (messages, relative paths)
+  std::string source;               // its JSON text (a recording writes it back with its inputs)
   // Mesh: a file (relative to the scene) or a generator.
   std::string mesh_file;
   std::string generator;            // "", "box", "ellipsoid", "tube" or "cook"
@@ -101,6 +116,7 @@ struct Scene {
   int substeps = 1;                 // springs: steps per frame
   // cuts
   std::vector<SceneCut> cuts;
+  std::vector<SceneInput> inputs;   // recorded outside input, replayed (frames non-decreasing)
   FragmentPolicy fragments = FragmentPolicy::Auto;  // Auto: remove for static FEM, keep otherwise
   // output
   int output_every = 1;

@@ -201,9 +201,10 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   }
   const Reader rd(path);
   rd.keys(j, "", {"mesh", "model", "formulation", "materials", "fixed", "loads", "solver", "time", "output", "cuts",
-                  "fragments"});
+                  "inputs", "fragments"});
   Scene s;
   s.path = path;
+  s.source = text;
 
   if (!j.contains("mesh")) rd.fail("mesh", "missing; expected a mesh file name or {\"generate\": \"box\", ...}");
   const json& jm = j["mesh"];
@@ -430,6 +431,74 @@ Scene parse_scene(const std::string& text, const std::string& path) {
         cut.improve = c["improve"].get<bool>();
       }
       s.cuts.push_back(cut);
+    }
+  }
+  if (j.contains("inputs")) {
+    const json& ji = j["inputs"];
+    if (!ji.is_array())
+      rd.fail("inputs", "expected an array of {\"frame\": F, \"blade\"|\"finish\"|\"grab\"|\"probe\"|\"release\": ...}");
+    int last = 0;
+    for (std::size_t i = 0; i < ji.size(); ++i) {
+      const std::string key = "inputs[" + std::to_string(i) + "]";
+      const json& c = ji[i];
+      rd.keys(c, key, {"frame", "blade", "finish", "grab", "radius", "probe", "release", "mode", "snap", "improve"});
+      SceneInput in;
+      if (!c.contains("frame")) rd.fail(key + ".frame", "missing; expected the frame the input comes before");
+      in.frame = rd.integer(c["frame"], key + ".frame", 0);
+      if (in.frame >= s.frames)
+        rd.fail(key + ".frame", "frame " + std::to_string(in.frame) + " is after the run's last frame (" +
+                                    std::to_string(s.frames - 1) + ")");
+      if (in.frame < last) rd.fail(key + ".frame", "inputs must be in frame order (" + std::to_string(in.frame) + " after " +
+                                                    std::to_string(last) + ")");
+      last = in.frame;
+      int kinds = 0;
+      for (const char* k : {"blade", "finish", "grab", "probe", "release"}) kinds += c.contains(k);
+      if (kinds != 1) rd.fail(key, "expected exactly one of blade, finish, grab, probe, release");
+      auto flag = [&](const char* k) {
+        if (!c[k].is_boolean() || !c[k].get<bool>()) rd.fail(key + "." + k, "expected true");
+      };
+      if (c.contains("blade")) {
+        in.kind = SceneInput::Kind::Blade;
+        if (!c["blade"].is_array() || c["blade"].size() != 2) rd.fail(key + ".blade", "expected [[ax,ay,az],[bx,by,bz]]");
+        in.a = rd.vec3(c["blade"][0], key + ".blade[0]");
+        in.b = rd.vec3(c["blade"][1], key + ".blade[1]");
+        if (!((in.b - in.a).norm() > 1e-12 * std::max({in.a.norm(), in.b.norm(), 1e-300})))
+          rd.fail(key + ".blade", "the blade's two ends are the same point");
+        if (c.contains("mode")) {
+          in.mode = rd.string(c["mode"], key + ".mode");
+          if (in.mode != "subdivide" && in.mode != "remove")
+            rd.fail(key + ".mode", "expected \"subdivide\" or \"remove\", got \"" + in.mode + "\"");
+        }
+        if (c.contains("snap")) {
+          in.snap = rd.number(c["snap"], key + ".snap");
+          if (const std::string e = snap_error(in.snap); !e.empty()) rd.fail(key + ".snap", e);
+        }
+        if (c.contains("improve")) in.improve = rd.boolean(c["improve"], key + ".improve");
+      } else {
+        for (const char* k : {"mode", "snap", "improve"})
+          if (c.contains(k)) rd.fail(key + "." + k, "only for a blade input");
+      }
+      if (c.contains("finish")) {
+        in.kind = SceneInput::Kind::Finish;
+        flag("finish");
+      }
+      if (c.contains("release")) {
+        in.kind = SceneInput::Kind::Release;
+        flag("release");
+      }
+      if (c.contains("grab")) {
+        in.kind = SceneInput::Kind::Grab;
+        in.a = rd.vec3(c["grab"], key + ".grab");
+        if (!c.contains("radius")) rd.fail(key + ".radius", "missing; expected the grab's radius");
+        in.radius = rd.positive(c["radius"], key + ".radius");
+      } else if (c.contains("radius")) {
+        rd.fail(key + ".radius", "only for a grab input");
+      }
+      if (c.contains("probe")) {
+        in.kind = SceneInput::Kind::Probe;
+        in.a = rd.vec3(c["probe"], key + ".probe");
+      }
+      s.inputs.push_back(in);
     }
   }
   if (j.contains("fragments")) {

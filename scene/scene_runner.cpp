@@ -347,6 +347,36 @@ double SceneRunner::cut_scene_blades() {
 }
 
 CutStepReport SceneRunner::advance_blade(const BladeSegment& blade, const CutOptions& options) {
+  const bool placing = !blade_ || !blade_->in_cut();
+  SceneInput in;
+  in.kind = SceneInput::Kind::Blade;
+  in.a = blade.a;
+  in.b = blade.b;
+  if (placing) {
+    in.mode = options.mode == CutMode::Remove ? "remove" : "subdivide";
+    in.snap = options.snap;
+    in.improve = options.improve;
+    // What a scene input cannot say: the rest of CutOptions must be the defaults.
+    CutOptions said = cut_options(in);
+    const CutOptions& o = options;
+    replayable_ = replayable_ && o.frozen.empty() && o.finish_improve_work == said.finish_improve_work &&
+                  o.improve_budget_ms == said.improve_budget_ms && o.fragment_search_limit == said.fragment_search_limit &&
+                  o.improve_options.max_work == said.improve_options.max_work;
+  }
+  CutStepReport r = blade_step(blade, options);
+  record(in);
+  return r;
+}
+
+CutOptions SceneRunner::cut_options(const SceneInput& in) {
+  CutOptions o;
+  o.mode = in.mode == "remove" ? CutMode::Remove : CutMode::Subdivide;
+  o.snap = in.snap;
+  o.improve = in.improve;
+  return o;
+}
+
+CutStepReport SceneRunner::blade_step(const BladeSegment& blade, const CutOptions& options) {
   if (!blade_ || !blade_->in_cut()) {
     // One cutter for every outside cut: its first-contact grid is built once and kept up to
     // date by the changes it is notified of.
@@ -357,6 +387,11 @@ CutStepReport SceneRunner::advance_blade(const BladeSegment& blade, const CutOpt
   }
   CutStepReport r = blade_->advance(blade, [this](VertexId v) { return position(v); }, max_displacement_bound());
   return took_blade_step(std::move(r));
+}
+
+void SceneRunner::record(SceneInput in) {
+  in.frame = frame_;
+  applied_.push_back(std::move(in));
 }
 
 // An outside blade's step reaches the backend and the other cutters, and its detached parts
@@ -374,17 +409,24 @@ CutStepReport SceneRunner::took_blade_step(CutStepReport r) {
 CutStepReport SceneRunner::finish_blade() {
   if (!blade_ || !blade_->in_cut()) return {};
   CutStepReport r = blade_->finish([this](VertexId v) { return position(v); });
-  return took_blade_step(std::move(r));
+  r = took_blade_step(std::move(r));
+  record({.kind = SceneInput::Kind::Finish});
+  return r;
 }
 
 void SceneRunner::set_probe(const std::vector<VertexId>& vertices, const Vec3& displacement) {
-  release_probe();
+  hold_probe(vertices, displacement);
+  replayable_ = false;  // a list of vertex ids is not a scene input
+}
+
+void SceneRunner::hold_probe(const std::vector<VertexId>& vertices, const Vec3& displacement) {
+  free_probe();
   for (VertexId v : vertices)
     if (mesh_.is_alive(v) && !held_by_scene(v)) probe_.push_back(v);
   probe_displacement_ = displacement;
 }
 
-void SceneRunner::release_probe() {
+void SceneRunner::free_probe() {
   for (VertexId v : probe_) {
     if (!mesh_.is_alive(v)) continue;
     if (fem_) fem_->release(v);
@@ -393,7 +435,51 @@ void SceneRunner::release_probe() {
   probe_.clear();
 }
 
+void SceneRunner::release_probe() {
+  const bool held = !probe_.empty();
+  free_probe();
+  if (held) record({.kind = SceneInput::Kind::Release});
+}
+
+std::size_t SceneRunner::grab_probe(const Vec3& point, double radius) {
+  const std::vector<VertexId> near = vertices_near(point, radius);
+  probe_base_ = Vec3::Zero();
+  for (VertexId v : near) probe_base_ += position(v) - mesh_.rest(v);
+  if (!near.empty()) probe_base_ /= double(near.size());
+  hold_probe(near, probe_base_);
+  record({.kind = SceneInput::Kind::Grab, .a = point, .radius = radius});
+  return probe_.size();
+}
+
+void SceneRunner::move_probe(const Vec3& displacement) {
+  if (probe_.empty()) return;
+  probe_displacement_ = probe_base_ + displacement;
+  record({.kind = SceneInput::Kind::Probe, .a = displacement});
+}
+
+void SceneRunner::replay_inputs() {
+  const std::vector<SceneInput>& in = scene_.inputs;
+  for (; next_input_ < in.size() && in[next_input_].frame <= frame_; ++next_input_) {
+    const SceneInput& x = in[next_input_];
+    switch (x.kind) {
+      case SceneInput::Kind::Blade: {
+        const bool placing = !blade_ || !blade_->in_cut();
+        blade_step({x.a, x.b}, cut_options(x));
+        SceneInput r = x;
+        if (!placing) r = {.kind = SceneInput::Kind::Blade, .a = x.a, .b = x.b};
+        record(r);
+        break;
+      }
+      case SceneInput::Kind::Finish: finish_blade(); break;
+      case SceneInput::Kind::Grab: grab_probe(x.a, x.radius); break;
+      case SceneInput::Kind::Probe: move_probe(x.a); break;
+      case SceneInput::Kind::Release: release_probe(); break;
+    }
+  }
+}
+
 void SceneRunner::edit(const std::function<std::vector<std::vector<TetId>>(TetMesh&)>& fn) {
+  replayable_ = false;  // an arbitrary edit is not a scene input
   const std::vector<std::vector<TetId>> parts = fn(mesh_);
   apply_change(mesh_.take_change(), nullptr);
   handle_fragments(parts);
@@ -403,6 +489,7 @@ SceneFrame SceneRunner::step() {
   const Scene& s = scene_;
   SceneFrame out;
   out.frame = frame_;
+  replay_inputs();  // what an outside hand did before this frame, then the scene's blades
   out.cut_ms = cut_scene_blades();
   total_cut_ms_ += out.cut_ms;
   // Loads and probes at this frame, then the outside probe.

@@ -77,6 +77,20 @@ public:
   void set_probe(const std::vector<VertexId>& vertices, const Vec3& displacement);
   // Lets the probed vertices go (free again from the next step).
   void release_probe();
+  // A probe as a hand gives it: grabs the live vertices within `radius` of `point` (current
+  // positions; O(mesh), once per grab) and holds them where they are; move_probe() then holds
+  // them displaced by `displacement` from there. Returns how many it grabbed.
+  std::size_t grab_probe(const Vec3& point, double radius);
+  void move_probe(const Vec3& displacement);
+
+  // ---- recording ----------------------------------------------------------------------------
+  // Every input applied so far, outside (advance_blade, finish_blade, grab_probe, move_probe,
+  // release_probe) and replayed from the scene's "inputs", in the order applied, each with the
+  // frame it came before: a scene's "inputs" list (scene/scene_record.h) that replays this run.
+  const std::vector<SceneInput>& inputs_applied() const { return applied_; }
+  // False once an input a scene cannot say was given (set_probe() with a list of vertices,
+  // edit(), advance_blade() with options a scene input has no key for).
+  bool replayable() const { return replayable_; }
   // Any other edit of the mesh: `edit` changes it (its change record is taken afterwards) and
   // returns the parts it detached, as the cutter reports them; the backend and the blades take
   // the change and the fragment policy decides the parts.
@@ -111,6 +125,12 @@ private:
   CutStepReport took_blade_step(CutStepReport r);  // an outside blade step: change, time, fragments
   bool held_by_scene(VertexId v) const;
   double cut_scene_blades();
+  void replay_inputs();  // the scene's inputs due before this frame
+  CutStepReport blade_step(const BladeSegment& blade, const CutOptions& options);
+  void record(SceneInput in);
+  static CutOptions cut_options(const SceneInput& in);
+  void hold_probe(const std::vector<VertexId>& vertices, const Vec3& displacement);
+  void free_probe();
 
   Scene scene_;
   TetMesh mesh_;
@@ -127,6 +147,10 @@ private:
   std::unique_ptr<Cutter> blade_;                 // the outside blade
   std::vector<VertexId> probe_;                   // the outside probe's vertices
   Vec3 probe_displacement_ = Vec3::Zero();
+  Vec3 probe_base_ = Vec3::Zero();                // where grab_probe() found its vertices (mean displacement)
+  std::vector<SceneInput> applied_;
+  std::size_t next_input_ = 0;                    // the scene's next input to replay
+  bool replayable_ = true;
   std::vector<Vec3> force_;
   int frame_ = 0;
   double total_cut_ms_ = 0;

@@ -644,7 +644,18 @@ std::vector<double> FemModel::von_mises(const Eigen::VectorXd& u) const {
   if (nodal_averaged()) volumetric_pass(&u, true, 1.0, nullptr);  // pbar_ per tet
   parallel_range(tet_capacity_, [&](std::size_t ti) {
     if (!alive_[ti]) return;
-    Eigen::Matrix3d s = tet_stress(std::uint32_t(ti), u, true, quat_[ti].toRotationMatrix());
+    // The rotation of u itself (exact polar decomposition), not the stored one: the stored
+    // rotations are the solver's state (warm starts of the next relinearization), and a stress
+    // read for output must not change the run (it once did: frames written or coloured by
+    // stress cut a slightly different mesh than frames that were not).
+    Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
+    if (kind_ == FemKind::Corotational) {
+      const auto& v = verts_[ti];
+      Eigen::Matrix3d d;
+      for (int j = 0; j < 3; ++j) d.col(j) = u.segment<3>(3 * v[j + 1]) - u.segment<3>(3 * v[0]);
+      r = polar_rotation(Eigen::Matrix3d::Identity() + d * bm_[ti]);
+    }
+    Eigen::Matrix3d s = tet_stress(std::uint32_t(ti), u, true, r);
     if (nodal_averaged()) s.diagonal().array() += pbar_[ti];
     out[ti] = von_mises_of(s);
   });

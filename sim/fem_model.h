@@ -142,7 +142,8 @@ public:
   void add_rotation_rhs(Eigen::VectorXd& b) const;
   // f_int(u) with the current rotations (call update_rotations(u) first for corotational).
   void internal_forces(const Eigen::VectorXd& u, Eigen::VectorXd& f) const;
-  // Von Mises stress per tet (by TetId; dead slots 0) for displacement u and current rotations.
+  // Von Mises stress per tet (by TetId; dead slots 0) for displacement u (corotational: each
+  // tet's rotation from u, exactly; the model's stored rotations are left as they are).
   // NodalAveraged: the deviatoric stress plus the tet's averaged pressure (von Mises does not
   // see the pressure, so it is the deviatoric stress's).
   std::vector<double> von_mises(const Eigen::VectorXd& u) const;

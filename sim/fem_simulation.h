@@ -135,7 +135,7 @@ public:
   Eigen::VectorXd& displacement() { return u_; }
   const Eigen::VectorXd& velocity() const { return v_; }
   std::vector<Vec3> positions() const;                  // rest + displacement
-  std::vector<double> von_mises();                      // per TetId, current state
+  std::vector<double> von_mises() const;                // per TetId, current state
   const std::vector<std::uint8_t>& free_mask() const { return free_; }
 
   // The asynchronous factorization behind Preconditioner::Cholesky (nullptr until used).

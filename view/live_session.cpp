@@ -3,12 +3,16 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <optional>
 
 #include <nlohmann/json.hpp>
 
 #include "mesh/errors.h"
+#include "mesh/io/atomic_file.h"
 #include "quality/metrics.h"
+#include "scene/scene_output.h"
+#include "scene/scene_record.h"
 #include "scene/scene_runner.h"
 #include "view/boundary_tracker.h"
 #include "view/quality_watch.h"
@@ -54,9 +58,11 @@ public:
   Vec3 stretch_origin = Vec3::Zero(), stretch_dir = Vec3::Zero(), stretch_origin_b = Vec3::Zero(),
        stretch_dir_b = Vec3::Zero();
   std::uint32_t colour = 0;
-  std::vector<VertexId> probe;
-  Vec3 probe_base = Vec3::Zero();
+  bool probe = false;
   std::string error;
+  // the take being recorded (LiveSession::start_take)
+  std::optional<SceneOutput> take;
+  std::string take_name, take_dir, last_take;  // last_take: the take ended last (its directory)
 
   // the last frame's figures and totals
   SceneFrame last;
@@ -106,7 +112,9 @@ std::pair<Vec3, Vec3> LiveSession::blade_position(LiveState& s, const Vec3& a, c
   return {a, s.blade_b + db};
 }
 
-LiveSession::LiveSession(const Scene& scene) : scene_(scene), state_(std::make_unique<LiveState>(scene)) {
+LiveSession::LiveSession(const Scene& scene, std::string record_dir)
+    : record_dir_(std::move(record_dir)), scene_(scene), state_(std::make_unique<LiveState>(scene)) {
+  if (!record_dir_.empty()) check_output_dir(record_dir_);
   Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
   for (VertexId v : state_->runner.mesh().vertices()) {
     lo = lo.cwiseMin(state_->runner.mesh().rest(v));
@@ -117,7 +125,38 @@ LiveSession::LiveSession(const Scene& scene) : scene_(scene), state_(std::make_u
   publish();
 }
 
-LiveSession::~LiveSession() { stop(); }
+LiveSession::~LiveSession() {
+  stop();
+  try {
+    if (state_->take) end_take(*state_);
+  } catch (...) {  // a destructor does not throw; stop() reports what it can
+  }
+}
+
+void LiveSession::start_take(LiveState& s) {
+  namespace fs = std::filesystem;
+  int n = 1;
+  while (fs::exists(fs::path(record_dir_) / ("take-" + std::to_string(n)))) ++n;
+  s.take_name = "take-" + std::to_string(n);
+  s.take_dir = (fs::path(record_dir_) / s.take_name).string();
+  s.take.emplace(scene_, s.take_dir);
+}
+
+void LiveSession::end_take(LiveState& s) {
+  if (!s.take) return;
+  SceneOutput out = std::move(*s.take);
+  s.take.reset();
+  s.last_take = s.take_dir;
+  s.take_name.clear();
+  out.finish();
+  RecordedScene r;
+  r.inputs = s.runner.inputs_applied();
+  r.frames_played = s.runner.frame();
+  r.budget_ms = scene_.cg.budget_ms;
+  AtomicFile f((std::filesystem::path(s.take_dir) / "scene.json").string());
+  f.write(recorded_scene_json(scene_, r));
+  f.commit();
+}
 
 void LiveSession::start() {
   if (thread_.joinable()) return;
@@ -129,6 +168,7 @@ void LiveSession::stop() {
   stop_ = true;
   wake_.notify_all();
   if (thread_.joinable()) thread_.join();
+  if (state_->take) end_take(*state_);  // Ctrl-C ends a take like Record does
 }
 
 void LiveSession::set_listener(std::function<void()> listener) {
@@ -167,6 +207,8 @@ std::string LiveSession::check(const InputMessage& in) const {
     case InputKind::Ack: return "ack: not for the simulation";
     case InputKind::Colour: return in.value <= 2 ? "" : "colour: label and boundary-tag colours are look mode's";
     case InputKind::Frame: return "frame: only a run directory has frames to pick (incise view RUN_DIR)";
+    case InputKind::Record:
+      return record_dir_.empty() ? "record: start incise view with --record DIR to record takes" : "";
     default: return "";
   }
 }
@@ -231,20 +273,15 @@ void LiveSession::loop() {
             if (s->blade) s->frame_cut_ms += s->runner.finish_blade().ms;
             s->blade = false;
             break;
-          case InputKind::ProbeGrab: {
-            s->probe = s->runner.vertices_near(a, m.v[3]);  // O(mesh), once per grab
-            s->probe_base = Vec3::Zero();
-            for (VertexId v : s->probe) s->probe_base += s->runner.position(v) - s->runner.mesh().rest(v);
-            if (!s->probe.empty()) s->probe_base /= double(s->probe.size());
-            s->runner.set_probe(s->probe, s->probe_base);
+          case InputKind::ProbeGrab:
+            s->probe = s->runner.grab_probe(a, m.v[3]) > 0;  // O(mesh), once per grab
             break;
-          }
           case InputKind::ProbeMove:
-            if (!s->probe.empty()) s->runner.set_probe(s->probe, s->probe_base + a);
+            if (s->probe) s->runner.move_probe(a);
             break;
           case InputKind::ProbeRelease:
             s->runner.release_probe();
-            s->probe.clear();
+            s->probe = false;
             break;
           case InputKind::Pause: s->paused = true; break;
           case InputKind::Resume:
@@ -252,13 +289,20 @@ void LiveSession::loop() {
             s->error.clear();
             break;
           case InputKind::Step: s->step_once = true; break;
+          case InputKind::Record:
+            if (m.value == 1 && !s->take) start_take(*s);
+            if (m.value == 0 && s->take) end_take(*s);
+            break;
           case InputKind::Reset: {
+            end_take(*s);  // a take replays from the start: it ends where the session does
             const std::uint32_t colour = s->colour;
             const bool paused = s->paused;
+            const std::string last_take = s->last_take;
             state_ = std::make_unique<LiveState>(scene_);  // O(mesh): a user's reset, not a frame
             s = state_.get();
             s->colour = colour;
             s->paused = paused;
+            s->last_take = last_take;
             ++generation_;
             break;
           }
@@ -276,6 +320,7 @@ void LiveSession::loop() {
         s->last = s->runner.step();
         s->frame_ms = ms_since(t0);
         s->frame_cut_ms += s->last.cut_ms;
+        if (s->take) s->take->add(s->runner, s->last, true);  // O(mesh) a frame, while recording only
         ++s->frames;
         s->total_frame_ms += s->frame_ms;
         s->max_frame_ms = std::max(s->max_frame_ms, s->frame_ms);
@@ -369,7 +414,10 @@ void LiveSession::publish() {
                       {"generation", generation_},
                       {"paused", s.paused},
                       {"blade", s.blade},
-                      {"probe", s.probe.size()},
+                      {"probe", s.probe},
+                      {"recording", s.take_name},
+                      {"can_record", !record_dir_.empty()},
+                      {"last_take", s.last_take},
                       {"colour", s.colour},
                       {"tets", snap->tets},
                       {"vertices", snap->vertices},

@@ -32,7 +32,11 @@ public:
   static constexpr std::size_t kMaxPending = 256;  // inputs waiting for the next frame
 
   // Builds the runner (throws what SceneRunner throws: IoError naming the scene and key).
-  explicit LiveSession(const Scene& scene);
+  // `record_dir`: where Record writes its takes (take-1, take-2, ...: each the frames played
+  // while recording as frame_NNNN.vtu, frames.pvd and stats.csv, and scene.json, the scene with
+  // the inputs given since the start or the last reset, which `incise simulate` replays); empty:
+  // Record is refused. The directory is checked (check_output_dir) before anything plays.
+  explicit LiveSession(const Scene& scene, std::string record_dir = {});
   ~LiveSession() override;  // stops the thread
   LiveSession(const LiveSession&) = delete;
   LiveSession& operator=(const LiveSession&) = delete;
@@ -53,6 +57,10 @@ private:
   void publish();
   std::string check(const InputMessage& input) const;
   std::pair<Vec3, Vec3> blade_position(LiveState& s, const Vec3& a, const Vec3& b) const;
+  void start_take(LiveState& s);
+  void end_take(LiveState& s);  // writes the take's series, stats and scene.json
+
+  std::string record_dir_;
 
   Scene scene_;
   std::unique_ptr<LiveState> state_;

@@ -342,6 +342,7 @@ std::string LookSession::post(const InputMessage& in) {
       case InputKind::Step:
       case InputKind::Reset: return "";  // nothing plays
       case InputKind::Ack: return "ack: not for the session";
+      case InputKind::Record: return "record: look mode plays nothing to record (incise view SCENE.json --record DIR)";
       default: return "look mode: nothing to cut or probe (incise view SCENE.json plays a scene live)";
     }
     listener = listener_;

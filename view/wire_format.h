@@ -63,6 +63,7 @@ enum class InputKind : std::uint8_t {
   Colour,          // value: 0 none, 1 von Mises stress, 2 element quality (min dihedral)
   Ack,             // value: the frame the page has drawn (the next one may be sent)
   Frame,           // value: which frame of a run directory to show (look mode)
+  Record,          // value: 1 starts a take (frames and the inputs that replay them), 0 ends it
 };
 // 0 plain, 1 von Mises, 2 element quality; look mode adds 3 label, 4 boundary tag.
 inline constexpr std::uint32_t kColourModes = 5;
@@ -70,7 +71,7 @@ inline constexpr std::uint32_t kColourModes = 5;
 struct InputMessage {
   InputKind kind = InputKind::Pause;
   std::array<float, 6> v{};  // BladeStart/Move: a, b; ProbeGrab: point, radius; ProbeMove: d
-  std::uint32_t value = 0;   // Colour: mode; Ack, Frame: frame
+  std::uint32_t value = 0;   // Colour: mode; Ack, Frame: frame; Record: 1 start, 0 stop
 };
 
 // Exact size of an input's encoding (each kind has one), 0 for an unknown kind byte.
