@@ -42,10 +42,26 @@ std::string recorded_scene_json(const Scene& scene, const RecordedScene& r) {
   if (scene.source.empty()) throw InvalidArgument("recorded_scene_json: the scene has no JSON text (it was not read from a file)");
   ojson j = ojson::parse(scene.source);
   // Frames: the ones played; one more when input came after the last (its cuts happened, the
-  // replay solves once more after them); never fewer than the scene's own cuts need to be valid.
+  // replay solves once more after them). The scene's own blades that had not started are left
+  // out; one that was moving when the recording stopped keeps the frames to its end (a blade's
+  // steps are fractions of its whole sweep, so it cannot be cut short without moving them).
   int frames = std::max(r.frames_played, 1);
   for (const SceneInput& in : r.inputs) frames = std::max(frames, in.frame + 1);
-  for (const SceneCut& c : scene.cuts) frames = std::max(frames, c.to_frame + 1);
+  for (bool grew = true; grew;) {
+    grew = false;
+    for (const SceneCut& c : scene.cuts)
+      if (c.from_frame < frames && c.to_frame + 1 > frames) {
+        frames = c.to_frame + 1;
+        grew = true;
+      }
+  }
+  if (j.contains("cuts") && j["cuts"].is_array() && j["cuts"].size() == scene.cuts.size()) {
+    ojson kept = ojson::array();
+    for (std::size_t i = 0; i < scene.cuts.size(); ++i)
+      if (scene.cuts[i].from_frame < frames) kept.push_back(j["cuts"][i]);
+    if (kept.empty()) j.erase("cuts");
+    else j["cuts"] = std::move(kept);
+  }
   if (!j.contains("time") || !j["time"].is_object()) j["time"] = ojson::object();
   j["time"]["frames"] = frames;
   if (r.budget_ms >= 0) {

@@ -18,7 +18,8 @@ struct RecordedScene {
 
 // The JSON text of `scene` (scene.source, its keys and order kept) with `r.inputs` as "inputs" and
 // time.frames set to what the recording needs: the frames played, one more when inputs came after
-// the last one, never fewer than the scene's own cuts reach. A mesh file's name becomes absolute,
+// the last one. The scene's own cuts that start later are left out; one that was moving at the
+// end keeps the frames to its end (the replay plays on past the recording). A mesh file's name becomes absolute,
 // since the recording is read from another directory. Throws InvalidArgument when the scene has no
 // source text (built in code, not read from a file).
 std::string recorded_scene_json(const Scene& scene, const RecordedScene& r);

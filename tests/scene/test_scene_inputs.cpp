@@ -122,10 +122,17 @@ TEST_CASE("scene inputs: a recording that stops early, or after input, keeps wha
   play_by_hand(hand, 3);  // frames 0..2 played, the blade placed before frame 2
   hand.advance_blade({Vec3(1.3, -0.5, 0.9), Vec3(1.3, 1.5, 0.9)});  // a step after the last frame
   const Scene rec = parse_scene(recorded_scene_json(scene, {hand.inputs_applied(), hand.frame(), 30}), "rec.json");
-  // The scene's own blade ends at frame 7, so the recording keeps frames 0..7, and its input
-  // after frame 2 is before frame 3.
-  CHECK(rec.frames == 8);
+  // The scene's own blade (frames 6..7) had not started: it is left out, and the input after
+  // frame 2 comes before one more frame.
+  CHECK(rec.frames == 4);
+  CHECK(rec.cuts.empty());
   CHECK(rec.inputs.back().frame == 3);
+  // Stopped while the scene's blade moved (after frame 6): the replay plays on to its end.
+  SceneRunner longer(scene);
+  play_by_hand(longer, 7);
+  const Scene rec7 = parse_scene(recorded_scene_json(scene, {longer.inputs_applied(), longer.frame(), -1}), "rec.json");
+  CHECK(rec7.frames == 8);
+  CHECK(rec7.cuts.size() == 1);
   CHECK(rec.cg.budget_ms == 30);
   // A mesh file's name becomes absolute: the recording is read from elsewhere.
   const Scene file_scene = parse_scene(R"({"mesh": "../liver.msh", "time": {"frames": 2}})", "/data/scenes/s.json");

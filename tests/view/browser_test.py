@@ -11,6 +11,7 @@ usage: browser_test.py INCISE SCENE.json OUT_DIR [incise view options...]
 import json
 import os
 import re
+import shutil
 import subprocess
 import sys
 import threading
@@ -28,7 +29,10 @@ from browser_util import fail, start_chromium, wait_for
 def main():
     incise, scene, out_dir = sys.argv[1:4]
     os.makedirs(out_dir, exist_ok=True)
-    server = subprocess.Popen([incise, "view", scene, "--port", "0", "--paused"] + sys.argv[4:], stdout=subprocess.PIPE,
+    takes = os.path.join(out_dir, "takes")
+    shutil.rmtree(takes, ignore_errors=True)
+    server = subprocess.Popen([incise, "view", scene, "--port", "0", "--paused", "--record", takes] + sys.argv[4:],
+                              stdout=subprocess.PIPE,
                               stderr=subprocess.PIPE, text=True)
     url = None
     lines = []
@@ -172,6 +176,42 @@ def main():
                  page()["triangles"] == s0["triangles"])
         print("probe, colour and reset: no error frames; after the reset the page draws "
               f"{page()['triangles']} triangles again", flush=True)
+
+        # Record: a take of a cut (paused, from the reset's start) and two frames; `incise simulate`
+        # replays its scene.json to the same cut mesh.
+        set_paused(True)
+        record = driver.find_element(By.ID, "record")
+        record.click()
+        wait_for("recording", lambda: status()["recording"] == "take-1")
+        drag(-150, 10, 10, 0, 30)
+        wait_for("cut faces on the server", lambda: status()["cut_triangles"] > 0)
+        for k in range(2):
+            f = status()["frame"]
+            driver.find_element(By.ID, "step").click()
+            wait_for("a step", lambda: status()["frame"] == f + 1)
+        record.click()
+        wait_for("the take written", lambda: status()["recording"] == "" and status()["last_take"] != "")
+        st = status()
+        take = st["last_take"]
+        for f in ["scene.json", "frames.pvd", "stats.csv", "frame_0000.vtu", "frame_0001.vtu"]:
+            if not os.path.exists(os.path.join(take, f)):
+                fail(f"the take has no {f}: {sorted(os.listdir(take))}")
+        with open(os.path.join(take, "scene.json")) as fh:
+            inputs = json.load(fh)["inputs"]
+        blades = sum(1 for i in inputs if "blade" in i)
+        replay = os.path.join(out_dir, "replay")
+        shutil.rmtree(replay, ignore_errors=True)
+        r = subprocess.run([incise, "simulate", os.path.join(take, "scene.json"), "-o", replay], capture_output=True,
+                           text=True, timeout=120)
+        if r.returncode != 0:
+            fail("incise simulate on the take: " + r.stderr)
+        m = re.search(r"(\d+) tets", r.stdout + r.stderr)
+        replay_tets = int(m.group(1)) if m else -1
+        print(f"record: {take} with {len(inputs)} inputs ({blades} blade steps), 2 frames; the replay has "
+              f"{replay_tets} tets, the live session {st['tets']}", flush=True)
+        if replay_tets != st["tets"]:
+            fail(f"the replay of the take has {replay_tets} tets, the live session had {st['tets']}: "
+                 + r.stdout[-500:])
 
         # Security: bad inputs get an error frame and change nothing; other origins are refused.
         set_paused(True)  # so that the scene's own blade changes nothing either

@@ -7,7 +7,7 @@ import { OrbitControls } from './OrbitControls.js';
 
 // ---- wire format (view/wire_format.h) ---------------------------------------------------
 const Kind = { BladeStart: 1, BladeMove: 2, BladeEnd: 3, ProbeGrab: 4, ProbeMove: 5, ProbeRelease: 6,
-               Pause: 7, Resume: 8, Step: 9, Reset: 10, Colour: 11, Ack: 12, Frame: 13 };
+               Pause: 7, Resume: 8, Step: 9, Reset: 10, Colour: 11, Ack: 12, Frame: 13, Record: 14 };
 const TRI_CUT = 1, TRI_FIXED = 2, TRI_WORST = 4;
 
 function encodeInput(kind, floats = [], value = null) {
@@ -209,6 +209,14 @@ function showStats() {
     `min dihedral ${f(s.min_dihedral, 1)} deg, ${s.below} tets below ${s.below_deg} deg (rest shape)` +
     (s.colour ? `\ncolour ${s.colour === 1 ? 'von Mises' : 'min dihedral'}: ${Number(s.scalar_lo).toPrecision(3)} .. ${Number(s.scalar_hi).toPrecision(3)}` : '');
   document.getElementById('pause').textContent = s.paused ? 'Resume' : 'Pause';
+  const rec = document.getElementById('record');
+  rec.disabled = !s.can_record;
+  rec.title = s.can_record ? 'record a take: its frames and a scene that `incise simulate` replays'
+                           : 'start incise view with --record DIR to record takes';
+  rec.textContent = s.recording ? `Stop ${s.recording}` : 'Record';
+  rec.classList.toggle('on', !!s.recording);
+  if (s.recording) overlay.textContent += `\nrecording ${s.recording}`;
+  else if (s.last_take) overlay.textContent += `\nlast take: ${s.last_take} (incise simulate ${s.last_take}/scene.json -o DIR replays it)`;
   if (s.error) document.getElementById('error').textContent = s.error;
 }
 
@@ -222,6 +230,7 @@ function setMode(m) {
 for (const k of ['cut', 'probe', 'orbit']) document.getElementById('mode-' + k).onclick = () => setMode(k);
 document.getElementById('pause').onclick = () => send(encodeInput(stats.paused ? Kind.Resume : Kind.Pause));
 document.getElementById('step').onclick = () => send(encodeInput(Kind.Step));
+document.getElementById('record').onclick = () => send(encodeInput(Kind.Record, [], stats.recording ? 0 : 1));
 document.getElementById('reset').onclick = () => { document.getElementById('error').textContent = ''; send(encodeInput(Kind.Reset)); };
 document.getElementById('wire').onclick = (e) => { wire.visible = !wire.visible; e.target.classList.toggle('on', wire.visible); };
 document.getElementById('colour').onchange = (e) => send(encodeInput(Kind.Colour, [], Number(e.target.value)));
@@ -323,7 +332,7 @@ let runStats = null;
 function setViewMode(m) {
   view.mode = m;
   if (m === 'live') return;
-  for (const id of ['mode-cut', 'mode-probe', 'pause', 'step', 'reset', 'depth-label'])
+  for (const id of ['mode-cut', 'mode-probe', 'pause', 'step', 'reset', 'record', 'depth-label'])
     document.getElementById(id).style.display = 'none';
   setMode('orbit');
   const sel = document.getElementById('colour');
