@@ -2,6 +2,7 @@
 // browser, or files looked at (a mesh, a quality report's mesh, a run directory's frames). The
 // mode comes from the argument (view/look_session.h classify_view_argument). Starts the local
 // server, prints its URL on stdout, and serves until interrupted (Ctrl-C).
+#include <filesystem>
 #include <iostream>
 #include <memory>
 
@@ -14,9 +15,30 @@
 
 namespace incise::cli {
 
+namespace {
+// The page's files: an installed incise has them at P/share/incise/web beside its P/bin (found
+// from where the executable is, so a moved prefix still works); a build tree's incise serves
+// the build tree's copy.
+std::string default_web_dir() {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    fs::path prefix = exe.parent_path();
+    for (const auto& part : fs::path(INCISE_INSTALL_BINDIR)) {
+      (void)part;
+      prefix = prefix.parent_path();
+    }
+    const fs::path installed = prefix / INCISE_VIEW_INSTALLED_WEB_DIR;
+    if (fs::exists(installed / "index.html", ec)) return installed.string();
+  }
+  return INCISE_VIEW_WEB_DIR;
+}
+}  // namespace
+
 void add_view(CLI::App& app) {
   struct Opts {
-    std::string scene, host = "127.0.0.1", web_dir = INCISE_VIEW_WEB_DIR, record;
+    std::string scene, host = "127.0.0.1", web_dir = default_web_dir(), record;
     int port = 0;
     double budget_ms = -1;
     bool paused = false;
@@ -32,7 +54,7 @@ void add_view(CLI::App& app) {
   cmd->add_option("--host", o->host,
                   "IP address to listen on; default 127.0.0.1 (this machine only). Another address exposes the "
                   "simulation to the network: give it deliberately");
-  cmd->add_option("--web-dir", o->web_dir, "Where the page's files are (default: the build tree's view/web)");
+  cmd->add_option("--web-dir", o->web_dir, "Where the page's files are (default: " + o->web_dir + ")");
   cmd->add_option("--budget-ms", o->budget_ms,
                   "Solver budget per frame in ms, instead of the scene's solver.budget_ms (0: none). Default: the "
                   "scene's, or 30 when the scene sets none: a budget keeps the frame rate while a cut makes the "
