@@ -163,3 +163,17 @@ TEST_CASE("scene cuts: degenerate blades and frames after the run are errors nam
     CHECK(!fs::exists(dir / "out"));
   }
 }
+
+TEST_CASE("view: options of a live scene are refused in look mode", "[cli][options]") {
+  const fs::path dir = scratch_dir("cli_view_look_options");
+  if (run_incise("view --help", dir).code != 0) {
+    WARN("incise built without the viewer (INCISE_WITH_VIEW=OFF): nothing to check");
+    return;
+  }
+  const fs::path box = dir / "box.msh";
+  REQUIRE(run_incise("generate box --cells 1 1 1 -o " + q(box), dir).code == 0);
+  for (const char* opt : {"--paused", "--budget-ms 10", "--record " })
+    check_failed(run_incise("view " + q(box) + " " + opt + (std::string(opt) == "--record " ? q(dir / "takes") : ""), dir),
+                 "is for a scene (live mode)");
+  CHECK(!fs::exists(dir / "takes"));
+}
