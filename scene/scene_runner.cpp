@@ -220,6 +220,16 @@ std::vector<Vec3> SceneRunner::positions() const {
   return x;
 }
 
+std::vector<VertexId> SceneRunner::loaded_vertices() const {
+  std::vector<VertexId> out;
+  for (const auto& list : load_vertices_) out.insert(out.end(), list.begin(), list.end());
+  for (const auto& shares : face_shares_)
+    for (const FaceShare& w : shares) out.push_back(w.vertex);
+  std::sort(out.begin(), out.end(), [](VertexId a, VertexId b) { return a.idx() < b.idx(); });
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
 std::vector<VertexId> SceneRunner::vertices_near(const Vec3& point, double radius) const {
   std::vector<VertexId> out;
   for (VertexId v : mesh_.vertices())

@@ -115,6 +115,9 @@ public:
   // Live vertices whose current position is within `radius` of `point` (what a probe grabs).
   std::vector<VertexId> vertices_near(const Vec3& point, double radius) const;
   double body_size() const { return size_; }            // the rest bounding box's diagonal
+  // The vertices the scene's loads act on: force and probe boxes, pressure and traction faces
+  // (gravity acts everywhere and is not listed). Each once, in no particular order.
+  std::vector<VertexId> loaded_vertices() const;
   double total_cut_ms() const { return total_cut_ms_; }
   std::size_t fragments_handled() const { return fragments_handled_; }  // fixed or removed parts
 

@@ -10,8 +10,9 @@ namespace {
 std::uint64_t face_key(TetId t, int local) { return std::uint64_t(t.idx()) * 4 + std::uint64_t(local); }
 }  // namespace
 
-BoundaryTracker::BoundaryTracker(const TetMesh& mesh, std::function<bool(VertexId)> fixed)
-    : mesh_(mesh), fixed_(std::move(fixed)) {
+BoundaryTracker::BoundaryTracker(const TetMesh& mesh, std::function<bool(VertexId)> fixed,
+                                 std::function<bool(VertexId)> loaded)
+    : mesh_(mesh), fixed_(std::move(fixed)), loaded_(std::move(loaded)) {
   for (const BoundaryFace& f : mesh.boundary_faces()) look_at(f.tet);
 }
 
@@ -63,6 +64,7 @@ void BoundaryTracker::look_at(TetId t) {
     const std::array<VertexId, 3> fv = mesh_.face_vertices(t, f);
     std::uint32_t flags = mesh_.face_tag(t, f) == kTagCut ? kTriangleCut : 0;
     if (fixed_ && fixed_(fv[0]) && fixed_(fv[1]) && fixed_(fv[2])) flags |= kTriangleFixed;
+    if (loaded_ && loaded_(fv[0]) && loaded_(fv[1]) && loaded_(fv[2])) flags |= kTriangleLoaded;
     if (it != face_slot_.end()) {
       const Triangle& old = tri_[it->second];
       bool same = old.flags == flags;

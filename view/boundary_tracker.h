@@ -26,8 +26,10 @@ public:
     int local = 0;
   };
 
-  // `fixed(v)`: whether the scene holds v (drawn as a fixed region).
-  BoundaryTracker(const TetMesh& mesh, std::function<bool(VertexId)> fixed);
+  // `fixed(v)`: whether the scene holds v (drawn as a fixed region); `loaded(v)`: whether a
+  // scene load acts on v (drawn as a loaded region). Either may be empty.
+  BoundaryTracker(const TetMesh& mesh, std::function<bool(VertexId)> fixed,
+                  std::function<bool(VertexId)> loaded = {});
   void apply(const TopologyChange& change);
 
   const std::vector<Triangle>& triangles() const { return tri_; }       // by slot
@@ -42,7 +44,7 @@ private:
   void release_vertex(std::uint32_t slot);
 
   const TetMesh& mesh_;
-  std::function<bool(VertexId)> fixed_;
+  std::function<bool(VertexId)> fixed_, loaded_;
   std::vector<Triangle> tri_;
   std::vector<std::uint32_t> free_tri_;
   std::unordered_map<std::uint64_t, std::uint32_t> face_slot_;  // tet * 4 + local -> triangle slot

@@ -28,6 +28,9 @@ constexpr int kColourEvery = 30;
 // Within this distance (relative to the body's size) of the line of the blade's current
 // straight stretch a move counts as on it: about a pixel or two with the whole body in view.
 constexpr double kStraight = 0.005;
+// The clip view draws at most this many tets (the worst ones): 4 faces and 4 corners each on
+// the wire, so a wide angle on a large mesh stays a bounded message.
+constexpr std::size_t kMaxClipTets = 4000;
 }  // namespace
 
 // The runner and everything that follows its mesh; a reset makes a new one.
@@ -38,7 +41,11 @@ public:
     fixed.assign(mesh.vertex_capacity(), 0);
     for (VertexId v : mesh.vertices())
       fixed[v.idx()] = runner.fem() ? runner.fem()->is_constrained(v) : runner.springs()->is_fixed(v);
-    tracker = std::make_unique<BoundaryTracker>(mesh, [this](VertexId v) { return v.idx() < fixed.size() && fixed[v.idx()]; });
+    loaded.assign(mesh.vertex_capacity(), 0);
+    for (VertexId v : runner.loaded_vertices()) loaded[v.idx()] = 1;
+    tracker = std::make_unique<BoundaryTracker>(
+        mesh, [this](VertexId v) { return v.idx() < fixed.size() && fixed[v.idx()]; },
+        [this](VertexId v) { return v.idx() < loaded.size() && loaded[v.idx()]; });
     quality = std::make_unique<QualityWatch>(mesh);
     runner.set_change_observer([this](const TopologyChange& c) {
       tracker->apply(c);
@@ -46,7 +53,8 @@ public:
     });
   }
   SceneRunner runner;
-  std::vector<char> fixed;  // held by the scene when it started (the fixed regions drawn)
+  std::vector<char> fixed;   // held by the scene when it started (the fixed regions drawn)
+  std::vector<char> loaded;  // under a scene load (force, probe, pressure, traction) when it started
   std::unique_ptr<BoundaryTracker> tracker;
   std::unique_ptr<QualityWatch> quality;
 
@@ -58,6 +66,7 @@ public:
   Vec3 stretch_origin = Vec3::Zero(), stretch_dir = Vec3::Zero(), stretch_origin_b = Vec3::Zero(),
        stretch_dir_b = Vec3::Zero();
   std::uint32_t colour = 0;
+  std::uint32_t clip_deg = 0;  // the clip view: tets below this angle drawn (0: off)
   bool probe = false;
   std::string error;
   // the take being recorded (LiveSession::start_take)
@@ -295,12 +304,13 @@ void LiveSession::loop() {
             break;
           case InputKind::Reset: {
             end_take(*s);  // a take replays from the start: it ends where the session does
-            const std::uint32_t colour = s->colour;
+            const std::uint32_t colour = s->colour, clip = s->clip_deg;
             const bool paused = s->paused;
             const std::string last_take = s->last_take;
             state_ = std::make_unique<LiveState>(scene_);  // O(mesh): a user's reset, not a frame
             s = state_.get();
             s->colour = colour;
+            s->clip_deg = clip;
             s->paused = paused;
             s->last_take = last_take;
             ++generation_;
@@ -310,6 +320,7 @@ void LiveSession::loop() {
             s->colour = m.value;
             s->frames_since_colour = 1 << 20;
             break;
+          case InputKind::Clip: s->clip_deg = m.value; break;
           case InputKind::Ack:
           case InputKind::Frame: break;  // refused by check()
         }
@@ -405,7 +416,26 @@ void LiveSession::publish() {
     snap->scalar_hi = s.scalar_hi;
     snap->scalar_version = s.scalar_version;
   }
-  snap->triangles = tr.triangle_count();
+  // The clip view: the tets below the angle (rest shape, as the overlay's count), drawn whole
+  // at their current positions after the boundary's slots, flagged like look mode's worst.
+  std::size_t clip_tets = 0;
+  if (s.clip_deg > 0) {
+    const std::vector<TetId> bad = s.quality->tets_below(double(s.clip_deg), kMaxClipTets);
+    clip_tets = bad.size();
+    if (!snap->scalars.empty()) snap->scalars.resize(tr.triangles().size() + 4 * bad.size(), 0.f);
+    for (TetId t : bad) {
+      const auto& tv = r.mesh().tet_vertices(t);
+      const std::uint32_t first = std::uint32_t(snap->positions.size() / 3);
+      for (VertexId v : tv) {
+        const Vec3 p = r.position(v);
+        for (int k = 0; k < 3; ++k) snap->positions.push_back(float(p[k]));
+      }
+      for (int f = 0; f < 4; ++f)
+        snap->tris.insert(snap->tris.end(), {first + std::uint32_t(kFaceLocal[f][0]), first + std::uint32_t(kFaceLocal[f][1]),
+                                             first + std::uint32_t(kFaceLocal[f][2]), kTriangleWorst});
+    }
+  }
+  snap->triangles = tr.triangle_count() + 4 * clip_tets;
   snap->cut_triangles = tr.cut_triangle_count();
   snap->tets = r.mesh().num_tets();
   snap->vertices = r.mesh().num_vertices();
@@ -417,6 +447,9 @@ void LiveSession::publish() {
                       {"probe", s.probe},
                       {"recording", s.take_name},
                       {"can_record", !record_dir_.empty()},
+                      {"clip_deg", s.clip_deg},
+                      {"clip_tets", clip_tets},
+                      {"clip_max", kMaxClipTets},
                       {"last_take", s.last_take},
                       {"colour", s.colour},
                       {"tets", snap->tets},

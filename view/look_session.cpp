@@ -343,6 +343,7 @@ std::string LookSession::post(const InputMessage& in) {
       case InputKind::Reset: return "";  // nothing plays
       case InputKind::Ack: return "ack: not for the session";
       case InputKind::Record: return "record: look mode plays nothing to record (incise view SCENE.json --record DIR)";
+      case InputKind::Clip: return "clip: look mode shows the worst elements (a report's, or the 10 worst)";
       default: return "look mode: nothing to cut or probe (incise view SCENE.json plays a scene live)";
     }
     listener = listener_;

@@ -13,15 +13,22 @@ void QualityWatch::add(TetId t) {
   if (angle_[t.idx()] >= 0) return;
   const double a = tet_quality(mesh_, t).min_dihedral;
   angle_[t.idx()] = a;
-  angles_.insert(a);
+  angles_.emplace(a, t.idx());
   if (a < below_deg_) ++below_;
+}
+
+std::vector<TetId> QualityWatch::tets_below(double deg, std::size_t cap) const {
+  std::vector<TetId> out;
+  for (auto it = angles_.begin(); it != angles_.end() && it->first < deg && out.size() < cap; ++it)
+    out.push_back(TetId(it->second));
+  return out;
 }
 
 void QualityWatch::apply(const TopologyChange& change) {
   for (TetId t : change.removed_tets) {
     if (t.idx() >= angle_.size() || angle_[t.idx()] < 0) continue;
     const double a = angle_[t.idx()];
-    angles_.erase(angles_.find(a));
+    angles_.erase({a, t.idx()});
     if (a < below_deg_) --below_;
     angle_[t.idx()] = -1.0;
   }

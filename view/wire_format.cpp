@@ -148,7 +148,8 @@ std::size_t input_size(std::uint8_t kind) {
     case InputKind::Colour:
     case InputKind::Ack:
     case InputKind::Frame:
-    case InputKind::Record: return 1 + 4;
+    case InputKind::Record:
+    case InputKind::Clip: return 1 + 4;
     case InputKind::BladeEnd:
     case InputKind::ProbeRelease:
     case InputKind::Pause:
@@ -170,7 +171,8 @@ int floats_of(InputKind k) {
   }
 }
 bool has_value(InputKind k) {
-  return k == InputKind::Colour || k == InputKind::Ack || k == InputKind::Frame || k == InputKind::Record;
+  return k == InputKind::Colour || k == InputKind::Ack || k == InputKind::Frame || k == InputKind::Record ||
+         k == InputKind::Clip;
 }
 }  // namespace
 
@@ -198,6 +200,7 @@ InputMessage decode_input(std::span<const std::uint8_t> bytes) {
   }
   if (has_value(m.kind)) m.value = r.u32();
   if (m.kind == InputKind::Colour && m.value >= kColourModes) throw InvalidArgument("input: unknown colour mode");
+  if (m.kind == InputKind::Clip && m.value > kMaxClipDeg) throw InvalidArgument("input: clip angle above 90 degrees");
   if (m.kind == InputKind::Record && m.value > 1) throw InvalidArgument("input: record takes 1 (start) or 0 (stop)");
   if (m.kind == InputKind::ProbeGrab && !(m.v[3] > 0)) throw InvalidArgument("input: probe radius must be positive");
   return m;

@@ -21,7 +21,8 @@ inline constexpr std::uint16_t kWireVersion = 1;
 // Triangle flags (FrameMessage::Triangle::flags).
 inline constexpr std::uint32_t kTriangleCut = 1;    // a face a cut opened (kTagCut)
 inline constexpr std::uint32_t kTriangleFixed = 2;  // its three corners are held by the scene
-inline constexpr std::uint32_t kTriangleWorst = 4;  // a face of one of the worst elements (look mode)
+inline constexpr std::uint32_t kTriangleWorst = 4;  // a face of one of the worst elements (look mode; live: the clip view)
+inline constexpr std::uint32_t kTriangleLoaded = 8; // its three corners carry a scene load (force, probe, pressure, traction)
 
 struct FrameMessage {
   bool reset = false;                // the page drops every slot first (a new run or a reset)
@@ -64,6 +65,7 @@ enum class InputKind : std::uint8_t {
   Ack,             // value: the frame the page has drawn (the next one may be sent)
   Frame,           // value: which frame of a run directory to show (look mode)
   Record,          // value: 1 starts a take (frames and the inputs that replay them), 0 ends it
+  Clip,            // value: show the tets whose smallest dihedral is below this many degrees (0: none)
 };
 // 0 plain, 1 von Mises, 2 element quality; look mode adds 3 label, 4 boundary tag.
 inline constexpr std::uint32_t kColourModes = 5;
@@ -73,6 +75,8 @@ struct InputMessage {
   std::array<float, 6> v{};  // BladeStart/Move: a, b; ProbeGrab: point, radius; ProbeMove: d
   std::uint32_t value = 0;   // Colour: mode; Ack, Frame: frame; Record: 1 start, 0 stop
 };
+
+inline constexpr std::uint32_t kMaxClipDeg = 90;
 
 // Exact size of an input's encoding (each kind has one), 0 for an unknown kind byte.
 std::size_t input_size(std::uint8_t kind);

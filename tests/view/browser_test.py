@@ -134,6 +134,24 @@ def main():
         time.sleep(0.3)
         driver.save_screenshot(os.path.join(out_dir, "view_after_cut.png"))
 
+        # The clip view: the tets below 10 deg drawn whole, in red over the body; off again at 0.
+        def set_clip(deg):
+            driver.execute_script("const c = document.getElementById('clip'); c.value = arguments[0]; "
+                                  "c.dispatchEvent(new Event('change'));", str(deg))
+            wait_for(f"clip {deg}", lambda: status()["clip_deg"] == deg)
+            wait_for("the page to draw the clip", synced)
+        set_clip(10)
+        sc = status()
+        if sc["clip_tets"] != min(sc["below"], sc["clip_max"]) or page()["worstTriangles"] != 4 * sc["clip_tets"]:
+            fail(f"clip 10: server {sc['clip_tets']} tets ({sc['below']} below 10 deg), the page draws "
+                 f"{page()['worstTriangles']} red triangles")
+        time.sleep(0.3)
+        driver.save_screenshot(os.path.join(out_dir, "view_clip.png"))
+        print(f"clip: {sc['clip_tets']} tets below 10 deg drawn ({page()['worstTriangles']} triangles)", flush=True)
+        set_clip(0)
+        if page()["worstTriangles"] != 0:
+            fail("clip 0 still draws tets")
+
         # Cutting while the scene plays (the blade cuts the deformed shape).
         set_paused(False)
         measure("playing, cutting", 4.0, during=lambda: drag(10, -120, 0, 10, 24))

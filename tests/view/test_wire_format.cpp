@@ -63,18 +63,19 @@ TEST_CASE("frame messages round-trip and refuse damaged bytes") {
 }
 
 TEST_CASE("inputs round-trip, and wrong sizes, kinds and numbers are refused") {
-  for (std::uint8_t k = 1; k <= std::uint8_t(InputKind::Ack); ++k) {
+  for (std::uint8_t k = 1; k <= std::uint8_t(InputKind::Clip); ++k) {
     InputMessage in;
     in.kind = InputKind(k);
     in.v = {1, 2, 3, 4, 5, 6};
-    in.value = in.kind == InputKind::Colour ? 2 : 77;
+    in.value = in.kind == InputKind::Colour ? 2 : in.kind == InputKind::Record ? 1 : 77;
+    const bool valued = k >= 11;  // Colour, Ack, Frame, Record, Clip carry a value
     const std::vector<std::uint8_t> b = encode(in);
     CHECK(b.size() == input_size(k));
     const InputMessage out = decode_input(b);
     CHECK(out.kind == in.kind);
-    const int floats = int((b.size() - 1) / 4) - ((k == 11 || k == 12) ? 1 : 0);
+    const int floats = int((b.size() - 1) / 4) - (valued ? 1 : 0);
     for (int i = 0; i < floats; ++i) CHECK(out.v[i] == in.v[i]);
-    if (k == 11 || k == 12) CHECK(out.value == in.value);
+    if (valued) CHECK(out.value == in.value);
     std::vector<std::uint8_t> longer = b;
     longer.push_back(0);
     CHECK_THROWS_AS(decode_input(longer), InvalidArgument);
@@ -88,6 +89,8 @@ TEST_CASE("inputs round-trip, and wrong sizes, kinds and numbers are refused") {
   CHECK_THROWS_AS(decode_input(encode(colour)), InvalidArgument);
   InputMessage probe{InputKind::ProbeGrab, {0, 0, 0, 0, 0, 0}, 0};
   CHECK_THROWS_AS(decode_input(encode(probe)), InvalidArgument);
+  CHECK_THROWS_AS(decode_input(encode(InputMessage{InputKind::Record, {}, 2})), InvalidArgument);
+  CHECK_THROWS_AS(decode_input(encode(InputMessage{InputKind::Clip, {}, kMaxClipDeg + 1})), InvalidArgument);
 }
 
 namespace {

@@ -7,8 +7,8 @@ import { OrbitControls } from './OrbitControls.js';
 
 // ---- wire format (view/wire_format.h) ---------------------------------------------------
 const Kind = { BladeStart: 1, BladeMove: 2, BladeEnd: 3, ProbeGrab: 4, ProbeMove: 5, ProbeRelease: 6,
-               Pause: 7, Resume: 8, Step: 9, Reset: 10, Colour: 11, Ack: 12, Frame: 13, Record: 14 };
-const TRI_CUT = 1, TRI_FIXED = 2, TRI_WORST = 4;
+               Pause: 7, Resume: 8, Step: 9, Reset: 10, Colour: 11, Ack: 12, Frame: 13, Record: 14, Clip: 15 };
+const TRI_CUT = 1, TRI_FIXED = 2, TRI_WORST = 4, TRI_LOADED = 8;
 
 function encodeInput(kind, floats = [], value = null) {
   const buf = new ArrayBuffer(1 + 4 * floats.length + (value === null ? 0 : 4));
@@ -100,7 +100,7 @@ let triangleSlots = 0, fitted = false;
 const box = new THREE.Box3(), center = new THREE.Vector3();
 let bodySize = 1;
 
-const TISSUE = [0.85, 0.47, 0.45], CUT = [0.98, 0.85, 0.30], FIXED = [0.45, 0.55, 0.85];
+const TISSUE = [0.85, 0.47, 0.45], CUT = [0.98, 0.85, 0.30], FIXED = [0.45, 0.55, 0.85], LOADED = [0.55, 0.80, 0.45];
 function colourmap(t) {  // blue -> green -> red
   t = Math.min(1, Math.max(0, t));
   return [Math.min(1, Math.max(0, 2 * t - 0.5)), 1 - Math.abs(2 * t - 1) * 0.8, Math.min(1, Math.max(0, 1.5 - 2 * t))];
@@ -124,7 +124,7 @@ function rebuild() {
     ++count;
     const flags = tris[5 * s + 3];
     if (flags & TRI_CUT) ++cut;
-    let col = flags & TRI_CUT ? CUT : flags & TRI_FIXED ? FIXED : TISSUE;
+    let col = flags & TRI_CUT ? CUT : flags & TRI_FIXED ? FIXED : flags & TRI_LOADED ? LOADED : TISSUE;
     if (scalars && s < scalars.length && !(flags & TRI_CUT))
       col = stats.colour >= 3 ? PALETTE[category(scalars[s]) % PALETTE.length]
                               : colourmap((scalars[s] - scalarLo) / Math.max(1e-30, scalarHi - scalarLo));
@@ -163,6 +163,8 @@ function resize() {
   renderer.setSize(container.clientWidth, container.clientHeight);
   camera.aspect = container.clientWidth / Math.max(1, container.clientHeight);
   camera.updateProjectionMatrix();
+  // The overlay sits below the button bar, which wraps on narrow windows.
+  document.getElementById('overlay').style.top = (document.getElementById('bar').offsetHeight + 12) + 'px';
 }
 window.addEventListener('resize', resize);
 resize();
@@ -215,6 +217,7 @@ function showStats() {
                            : 'start incise view with --record DIR to record takes';
   rec.textContent = s.recording ? `Stop ${s.recording}` : 'Record';
   rec.classList.toggle('on', !!s.recording);
+  if (s.clip_deg) overlay.textContent += `\nclip: ${s.clip_tets} tets below ${s.clip_deg} deg (red, rest shape${s.clip_tets >= s.clip_max ? `; the worst ${s.clip_max}` : ''})`;
   if (s.recording) overlay.textContent += `\nrecording ${s.recording}`;
   else if (s.last_take) overlay.textContent += `\nlast take: ${s.last_take} (incise simulate ${s.last_take}/scene.json -o DIR replays it)`;
   if (s.error) document.getElementById('error').textContent = s.error;
@@ -230,6 +233,11 @@ function setMode(m) {
 for (const k of ['cut', 'probe', 'orbit']) document.getElementById('mode-' + k).onclick = () => setMode(k);
 document.getElementById('pause').onclick = () => send(encodeInput(stats.paused ? Kind.Resume : Kind.Pause));
 document.getElementById('step').onclick = () => send(encodeInput(Kind.Step));
+document.getElementById('clip').onchange = (e) => {
+  const deg = Math.max(0, Math.min(90, Math.round(Number(e.target.value) || 0)));
+  e.target.value = String(deg);
+  send(encodeInput(Kind.Clip, [], deg));
+};
 document.getElementById('record').onclick = () => send(encodeInput(Kind.Record, [], stats.recording ? 0 : 1));
 document.getElementById('reset').onclick = () => { document.getElementById('error').textContent = ''; send(encodeInput(Kind.Reset)); };
 document.getElementById('wire').onclick = (e) => { wire.visible = !wire.visible; e.target.classList.toggle('on', wire.visible); };
@@ -332,9 +340,10 @@ let runStats = null;
 function setViewMode(m) {
   view.mode = m;
   if (m === 'live') return;
-  for (const id of ['mode-cut', 'mode-probe', 'pause', 'step', 'reset', 'record', 'depth-label'])
+  for (const id of ['mode-cut', 'mode-probe', 'pause', 'step', 'reset', 'record', 'clip-label', 'depth-label'])
     document.getElementById(id).style.display = 'none';
   setMode('orbit');
+  resize();
   const sel = document.getElementById('colour');
   sel.innerHTML = '<option value="0">plain</option><option value="3">label</option>' +
                   '<option value="4">boundary tag</option><option value="2">element quality (min dihedral)</option>';
