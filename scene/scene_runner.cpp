@@ -328,7 +328,7 @@ void SceneRunner::handle_fragments(const std::vector<std::vector<TetId>>& parts)
 // Before frame_'s solve every scene blade advances to its position at that frame (linear from
 // from_frame to to_frame), cutting the current shape; a sweep that is done is finished (the
 // blade withdrawn, its front released). Returns the cutting time.
-double SceneRunner::cut_scene_blades() {
+double SceneRunner::cut_scene_blades(double& improve_ms) {
   const auto current = [this](VertexId v) { return position(v); };
   double ms = 0;
   double bound = -1;  // measured once, in the first step that needs it
@@ -336,6 +336,7 @@ double SceneRunner::cut_scene_blades() {
   auto take = [&](CutStepReport& r, const Cutter* from) {
     apply_change(r.change, from);
     ms += r.ms;
+    improve_ms += r.ms_improve;
     for (Fragment& fr : r.fragments) parts.push_back(std::move(fr.tets));
   };
   for (std::size_t i = 0; i < cutters_.size(); ++i) {
@@ -500,7 +501,7 @@ SceneFrame SceneRunner::step() {
   SceneFrame out;
   out.frame = frame_;
   replay_inputs();  // what an outside hand did before this frame, then the scene's blades
-  out.cut_ms = cut_scene_blades();
+  out.cut_ms = cut_scene_blades(out.cut_improve_ms);
   total_cut_ms_ += out.cut_ms;
   // Loads and probes at this frame, then the outside probe.
   force_.assign(mesh_.vertex_capacity(), Vec3::Zero());

@@ -45,6 +45,7 @@ struct SceneFrame {
   Eigen::VectorXd displacement;     // 3 per vertex slot (dead slots: 0)
   double max_displacement = 0;      // largest vertex displacement
   double cut_ms = 0;                // the scene's blades before the solve (cut + local improvement)
+  double cut_improve_ms = 0;        // of cut_ms: the local improvement
 };
 
 class SceneRunner {
@@ -127,7 +128,7 @@ private:
   void handle_fragments(const std::vector<std::vector<TetId>>& parts);
   CutStepReport took_blade_step(CutStepReport r);  // an outside blade step: change, time, fragments
   bool held_by_scene(VertexId v) const;
-  double cut_scene_blades();
+  double cut_scene_blades(double& improve_ms);
   void replay_inputs();  // the scene's inputs due before this frame
   CutStepReport blade_step(const BladeSegment& blade, const CutOptions& options);
   void record(SceneInput in);

@@ -75,7 +75,8 @@ public:
 
   // the last frame's figures and totals
   SceneFrame last;
-  double frame_cut_ms = 0, frame_ms = 0;
+  double frame_cut_ms = 0, frame_improve_ms = 0, frame_ms = 0;
+  std::size_t budget_hits = 0;  // frames the solver budget stopped
   std::size_t frames = 0, blade_steps = 0;
   double total_frame_ms = 0, max_frame_ms = 0, total_blade_ms = 0, max_blade_ms = 0;
   std::vector<float> scalars;
@@ -245,6 +246,7 @@ void LiveSession::loop() {
     }
     LiveState* s = state_.get();
     s->frame_cut_ms = 0;
+    s->frame_improve_ms = 0;
     bool changed = !in.empty();
     try {
       for (std::size_t i = 0; i < in.size(); ++i) {
@@ -252,7 +254,11 @@ void LiveSession::loop() {
         const Vec3 a(m.v[0], m.v[1], m.v[2]), b(m.v[3], m.v[4], m.v[5]);
         switch (m.kind) {
           case InputKind::BladeStart:
-            if (s->blade) s->frame_cut_ms += s->runner.finish_blade().ms;
+            if (s->blade) {
+              const CutStepReport r = s->runner.finish_blade();
+              s->frame_cut_ms += r.ms;
+              s->frame_improve_ms += r.ms_improve;
+            }
             s->runner.advance_blade({a, b});  // places it
             s->blade = true;
             s->blade_at = a;
@@ -269,7 +275,7 @@ void LiveSession::loop() {
             s->blade_at = at;
             s->blade_b = bt;
             const auto t0 = Clock::now();
-            s->runner.advance_blade({at, bt});
+            s->frame_improve_ms += s->runner.advance_blade({at, bt}).ms_improve;
             const double ms = ms_since(t0);
             s->frame_cut_ms += ms;
             ++s->blade_steps;
@@ -279,7 +285,11 @@ void LiveSession::loop() {
             break;
           }
           case InputKind::BladeEnd:
-            if (s->blade) s->frame_cut_ms += s->runner.finish_blade().ms;
+            if (s->blade) {
+              const CutStepReport r = s->runner.finish_blade();
+              s->frame_cut_ms += r.ms;
+              s->frame_improve_ms += r.ms_improve;
+            }
             s->blade = false;
             break;
           case InputKind::ProbeGrab:
@@ -331,6 +341,8 @@ void LiveSession::loop() {
         s->last = s->runner.step();
         s->frame_ms = ms_since(t0);
         s->frame_cut_ms += s->last.cut_ms;
+        s->frame_improve_ms += s->last.cut_improve_ms;
+        s->budget_hits += s->last.stats.budget_exhausted;
         if (s->take) s->take->add(s->runner, s->last, true);  // O(mesh) a frame, while recording only
         ++s->frames;
         s->total_frame_ms += s->frame_ms;
@@ -458,6 +470,9 @@ void LiveSession::publish() {
                       {"cut_triangles", snap->cut_triangles},
                       {"frame_ms", s.frame_ms},
                       {"cut_ms", s.frame_cut_ms},
+                      {"improve_ms", s.frame_improve_ms},
+                      {"budget_exhausted", st.budget_exhausted},
+                      {"budget_hits", s.budget_hits},
                       {"solve_ms", st.solve_ms},
                       {"iterations", st.iterations},
                       {"residual", st.relative_residual},

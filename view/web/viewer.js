@@ -205,8 +205,9 @@ function showStats() {
   if (s.mode) return showLookStats(s);
   overlay.textContent =
     `frame ${s.frame}${s.paused ? '  (paused)' : ''}   ${f(view.fps, 1)} fps to this page, ${f(view.bytesPerFrame / 1024, 1)} KiB/frame\n` +
-    `frame ${f(s.frame_ms)} ms: cut ${f(s.cut_ms)} ms, solve ${f(s.solve_ms)} ms\n` +
-    `CG ${s.iterations} iterations, residual ${Number(s.residual).toExponential(1)}\n` +
+    `frame ${f(s.frame_ms)} ms: cut ${f(s.cut_ms - s.improve_ms)} ms, improve ${f(s.improve_ms)} ms, solve ${f(s.solve_ms)} ms\n` +
+    `CG ${s.iterations} iterations, residual ${Number(s.residual).toExponential(1)}` +
+    `${s.budget_exhausted ? ' (stopped by the budget)' : ''}; ${s.budget_hits} frames hit the budget\n` +
     `${s.tets} tets, ${s.vertices} vertices, ${s.triangles} boundary triangles (${s.cut_triangles} cut)\n` +
     `min dihedral ${f(s.min_dihedral, 1)} deg, ${s.below} tets below ${s.below_deg} deg (rest shape)` +
     (s.colour ? `\ncolour ${s.colour === 1 ? 'von Mises' : 'min dihedral'}: ${Number(s.scalar_lo).toPrecision(3)} .. ${Number(s.scalar_hi).toPrecision(3)}` : '');
