@@ -56,12 +56,18 @@ std::string SceneOutput::add(SceneRunner& runner, const SceneFrame& f, bool vtu)
   fields.point_data.push_back(Field{"displacement", 3, std::vector<double>(disp.data(), disp.data() + disp.size())});
   if (runner.fem()) fields.cell_data.push_back(Field{"von_mises", 1, runner.fem()->von_mises()});
   if (cuts_) {
-    // Cut faces per tet (0..4): ParaView's threshold on it shows the cut surfaces.
-    std::vector<double> cut_faces(mesh.tet_capacity(), 0.0);
+    // Cut faces per tet (0..4): ParaView's threshold on it shows the cut surfaces. The mask
+    // says which (bit k: the face opposite the tet's k-th corner), so a reader (incise's, and
+    // `incise view RUN_DIR`) gets the cut faces back as boundary tags.
+    std::vector<double> cut_faces(mesh.tet_capacity(), 0.0), mask(mesh.tet_capacity(), 0.0);
     for (TetId t : mesh.tets())
       for (int k = 0; k < 4; ++k)
-        if (!mesh.neighbor(t, k).is_valid() && mesh.face_tag(t, k) == kTagCut) cut_faces[t.idx()] += 1;
+        if (!mesh.neighbor(t, k).is_valid() && mesh.face_tag(t, k) == kTagCut) {
+          cut_faces[t.idx()] += 1;
+          mask[t.idx()] += double(1 << k);
+        }
     fields.cell_data.push_back(Field{"cut_faces", 1, std::move(cut_faces)});
+    fields.cell_data.push_back(Field{"cut_face_mask", 1, std::move(mask)});
   }
   WriteOptions wo;
   wo.binary = binary_;

@@ -189,11 +189,17 @@ const TetMesh& LookSession::mesh_of(std::size_t frame) {
   if (meshes_.size() >= kKeptFrames) {
     for (auto it = meshes_.begin(); it != meshes_.end(); ++it)
       if (it->first != current_) {
+        von_mises_.erase(it->first);
         meshes_.erase(it);
         break;
       }
   }
-  return meshes_.emplace(frame, read_tet_mesh(frames_[frame])).first->second;
+  // The reader gives back a frame's cut faces (its cut_face_mask) as tags, and its cell fields.
+  ReadReport report;
+  TetMesh mesh = read_tet_mesh(frames_[frame], &report);
+  for (Field& f : report.cell_data)
+    if (f.name == "von_mises") von_mises_[frame] = std::move(f.values);
+  return meshes_.emplace(frame, std::move(mesh)).first->second;
 }
 
 // The frame's boundary in slots (BoundaryTracker, built whole: O(mesh), once per frame shown),
@@ -264,7 +270,10 @@ void LookSession::show(std::size_t frame) {
       if (snap->tris[4 * i] == kNoSlot) continue;
       const Face& fc = faces[i];
       float x = 0;
-      if (colour_ == kColourQuality) x = float(tet_quality(mesh, fc.tet).min_dihedral);
+      if (colour_ == kColourVonMises) {
+        const auto it = von_mises_.find(frame);
+        x = it != von_mises_.end() && fc.tet.idx() < it->second.size() ? float(it->second[fc.tet.idx()]) : 0.f;
+      } else if (colour_ == kColourQuality) x = float(tet_quality(mesh, fc.tet).min_dihedral);
       else if (colour_ == kColourLabel) x = float(mesh.label(fc.tet));
       else if (colour_ == kColourTag) x = mesh.neighbor(fc.tet, fc.local).is_valid() ? 0.f : float(mesh.face_tag(fc.tet, fc.local));
       snap->scalars[i] = x;
@@ -295,6 +304,7 @@ void LookSession::show(std::size_t frame) {
                       {"file", frames_[frame]},
                       {"frame", frame},
                       {"frames", frames_.size()},
+                      {"von_mises", von_mises_.count(frame) > 0},
                       {"time", times_[frame]},
                       {"tets", snap->tets},
                       {"vertices", snap->vertices},
@@ -333,7 +343,8 @@ std::string LookSession::post(const InputMessage& in) {
         }
         break;
       case InputKind::Colour:
-        if (in.value == kColourVonMises) return "colour: von Mises needs a live scene (look mode has no stresses)";
+        if (in.value == kColourVonMises && !von_mises_.count(current_))
+          return "colour: von Mises needs a live scene or a run's FEM frames (this file has no von_mises field)";
         colour_ = in.value;
         show(current_);
         break;

@@ -54,6 +54,7 @@ private:
   std::string report_file_;
   std::string stats_json_ = "null";          // stats.csv as {"columns": [...], "rows": [[...]]}
   std::map<std::size_t, TetMesh> meshes_;    // frames read so far (a run's are read when shown)
+  std::map<std::size_t, std::vector<double>> von_mises_;  // their von_mises cell field (run frames), by TetId
   std::size_t current_ = 0;
   std::uint32_t colour_ = 0, generation_ = 0, scalar_version_ = 0;
   mutable std::mutex mutex_;

@@ -23,6 +23,8 @@ struct RawMesh {
   std::vector<int> tri_tags;
   std::size_t skipped_cells = 0;
   std::string format;
+  // Scalar cell arrays beside the label (VTU), one value per tet in `tets` order.
+  std::vector<std::pair<std::string, std::vector<double>>> cell_scalars;
 };
 
 // Parses `text` (the content of `file`); throws IoError on anything malformed.

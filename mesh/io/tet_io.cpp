@@ -2,6 +2,7 @@
 #include "mesh/io/tet_io.h"
 
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <sys/stat.h>
 #include <unordered_map>
@@ -95,6 +96,7 @@ TetMesh build_mesh(RawMesh&& raw, const std::string& file, ReadReport* report) {
   m.reserve(np, raw.tets.size());
   for (const Vec3& p : raw.points) m.add_vertex(p);
   std::size_t reoriented = 0, degenerate = 0;
+  std::vector<char> swapped(raw.tets.size(), 0);
   for (std::size_t i = 0; i < raw.tets.size(); ++i) {
     auto t = raw.tets[i];
     long line = i < raw.tet_lines.size() ? raw.tet_lines[i] : 0;
@@ -105,6 +107,7 @@ TetMesh build_mesh(RawMesh&& raw, const std::string& file, ReadReport* report) {
     double det = (b - a).cross(c - a).dot(d - a);
     if (det < 0) {
       std::swap(t[2], t[3]);
+      swapped[i] = 1;
       ++reoriented;
     } else if (det == 0) {
       ++degenerate;
@@ -157,6 +160,23 @@ TetMesh build_mesh(RawMesh&& raw, const std::string& file, ReadReport* report) {
       }
     }
   }
+  // Cut faces of a simulation frame (scene/scene_output.cpp writes the mask): VTU has no
+  // boundary triangles to carry tags, so the frame says which faces of each tet a cut opened.
+  for (const auto& [name, values] : raw.cell_scalars) {
+    if (name != "cut_face_mask") continue;
+    for (std::size_t i = 0; i < values.size() && i < m.tet_capacity(); ++i) {
+      const double x = values[i];
+      if (!(x >= 1 && x <= 15) || x != std::floor(x)) continue;
+      unsigned bits = unsigned(x);
+      if (swapped[i]) bits = (bits & 3u) | ((bits & 4u) << 1) | ((bits & 8u) >> 1);  // faces 2 and 3 swapped
+      const TetId t(static_cast<std::uint32_t>(i));
+      for (int f = 0; f < 4; ++f)
+        if ((bits >> f) & 1u && !m.neighbor(t, f).is_valid()) {
+          m.set_face_tag(t, f, kTagCut);
+          ++tagged;
+        }
+    }
+  }
   std::size_t unreferenced = 0;
   for (std::uint32_t v = 0; v < np; ++v)
     if (m.incident_tets(VertexId(v)).empty()) ++unreferenced;
@@ -167,6 +187,8 @@ TetMesh build_mesh(RawMesh&& raw, const std::string& file, ReadReport* report) {
     report->unreferenced_vertices = unreferenced;
     report->tagged_boundary_faces = tagged;
     report->format = raw.format;
+    report->cell_data.clear();
+    for (auto& [name, values] : raw.cell_scalars) report->cell_data.push_back(Field{name, 1, std::move(values)});
   }
   m.discard_change();
   return m;

@@ -26,24 +26,6 @@ class OutputTransaction;  // mesh/io/atomic_file.h
 
 enum class TetFormat { Auto, Gmsh22, Medit, VtkLegacy, Vtu, TetGen };
 
-struct ReadReport {
-  std::size_t skipped_cells = 0;         // triangles, lines, points beside the tets
-  std::size_t reoriented_tets = 0;       // tets read with negative volume and flipped
-  std::size_t unreferenced_vertices = 0;
-  std::size_t degenerate_tets = 0;       // zero volume, kept as read
-  std::size_t tagged_boundary_faces = 0; // boundary faces that got a tag from the file
-  std::string format;                    // e.g. "gmsh 4.1 ascii"
-};
-
-struct WriteOptions {
-  TetFormat format = TetFormat::Auto;  // Auto: from the extension
-  bool binary = false;                 // VTK legacy / VTU: binary (VTU: base64 raw)
-  bool big_endian = false;             // VTU binary: byte order of the payload
-  bool header_uint64 = false;          // VTU binary: UInt64 block headers (else UInt32)
-  bool write_boundary = true;          // also write boundary triangles with their tags,
-                                       // where the format carries them (msh, mesh)
-};
-
 // Extra data written beside the mesh (VTU and VTK legacy only): simulation frames write
 // current positions, displacement per point and stress per cell this way.
 struct Field {
@@ -57,6 +39,29 @@ struct MeshFields {
   std::vector<Field> point_data;
   std::vector<Field> cell_data;
 };
+
+struct ReadReport {
+  std::size_t skipped_cells = 0;         // triangles, lines, points beside the tets
+  std::size_t reoriented_tets = 0;       // tets read with negative volume and flipped
+  std::size_t unreferenced_vertices = 0;
+  std::size_t degenerate_tets = 0;       // zero volume, kept as read
+  std::size_t tagged_boundary_faces = 0; // boundary faces that got a tag from the file
+  std::string format;                    // e.g. "gmsh 4.1 ascii"
+  // VTU: the one-component cell arrays besides the label (a simulation frame's von_mises,
+  // cut_faces, ...), by TetId. A "cut_face_mask" array (bit f: local face f is an opened cut
+  // face, as incise's frames write it) also tags those boundary faces kTagCut.
+  std::vector<Field> cell_data;
+};
+
+struct WriteOptions {
+  TetFormat format = TetFormat::Auto;  // Auto: from the extension
+  bool binary = false;                 // VTK legacy / VTU: binary (VTU: base64 raw)
+  bool big_endian = false;             // VTU binary: byte order of the payload
+  bool header_uint64 = false;          // VTU binary: UInt64 block headers (else UInt32)
+  bool write_boundary = true;          // also write boundary triangles with their tags,
+                                       // where the format carries them (msh, mesh)
+};
+
 
 // Throws IoError("FILE:LINE: reason") on malformed input.
 TetMesh read_tet_mesh(const std::string& path, ReadReport* report = nullptr);

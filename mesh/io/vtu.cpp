@@ -5,9 +5,11 @@
 // elements, nothing more, and raw appended data is not XML at all.
 #include <zlib.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <optional>
+#include <string_view>
 
 #include "mesh/io/binary_util.h"
 #include "mesh/io/formats.h"
@@ -336,6 +338,7 @@ RawMesh Vtu::parse() {
     const char* start = nullptr;
     std::size_t np = 0, nc = 0;
     std::optional<Array> points, conn, offsets, types, label;
+    std::vector<Array> scalars;  // the other one-component cell arrays
   };
   std::vector<Piece> pieces;
   std::string section;
@@ -394,7 +397,12 @@ RawMesh Vtu::parse() {
       if (a.name == "offsets") pc.offsets = a;
       if (a.name == "types") pc.types = a;
     } else if (section == "CellData" && a.components == 1) {
-      if (label_rank(a.name) > (pc.label ? label_rank(pc.label->name) : 0)) pc.label = a;
+      if (label_rank(a.name) > (pc.label ? label_rank(pc.label->name) : 0)) {
+        if (pc.label) pc.scalars.push_back(*pc.label);
+        pc.label = a;
+      } else if (!a.name.empty()) {
+        pc.scalars.push_back(a);
+      }
     }
   }
   if (pieces.empty()) fail_at(b_, "no <Piece> in the UnstructuredGrid");
@@ -419,6 +427,21 @@ RawMesh Vtu::parse() {
     std::vector<double> types = decode(*pc.types, pc.nc);
     std::vector<double> labels;
     if (pc.label) labels = decode(*pc.label, pc.nc);
+    // Other scalar arrays: kept for the tets (every piece's tets get a value; 0 where a piece
+    // lacks the array).
+    const std::size_t tets_before = m.tets.size();
+    std::vector<std::vector<double>> scalars;
+    std::vector<std::size_t> slot;  // index into m.cell_scalars per array of this piece
+    std::vector<std::string_view> seen;
+    for (const Array& a : pc.scalars) {
+      if (std::find(seen.begin(), seen.end(), a.name) != seen.end()) continue;  // a name twice: the first
+      seen.push_back(a.name);
+      scalars.push_back(decode(a, pc.nc));
+      std::size_t k = 0;
+      while (k < m.cell_scalars.size() && m.cell_scalars[k].first != a.name) ++k;
+      if (k == m.cell_scalars.size()) m.cell_scalars.push_back({a.name, std::vector<double>(tets_before, 0.0)});
+      slot.push_back(k);
+    }
     double prev = 0;
     for (std::size_t i = 0; i < pc.nc; ++i) {
       double o = offsets[i];
@@ -441,12 +464,14 @@ RawMesh Vtu::parse() {
         m.tets.push_back(tet);
         m.tet_labels.push_back(static_cast<int>(std::lround(lab)));
         m.tet_lines.push_back(0);
+        for (std::size_t k = 0; k < scalars.size(); ++k) m.cell_scalars[slot[k]].second.push_back(scalars[k][i]);
       } else if (ty == 10 || ty == 24) {
         fail_at(pc.types->tag.start, "cell " + std::to_string(i) + " is a tetrahedron with " + std::to_string(count) + " points");
       } else {
         ++m.skipped_cells;
       }
     }
+    for (auto& [name, values] : m.cell_scalars) values.resize(m.tets.size(), 0.0);  // arrays this piece lacks
   }
   return m;
 }

@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <map>
 #include <numeric>
+#include <set>
 
 #include "io_test_util.h"
 #include "mesh/errors.h"
@@ -289,5 +290,55 @@ TEST_CASE("incise reads every tet format meshio writes", "[io][meshio]") {
       CHECK(std::abs(m.total_volume() - ref.total_volume()) <= 1e-9 * ref.total_volume());
     }
     CHECK(files == 10);
+  }
+}
+
+TEST_CASE("a frame's cut_face_mask comes back as cut tags, and its cell fields are reported", "[io][fields]") {
+  ScratchDir dir("cut_mask");
+  TetMesh m = make_box(Vec3(1, 1, 1), {2, 2, 2});
+  // Tag a few boundary faces as cut and write the mask the way a scene frame does.
+  std::vector<double> mask(m.tet_capacity(), 0.0), stress(m.tet_capacity(), 0.0);
+  std::set<std::array<std::uint32_t, 3>> cut;
+  int n = 0;
+  for (TetId t : m.tets()) {
+    stress[t.idx()] = 10.0 + t.idx();
+    for (int f = 0; f < 4; ++f)
+      if (!m.neighbor(t, f).is_valid() && n++ % 3 == 0) {
+        m.set_face_tag(t, f, kTagCut);
+        mask[t.idx()] += double(1 << f);
+        auto fv = m.face_vertices(t, f);
+        std::array<std::uint32_t, 3> k{fv[0].idx(), fv[1].idx(), fv[2].idx()};
+        std::sort(k.begin(), k.end());
+        cut.insert(k);
+      }
+  }
+  REQUIRE(cut.size() > 3);
+  // Written twice: as is, and mirrored (x -> -x), which the reader reorients (corners 2 and 3
+  // swapped): the mask must follow the faces, not the local numbers.
+  for (bool mirrored : {false, true}) {
+    std::vector<Vec3> pts(m.vertex_capacity(), Vec3::Zero());
+    for (VertexId v : m.vertices()) pts[v.idx()] = mirrored ? Vec3(-m.rest(v).x(), m.rest(v).y(), m.rest(v).z()) : m.rest(v);
+    MeshFields fields;
+    fields.points = &pts;
+    fields.cell_data = {Field{"von_mises", 1, stress}, Field{"cut_face_mask", 1, mask}};
+    const std::string path = dir / (mirrored ? "mirrored.vtu" : "frame.vtu");
+    write_tet_mesh_with_fields(m, path, fields, WriteOptions{.binary = true});
+    ReadReport rep;
+    const TetMesh back = read_tet_mesh(path, &rep);
+    CHECK(rep.reoriented_tets == (mirrored ? m.num_tets() : 0));
+    std::set<std::array<std::uint32_t, 3>> got;
+    for (TetId t : back.tets())
+      for (int f = 0; f < 4; ++f)
+        if (!back.neighbor(t, f).is_valid() && back.face_tag(t, f) == kTagCut) {
+          auto fv = back.face_vertices(t, f);
+          std::array<std::uint32_t, 3> k{fv[0].idx(), fv[1].idx(), fv[2].idx()};
+          std::sort(k.begin(), k.end());
+          got.insert(k);
+        }
+    CHECK(got == cut);
+    REQUIRE(rep.cell_data.size() == 2);
+    CHECK(rep.cell_data[0].name == "von_mises");
+    REQUIRE(rep.cell_data[0].values.size() == back.num_tets());
+    for (TetId t : back.tets()) CHECK(rep.cell_data[0].values[t.idx()] == 10.0 + t.idx());
   }
 }

@@ -14,6 +14,7 @@
 #include "mesh/generate.h"
 #include "mesh/io/tet_io.h"
 #include "quality/report.h"
+#include "scene/run_scene.h"
 #include "view/boundary_tracker.h"
 #include "view/look_session.h"
 
@@ -151,4 +152,36 @@ TEST_CASE("a run directory's frames are shown one at a time, at the positions th
   CHECK_THROWS_AS(classify_view_argument((dir.path / "nothing.msh").string()), IoError);
   write(dir.path / "broken.json", "{ not json");
   CHECK_THROWS_AS(classify_view_argument((dir.path / "broken.json").string()), IoError);
+}
+
+TEST_CASE("a run with cuts shows its cut faces and its von Mises stress in look mode") {
+  TempDir dir;
+  const Scene scene = parse_scene(R"({
+    "mesh": {"generate": "box", "size": [4, 1, 1], "cells": [8, 2, 2]},
+    "model": "fem-linear",
+    "materials": {"*": {"young": 1e4, "poisson": 0.3}},
+    "fixed": [{"box": [-0.01, -1, -1, 0.01, 2, 2]}],
+    "loads": [{"type": "gravity", "g": [0, 0, -0.001]}],
+    "cuts": [{"blade": [[2.1, -0.5, 1.2], [2.1, 1.5, 1.2]], "sweep": [0, 0, -0.7], "from_frame": 1, "to_frame": 2}],
+    "solver": {"method": "direct"},
+    "time": {"frames": 3}})", "beam.json");
+  SceneRunOptions ro;
+  ro.out_dir = (dir.path / "run").string();
+  std::size_t cut_faces = 0;
+  run_scene(scene, ro);
+  const TetMesh last = read_tet_mesh((dir.path / "run" / "frame_0002.vtu").string());
+  for (TetId t : last.tets())
+    for (int f = 0; f < 4; ++f) cut_faces += !last.neighbor(t, f).is_valid() && last.face_tag(t, f) == kTagCut;
+  REQUIRE(cut_faces > 0);
+  auto run = LookSession::open_run((dir.path / "run").string());
+  CHECK(run->snapshot()->cut_triangles == 0);  // frame 0: before the blade
+  // Von Mises colours from the frame's field (the run is FEM).
+  CHECK(nlohmann::json::parse(run->status_json())["von_mises"] == true);
+  REQUIRE(run->post({InputKind::Frame, {}, 2}).empty());
+  CHECK(run->snapshot()->cut_triangles == cut_faces);
+  REQUIRE(run->post({InputKind::Colour, {}, 1}).empty());
+  const auto s = run->snapshot();
+  REQUIRE(!s->scalars.empty());
+  CHECK(s->scalar_hi > s->scalar_lo);
+  CHECK(s->scalar_lo >= 0);
 }

@@ -347,7 +347,8 @@ function setViewMode(m) {
   resize();
   const sel = document.getElementById('colour');
   sel.innerHTML = '<option value="0">plain</option><option value="3">label</option>' +
-                  '<option value="4">boundary tag</option><option value="2">element quality (min dihedral)</option>';
+                  '<option value="4">boundary tag</option><option value="2">element quality (min dihedral)</option>' +
+                  (stats.von_mises ? '<option value="1">von Mises stress (the run\'s)</option>' : '');
   document.getElementById('help').textContent = 'drag: orbit · right drag: orbit · Shift+right drag: pan · wheel: zoom · red: the worst elements';
   if ((stats.labels || []).length > 1) { sel.value = '3'; send(encodeInput(Kind.Colour, [], 3)); }
   if (m === 'run') {
