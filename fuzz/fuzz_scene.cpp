@@ -30,6 +30,14 @@ void check_scene(const incise::Scene& s) {
     if (!(c.snap >= 0 && c.snap < 0.5)) std::abort();
     if ((c.b - c.a).norm() == 0 || c.sweep.norm() == 0) std::abort();
   }
+  int last = 0;
+  for (const auto& in : s.inputs) {
+    if (in.frame < last || in.frame >= s.frames || !finite(in.a) || !finite(in.b)) std::abort();
+    last = in.frame;
+    if (in.kind == incise::SceneInput::Kind::Blade && ((in.b - in.a).norm() == 0 || !(in.snap >= 0 && in.snap < 0.5)))
+      std::abort();
+    if (in.kind == incise::SceneInput::Kind::Grab && !(in.radius > 0 && std::isfinite(in.radius))) std::abort();
+  }
 }
 
 }  // namespace

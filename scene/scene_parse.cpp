@@ -174,6 +174,24 @@ SceneLoad read_load(const Reader& rd, const json& j, const std::string& key) {
   return l;
 }
 
+// A blade's optional "mode", "snap" and "improve" (scene cuts and blade inputs).
+void read_blade_options(const Reader& rd, const json& c, const std::string& key, std::string& mode, double& snap,
+                        bool& improve) {
+  if (c.contains("mode")) {
+    mode = rd.string(c["mode"], key + ".mode");
+    if (mode != "subdivide" && mode != "remove")
+      rd.fail(key + ".mode", "expected \"subdivide\" or \"remove\", got \"" + mode + "\"");
+  }
+  if (c.contains("snap")) {
+    snap = rd.number(c["snap"], key + ".snap");
+    if (const std::string e = snap_error(snap); !e.empty()) rd.fail(key + ".snap", e);
+  }
+  if (c.contains("improve")) {
+    if (!c["improve"].is_boolean()) rd.fail(key + ".improve", "expected true or false");
+    improve = c["improve"].get<bool>();
+  }
+}
+
 }  // namespace
 
 double SceneLoad::factor(int frame) const {
@@ -417,19 +435,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
         rd.fail(key + (c.contains("to_frame") ? ".to_frame" : ".from_frame"),
                 "frame " + std::to_string(cut.to_frame) + " is after the run's last frame (" +
                     std::to_string(s.frames - 1) + ", time.frames " + std::to_string(s.frames) + ")");
-      if (c.contains("mode")) {
-        cut.mode = rd.string(c["mode"], key + ".mode");
-        if (cut.mode != "subdivide" && cut.mode != "remove")
-          rd.fail(key + ".mode", "expected \"subdivide\" or \"remove\", got \"" + cut.mode + "\"");
-      }
-      if (c.contains("snap")) {
-        cut.snap = rd.number(c["snap"], key + ".snap");
-        if (const std::string e = snap_error(cut.snap); !e.empty()) rd.fail(key + ".snap", e);
-      }
-      if (c.contains("improve")) {
-        if (!c["improve"].is_boolean()) rd.fail(key + ".improve", "expected true or false");
-        cut.improve = c["improve"].get<bool>();
-      }
+      read_blade_options(rd, c, key, cut.mode, cut.snap, cut.improve);
       s.cuts.push_back(cut);
     }
   }
@@ -464,16 +470,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
         in.b = rd.vec3(c["blade"][1], key + ".blade[1]");
         if (!((in.b - in.a).norm() > 1e-12 * std::max({in.a.norm(), in.b.norm(), 1e-300})))
           rd.fail(key + ".blade", "the blade's two ends are the same point");
-        if (c.contains("mode")) {
-          in.mode = rd.string(c["mode"], key + ".mode");
-          if (in.mode != "subdivide" && in.mode != "remove")
-            rd.fail(key + ".mode", "expected \"subdivide\" or \"remove\", got \"" + in.mode + "\"");
-        }
-        if (c.contains("snap")) {
-          in.snap = rd.number(c["snap"], key + ".snap");
-          if (const std::string e = snap_error(in.snap); !e.empty()) rd.fail(key + ".snap", e);
-        }
-        if (c.contains("improve")) in.improve = rd.boolean(c["improve"], key + ".improve");
+        read_blade_options(rd, c, key, in.mode, in.snap, in.improve);
       } else {
         for (const char* k : {"mode", "snap", "improve"})
           if (c.contains(k)) rd.fail(key + "." + k, "only for a blade input");

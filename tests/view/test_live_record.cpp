@@ -11,10 +11,12 @@
 
 #include "mesh/io/tet_io.h"
 #include "scene/run_scene.h"
+#include "live_test_util.h"
 #include "view/live_session.h"
 
 using namespace incise;
 using namespace incise::view;
+using namespace incise::view::testing;
 namespace fs = std::filesystem;
 
 namespace {
@@ -28,22 +30,6 @@ const char* kBeam = R"({
   "solver": {"method": "cg", "tolerance": 1e-10, "max_iterations": 5000, "preconditioner": "block-jacobi"},
   "time": {"frames": 40}
 })";
-
-nlohmann::json status(const LiveSession& s) { return nlohmann::json::parse(s.status_json()); }
-
-template <class Pred>
-void wait_for(const LiveSession& s, Pred done) {
-  for (int i = 0; i < 4000 && !done(status(s)); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  REQUIRE(done(status(s)));
-}
-
-InputMessage msg(InputKind kind, std::initializer_list<float> v = {}, std::uint32_t value = 0) {
-  InputMessage m{kind};
-  std::size_t i = 0;
-  for (float x : v) m.v[i++] = x;
-  m.value = value;
-  return m;
-}
 
 }  // namespace
 

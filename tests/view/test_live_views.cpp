@@ -9,10 +9,12 @@
 
 #include "view/boundary_tracker.h"
 #include "view/frame_diff.h"
+#include "live_test_util.h"
 #include "view/live_session.h"
 
 using namespace incise;
 using namespace incise::view;
+using namespace incise::view::testing;
 
 namespace {
 
@@ -28,27 +30,11 @@ const char* kBeam = R"({
   "time": {"frames": 100}
 })";
 
-nlohmann::json status(const LiveSession& s) { return nlohmann::json::parse(s.status_json()); }
-
-template <class Pred>
-void wait_for(const LiveSession& s, Pred done) {
-  for (int i = 0; i < 4000 && !done(status(s)); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  REQUIRE(done(status(s)));
-}
-
 std::size_t flagged(const Snapshot& s, std::uint32_t flag) {
   std::size_t n = 0;
   for (std::size_t i = 0; i + 3 < s.tris.size(); i += 4)
     if (s.tris[i] != kNoSlot && (s.tris[i + 3] & flag)) ++n;
   return n;
-}
-
-InputMessage msg(InputKind kind, std::initializer_list<float> v = {}, std::uint32_t value = 0) {
-  InputMessage m{kind};
-  std::size_t i = 0;
-  for (float x : v) m.v[i++] = x;
-  m.value = value;
-  return m;
 }
 
 }  // namespace
