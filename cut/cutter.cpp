@@ -176,6 +176,8 @@ std::vector<TetId> Cutter::first_contact(const Vec3& lo, const Vec3& hi, const P
 
 void Cutter::start(const BladeSegment& blade) {
   if (!finite(blade.a) || !finite(blade.b)) throw InvalidArgument("cut: blade endpoints must be finite");
+  finish_seeds_.clear();  // a new cut: the last one's remaining improvement is dropped
+  finish_left_ = 0;
   blade_ = blade;
   started_ = true;
   const bool unfinished = progress_->sheet.has_value();
@@ -316,19 +318,67 @@ CutStepReport Cutter::finish(const PositionFn& caller_positions) {
   front_vertices_.clear();
   has_front_ = false;
   *progress_ = Progress{};
+  finish_seeds_.clear();
+  finish_left_ = 0;
   if (opt_.mode == CutMode::Subdivide && opt_.improve && edited && !live.empty()) {
     // The front need no longer stay where it is: its tets get the improvement with its
     // vertices free (a step's improvement keeps them frozen, and nothing else revisits them).
-    ImproveOptions io = opt_.improve_options;
-    io.frozen = opt_.frozen;
-    io.time_budget_ms = opt_.improve_budget_ms;
-    io.max_work = opt_.finish_improve_work;
-    const auto ti = std::chrono::steady_clock::now();
-    ImproveReport ir = improve_local(*mesh_, live, io);
-    rep.ms_improve += ms_since(ti);
-    rep.improve = ir;
+    // With a slice, the first one now and the rest in finish_more().
+    finish_seeds_ = std::move(live);
+    finish_left_ = opt_.finish_improve_work;
+    improve_finish_slice(rep, opt_.finish_improve_slice > 0 ? opt_.finish_improve_slice : opt_.finish_improve_work);
   }
   rep.change = mesh_->take_change();
+  keep_finish_seeds(rep.change);
+  if (!grid_stale) {
+    grid_.update(*mesh_, rep.change);
+    grid_edits_ = mesh_->counters().edits;
+  }
+  rep.tets_added = rep.change.added_tets.size();
+  rep.vertices_added = rep.change.added_vertices.size();
+  rep.ms = ms_since(t0);
+  return rep;
+}
+
+void Cutter::improve_finish_slice(CutStepReport& rep, int work) {
+  work = std::min(work, finish_left_);
+  std::erase_if(finish_seeds_, [&](TetId t) { return !mesh_->is_alive(t); });
+  if (work <= 0 || finish_seeds_.empty()) {
+    finish_left_ = 0;
+    return;
+  }
+  ImproveOptions io = opt_.improve_options;
+  io.frozen = opt_.frozen;
+  io.time_budget_ms = opt_.improve_budget_ms;
+  io.max_work = work;
+  const auto ti = std::chrono::steady_clock::now();
+  rep.improve = improve_local(*mesh_, finish_seeds_, io);
+  rep.ms_improve += ms_since(ti);
+  // Converged, or spent: done. Else the next slice starts from the region plus what this one
+  // made (keep_finish_seeds, once the record is taken).
+  finish_left_ = rep.improve.budget_exhausted ? finish_left_ - work : 0;
+  if (finish_left_ <= 0) finish_seeds_.clear();
+}
+
+void Cutter::keep_finish_seeds(const TopologyChange& change) {
+  if (!finishing()) return;
+  for (TetId t : change.added_tets)
+    if (mesh_->is_alive(t)) finish_seeds_.push_back(t);
+  std::erase_if(finish_seeds_, [&](TetId t) { return !mesh_->is_alive(t); });
+  std::sort(finish_seeds_.begin(), finish_seeds_.end(), [](TetId a, TetId b) { return a.idx() < b.idx(); });
+  finish_seeds_.erase(std::unique(finish_seeds_.begin(), finish_seeds_.end()), finish_seeds_.end());
+}
+
+CutStepReport Cutter::finish_more() {
+  CutStepReport rep;
+  if (!finishing()) return rep;
+  if (mesh_->has_pending_change())
+    throw InvalidArgument("cut: the mesh has edits not yet taken (call take_change() before finish_more())");
+  const auto t0 = std::chrono::steady_clock::now();
+  const bool grid_stale = mesh_->counters().edits != grid_edits_;
+  improve_finish_slice(rep, opt_.finish_improve_slice > 0 ? opt_.finish_improve_slice : finish_left_);
+  rep.change = mesh_->take_change();
+  keep_finish_seeds(rep.change);
   if (!grid_stale) {
     grid_.update(*mesh_, rep.change);
     grid_edits_ = mesh_->counters().edits;

@@ -201,6 +201,7 @@ SceneRunner::SceneRunner(const Scene& scene, const TetMesh* mesh) : scene_(scene
     o.mode = c.mode == "remove" ? CutMode::Remove : CutMode::Subdivide;
     o.snap = c.snap;
     o.improve = c.improve;
+    o.finish_improve_slice = kFinishImproveSlice;
     cutters_.push_back(std::make_unique<Cutter>(mesh_, o));
     cutters_.back()->start({c.a, c.b});
   }
@@ -339,6 +340,16 @@ double SceneRunner::cut_scene_blades(double& improve_ms) {
     improve_ms += r.ms_improve;
     for (Fragment& fr : r.fragments) parts.push_back(std::move(fr.tets));
   };
+  // The improvement of blades withdrawn earlier goes on, one slice a frame.
+  if (blade_ && blade_->finishing()) {
+    CutStepReport r = blade_->finish_more();
+    take(r, blade_.get());
+  }
+  for (const auto& cutter : cutters_)
+    if (cutter->finishing()) {
+      CutStepReport r = cutter->finish_more();
+      take(r, cutter.get());
+    }
   for (std::size_t i = 0; i < cutters_.size(); ++i) {
     const SceneCut& c = scene_.cuts[i];
     const double f = sweep_fraction(c, frame_);
@@ -387,8 +398,10 @@ CutOptions SceneRunner::cut_options(const SceneInput& in) {
   return o;
 }
 
-CutStepReport SceneRunner::blade_step(const BladeSegment& blade, const CutOptions& options) {
+CutStepReport SceneRunner::blade_step(const BladeSegment& blade, const CutOptions& given) {
   if (!blade_ || !blade_->in_cut()) {
+    CutOptions options = given;
+    if (options.finish_improve_slice == 0) options.finish_improve_slice = kFinishImproveSlice;
     // One cutter for every outside cut: its first-contact grid is built once and kept up to
     // date by the changes it is notified of.
     if (!blade_) blade_ = std::make_unique<Cutter>(mesh_, options);

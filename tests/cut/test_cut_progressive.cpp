@@ -9,6 +9,7 @@
 
 #include "cut/cutter.h"
 #include "mesh/generate.h"
+#include "mesh/io/tet_io.h"
 #include "quality/metrics.h"
 #include "tests/cut/cut_checks.h"
 
@@ -243,4 +244,78 @@ TEST_CASE("progressive: a blade swept across the Kuhn box's diagonal keeps the m
   check_cut_invariants(m, vol0, 1e-9, moved);
   moved += cutter.advance({point(0xfc, 0xfd, 0xfc), point(0, 0, 0)}).improve.volume_change;
   check_cut_invariants(m, vol0, 1e-9, moved);
+}
+
+TEST_CASE("progressive: finish()'s improvement in slices ends as well as in one call, and is the same every run",
+          "[cut][progressive]") {
+  // The liver, a blade from above its middle down 60% of its height in 12 steps, then withdrawn:
+  // finish() embeds the front and starts its improvement; the rest comes in finish_more().
+  const TetMesh liver = read_tet_mesh(std::string(INCISE_SOURCE_DIR) + "/samples/liver.msh");
+  Vec3 lo = Vec3::Constant(1e300), hi = -lo;
+  for (VertexId v : liver.vertices()) lo = lo.cwiseMin(liver.rest(v)), hi = hi.cwiseMax(liver.rest(v));
+  const Vec3 c = 0.5 * (lo + hi), s = hi - lo;
+  const Vec3 a(c.x(), lo.y() - 0.1 * s.y(), hi.z() + 0.05 * s.z()), b(c.x(), hi.y() + 0.1 * s.y(), hi.z() + 0.05 * s.z());
+  auto cut = [&](int slice, int& calls, double& worst_ms) {
+    TetMesh m = liver;
+    const auto vol0 = label_volumes(m);
+    CutOptions o;
+    o.finish_improve_slice = slice;
+    Cutter cutter(m, o);
+    cutter.start({a, b});
+    for (int k = 1; k <= 12; ++k) {
+      const Vec3 off(0, 0, -0.65 * s.z() * k / 12);
+      cutter.advance({a + off, b + off});
+    }
+    double moved = 0;
+    CutStepReport f = cutter.finish();
+    moved += f.improve.volume_change;
+    calls = 0;
+    worst_ms = f.ms;
+    CHECK(cutter.finishing() == (slice > 0));
+    while (cutter.finishing()) {
+      const CutStepReport r = cutter.finish_more();
+      moved += r.improve.volume_change;
+      worst_ms = std::max(worst_ms, r.ms);
+      ++calls;
+      REQUIRE(calls <= 2000 / std::max(slice, 1) + 1);  // the operations are bounded
+      check_cut_invariants(m, vol0, 1e-9, moved);  // a valid mesh after every slice
+    }
+    CHECK(cutter.finish_more().change.empty());  // nothing left: an empty record
+    return m;
+  };
+  int calls0 = 0, calls = 0, again_calls = 0;
+  double ms0 = 0, ms = 0, again_ms = 0;
+  const TetMesh whole = cut(0, calls0, ms0), sliced = cut(100, calls, ms), again = cut(100, again_calls, again_ms);
+  CHECK(calls0 == 0);
+  CHECK(calls > 0);
+  auto quality = [](const TetMesh& m) {
+    double worst = 180;
+    std::size_t below = 0;
+    for (TetId t : m.tets()) {
+      const double d = tet_quality(m, t).min_dihedral;
+      worst = std::min(worst, d);
+      below += d < 10;
+    }
+    return std::pair(worst, below);
+  };
+  const auto [w0, b0] = quality(whole);
+  const auto [w1, b1] = quality(sliced);
+  INFO("one call: min " << w0 << " deg, " << b0 << " below 10; slices of 100: " << calls << " more calls, min " << w1
+                        << " deg, " << b1 << " below 10; slowest call " << ms << " ms against " << ms0);
+  CHECK(w1 >= 0.9 * w0);
+  CHECK(b1 <= b0 + b0 / 4 + 2);
+  // Operations, not time, bound each slice: the same cut twice is the same mesh.
+  REQUIRE(again.num_tets() == sliced.num_tets());
+  for (TetId t : sliced.tets()) REQUIRE(again.tet_vertices(t) == sliced.tet_vertices(t));
+  // A new cut drops what is left of the last one's improvement.
+  TetMesh m = liver;
+  CutOptions o;
+  o.finish_improve_slice = 10;
+  Cutter cutter(m, o);
+  cutter.start({a, b});
+  cutter.advance({a + Vec3(0, 0, -0.5 * s.z()), b + Vec3(0, 0, -0.5 * s.z())});
+  cutter.finish();
+  REQUIRE(cutter.finishing());
+  cutter.start({a, b});
+  CHECK_FALSE(cutter.finishing());
 }

@@ -61,8 +61,10 @@ TEST_CASE("stepping a scene frame by frame gives run_scene's frames", "[scene][r
     CHECK(f.stats.info == SolveInfo::Success);
     CHECK(max_abs_difference(f.displacement, whole[std::size_t(k)]) < 1e-9);
     CHECK(f.max_displacement > 0);
+    // Before the blade nothing is cut; after it (frames 4, 5) the withdrawn blade's
+    // improvement may still run its slices (SceneRunner::kFinishImproveSlice).
     if (k == 2 || k == 3) CHECK(f.cut_ms > 0);
-    else CHECK(f.cut_ms == 0);
+    else if (k < 2) CHECK(f.cut_ms == 0);
   }
   CHECK(runner.mesh().num_tets() > tets_before);
   // The positions are the rest ones plus the last frame's displacement.
