@@ -352,7 +352,18 @@ void Cutter::improve_finish_slice(CutStepReport& rep, int work) {
   io.time_budget_ms = opt_.improve_budget_ms;
   io.max_work = work;
   const auto ti = std::chrono::steady_clock::now();
-  rep.improve = improve_local(*mesh_, finish_seeds_, io);
+  // Later slices seed only the region's tets still short of the targets (with their ring):
+  // queueing the whole region again each slice cost more than its operations.
+  std::vector<TetId> seeds;
+  if (opt_.finish_improve_slice > 0) {
+    for (TetId t : finish_seeds_) {
+      const TetQuality q = tet_quality(*mesh_, t);
+      if (q.min_dihedral < io.target_dihedral_deg || q.max_dihedral > io.target_max_dihedral_deg) seeds.push_back(t);
+    }
+  } else {
+    seeds = finish_seeds_;
+  }
+  rep.improve = improve_local(*mesh_, seeds, io);
   rep.ms_improve += ms_since(ti);
   // Converged, or spent: done. Else the next slice starts from the region plus what this one
   // made (keep_finish_seeds, once the record is taken).
