@@ -556,26 +556,71 @@ INCISE_SIMD_CLONES void corner_terms(const RotationLanes& __restrict l, TetLanes
 
 // Every tet from scratch, then every vertex from its incident tets.
 void FemModel::update_rotations_exact(const Eigen::VectorXd& u) {
-  update_rotation_packets(u, true);
+  update_rotation_packets(u, true, 0, rotation_packets());
   parallel_range(vertex_capacity_, [&](std::size_t v) { compute_vertex(std::uint32_t(v)); });
 }
 
 // Newton steps from the stored quaternions, then the diagonal blocks from the corner terms
 // (slots and the rotation-free part are current since the last apply()).
 void FemModel::update_rotations_warm(const Eigen::VectorXd& u) {
-  update_rotation_packets(u, false);
+  update_rotation_packets(u, false, 0, rotation_packets());
   parallel_range(vertex_capacity_, [&](std::size_t v) { vertex_block(std::uint32_t(v)); });
 }
 
 // Packets of kLanes consecutive tet ids, in parallel: gather, F, the rotation (warm-started
 // Newton steps, vectorized across the packet, and the exact decomposition for lanes that did not
 // converge; or the exact one for all), the corner terms, scatter.
-void FemModel::update_rotation_packets(const Eigen::VectorXd& u, bool exact) {
-  const std::size_t packets = (tet_capacity_ + kLanes - 1) / kLanes;
+std::size_t FemModel::rotation_packets() const { return (tet_capacity_ + kLanes - 1) / kLanes; }
+
+void FemModel::update_rotations_partial(const Eigen::VectorXd& u, std::size_t first, std::size_t count) {
+  if (kind_ != FemKind::Corotational) return;
+  if (u.size() != rows()) throw InvalidArgument("fem: rotations from a vector of the wrong size");
+  const std::size_t packets = rotation_packets();
+  if (packets == 0) return;
+  if (count >= packets) {
+    update_rotations(u);
+    return;
+  }
+  first %= packets;
+  const std::size_t end = first + count;
+  // Wrapping past the last packet: two ranges; the stats add up.
+  update_rotation_packets(u, !warm_rotations_, first, std::min(end, packets));
+  RotationStats stats = rotation_stats_;
+  if (end > packets) {
+    update_rotation_packets(u, !warm_rotations_, 0, end - packets);
+    stats.exact += rotation_stats_.exact;
+    stats.max_steps = std::max(stats.max_steps, rotation_stats_.max_steps);
+  }
+  // The diagonal blocks of the vertices of those tets (their corner terms changed). Nodal-
+  // averaged blocks reach the 2-ring: every block then.
+  std::vector<std::uint32_t> verts;
+  auto mark = [&](std::size_t p0, std::size_t p1) {
+    for (std::size_t ti = p0 * kLanes; ti < std::min(p1 * kLanes, tet_capacity_); ++ti)
+      if (alive_[ti])
+        for (std::uint32_t v : verts_[ti])
+          if (!vertex_mark_[v]) {
+            vertex_mark_[v] = 1;
+            verts.push_back(v);
+          }
+  };
+  if (nodal_averaged()) {
+    parallel_range(vertex_capacity_, [&](std::size_t v) { vertex_block(std::uint32_t(v)); });
+  } else {
+    vertex_mark_.resize(vertex_capacity_, 0);
+    mark(first, std::min(end, packets));
+    if (end > packets) mark(0, end - packets);
+    parallel_range(verts.size(), [&](std::size_t i) { vertex_block(verts[i]); });
+    for (std::uint32_t v : verts) vertex_mark_[v] = 0;
+  }
+  rotation_stats_ = stats;
+  rotation_stats_.tets = std::min(count * kLanes, mesh_->num_tets());
+}
+
+void FemModel::update_rotation_packets(const Eigen::VectorXd& u, bool exact, std::size_t begin, std::size_t end) {
   std::atomic<std::size_t> fallbacks{0};
   std::atomic<int> most_steps{0};
   const double* up = u.data();
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, packets, 64), [&](const tbb::blocked_range<std::size_t>& range) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(begin, end, 64), [&](const tbb::blocked_range<std::size_t>& range) {
     RotationLanes l;
     TetLanes t;
     bool live[kLanes];
@@ -636,7 +681,8 @@ void FemModel::update_rotation_packets(const Eigen::VectorXd& u, bool exact) {
     while (prev < steps && !most_steps.compare_exchange_weak(prev, steps)) {
     }
   });
-  rotation_stats_ = {mesh_->num_tets(), fallbacks.load(), most_steps.load()};
+  rotation_stats_ = {end - begin >= rotation_packets() ? mesh_->num_tets() : (end - begin) * kLanes, fallbacks.load(),
+                     most_steps.load()};
 }
 
 std::vector<double> FemModel::von_mises(const Eigen::VectorXd& u) const {

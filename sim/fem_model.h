@@ -131,6 +131,13 @@ public:
   // Corotational: per-tet rotations from displacement u (O(mesh), parallel); also refreshes
   // the diagonal. No-op for Linear.
   void update_rotations(const Eigen::VectorXd& u);
+  // The same for a share of the tets only: the packets [first, first + count) (modulo
+  // rotation_packets(); kLanes = 8 consecutive tet ids each), and the diagonal blocks of their
+  // vertices. Calls with consecutive ranges refresh every tet in turn (a budgeted frame that
+  // cannot afford all of them: FemSimulation). After a whole cycle at a fixed u the model
+  // equals a full update's.
+  void update_rotations_partial(const Eigen::VectorXd& u, std::size_t first, std::size_t count);
+  std::size_t rotation_packets() const;
   // Off: every tet's rotation from scratch (polar_rotation) and every vertex recomputed from its
   // incident tets, the path before warm starts (benchmarks and tests compare the two).
   void set_warm_started_rotations(bool on) { warm_rotations_ = on; }
@@ -185,7 +192,7 @@ private:
   void vertex_block(std::uint32_t v);    // the diagonal block from the corner terms
   void update_rotations_exact(const Eigen::VectorXd& u);
   void update_rotations_warm(const Eigen::VectorXd& u);
-  void update_rotation_packets(const Eigen::VectorXd& u, bool exact);
+  void update_rotation_packets(const Eigen::VectorXd& u, bool exact, std::size_t begin, std::size_t end);
   Eigen::Matrix3d tet_stress(std::uint32_t t, const Eigen::VectorXd& x, bool subtract_rotation,
                              const Eigen::Matrix3d& r) const;  // r: the tet's rotation
   void gather(Eigen::VectorXd& y, bool accumulate) const;
@@ -244,6 +251,7 @@ private:
   // NodalAveraged, per vertex: V_a and kappa_a V_a; scratch of the volumetric passes.
   std::vector<double> nvol_, nkv_;
   mutable std::vector<double> div_, pbar_;  // per tet
+  std::vector<std::uint8_t> vertex_mark_;    // update_rotations_partial: vertices already listed
   mutable std::vector<double> ptheta_;      // per vertex: kappa_a theta_a
   std::vector<std::uint8_t> ring_mark_;     // per vertex, all clear between apply() calls
   FemWork work_;

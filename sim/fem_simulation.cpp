@@ -356,7 +356,25 @@ void FemSimulation::check_finite(const Eigen::VectorXd& x, FrameStats& st) const
 
 void FemSimulation::relinearize() {
   if (model_.kind() != FemKind::Corotational) return;
-  model_.update_rotations(u_);
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::size_t packets = model_.rotation_packets();
+  std::size_t count = packets;
+  // A budget that cannot afford every tet's rotation gets the share it can; the cursor takes
+  // the rest in turn over the next frames (measured cost per packet: the first refresh is whole).
+  if (opt_.cg.budget_ms > 0 && relinearize_ms_per_packet_ > 0 && packets > 0)
+    count = std::clamp(std::size_t(opt_.relinearize_share * opt_.cg.budget_ms / relinearize_ms_per_packet_),
+                       std::size_t(1), packets);
+  if (count >= packets) {
+    model_.update_rotations(u_);
+  } else {
+    model_.update_rotations_partial(u_, relinearize_cursor_, count);
+    relinearize_cursor_ = (relinearize_cursor_ + count) % packets;
+  }
+  if (packets > 0) {
+    const double per = ms_since(t0) / double(count);
+    relinearize_ms_per_packet_ = relinearize_ms_per_packet_ > 0 ? 0.7 * relinearize_ms_per_packet_ + 0.3 * per : per;
+    stats_.relinearized = std::min(stats_.relinearized, double(count) / double(packets));
+  }
   b_rot_.setZero(model_.rows());
   model_.add_rotation_rhs(b_rot_);
   assembled_dirty_ = system_dirty_ = true;

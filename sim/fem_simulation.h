@@ -72,6 +72,10 @@ struct FemSimulationOptions {
   double dt = 0.01;                                     // dynamic time step [s]
   double damping = 0;                                   // mass-proportional damping [1/s]
   int nonlinear_iterations = 1;                         // corotational re-linearizations per static frame
+  // With cg.budget_ms: the corotational rotations may take at most this share of the budget
+  // (measured per packet of tets); the tets that do not fit are refreshed in the next frames,
+  // in turn (FemModel::update_rotations_partial). At 97k tets a full refresh took 23 ms.
+  double relinearize_share = 0.5;
   Vec3 gravity = Vec3::Zero();                          // body acceleration [m/s^2]
   bool check_rigid_modes = true;                        // refuse under-constrained static solves
 };
@@ -92,6 +96,7 @@ struct FrameStats {
   double setup_ms = 0;
   bool budget_exhausted = false;
   bool cheaper_preconditioner = false;   // the budget could not afford the preconditioner (CG used its cheaper one)
+  double relinearized = 1;               // corotational: share of the tets whose rotations this frame refreshed
   SolveInfo info = SolveInfo::Success;
   std::string message;
 };
@@ -181,6 +186,8 @@ private:
   std::unique_ptr<MixedSolver> mixed_;       // Formulation::Mixed: it solves every frame
   bool mixed_pending_ = false;               // the last mixed solve ran out of budget
   Eigen::VectorXd b_rot_;              // corotational right-hand side term
+  double relinearize_ms_per_packet_ = 0;  // measured (running mean) cost of refreshing one packet's rotations
+  std::size_t relinearize_cursor_ = 0;    // the next packet a partial refresh starts at
   std::vector<Eigen::VectorXd> d_;     // prediction directions
 
   Eigen::VectorXd u_, v_, f_ext_, target_;  // target_: prescribed displacement per unknown
