@@ -356,7 +356,7 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
   ring1.ring = 1;
   lazy.topology_rebuild_iterations = 20;
   const Config configs[] = {{"cholesky (stale factor)", Preconditioner::Cholesky, 0},
-                            {"cholesky settle 3, block-jacobi", Preconditioner::Cholesky, 3},
+                            {"cholesky settle 3 block-jacobi", Preconditioner::Cholesky, 3},
                             {"block-jacobi", Preconditioner::BlockJacobi, 0},
                             {"jacobi", Preconditioner::Jacobi, 0},
                             {"amg", Preconditioner::Amg, 0},
@@ -364,8 +364,8 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
                             {"amg ring 1", Preconditioner::Amg, 0, 0, ring1},
                             {"amg lazy (rebuild >20 it)", Preconditioner::Amg, 0, 0, lazy},
                             {"cholesky settle 3 + amg (default)", Preconditioner::Cholesky, 3, 0, {}, true},
-                            {"settle, block-jacobi, 16 ms", Preconditioner::Cholesky, 3, 16.0},
-                            {"default, budget 16 ms", Preconditioner::Cholesky, 3, 16.0, {}, true},
+                            {"settle block-jacobi 16 ms", Preconditioner::Cholesky, 3, 16.0},
+                            {"default budget 16 ms", Preconditioner::Cholesky, 3, 16.0, {}, true},
                             {"block-jacobi budget 16 ms", Preconditioner::BlockJacobi, 0, 16.0},
                             {"amg budget 16 ms", Preconditioner::Amg, 0, 16.0}};
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "incise-bench-cut-scene";
