@@ -328,6 +328,12 @@ CutStepReport Cutter::finish(const PositionFn& caller_positions) {
     finish_left_ = opt_.finish_improve_work;
     improve_finish_slice(rep, opt_.finish_improve_slice > 0 ? opt_.finish_improve_slice : opt_.finish_improve_work);
   }
+  end_finish_record(rep, grid_stale, t0);
+  return rep;
+}
+
+// finish() and finish_more(): the record taken, the grid kept exact, the figures filled in.
+void Cutter::end_finish_record(CutStepReport& rep, bool grid_stale, std::chrono::steady_clock::time_point t0) {
   rep.change = mesh_->take_change();
   keep_finish_seeds(rep.change);
   if (!grid_stale) {
@@ -337,7 +343,6 @@ CutStepReport Cutter::finish(const PositionFn& caller_positions) {
   rep.tets_added = rep.change.added_tets.size();
   rep.vertices_added = rep.change.added_vertices.size();
   rep.ms = ms_since(t0);
-  return rep;
 }
 
 void Cutter::improve_finish_slice(CutStepReport& rep, int work) {
@@ -388,15 +393,7 @@ CutStepReport Cutter::finish_more() {
   const auto t0 = std::chrono::steady_clock::now();
   const bool grid_stale = mesh_->counters().edits != grid_edits_;
   improve_finish_slice(rep, opt_.finish_improve_slice > 0 ? opt_.finish_improve_slice : finish_left_);
-  rep.change = mesh_->take_change();
-  keep_finish_seeds(rep.change);
-  if (!grid_stale) {
-    grid_.update(*mesh_, rep.change);
-    grid_edits_ = mesh_->counters().edits;
-  }
-  rep.tets_added = rep.change.added_tets.size();
-  rep.vertices_added = rep.change.added_vertices.size();
-  rep.ms = ms_since(t0);
+  end_finish_record(rep, grid_stale, t0);
   return rep;
 }
 

@@ -230,7 +230,8 @@ private:
   int finish_left_ = 0;
   // One slice of the finish improvement on finish_seeds_ (improvement only: no cut).
   void improve_finish_slice(CutStepReport& rep, int work);
-  void keep_finish_seeds(const TopologyChange& change);  // the slice's new tets join the region  // the fragment search's marks  // the mesh's edit counter when the grid was last in sync
+  void keep_finish_seeds(const TopologyChange& change);  // the slice's new tets join the region
+  void end_finish_record(CutStepReport& rep, bool grid_stale, std::chrono::steady_clock::time_point t0);  // the fragment search's marks  // the mesh's edit counter when the grid was last in sync
 };
 
 }  // namespace incise
