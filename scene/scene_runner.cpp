@@ -383,7 +383,8 @@ CutStepReport SceneRunner::advance_blade(const BladeSegment& blade, const CutOpt
     const CutOptions& o = options;
     replayable_ = replayable_ && o.frozen.empty() && o.finish_improve_work == said.finish_improve_work &&
                   o.improve_budget_ms == said.improve_budget_ms && o.fragment_search_limit == said.fragment_search_limit &&
-                  o.improve_options.max_work == said.improve_options.max_work;
+                  o.improve_options.max_work == said.improve_options.max_work &&
+                  (o.finish_improve_slice == 0 || o.finish_improve_slice == kFinishImproveSlice);
   }
   CutStepReport r = blade_step(blade, options);
   record(in);
@@ -486,14 +487,7 @@ void SceneRunner::replay_inputs() {
   for (; next_input_ < in.size() && in[next_input_].frame <= frame_; ++next_input_) {
     const SceneInput& x = in[next_input_];
     switch (x.kind) {
-      case SceneInput::Kind::Blade: {
-        const bool placing = !blade_ || !blade_->in_cut();
-        blade_step({x.a, x.b}, cut_options(x));
-        SceneInput r = x;
-        if (!placing) r = {.kind = SceneInput::Kind::Blade, .a = x.a, .b = x.b};
-        record(r);
-        break;
-      }
+      case SceneInput::Kind::Blade: advance_blade({x.a, x.b}, cut_options(x)); break;
       case SceneInput::Kind::Finish: finish_blade(); break;
       case SceneInput::Kind::Grab: grab_probe(x.a, x.radius); break;
       case SceneInput::Kind::Probe: move_probe(x.a); break;
