@@ -39,8 +39,10 @@
 #include "quality/metrics.h"
 #include "sim/fem_simulation.h"
 #include "sim/spring_model.h"
+#include "tests/support/draws.h"
 
 using namespace incise;
+using incise::testing::draw_vec3;
 
 namespace {
 
@@ -153,9 +155,9 @@ std::vector<Blade> random_blades(const TetMesh& m, int count, unsigned seed) {
   std::vector<Blade> out;
   const double diag = (hi - lo).norm();
   for (int i = 0; i < count; ++i) {
-    const Vec3 c = lo + Vec3(u(rng), u(rng), u(rng)).cwiseProduct(hi - lo);
-    Vec3 dir = Vec3(nd(rng), nd(rng), nd(rng)).normalized();
-    Vec3 sweep = Vec3(nd(rng), nd(rng), nd(rng));
+    const Vec3 c = lo + draw_vec3(u, rng).cwiseProduct(hi - lo);
+    Vec3 dir = draw_vec3(nd, rng).normalized();
+    Vec3 sweep = draw_vec3(nd, rng);
     sweep = (sweep - sweep.dot(dir) * dir).normalized() * diag * (0.15 + 0.3 * u(rng));
     const double len = diag * (0.15 + 0.3 * u(rng));
     out.push_back({c - 0.5 * len * dir - 0.5 * sweep, c + 0.5 * len * dir - 0.5 * sweep, sweep});

@@ -14,8 +14,10 @@
 #include "mesh/generate.h"
 #include "mesh/tet_mesh.h"
 #include "sim/spring_model.h"
+#include "tests/support/draws.h"
 
 using namespace incise;
+using incise::testing::draw_vec3;
 
 namespace {
 
@@ -29,7 +31,7 @@ MaterialTable soft_tissue() { return MaterialTable(Material{3e3, 0.45, 1000}); }
 void perturb(SpringModel& s, const TetMesh& m, double amount) {
   std::mt19937 rng(1);
   std::uniform_real_distribution<double> u(-amount, amount);
-  for (VertexId v : m.vertices()) s.set_position(v, m.rest(v) + Vec3(u(rng), u(rng), u(rng)));
+  for (VertexId v : m.vertices()) s.set_position(v, m.rest(v) + draw_vec3(u, rng));
 }
 
 // Refinement and flip edits around random tets (no removals: they keep the mesh a solid).

@@ -138,7 +138,7 @@ std::unique_ptr<Fem> make_fem(const py::object& mesh_obj, const py::object& mate
                               const py::object& gravity, bool check_rigid_modes, const std::string& formulation) {
   FemSimulationOptions o;
   const auto f = parse_formulation(formulation);
-  if (!f) throw InvalidArgument("formulation: expected \"standard\", \"nodal-averaged\" or \"mixed\", got \"" + formulation + "\"");
+  if (!f) throw InvalidArgument("formulation: expected " + std::string(kFormulationNames) + ", got \"" + formulation + "\"");
   o.formulation = *f;
   o.kind = parse_choice<FemKind>("kind", kind, {{"linear", FemKind::Linear}, {"corotational", FemKind::Corotational}});
   o.method = parse_choice<SolverMethod>("method", method, {{"cg", SolverMethod::Cg}, {"direct", SolverMethod::Direct}});
@@ -315,7 +315,7 @@ void bind_sim(py::module_& m) {
         return s.model == SceneModel::Springs ? "springs" : s.model == SceneModel::FemCorotational ? "fem-corotational" : "fem-linear";
       })
       .def_property_readonly("formulation", [](const Scene& s) { return std::string(formulation_name(s.formulation)); },
-                             "\"standard\", \"nodal-averaged\" or \"mixed\"")
+                             "\"standard\", \"nodal-averaged\", \"edge-smoothed\" or \"mixed\"")
       .def_readonly("materials", &Scene::materials)
       .def_property_readonly("fixed", [](const Scene& s) {
         py::list l;

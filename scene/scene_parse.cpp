@@ -296,7 +296,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   if (j.contains("formulation")) {
     const std::string f = rd.string(j["formulation"], "formulation");
     const auto parsed = parse_formulation(f);
-    if (!parsed) rd.fail("formulation", "expected \"standard\", \"nodal-averaged\" or \"mixed\", got \"" + f + "\"");
+    if (!parsed) rd.fail("formulation", "expected " + std::string(kFormulationNames) + ", got \"" + f + "\"");
     s.formulation = *parsed;
     if (s.model == SceneModel::Springs && s.formulation != Formulation::Standard)
       rd.fail("formulation", "is for FEM models; springs have no volumetric strain to treat");

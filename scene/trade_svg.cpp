@@ -16,9 +16,14 @@ struct Series {
   const char* formulation;
   const char* colour;
 };
-constexpr Series kSeries[] = {{"fem-linear", "standard", "#1f77b4"},        {"fem-linear", "nodal-averaged", "#17becf"},
-                              {"fem-linear", "mixed", "#9467bd"},           {"fem-corotational", "standard", "#d62728"},
-                              {"fem-corotational", "nodal-averaged", "#ff7f0e"}, {"fem-corotational", "mixed", "#8c564b"},
+constexpr Series kSeries[] = {{"fem-linear", "standard", "#1f77b4"},
+                              {"fem-linear", "nodal-averaged", "#17becf"},
+                              {"fem-linear", "edge-smoothed", "#393b79"},
+                              {"fem-linear", "mixed", "#9467bd"},
+                              {"fem-corotational", "standard", "#d62728"},
+                              {"fem-corotational", "nodal-averaged", "#ff7f0e"},
+                              {"fem-corotational", "edge-smoothed", "#bcbd22"},
+                              {"fem-corotational", "mixed", "#8c564b"},
                               {"springs", "-", "#2ca02c"}};
 
 const char* colour(const TradeRow& r) {

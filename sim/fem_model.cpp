@@ -4,6 +4,8 @@
 #include <atomic>
 #include <cmath>
 
+#include <Eigen/SparseCore>
+
 #include <Eigen/LU>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -38,6 +40,21 @@ void parallel_range(std::size_t n, F&& f) {
 // tets: 0.66 ms a product in parallel on a busy 2-core machine).
 constexpr std::size_t kVolumetricSerialBelow = 8000;
 
+template <class F>
+void for_each_index(std::size_t n, bool serial, F&& f) {
+  if (serial)
+    for (std::size_t i = 0; i < n; ++i) f(i);
+  else
+    parallel_range(n, f);
+}
+
+// A tet's six edges as pairs of local corners.
+constexpr int kTetEdge[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+
+std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
+  return a < b ? (std::uint64_t(a) << 32) | b : (std::uint64_t(b) << 32) | a;
+}
+
 }  // namespace
 
 Eigen::Matrix3d element_block(const Eigen::Matrix3d& bm, double vol, double mu, double lambda, const Eigen::Matrix3d& r,
@@ -65,6 +82,12 @@ FemModel::FemModel(const TetMesh& mesh, const MaterialTable& materials, FemKind 
   parallel_range(tet_capacity_, [&](std::size_t t) { compute_tet(std::uint32_t(t)); });
   // Every V_a before any diagonal block: a vertex's volumetric block reads its 1-ring's.
   if (nodal_averaged()) parallel_range(vertex_capacity_, [&](std::size_t v) { nodal_volume_of(std::uint32_t(v)); });
+  if (edge_smoothed()) {
+    edge_index_.reserve(tet_capacity_ + tet_capacity_ / 2);
+    for (std::size_t t = 0; t < tet_capacity_; ++t)
+      if (alive_[t]) register_tet(std::uint32_t(t));
+    parallel_range(edge_tets_.size(), [&](std::size_t e) { edge_moduli(std::uint32_t(e)); });
+  }
   // Tets enter the kernel by their smallest vertex id, so each slab sweeps x and y in order
   // (hardware prefetch instead of a cache miss per corner on large meshes).
   std::vector<std::pair<std::uint32_t, std::uint32_t>> order;
@@ -122,6 +145,12 @@ void FemModel::grow() {
     if (nodal_averaged()) {
       div_.resize(nt, 0.0);
       pbar_.resize(nt, 0.0);
+    }
+    if (edge_smoothed()) {
+      tet_edges_.resize(nt);
+      registered_.resize(nt, 0);
+      teps_.resize(nt, Eigen::Matrix3d::Zero());
+      tsig_.resize(nt, Eigen::Matrix3d::Zero());
     }
     tet_capacity_ = nt;
   }
@@ -235,15 +264,32 @@ void FemModel::vertex_block(std::uint32_t vi) {
 void FemModel::apply(const TopologyChange& change) {
   grow();
   ++work_.updates;
+  std::vector<std::uint32_t> edges;  // EdgeSmoothed: edges whose tets changed
   for (TetId t : change.removed_tets) {
-    if (t.idx() < tet_capacity_) alive_[t.idx()] = 0;
+    if (t.idx() < tet_capacity_) {
+      alive_[t.idx()] = 0;
+      if (edge_smoothed() && registered_[t.idx()]) {
+        edges.insert(edges.end(), tet_edges_[t.idx()].begin(), tet_edges_[t.idx()].end());
+        unregister_tet(t.idx());
+      }
+    }
     kernel_.remove(t.idx());
   }
   for (TetId t : change.added_tets) {
     const std::uint32_t ti = t.idx();
     compute_tet(ti);
     if (alive_[ti]) kernel_.add(*mesh_, ti, verts_[ti], bm_[ti], vol_[ti] * mu_[ti], vol_[ti] * lambda_[ti]);
+    if (edge_smoothed() && alive_[ti] && !registered_[ti]) {
+      register_tet(ti);
+      edges.insert(edges.end(), tet_edges_[ti].begin(), tet_edges_[ti].end());
+    }
     ++work_.tets_recomputed;
+  }
+  if (edge_smoothed()) {
+    std::sort(edges.begin(), edges.end());
+    edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+    for (std::uint32_t e : edges) edge_moduli(e);
+    work_.edges_updated += edges.size();
   }
   for (VertexId v : change.removed_vertices) {
     if (nodal_averaged()) nvol_[v.idx()] = nkv_[v.idx()] = 0;
@@ -299,6 +345,157 @@ void FemModel::nodal_volume_of(std::uint32_t vi) {
     }
   nvol_[vi] = v;
   nkv_[vi] = kv;
+}
+
+void FemModel::register_tet(std::uint32_t ti) {
+  for (int k = 0; k < 6; ++k) {
+    const std::uint32_t a = verts_[ti][std::size_t(kTetEdge[k][0])], b = verts_[ti][std::size_t(kTetEdge[k][1])];
+    auto [it, fresh] = edge_index_.try_emplace(edge_key(a, b), 0u);
+    if (fresh) {
+      if (free_edges_.empty()) {
+        it->second = std::uint32_t(edge_tets_.size());
+        edge_tets_.emplace_back();
+        edge_vol_.push_back(0);
+        edge_mu_.push_back(0);
+        edge_lambda_.push_back(0);
+        esig_.push_back(Eigen::Matrix3d::Zero());
+      } else {
+        it->second = free_edges_.back();
+        free_edges_.pop_back();
+      }
+    }
+    edge_tets_[it->second].push_back(ti);
+    tet_edges_[ti][std::size_t(k)] = it->second;
+  }
+  registered_[ti] = 1;
+}
+
+void FemModel::unregister_tet(std::uint32_t ti) {
+  for (int k = 0; k < 6; ++k) {
+    const std::uint32_t e = tet_edges_[ti][std::size_t(k)];
+    auto& list = edge_tets_[e];
+    auto it = std::find(list.begin(), list.end(), ti);
+    if (it != list.end()) {
+      *it = list.back();
+      list.pop_back();
+    }
+    if (list.empty()) {
+      edge_index_.erase(edge_key(verts_[ti][std::size_t(kTetEdge[k][0])], verts_[ti][std::size_t(kTetEdge[k][1])]));
+      free_edges_.push_back(e);
+      edge_vol_[e] = edge_mu_[e] = edge_lambda_[e] = 0;
+    }
+  }
+  registered_[ti] = 0;
+}
+
+void FemModel::edge_moduli(std::uint32_t e) {
+  double v = 0, vm = 0, vl = 0;
+  for (std::uint32_t t : edge_tets_[e]) {
+    v += vol_[t] / 6;
+    vm += mu_[t] * vol_[t] / 6;
+    vl += lambda_[t] * vol_[t] / 6;
+  }
+  edge_vol_[e] = v;
+  edge_mu_[e] = v > 0 ? vm / v : 0.0;
+  edge_lambda_[e] = v > 0 ? vl / v : 0.0;
+}
+
+// Pass 1 per tet (V_t / 6) eps_t, pass 2 per edge sigma_e, pass 3 per tet sigma_bar_t and the
+// corner forces, gathered per vertex. Each pass is conflict-free; small meshes run serially.
+void FemModel::deviatoric_pass(const Eigen::VectorXd* x, bool rotation, double sign, Eigen::VectorXd* y,
+                               const std::vector<Eigen::Matrix3d>* rot) const {
+  const bool corot = kind_ == FemKind::Corotational;
+  const bool serial = tet_capacity_ < kVolumetricSerialBelow;
+  auto rotation_of = [&](std::size_t ti) -> Eigen::Matrix3d {
+    return rot ? (*rot)[ti] : Eigen::Matrix3d(quat_[ti].toRotationMatrix());
+  };
+  for_each_index(tet_capacity_, serial, [&](std::size_t ti) {
+    if (!alive_[ti]) return;
+    Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
+    if (x) {
+      const auto& v = verts_[ti];
+      const Eigen::Vector3d x0 = x->segment<3>(3 * v[0]);
+      Eigen::Matrix3d d;
+      for (int j = 0; j < 3; ++j) d.col(j) = x->segment<3>(3 * v[j + 1]) - x0;
+      h = d * bm_[ti];
+    }
+    if (corot) {
+      const Eigen::Matrix3d r = rotation_of(ti);
+      h = r.transpose() * h;
+      if (rotation) h += r.transpose() - Eigen::Matrix3d::Identity();  // R^T F - I
+    }
+    teps_[ti] = (vol_[ti] / 12) * (h + h.transpose());  // (V_t / 6) sym(h)
+  });
+  for_each_index(edge_tets_.size(), serial, [&](std::size_t e) {
+    if (edge_tets_[e].empty() || !(edge_vol_[e] > 0)) return;
+    Eigen::Matrix3d eps = Eigen::Matrix3d::Zero();
+    for (std::uint32_t t : edge_tets_[e]) eps += teps_[t];
+    eps /= edge_vol_[e];
+    esig_[e] = 2 * edge_mu_[e] * eps + (edge_lambda_[e] * eps.trace()) * Eigen::Matrix3d::Identity();
+  });
+  for_each_index(tet_capacity_, serial, [&](std::size_t ti) {
+    if (!alive_[ti]) return;
+    Eigen::Matrix3d sbar = Eigen::Matrix3d::Zero();
+    for (std::uint32_t e : tet_edges_[ti]) sbar += esig_[e];
+    sbar /= 6;
+    tsig_[ti] = sbar;
+    Eigen::Matrix3d p = (sign * vol_[ti]) * sbar;
+    if (corot) p = rotation_of(ti) * p;
+    const Eigen::Matrix3d g = p * bm_[ti].transpose();
+    force_[ti].rightCols<3>() = g;
+    force_[ti].col(0) = -g.rowwise().sum();
+  });
+  if (y) gather(*y, true);
+}
+
+Eigen::SparseMatrix<double> FemModel::smoothed_stiffness() const {
+  const Eigen::Index n = rows();
+  const bool corot = kind_ == FemKind::Corotational;
+  const std::size_t ne = edge_tets_.size();
+  // Per edge: the derivative of eps_e by unknown (w, c) is sym(M), M = sum over the edge's tets
+  // holding w of (V_t / 6 V_e) (row c of R_t) grad N_w^T. Rows of C (up to 7 per edge):
+  // sqrt(2 mu V)(eps_aa - tr / 3), sqrt(4 mu V) eps_ab (a < b), sqrt((lambda + 2 mu / 3) V) tr,
+  // so that the squares sum to V sigma : eps.
+  std::vector<std::vector<Eigen::Triplet<double>>> trip(ne);
+  parallel_range(ne, [&](std::size_t e) {
+    if (edge_tets_[e].empty() || !(edge_vol_[e] > 0)) return;
+    std::vector<std::pair<std::uint32_t, std::array<Eigen::Matrix3d, 3>>> dom;
+    for (std::uint32_t t : edge_tets_[e]) {
+      const Eigen::Matrix3d r = corot ? Eigen::Matrix3d(quat_[t].toRotationMatrix()) : Eigen::Matrix3d::Identity();
+      const double w = vol_[t] / (6 * edge_vol_[e]);
+      for (int j = 0; j < 4; ++j) {
+        const std::uint32_t v = verts_[t][std::size_t(j)];
+        std::size_t at = 0;
+        while (at < dom.size() && dom[at].first != v) ++at;
+        if (at == dom.size()) dom.push_back({v, {Eigen::Matrix3d::Zero(), Eigen::Matrix3d::Zero(), Eigen::Matrix3d::Zero()}});
+        const Eigen::Vector3d g = shape_gradient(bm_[t], j);
+        for (int c = 0; c < 3; ++c) dom[at].second[std::size_t(c)] += w * r.row(c).transpose() * g.transpose();
+      }
+    }
+    const double vol = edge_vol_[e], mu = edge_mu_[e], bulk = edge_lambda_[e] + 2 * mu / 3;
+    const double sn = std::sqrt(2 * mu * vol), ss = std::sqrt(4 * mu * vol), sb = bulk > 0 ? std::sqrt(bulk * vol) : 0.0;
+    const Eigen::Index row0 = Eigen::Index(7 * e);
+    auto& out = trip[e];
+    for (const auto& [v, ms] : dom)
+      for (int c = 0; c < 3; ++c) {
+        const Eigen::Matrix3d m = 0.5 * (ms[std::size_t(c)] + ms[std::size_t(c)].transpose());
+        const double tr = m.trace();
+        const Eigen::Index col = Eigen::Index(3 * v + std::uint32_t(c));
+        for (int a = 0; a < 3; ++a) out.emplace_back(row0 + a, col, sn * (m(a, a) - tr / 3));
+        out.emplace_back(row0 + 3, col, ss * m(0, 1));
+        out.emplace_back(row0 + 4, col, ss * m(1, 2));
+        out.emplace_back(row0 + 5, col, ss * m(0, 2));
+        if (sb > 0) out.emplace_back(row0 + 6, col, sb * tr);
+      }
+  });
+  std::vector<Eigen::Triplet<double>> all;
+  std::size_t total = 0;
+  for (const auto& t : trip) total += t.size();
+  all.reserve(total);
+  for (auto& t : trip) all.insert(all.end(), t.begin(), t.end());
+  Eigen::SparseMatrix<double> c(Eigen::Index(7 * ne), n);
+  c.setFromTriplets(all.begin(), all.end());
+  return Eigen::SparseMatrix<double>(c.transpose() * c);
 }
 
 namespace {
@@ -448,7 +645,12 @@ void FemModel::gather(Eigen::VectorXd& y, bool accumulate) const {
 
 void FemModel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
   if (x.size() != rows()) throw InvalidArgument("fem: K*x with a vector of the wrong size (apply() the last change?)");
-  kernel_.multiply(x, y, rows());
+  if (edge_smoothed()) {
+    y.setZero(rows());
+    deviatoric_pass(&x, false, 1.0, &y);
+  } else {
+    kernel_.multiply(x, y, rows());
+  }
   if (nodal_averaged()) {
     volumetric_pass(&x, false, 1.0, &y);
   }
@@ -457,7 +659,10 @@ void FemModel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
 void FemModel::add_rotation_rhs(Eigen::VectorXd& b) const {
   if (kind_ != FemKind::Corotational) return;
   if (b.size() != rows()) throw InvalidArgument("fem: rotation rhs with a vector of the wrong size");
-  b += rhs_;  // summed per vertex with the diagonal (vertex_block)
+  if (edge_smoothed())
+    deviatoric_pass(nullptr, true, -1.0, &b);  // the smoothed force of the rotations' own strain, negated
+  else
+    b += rhs_;  // summed per vertex with the diagonal (vertex_block)
   if (nodal_averaged()) {
     // The volumetric force of the rotations' own strain tr(R^T - I), negated (as rhs_'s); O(mesh)
     // here rather than kept per vertex, so that apply() stays local.
@@ -467,16 +672,21 @@ void FemModel::add_rotation_rhs(Eigen::VectorXd& b) const {
 
 void FemModel::internal_forces(const Eigen::VectorXd& u, Eigen::VectorXd& f) const {
   if (u.size() != rows()) throw InvalidArgument("fem: internal forces with a vector of the wrong size");
-  parallel_range(tet_capacity_, [&](std::size_t ti) {
-    if (!alive_[ti]) return;
-    const Eigen::Matrix3d r = quat_[ti].toRotationMatrix();
-    const Eigen::Matrix3d p = vol_[ti] * r * tet_stress(std::uint32_t(ti), u, true, r);
-    const Eigen::Matrix3d g = p * bm_[ti].transpose();
-    force_[ti].rightCols<3>() = -g;
-    force_[ti].col(0) = g.rowwise().sum();
-  });
-  f.resize(rows());
-  gather(f, false);
+  if (edge_smoothed()) {
+    f.setZero(rows());
+    deviatoric_pass(&u, true, -1.0, &f);
+  } else {
+    parallel_range(tet_capacity_, [&](std::size_t ti) {
+      if (!alive_[ti]) return;
+      const Eigen::Matrix3d r = quat_[ti].toRotationMatrix();
+      const Eigen::Matrix3d p = vol_[ti] * r * tet_stress(std::uint32_t(ti), u, true, r);
+      const Eigen::Matrix3d g = p * bm_[ti].transpose();
+      force_[ti].rightCols<3>() = -g;
+      force_[ti].col(0) = g.rowwise().sum();
+    });
+    f.resize(rows());
+    gather(f, false);
+  }
   if (nodal_averaged()) {
     volumetric_pass(&u, true, -1.0, &f);
   }
@@ -688,20 +898,27 @@ void FemModel::update_rotation_packets(const Eigen::VectorXd& u, bool exact, std
 std::vector<double> FemModel::von_mises(const Eigen::VectorXd& u) const {
   std::vector<double> out(tet_capacity_, 0.0);
   if (nodal_averaged()) volumetric_pass(&u, true, 1.0, nullptr);  // pbar_ per tet
+  // The rotation of u itself (exact polar decomposition), not the stored one: the stored
+  // rotations are the solver's state (warm starts of the next relinearization), and a stress
+  // read for output must not change the run (it once did: frames written or coloured by
+  // stress cut a slightly different mesh than frames that were not).
+  auto rotation_of_u = [&](std::size_t ti) -> Eigen::Matrix3d {
+    if (kind_ != FemKind::Corotational) return Eigen::Matrix3d::Identity();
+    const auto& v = verts_[ti];
+    Eigen::Matrix3d d;
+    for (int j = 0; j < 3; ++j) d.col(j) = u.segment<3>(3 * v[j + 1]) - u.segment<3>(3 * v[0]);
+    return polar_rotation(Eigen::Matrix3d::Identity() + d * bm_[ti]);
+  };
+  if (edge_smoothed()) {
+    std::vector<Eigen::Matrix3d> rot(tet_capacity_, Eigen::Matrix3d::Identity());
+    parallel_range(tet_capacity_, [&](std::size_t ti) {
+      if (alive_[ti]) rot[ti] = rotation_of_u(ti);
+    });
+    deviatoric_pass(&u, true, 1.0, nullptr, &rot);  // tsig_ per tet
+  }
   parallel_range(tet_capacity_, [&](std::size_t ti) {
     if (!alive_[ti]) return;
-    // The rotation of u itself (exact polar decomposition), not the stored one: the stored
-    // rotations are the solver's state (warm starts of the next relinearization), and a stress
-    // read for output must not change the run (it once did: frames written or coloured by
-    // stress cut a slightly different mesh than frames that were not).
-    Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
-    if (kind_ == FemKind::Corotational) {
-      const auto& v = verts_[ti];
-      Eigen::Matrix3d d;
-      for (int j = 0; j < 3; ++j) d.col(j) = u.segment<3>(3 * v[j + 1]) - u.segment<3>(3 * v[0]);
-      r = polar_rotation(Eigen::Matrix3d::Identity() + d * bm_[ti]);
-    }
-    Eigen::Matrix3d s = tet_stress(std::uint32_t(ti), u, true, r);
+    Eigen::Matrix3d s = edge_smoothed() ? tsig_[ti] : tet_stress(std::uint32_t(ti), u, true, rotation_of_u(ti));
     if (nodal_averaged()) s.diagonal().array() += pbar_[ti];
     out[ti] = von_mises_of(s);
   });
@@ -767,7 +984,7 @@ Eigen::SparseMatrix<double> FemModel::assemble() const {
           inner[pos] = int(3 * nb[c] + b);
           val[pos] = 0;
         }
-    if (nb.empty()) return;
+    if (nb.empty() || edge_smoothed()) return;  // EdgeSmoothed: the deviatoric part is smoothed_stiffness()
     for (TetId t : mesh_->incident_tets(VertexId(std::uint32_t(vi)))) {
       const std::uint32_t ti = t.idx();
       const auto& tv = verts_[ti];
@@ -782,12 +999,13 @@ Eigen::SparseMatrix<double> FemModel::assemble() const {
       }
     }
   });
+  if (edge_smoothed()) k += smoothed_stiffness();
   if (nodal_averaged()) {
     const Eigen::SparseMatrix<double, Eigen::RowMajor> b = nodal_b();
     const Eigen::SparseMatrix<double> bc = b, bt = b.transpose();
     k += Eigen::SparseMatrix<double>(bt * bc);
-    k.makeCompressed();  // the assembled backend reads the CSR arrays directly
   }
+  k.makeCompressed();  // the assembled backend reads the CSR arrays directly
   return k;
 }
 

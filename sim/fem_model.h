@@ -38,7 +38,21 @@
 // (nodal_b()); its stencil is the 2-ring. K x adds three parallel passes (div per tet, theta per
 // vertex, mean pressure per tet and corner forces V_t pbar_t R_t grad N_j, gathered).
 // apply() stays local: the touched vertices' V_a, then the diagonal blocks of their 1-ring.
+//
+// Formulation::EdgeSmoothed: the volumetric part as NodalAveraged, and the deviatoric strain
+// smoothed over edge domains (ES-FEM): each tet gives V_t / 6 to each of its six edges,
+// V_e = sum_{t∋e} V_t / 6, eps_e = (1 / V_e) sum_{t∋e} (V_t / 6) eps_t, energy
+// sum_e (V_e / 2) sigma_e : eps_e with sigma_e the tet element's law (mu, lambda = -2 mu / 3,
+// volume-weighted over the edge's tets) at eps_e. Its force on a tet's corners is the standard
+// element's with the stress sigma_bar_t = (1/6) sum_{e∈t} sigma_e, so K x is three passes again
+// (eps per tet, sigma per edge, forces per tet), with per-tet rotations (eps_t = sym(R^T H_t)).
+// The smoothed stiffness is never larger than the per-tet one (averaging lowers a quadratic
+// energy), so the per-tet deviatoric element stays what the preconditioners see: the diagonal
+// blocks, elements() (the background factor, the multigrid's coarse operator) are those of
+// NodalAveraged, a close SPD stand-in; assemble() (the direct solver, the assembled backend) is
+// the exact smoothed K. The edge table is kept locally by apply() (O(change)).
 #include <cstdint>
+#include <unordered_map>
 #include <vector>
 
 #include <Eigen/Core>
@@ -91,6 +105,7 @@ struct FemWork {
   // Diagonal blocks recomputed besides those (NodalAveraged: the touched vertices' 1-ring,
   // whose volumetric block reads the touched vertices' V_a).
   std::uint64_t blocks_updated = 0;
+  std::uint64_t edges_updated = 0;  // EdgeSmoothed: smoothing domains whose tets changed
 };
 
 class FemModel : public LinearOperator {
@@ -104,7 +119,13 @@ public:
 
   FemKind kind() const { return kind_; }
   Formulation formulation() const { return formulation_; }
-  bool nodal_averaged() const { return formulation_ == Formulation::NodalAveraged; }
+  // The volumetric strain averaged at the vertices (NodalAveraged and EdgeSmoothed).
+  bool nodal_averaged() const {
+    return formulation_ == Formulation::NodalAveraged || formulation_ == Formulation::EdgeSmoothed;
+  }
+  bool edge_smoothed() const { return formulation_ == Formulation::EdgeSmoothed; }
+  // EdgeSmoothed: edges (smoothing domains) in the table; 0 otherwise.
+  std::size_t num_edges() const { return edge_index_.size(); }
   const TetMesh& mesh() const { return *mesh_; }
   const MaterialTable& materials() const { return materials_; }
   std::size_t num_dofs() const { return 3 * vertex_capacity_; }
@@ -204,6 +225,17 @@ private:
   // Leaves per tet pbar_t in pbar_ and adds the corner forces sign V_t pbar_t R_t grad N_j
   // into *y when y is given.
   void volumetric_pass(const Eigen::VectorXd* x, bool rotation, double sign, Eigen::VectorXd* y) const;
+  // EdgeSmoothed: the deviatoric term in three passes (see the header comment), with the stored
+  // rotations or `rot` (per tet, by TetId). Per tet (V_t / 6) eps_t of x when x is given, plus
+  // sym(R^T - I) when `rotation`; per edge sigma_e; per tet sigma_bar_t (left in tsig_) and the
+  // corner forces sign V_t R_t sigma_bar_t grad N_j, added into *y when given.
+  void deviatoric_pass(const Eigen::VectorXd* x, bool rotation, double sign, Eigen::VectorXd* y,
+                       const std::vector<Eigen::Matrix3d>* rot = nullptr) const;
+  void register_tet(std::uint32_t t);    // the tet into its six edges' lists
+  void unregister_tet(std::uint32_t t);  // and out
+  void edge_moduli(std::uint32_t e);     // V_e and the volume-weighted mu, lambda
+  // The smoothed deviatoric K as C^T C, C with up to 7 rows per edge (assemble()).
+  Eigen::SparseMatrix<double> smoothed_stiffness() const;
 
   const TetMesh* mesh_;
   MaterialTable materials_;
@@ -254,6 +286,14 @@ private:
   std::vector<std::uint8_t> vertex_mark_;    // update_rotations_partial: vertices already listed
   mutable std::vector<double> ptheta_;      // per vertex: kappa_a theta_a
   std::vector<std::uint8_t> ring_mark_;     // per vertex, all clear between apply() calls
+  // EdgeSmoothed: the edges. Ids are reused (free list); an edge lives while a tet holds it.
+  std::unordered_map<std::uint64_t, std::uint32_t> edge_index_;  // (min, max) vertex ids -> edge
+  std::vector<std::vector<std::uint32_t>> edge_tets_;            // per edge: its tets
+  std::vector<double> edge_vol_, edge_mu_, edge_lambda_;         // per edge
+  std::vector<std::uint32_t> free_edges_;
+  std::vector<std::array<std::uint32_t, 6>> tet_edges_;  // per tet
+  std::vector<std::uint8_t> registered_;                 // per tet: in its edges' lists
+  mutable std::vector<Eigen::Matrix3d> teps_, esig_, tsig_;  // per tet, per edge, per tet
   FemWork work_;
 };
 

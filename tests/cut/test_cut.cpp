@@ -14,6 +14,7 @@
 #include "quality/components.h"
 #include "tests/cut/cut_checks.h"
 #include "tests/support/mesh_edits.h"
+#include "tests/support/draws.h"
 
 using namespace incise;
 using namespace incise::testing;
@@ -150,9 +151,9 @@ TEST_CASE("crossing blades near a shared corner do not cascade into slivers", "[
   opt.improve = false;
   Cutter cutter(m, opt);
   for (int i = 0; i < 10; ++i) {
-    const Vec3 c = lo + Vec3(u(rng), u(rng), u(rng)).cwiseProduct(hi - lo);
-    const Vec3 dir = Vec3(nd(rng), nd(rng), nd(rng)).normalized();
-    Vec3 sweep = Vec3(nd(rng), nd(rng), nd(rng));
+    const Vec3 c = lo + draw_vec3(u, rng).cwiseProduct(hi - lo);
+    const Vec3 dir = draw_vec3(nd, rng).normalized();
+    Vec3 sweep = draw_vec3(nd, rng);
     sweep = (sweep - sweep.dot(dir) * dir).normalized() * diag * (0.15 + 0.3 * u(rng));
     const double len = diag * (0.15 + 0.3 * u(rng));
     const Vec3 a = c - 0.5 * len * dir - 0.5 * sweep, b = c + 0.5 * len * dir - 0.5 * sweep;

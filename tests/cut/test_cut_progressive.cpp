@@ -12,6 +12,7 @@
 #include "mesh/io/tet_io.h"
 #include "quality/metrics.h"
 #include "tests/cut/cut_checks.h"
+#include "tests/support/draws.h"
 
 using namespace incise;
 using namespace incise::testing;
@@ -192,7 +193,7 @@ TEST_CASE("progressive: random straight cuts of a box open exactly their swept a
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u01(0, 1);
   std::normal_distribution<double> nd;
-  auto unit = [&] { return Vec3(nd(rng), nd(rng), nd(rng)).normalized(); };
+  auto unit = [&] { return draw_vec3(nd, rng).normalized(); };
   const Vec3 lo(0, 0, 0), hi(1, 0.8, 0.6);
   int exact = 0, total = 0;
   for (int i = 0; i < 60; ++i) {
@@ -202,7 +203,7 @@ TEST_CASE("progressive: random straight cuts of a box open exactly their swept a
     Vec3 sweep = unit();
     sweep = (sweep - sweep.dot(dir) * dir).normalized();
     const double diag = hi.norm(), len = diag * (0.3 + 1.2 * u01(rng)), travel = diag * (0.2 + 0.9 * u01(rng));
-    const Vec3 c = lo + Vec3(u01(rng), u01(rng), u01(rng)).cwiseProduct(hi - lo);
+    const Vec3 c = lo + draw_vec3(u01, rng).cwiseProduct(hi - lo);
     const Vec3 start = c - 0.5 * travel * sweep, a = start - 0.5 * len * dir, b = start + 0.5 * len * dir;
     const double swept = swept_area_in_box(a, b, travel * sweep, lo, hi);
     if (swept < 1e-3) continue;

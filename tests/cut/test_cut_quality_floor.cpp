@@ -18,6 +18,7 @@
 #include "quality/boundary_angle.h"
 #include "quality/metrics.h"
 #include "tests/cut/cut_checks.h"
+#include "tests/support/draws.h"
 
 using namespace incise;
 using namespace incise::testing;
@@ -42,9 +43,9 @@ std::vector<RandomBlade> random_blades(const TetMesh& m, int count, unsigned see
   std::vector<RandomBlade> out;
   const double diag = (hi - lo).norm();
   for (int i = 0; i < count; ++i) {
-    const Vec3 c = lo + Vec3(u(rng), u(rng), u(rng)).cwiseProduct(hi - lo);
-    const Vec3 dir = Vec3(nd(rng), nd(rng), nd(rng)).normalized();
-    Vec3 sweep = Vec3(nd(rng), nd(rng), nd(rng));
+    const Vec3 c = lo + draw_vec3(u, rng).cwiseProduct(hi - lo);
+    const Vec3 dir = draw_vec3(nd, rng).normalized();
+    Vec3 sweep = draw_vec3(nd, rng);
     sweep = (sweep - sweep.dot(dir) * dir).normalized() * diag * (0.15 + 0.3 * u(rng));
     const double len = diag * (0.15 + 0.3 * u(rng));
     out.push_back({c - 0.5 * len * dir - 0.5 * sweep, c + 0.5 * len * dir - 0.5 * sweep, sweep});

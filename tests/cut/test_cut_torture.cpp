@@ -14,6 +14,7 @@
 #include "mesh/io/tet_io.h"
 #include "tests/cut/cut_checks.h"
 #include "tests/support/mesh_edits.h"
+#include "tests/support/draws.h"
 
 using namespace incise;
 using namespace incise::testing;
@@ -62,7 +63,7 @@ TEST_CASE("torture: random progressive cuts keep every invariant after every ste
   std::uniform_real_distribution<double> u01(0, 1);
   auto unit = [&] {
     std::normal_distribution<double> nd;
-    Vec3 d(nd(rng), nd(rng), nd(rng));
+    Vec3 d = draw_vec3(nd, rng);
     return d.normalized();
   };
   long steps = 0, sequences = 0, through = 0, area_checks = 0, exact_area = 0, short_area = 0;
@@ -97,7 +98,7 @@ TEST_CASE("torture: random progressive cuts keep every invariant after every ste
       const double snaps[] = {0.0, 0.02, 0.1, 0.3};
       opt.snap = snaps[rng() % 4];
       Cutter cutter(m, opt);
-      const Vec3 c = lo + Vec3(u01(rng), u01(rng), u01(rng)).cwiseProduct(hi - lo);
+      const Vec3 c = lo + draw_vec3(u01, rng).cwiseProduct(hi - lo);
       Vec3 dir, sweep;
       Vec3 centre = c;
       if (!layer.empty() && rng() % 3 == 0) {

@@ -12,6 +12,7 @@
 #include "quality/components.h"
 #include "quality/improve.h"
 #include "tests/support/mesh_edits.h"
+#include "tests/support/draws.h"
 
 using namespace incise;
 using namespace incise::testing;
@@ -34,8 +35,8 @@ std::unordered_set<std::uint32_t> brute(const TetMesh& m, const Vec3& lo, const 
 void check_queries(TetGrid& g, const TetMesh& m, std::mt19937& rng) {
   std::uniform_real_distribution<double> u(-0.1, 1.1), s(0.0, 0.3);
   for (int q = 0; q < 20; ++q) {
-    const Vec3 c(u(rng), u(rng), u(rng));
-    const Vec3 h(s(rng), s(rng), s(rng));
+    const Vec3 c = draw_vec3(u, rng);
+    const Vec3 h = draw_vec3(s, rng);
     const auto want = brute(m, c - h, c + h);
     const auto got = g.query(m, c - h, c + h, 0.0);
     std::unordered_set<std::uint32_t> seen;

@@ -10,8 +10,10 @@
 
 #include "mesh/errors.h"
 #include "quality/metrics.h"
+#include "tests/support/draws.h"
 
 using namespace incise;
+using incise::testing::draw_vec3;
 
 namespace {
 
@@ -107,7 +109,7 @@ Tet random_tet(std::mt19937& rng, double min_mean_ratio) {
   std::uniform_real_distribution<double> u(-1, 1);
   for (;;) {
     Tet t;
-    for (Vec3& p : t.p) p = Vec3(u(rng), u(rng), u(rng));
+    for (Vec3& p : t.p) p = draw_vec3(u, rng);
     if (std::abs(quality(t).mean_ratio) >= min_mean_ratio) return t;
   }
 }
@@ -182,7 +184,7 @@ TEST_CASE("metrics are invariant under translation, rotation and extreme scales"
   std::uniform_int_distribution<int> di(-4096, 4096);
   for (int i = 0; i < 20; ++i) {
     Tet t;
-    for (Vec3& p : t.p) p = Vec3(di(rng), di(rng), di(rng)) / 1024.0;
+    for (Vec3& p : t.p) p = draw_vec3(di, rng) / 1024.0;
     if (std::abs(quality(t).mean_ratio) > 0.02) tets.push_back(t);
   }
   const Eigen::Matrix3d rot = Eigen::Quaterniond(0.3, -0.5, 0.7, 0.2).normalized().toRotationMatrix();

@@ -9,6 +9,7 @@
 #include "sim/fem_model.h"
 #include "sim/fem_simulation.h"
 #include "tests/sim/fem_test_util.h"
+#include "tests/support/draws.h"
 
 using namespace incise;
 using namespace incise::testing;
@@ -61,7 +62,7 @@ TEST_CASE("locally updated FEM model equals one built from scratch after thousan
     Eigen::VectorXd u;  // a displacement with large rotations, carried through the edits
     auto refresh_u = [&] {
       u = Eigen::VectorXd::Zero(local.rows());
-      for (VertexId v : m.vertices()) u.segment<3>(3 * v.idx()) = 0.05 * Vec3(nd(rng), nd(rng), nd(rng));
+      for (VertexId v : m.vertices()) u.segment<3>(3 * v.idx()) = 0.05 * draw_vec3(nd, rng);
     };
     refresh_u();
     local.update_rotations(u);

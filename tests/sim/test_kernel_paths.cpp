@@ -9,13 +9,15 @@
 #include "mesh/generate.h"
 #include "sim/stiffness_kernel.h"
 #include "tests/support/mesh_edits.h"
+#include "tests/support/draws.h"
 
 using namespace incise;
+using incise::testing::draw_quaternion;
 
 namespace {
 Eigen::Matrix3d random_rotation(std::mt19937& rng) {
   std::normal_distribution<double> n;
-  Eigen::Quaterniond q(n(rng), n(rng), n(rng), n(rng));
+  const Eigen::Quaterniond q = draw_quaternion(n, rng);
   return q.normalized().toRotationMatrix();
 }
 

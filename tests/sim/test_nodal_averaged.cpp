@@ -16,89 +16,11 @@
 
 using namespace incise;
 using namespace incise::testing;
+using namespace incise::testing::smoothed;
 
 namespace {
 
 constexpr Formulation kNodal = Formulation::NodalAveraged;
-
-MaterialTable two_materials() {
-  Material soft{2e4, 0.49, 900};
-  Material hard{5e7, 0.2, 1900};
-  MaterialTable t(soft);
-  t.set(2, hard);
-  return t;
-}
-
-Eigen::VectorXd random_vector(Eigen::Index n, std::mt19937& rng, double scale = 1) {
-  std::normal_distribution<double> nd;
-  Eigen::VectorXd x(n);
-  for (Eigen::Index i = 0; i < n; ++i) x[i] = scale * nd(rng);
-  return x;
-}
-
-// Relative difference of K x, diagonal, diagonal blocks and mass of two models on the mesh's
-// vertex range, and (corotational) of b_R.
-double model_difference(const FemModel& a, const FemModel& b, const TetMesh& m, std::mt19937& rng) {
-  const Eigen::Index n = Eigen::Index(3 * m.vertex_capacity());
-  Eigen::VectorXd xa = Eigen::VectorXd::Zero(a.rows()), xb = Eigen::VectorXd::Zero(b.rows()), ya, yb;
-  xa.head(n) = xb.head(n) = random_vector(n, rng);
-  a.multiply(xa, ya);
-  b.multiply(xb, yb);
-  double d = (ya.head(n) - yb.head(n)).norm() / yb.head(n).norm();
-  d = std::max(d, (a.diagonal().head(n) - b.diagonal().head(n)).norm() / b.diagonal().head(n).norm());
-  d = std::max(d, (a.lumped_mass().head(n) - b.lumped_mass().head(n)).norm() / b.lumped_mass().head(n).norm());
-  double blocks = 0, scale = 0;
-  for (std::size_t v = 0; v < m.vertex_capacity(); ++v) {
-    blocks += (a.diagonal_blocks()[v] - b.diagonal_blocks()[v]).squaredNorm();
-    scale += b.diagonal_blocks()[v].squaredNorm();
-  }
-  d = std::max(d, std::sqrt(blocks / scale));
-  if (a.kind() == FemKind::Corotational) {
-    Eigen::VectorXd ra = Eigen::VectorXd::Zero(a.rows()), rb = Eigen::VectorXd::Zero(b.rows());
-    a.add_rotation_rhs(ra);
-    b.add_rotation_rhs(rb);
-    d = std::max(d, (ra.head(n) - rb.head(n)).norm() / std::max(rb.head(n).norm(), 1e-300));
-  }
-  if (a.rows() > n) d = std::max(d, ya.tail(a.rows() - n).norm() + a.diagonal().tail(a.rows() - n).norm());
-  return d;
-}
-
-// Cantilever L x h x h (L = 10 h), clamped at x = 0, a total shear load P (z) spread over the
-// tip face; returns the mean tip deflection and Timoshenko's (Cowper's shear coefficient).
-struct Cantilever {
-  double fem = 0, theory = 0;
-  double error() const { return fem / theory - 1; }  // negative: too stiff
-};
-// Solved by CG with the exact (CHOLMOD) Cholesky preconditioner to 1e-12: the direct solver's
-// SimplicialLDLT takes ~25 s on the nodal-averaged 80x8x8 (2-ring pattern), CG ~2.5 s, and CG
-// equals the direct solve (test above).
-Cantilever cantilever(int nx, double nu, Formulation f) {
-  const double len = 10, h = 1, e = 1e6, p = -1;
-  const double inertia = h * h * h * h / 12, area = h * h, g = e / (2 * (1 + nu));
-  const double shear = 10 * (1 + nu) / (12 + 11 * nu);
-  Cantilever c;
-  c.theory = p * len * len * len / (3 * e * inertia) + p * len / (shear * g * area);
-  TetMesh m = make_box(Vec3(len, h, h), {nx, nx / 10, nx / 10});
-  FemSimulationOptions opt;
-  opt.formulation = f;
-  opt.cg.tolerance = 1e-12;
-  opt.cg.preconditioner = Preconditioner::Cholesky;
-  opt.cholesky.background = false;
-  opt.warm_start = false;
-  FemSimulation sim(m, table(e, nu), opt);
-  for (VertexId v : m.vertices())
-    if (m.rest(v).x() < 1e-9) sim.fix(v);
-  add_face_traction(m, sim, 0, len, Vec3(0, 0, p / area), 1e-9);
-  REQUIRE(sim.step().info == SolveInfo::Success);
-  int count = 0;
-  for (VertexId v : m.vertices())
-    if (m.rest(v).x() > len - 1e-9) {
-      c.fem += sim.displacement()[3 * v.idx() + 2];
-      ++count;
-    }
-  c.fem /= count;
-  return c;
-}
 
 }  // namespace
 

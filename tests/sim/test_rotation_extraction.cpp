@@ -11,6 +11,7 @@
 #include "sim/fem_simulation.h"
 #include "sim/rotation_extraction.h"
 #include "tests/sim/fem_test_util.h"
+#include "tests/support/draws.h"
 
 using namespace incise;
 using namespace incise::testing;
@@ -19,13 +20,13 @@ namespace {
 
 Eigen::Quaterniond random_rotation(std::mt19937& rng) {
   std::normal_distribution<double> nd;
-  return Eigen::Quaterniond(nd(rng), nd(rng), nd(rng), nd(rng)).normalized();
+  return draw_quaternion(nd, rng).normalized();
 }
 
 // A rotation by `angle` about a random axis.
 Eigen::Quaterniond random_turn(std::mt19937& rng, double angle) {
   std::normal_distribution<double> nd;
-  return Eigen::Quaterniond(Eigen::AngleAxisd(angle, Eigen::Vector3d(nd(rng), nd(rng), nd(rng)).normalized()));
+  return Eigen::Quaterniond(Eigen::AngleAxisd(angle, draw_vec3(nd, rng).normalized()));
 }
 
 // F = Q U diag(s) V^T: a rotation Q times a stretch with singular values s (a negative one
@@ -67,8 +68,11 @@ TEST_CASE("warm-started rotations agree with the exact polar decomposition on ra
     std::function<Eigen::Vector3d()> sigma;
   };
   const std::vector<Family> families{
-      {"well-shaped", [&] { return Eigen::Vector3d(stretch(rng), stretch(rng), stretch(rng)); }},
-      {"near-inverted", [&] { return Eigen::Vector3d(stretch(rng), stretch(rng), 1e-3 + 0.01 * unit(rng)); }},
+      {"well-shaped", [&] { return draw_vec3(stretch, rng); }},
+      {"near-inverted", [&] {
+         const double z = 1e-3 + 0.01 * unit(rng), y = stretch(rng), x = stretch(rng);
+         return Eigen::Vector3d(x, y, z);
+       }},
       // Inverted with the flipped singular value well below the others: the closest proper
       // rotation is well determined.
       {"inverted", [&] {

@@ -15,6 +15,7 @@
 #include "sim/integrator.h"
 #include "sim/spring_model.h"
 #include "tests/support/mesh_edits.h"
+#include "tests/support/draws.h"
 
 using namespace incise;
 using namespace incise::testing;
@@ -52,7 +53,7 @@ double total_energy(const SpringModel& s) { return s.kinetic_energy() + s.potent
 void perturb(SpringModel& s, const TetMesh& m, double amount, std::uint32_t seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(-amount, amount);
-  for (VertexId v : m.vertices()) s.set_position(v, m.rest(v) + Vec3(u(rng), u(rng), u(rng)));
+  for (VertexId v : m.vertices()) s.set_position(v, m.rest(v) + draw_vec3(u, rng));
 }
 
 // Fixes the vertices with rest coordinate `axis` within tol of `value`; returns them.

@@ -8,6 +8,7 @@
 #include "mesh/edge_collapse.h"
 #include "mesh/errors.h"
 #include "mesh/tet_mesh.h"
+#include "tests/support/draws.h"
 
 namespace incise::testing {
 
@@ -130,7 +131,7 @@ inline void jitter(TetMesh& m, double amount, std::uint32_t seed) {
       for (VertexId w : m.tet_vertices(t))
         if (w != v) h = std::min(h, (m.rest(w) - m.rest(v)).norm());
     const Vec3 old = m.rest(v);
-    m.set_rest(v, old + amount * h * Vec3(u(rng), u(rng), u(rng)));
+    m.set_rest(v, old + amount * h * draw_vec3(u, rng));
     for (TetId t : m.incident_tets(v))
       if (m.volume(t) <= 0) m.set_rest(v, old);
   }

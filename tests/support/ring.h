@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "mesh/tet_mesh.h"
+#include "tests/support/draws.h"
 
 namespace incise::testing {
 
@@ -26,8 +27,10 @@ inline JitteredRing jittered_ring(int n, std::mt19937& rng) {
     const double r = 1 + 0.4 * u(rng);
     out.ring.emplace_back(r * std::cos(th), r * std::sin(th), 0.3 * u(rng));
   }
-  out.below = Vec3(0.2 * u(rng), 0.2 * u(rng), -1 + 0.3 * u(rng));
-  out.above = Vec3(0.2 * u(rng), 0.2 * u(rng), 1 + 0.3 * u(rng));
+  // Drawn z, y, x (see support/draws.h).
+  const Vec3 b = draw_vec3(u, rng), a = draw_vec3(u, rng);
+  out.below = Vec3(0.2 * b.x(), 0.2 * b.y(), -1 + 0.3 * b.z());
+  out.above = Vec3(0.2 * a.x(), 0.2 * a.y(), 1 + 0.3 * a.z());
   return out;
 }
 

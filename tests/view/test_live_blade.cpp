@@ -11,8 +11,10 @@
 
 #include "scene/scene_runner.h"
 #include "view/live_session.h"
+#include "tests/support/draws.h"
 
 using namespace incise;
+using incise::testing::draw_vec3;
 using namespace incise::view;
 
 namespace {
@@ -71,8 +73,8 @@ TEST_CASE("a fan-shaped blade from the page, wobbling in single precision, cuts 
   }
   for (int k = 1; k <= steps; ++k) {
     auto [a, b] = fan.at(y_at(k));
-    a += Vec3(wobble(rng), wobble(rng), wobble(rng));
-    b += Vec3(wobble(rng), wobble(rng), wobble(rng));
+    a += draw_vec3(wobble, rng);
+    b += draw_vec3(wobble, rng);
     REQUIRE(live.post(blade(InputKind::BladeMove, a, b)).empty());
     wait_steps(k);  // one step each (moves queued together would make one)
   }
