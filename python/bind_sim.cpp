@@ -315,7 +315,7 @@ void bind_sim(py::module_& m) {
         return s.model == SceneModel::Springs ? "springs" : s.model == SceneModel::FemCorotational ? "fem-corotational" : "fem-linear";
       })
       .def_property_readonly("formulation", [](const Scene& s) { return std::string(formulation_name(s.formulation)); },
-                             "\"standard\", \"nodal-averaged\", \"edge-smoothed\" or \"mixed\"")
+                             "\"standard\", \"nodal-averaged\", \"edge-smoothed\", \"mixed\" or \"mixed-edge-smoothed\"")
       .def_readonly("materials", &Scene::materials)
       .def_property_readonly("fixed", [](const Scene& s) {
         py::list l;

@@ -509,7 +509,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   }
   // Poisson's ratio 0.5 (incompressible) has no displacement-only stiffness: only the mixed
   // formulation, with pressure as an unknown, solves it.
-  if (s.formulation != Formulation::Mixed) {
+  if (!is_mixed(s.formulation)) {
     auto check = [&](const Material& m, const std::string& key) {
       if (m.poisson >= 0.5)
         rd.fail(key, "Poisson's ratio 0.5 needs \"formulation\": \"mixed\" (pressure as an unknown); the other "

@@ -71,10 +71,11 @@ double von_mises_of(const Eigen::Matrix3d& s) {
   return std::sqrt(0.5 * (a * a + b * b + c * c) + 3 * sh);
 }
 
-FemModel::FemModel(const TetMesh& mesh, const MaterialTable& materials, FemKind kind, Formulation formulation)
+FemModel::FemModel(const TetMesh& mesh, const MaterialTable& materials, FemKind kind, Formulation formulation,
+                   bool smooth_edges)
     : mesh_(&mesh), materials_(materials), kind_(kind), formulation_(formulation),
-      kernel_(kind == FemKind::Corotational) {
-  if (formulation_ == Formulation::Mixed)
+      smooth_(smooth_edges || formulation == Formulation::EdgeSmoothed), kernel_(kind == FemKind::Corotational) {
+  if (is_mixed(formulation_))
     throw InvalidArgument("fem: the mixed formulation has pressure unknowns; FemModel is displacement only");
   check_material(materials_.fallback(), "materials.*");
   for (const auto& [label, m] : materials_.by_label()) check_material(m, "materials." + std::to_string(label));
@@ -448,7 +449,7 @@ void FemModel::deviatoric_pass(const Eigen::VectorXd* x, bool rotation, double s
   if (y) gather(*y, true);
 }
 
-Eigen::SparseMatrix<double> FemModel::smoothed_stiffness() const {
+Eigen::SparseMatrix<double> FemModel::smoothed_rows() const {
   const Eigen::Index n = rows();
   const bool corot = kind_ == FemKind::Corotational;
   const std::size_t ne = edge_tets_.size();
@@ -495,7 +496,7 @@ Eigen::SparseMatrix<double> FemModel::smoothed_stiffness() const {
   for (auto& t : trip) all.insert(all.end(), t.begin(), t.end());
   Eigen::SparseMatrix<double> c(Eigen::Index(7 * ne), n);
   c.setFromTriplets(all.begin(), all.end());
-  return Eigen::SparseMatrix<double>(c.transpose() * c);
+  return c;  // C: K_smoothed = C^T C
 }
 
 namespace {
@@ -535,7 +536,25 @@ void FemModel::nodal_b_row(std::uint32_t a, std::vector<std::pair<std::uint32_t,
 }
 
 Eigen::SparseMatrix<double, Eigen::RowMajor> FemModel::nodal_b() const {
-  if (!nodal_averaged()) return {};
+  if (!nodal_averaged() && !edge_smoothed()) return {};
+  if (edge_smoothed()) {
+    // The vertex rows, then the smoothed deviatoric rows C: B^T B is then all of K, and the
+    // factor of a snapshot (elements()) is exact.
+    std::vector<std::vector<std::pair<std::uint32_t, Eigen::Vector3d>>> vrows(vertex_capacity_);
+    parallel_range(vertex_capacity_, [&](std::size_t a) { nodal_b_row(std::uint32_t(a), vrows[a]); });
+    const Eigen::SparseMatrix<double> c = smoothed_rows();
+    std::vector<Eigen::Triplet<double>> trip;
+    trip.reserve(std::size_t(c.nonZeros()) + 9 * 27 * vertex_capacity_);
+    for (std::size_t a = 0; a < vertex_capacity_; ++a)
+      for (const auto& [w, d] : vrows[a])
+        for (int k = 0; k < 3; ++k) trip.emplace_back(Eigen::Index(a), Eigen::Index(3 * w + std::uint32_t(k)), d[k]);
+    const Eigen::Index off = Eigen::Index(vertex_capacity_);
+    for (Eigen::Index col = 0; col < c.outerSize(); ++col)
+      for (Eigen::SparseMatrix<double>::InnerIterator it(c, col); it; ++it) trip.emplace_back(off + it.row(), col, it.value());
+    Eigen::SparseMatrix<double, Eigen::RowMajor> b(off + c.rows(), rows());
+    b.setFromTriplets(trip.begin(), trip.end());
+    return b;
+  }
   const std::size_t nv = vertex_capacity_;
   std::vector<std::vector<std::pair<std::uint32_t, Eigen::Vector3d>>> rows(nv);
   parallel_range(nv, [&](std::size_t a) {
@@ -942,6 +961,10 @@ std::vector<double> FemModel::pressure(const Eigen::VectorXd& u) const {
 
 FemElements FemModel::elements() const {
   FemElements e{alive_, verts_, bm_, {}, vol_, mu_, lambda_, nodal_b()};
+  if (edge_smoothed()) {  // all of K is in B^T B (see nodal_b()); no per-tet blocks
+    std::fill(e.mu.begin(), e.mu.end(), 0.0);
+    std::fill(e.lambda.begin(), e.lambda.end(), 0.0);
+  }
   e.rot.resize(quat_.size());
   for (std::size_t t = 0; t < quat_.size(); ++t) e.rot[t] = quat_[t].toRotationMatrix();
   return e;
@@ -999,8 +1022,7 @@ Eigen::SparseMatrix<double> FemModel::assemble() const {
       }
     }
   });
-  if (edge_smoothed()) k += smoothed_stiffness();
-  if (nodal_averaged()) {
+  if (nodal_averaged() || edge_smoothed()) {  // edge-smoothed: B holds the smoothed rows too
     const Eigen::SparseMatrix<double, Eigen::RowMajor> b = nodal_b();
     const Eigen::SparseMatrix<double> bc = b, bt = b.transpose();
     k += Eigen::SparseMatrix<double>(bt * bc);

@@ -110,12 +110,16 @@ struct FemWork {
 
 class FemModel : public LinearOperator {
 public:
+  // `smooth_edges`: the strain smoothed over edge domains with each tet's own law (as
+  // EdgeSmoothed does for the deviatoric part; the mixed solver's displacement block with
+  // lambda = 0). EdgeSmoothed implies it.
   // O(mesh). Throws InvalidArgument for a bad material, or for Formulation::Mixed (not a
   // displacement-only model), and InvalidMesh for a degenerate tet.
   FemModel(const TetMesh& mesh, const MaterialTable& materials, FemKind kind = FemKind::Linear,
-           Formulation formulation = Formulation::Standard);
+           Formulation formulation = Formulation::Standard, bool smooth_edges = false);
   // The model keeps a pointer to its mesh (local updates read it): a temporary would dangle.
-  FemModel(TetMesh&&, const MaterialTable&, FemKind = FemKind::Linear, Formulation = Formulation::Standard) = delete;
+  FemModel(TetMesh&&, const MaterialTable&, FemKind = FemKind::Linear, Formulation = Formulation::Standard,
+           bool = false) = delete;
 
   FemKind kind() const { return kind_; }
   Formulation formulation() const { return formulation_; }
@@ -123,7 +127,7 @@ public:
   bool nodal_averaged() const {
     return formulation_ == Formulation::NodalAveraged || formulation_ == Formulation::EdgeSmoothed;
   }
-  bool edge_smoothed() const { return formulation_ == Formulation::EdgeSmoothed; }
+  bool edge_smoothed() const { return smooth_; }
   // EdgeSmoothed: edges (smoothing domains) in the table; 0 otherwise.
   std::size_t num_edges() const { return edge_index_.size(); }
   const TetMesh& mesh() const { return *mesh_; }
@@ -185,6 +189,7 @@ public:
   Eigen::SparseMatrix<double> assemble() const;
   FemElements elements() const;
   // NodalAveraged: B of K = K_dev + B^T B (one row per vertex slot, see above); O(mesh).
+  // Edge-smoothed: the vertex rows (if nodal-averaged), then the smoothed rows; K = B^T B.
   Eigen::SparseMatrix<double, Eigen::RowMajor> nodal_b() const;
   // Row a of B as (vertex w, 3 entries) pairs, one per vertex of a's 1-ring (a itself
   // included); empty for a vertex without tets or for Standard. O(incident tets).
@@ -234,13 +239,14 @@ private:
   void register_tet(std::uint32_t t);    // the tet into its six edges' lists
   void unregister_tet(std::uint32_t t);  // and out
   void edge_moduli(std::uint32_t e);     // V_e and the volume-weighted mu, lambda
-  // The smoothed deviatoric K as C^T C, C with up to 7 rows per edge (assemble()).
-  Eigen::SparseMatrix<double> smoothed_stiffness() const;
+  // C with K_smoothed = C^T C, up to 7 rows per edge (nodal_b() stacks it under the vertex rows).
+  Eigen::SparseMatrix<double> smoothed_rows() const;
 
   const TetMesh* mesh_;
   MaterialTable materials_;
   FemKind kind_;
   Formulation formulation_;
+  bool smooth_;  // edge_smoothed()
   std::size_t vertex_capacity_ = 0, tet_capacity_ = 0;
 
   // Per tet (by TetId).

@@ -58,9 +58,9 @@ FemSimulation::FemSimulation(const TetMesh& mesh, const MaterialTable& materials
       opt_(options),
       // Mixed: the model holds the deviatoric part (lambda = 0, the standard element), the mixed
       // solver the rest; the model still gives masses, rotations and the stress output.
-      model_(mesh, options.formulation == Formulation::Mixed ? MixedMaterials(materials).deviatoric_table() : materials,
-             options.kind,
-             options.formulation == Formulation::Mixed ? Formulation::Standard : options.formulation),
+      model_(mesh, is_mixed(options.formulation) ? MixedMaterials(materials).deviatoric_table() : materials,
+             options.kind, is_mixed(options.formulation) ? Formulation::Standard : options.formulation,
+             smooths_edges(options.formulation)),
       cg_(options.cg) {
   if (!(opt_.dt > 0) || !std::isfinite(opt_.dt)) throw InvalidArgument("fem: dt: expected a positive number");
   if (!(opt_.damping >= 0)) throw InvalidArgument("fem: damping: expected a number >= 0");
@@ -68,8 +68,9 @@ FemSimulation::FemSimulation(const TetMesh& mesh, const MaterialTable& materials
   cg_.set_tolerance(opt_.cg.tolerance);
   cg_.set_max_iterations(opt_.cg.max_iterations);
   cg_.set_budget_ms(opt_.cg.budget_ms);
-  if (opt_.formulation == Formulation::Mixed) {
+  if (is_mixed(opt_.formulation)) {
     MixedOptions mo;
+    mo.edge_smoothed = smooths_edges(opt_.formulation);
     mo.tolerance = opt_.cg.tolerance;
     mo.max_iterations = opt_.cg.max_iterations;
     mo.direct = opt_.method == SolverMethod::Direct;

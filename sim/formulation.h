@@ -15,12 +15,15 @@
 //                  nu 0.3 to 0.4999, against -4.0 to -7.0% nodal-averaged). Same SPD system.
 //   Mixed          displacement and a vertex pressure as unknowns (stabilized P1-P1), a
 //                  symmetric saddle-point system; valid at Poisson's ratio 0.5.
+//   MixedEdgeSmoothed  Mixed with the displacement block's strain smoothed over edge domains
+//                  as EdgeSmoothed does: the mixed formulation's validity at 0.5 and the
+//                  edge-smoothed element's bending.
 #include <optional>
 #include <string_view>
 
 namespace incise {
 
-enum class Formulation { Standard, NodalAveraged, EdgeSmoothed, Mixed };
+enum class Formulation { Standard, NodalAveraged, EdgeSmoothed, Mixed, MixedEdgeSmoothed };
 
 inline std::string_view formulation_name(Formulation f) {
   switch (f) {
@@ -28,6 +31,7 @@ inline std::string_view formulation_name(Formulation f) {
     case Formulation::NodalAveraged: return "nodal-averaged";
     case Formulation::EdgeSmoothed: return "edge-smoothed";
     case Formulation::Mixed: return "mixed";
+    case Formulation::MixedEdgeSmoothed: return "mixed-edge-smoothed";
   }
   return "standard";
 }
@@ -37,10 +41,19 @@ inline std::optional<Formulation> parse_formulation(std::string_view s) {
   if (s == "nodal-averaged") return Formulation::NodalAveraged;
   if (s == "edge-smoothed") return Formulation::EdgeSmoothed;
   if (s == "mixed") return Formulation::Mixed;
+  if (s == "mixed-edge-smoothed") return Formulation::MixedEdgeSmoothed;
   return std::nullopt;
 }
 
 // For messages: the names parse_formulation() accepts.
-inline constexpr std::string_view kFormulationNames = "\"standard\", \"nodal-averaged\", \"edge-smoothed\" or \"mixed\"";
+inline constexpr std::string_view kFormulationNames =
+    "\"standard\", \"nodal-averaged\", \"edge-smoothed\", \"mixed\" or \"mixed-edge-smoothed\"";
+
+// Pressure as an unknown (the saddle-point solver).
+inline bool is_mixed(Formulation f) { return f == Formulation::Mixed || f == Formulation::MixedEdgeSmoothed; }
+// The strain of the displacement block smoothed over edge domains.
+inline bool smooths_edges(Formulation f) {
+  return f == Formulation::EdgeSmoothed || f == Formulation::MixedEdgeSmoothed;
+}
 
 }  // namespace incise

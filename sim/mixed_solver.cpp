@@ -122,7 +122,8 @@ private:
 
 MixedSolver::MixedSolver(const TetMesh& mesh, const MixedMaterials& materials, FemKind kind, const MixedOptions& options)
     : mesh_(&mesh), materials_(materials), kind_(kind), opt_(options),
-      model_(mesh, materials.deviatoric_table(), kind), krylov_(std::make_unique<Krylov>()) {
+      model_(mesh, materials.deviatoric_table(), kind, Formulation::Standard, options.edge_smoothed),
+      krylov_(std::make_unique<Krylov>()) {
   grow();
   parallel_range(mesh.tet_capacity(), 256, [&](std::size_t t) { compute_tet(std::uint32_t(t)); });
   parallel_range(mesh.vertex_capacity(), 512, [&](std::size_t v) { compute_vertex(std::uint32_t(v)); });
@@ -132,6 +133,8 @@ MixedSolver::MixedSolver(const TetMesh& mesh, const MixedMaterials& materials, F
 MixedSolver::~MixedSolver() = default;
 
 void MixedSolver::set_options(const MixedOptions& o) {
+  if (o.edge_smoothed != opt_.edge_smoothed)
+    throw InvalidArgument("mixed: edge_smoothed is chosen when the solver is made (its model is built for it)");
   const bool new_amg = o.amg.ring != opt_.amg.ring || o.amg.cycle != opt_.amg.cycle || o.amg.rotations != opt_.amg.rotations;
   opt_ = o;
   if (new_amg) amg_ = std::make_unique<AggregationAmg>(model_, opt_.amg);

@@ -89,6 +89,9 @@ struct MixedOptions {
   int max_iterations = 5000;   // per solve() call
   double budget_ms = 0;        // wall-clock budget per call; 0: none
   bool direct = false;         // SparseLU on the assembled system instead of MINRES
+  // K_mu's strain smoothed over edge domains (Formulation::MixedEdgeSmoothed; FemModel's
+  // smooth_edges): linear tets' bending stiffness goes, the pressure coupling stays per tet.
+  bool edge_smoothed = false;
   MixedPreconditioner preconditioner = MixedPreconditioner::Amg;
   AggregationAmgOptions amg;
   // For Cholesky (a budgeted solve never waits for the first factor). MINRES needs 20-40

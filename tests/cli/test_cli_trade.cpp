@@ -227,8 +227,8 @@ TEST_CASE("incise trade: bad input is one line, nothing written", "[cli][trade][
   CHECK(!fs::exists(dir / "out" / "trade.csv"));
   r = run_incise("trade '" + (dir / "scene.json").string() + "' -o '" + (dir / "out").string() + "' --formulations bar", dir);
   CHECK(r.code == 1);
-  CHECK(r.err.find("--formulations: expected \"standard\", \"nodal-averaged\", \"edge-smoothed\" or \"mixed\", got \"bar\"") !=
-        std::string::npos);
+  CHECK(r.err.find("--formulations: expected \"standard\", \"nodal-averaged\", \"edge-smoothed\", \"mixed\" or "
+                   "\"mixed-edge-smoothed\", got \"bar\"") != std::string::npos);
   r = run_incise("trade '" + (dir / "scene.json").string() + "' -o '" + (dir / "out").string() +
                      "' --resolutions 0 1 --reference-level 1",
                  dir);

@@ -109,7 +109,8 @@ TEST_CASE("scene keys for rollers, pressure and formulation are checked", "[scen
         "s.json: loads[0]: expected exactly one of \"tag\" and \"box\" to select the faces");
   CHECK(err(R"("loads": [{"type": "pressure", "tag": 1}])") == "s.json: loads[0].value: missing");
   CHECK(err(R"("formulation": "locking-free")") ==
-        "s.json: formulation: expected \"standard\", \"nodal-averaged\", \"edge-smoothed\" or \"mixed\", got \"locking-free\"");
+        "s.json: formulation: expected \"standard\", \"nodal-averaged\", \"edge-smoothed\", \"mixed\" or "
+        "\"mixed-edge-smoothed\", got \"locking-free\"");
   CHECK_THAT(err(R"("model": "springs", "formulation": "mixed")"), Catch::Contains("formulation: is for FEM models"));
   CHECK_THAT(err(R"("model": "springs", "fixed": [{"box": [0,0,0,0,1,1], "components": "x"}])"),
              Catch::Contains("fixed[0].components: rollers are for FEM models"));
@@ -185,7 +186,7 @@ TEST_CASE("Lame cylinder: internal pressure on a quarter tube on rollers matches
   CHECK(worst_any < 0.03);
 }
 
-TEST_CASE("Lame cylinder per formulation: nodal-averaged and mixed do not lock, mixed holds at nu = 0.5",
+TEST_CASE("Lame cylinder per formulation: nodal-averaged, edge-smoothed and mixed do not lock, mixed holds at nu = 0.5",
           "[scene][rollers][verification][formulation]") {
   // The same quarter tube and load as above at nu from 0.3 to 0.5: the inner wall's radial
   // displacement against the closed form. Standard tets lock as nu -> 0.5; the other two stay
@@ -214,9 +215,11 @@ TEST_CASE("Lame cylinder per formulation: nodal-averaged and mixed do not lock, 
   std::ostringstream table;
   for (double nu : {0.3, 0.49, 0.4999}) {
     const double st = inner_error("standard", nu, 12), na = inner_error("nodal-averaged", nu, 12),
-                 mx = inner_error("mixed", nu, 12);
-    table << "nu " << nu << ": standard " << st << ", nodal-averaged " << na << ", mixed " << mx << "\n";
+                 es = inner_error("edge-smoothed", nu, 12), mx = inner_error("mixed", nu, 12);
+    table << "nu " << nu << ": standard " << st << ", nodal-averaged " << na << ", edge-smoothed " << es << ", mixed "
+          << mx << "\n";
     CHECK(na < 0.03);
+    CHECK(es < 0.03);
     CHECK(mx < 0.03);
     if (nu > 0.49) CHECK(st > 5 * na);  // locked
   }
