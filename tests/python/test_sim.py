@@ -219,15 +219,16 @@ def test_formulations_rollers_and_incompressible_pressure():
         assert sim.step()["info"] == "success"
         return sim
 
-    mixed = squeezed("mixed", 0.5)
-    u = mixed.displacement
-    # Uniaxial compression of an incompressible body: the lateral faces move out by half the strain.
-    assert np.allclose(u[:, 0], -0.01 * x[:, 0], atol=1e-9)
-    assert np.allclose(u[:, 1], 0.005 * x[:, 1], atol=1e-9)
-    assert np.allclose(u[:, 2], 0.005 * x[:, 2], atol=1e-9)
-    assert mixed.pressure.shape == (mesh.vertex_capacity,)
-    assert np.all(mixed.pressure == pytest.approx(mixed.pressure[0]))  # uniform stress state
-    for f in ("standard", "nodal-averaged"):
+    for formulation in ("mixed", "mixed-edge-smoothed"):
+        mixed = squeezed(formulation, 0.5)
+        u = mixed.displacement
+        # Uniaxial compression of an incompressible body: the lateral faces move out by half the strain.
+        assert np.allclose(u[:, 0], -0.01 * x[:, 0], atol=1e-9)
+        assert np.allclose(u[:, 1], 0.005 * x[:, 1], atol=1e-9)
+        assert np.allclose(u[:, 2], 0.005 * x[:, 2], atol=1e-9)
+        assert mixed.pressure.shape == (mesh.vertex_capacity,)
+        assert np.all(mixed.pressure == pytest.approx(mixed.pressure[0]))  # uniform stress state
+    for f in ("standard", "nodal-averaged", "edge-smoothed"):
         assert squeezed(f, 0.3).pressure is None
     with pytest.raises(incise.InvalidArgument, match="poisson"):
         incise.FemSimulation(mesh, incise.Material(1e3, 0.5), formulation="nodal-averaged")
