@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <map>
 
 #include "cut/predicates.h"
@@ -412,36 +411,8 @@ int CutStep::side(const Piece& piece, std::size_t k, VertexId v) {
   // Snap onto the plane only where the vertex's whole star is inside the piece: at the rim the
   // cut surface would otherwise pinch through the snapped vertex (two sheets touching at a
   // point, a non-manifold boundary once opened).
-  const double dist = std::abs(piece.distance(x));
-  const bool near = s != 0 && dist <= snap_length(v);
-  // EXPERIMENT: a vertex farther than the snap distance but within the move reach snaps only
-  // when it can be moved onto the plane (the cut surface then stays exactly on the blade).
-  static const double reach = getenv("INCISE_MOVE_REACH") ? atof(getenv("INCISE_MOVE_REACH")) : 0.0;
-  const bool near_move = s != 0 && !near && reach > snap_ && dist <= snap_length(v) * (reach / snap_);
-  if (near_move) {
-    bool inside = piece.contains(x, 0);
-    if (memory_)
-      for (TetId t : mesh_.incident_tets(v))
-        for (VertexId w : mesh_.tet_vertices(t)) inside = inside && piece.contains(position(w), 0);
-    else
-      inside = inside && piece.boundary_distance(x) > star_radius(v);
-    bool flattens = false;
-    if (memory_)
-      for (TetId t : mesh_.incident_tets(v)) {
-        int zero = 0;
-        for (VertexId w : mesh_.tet_vertices(t)) {
-          if (w == v) continue;
-          auto m = memory_->side.find(w.idx());
-          zero += on_piece_[k].count(w.idx()) || (m != memory_->side.end() && m->second == 0);
-        }
-        flattens = flattens || zero == 3;
-      }
-    if (inside && !flattens && move_snapped(piece, k, v)) s = 0;
-    else if (!inside && provisional_ && memory_) {
-      undecided_[k][v.idx()] = mesh_.counters().edits;
-      return kUndecided;
-    }
-  } else if (near && memory_) {
+  const bool near = s != 0 && std::abs(piece.distance(x)) <= snap_length(v);
+  if (near && memory_) {
     // A sheet: the vertex and its whole star project inside the swept polygon. The polygon only
     // grows, so once this holds it holds for good, and a single step over the whole motion
     // would say the same; while it does not, a provisional step waits for the blade to pass.

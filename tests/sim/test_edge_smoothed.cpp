@@ -171,6 +171,10 @@ TEST_CASE("edge-smoothed: CG with every preconditioner equals the direct solutio
       };
       const auto [ref, _] = run(SolverMethod::Direct, Preconditioner::Jacobi);
       for (Preconditioner pc : all) {
+        // Dynamic frames (mass on the diagonal) converge fast with any preconditioner; the
+        // point-wise ones are checked on the static frames only (the smoothed product is the
+        // dearest, ~2.5x nodal-averaged's, and these run instrumented in CI too).
+        if (dynamic && (pc == Preconditioner::Jacobi || pc == Preconditioner::BlockJacobi)) continue;
         const auto [u, it] = run(SolverMethod::Cg, pc);
         INFO("dynamic " << dynamic << ", kind " << int(kind) << ", " << to_string(pc) << ": " << it << " iterations");
         CHECK((u - ref).norm() <= 1e-7 * ref.norm());
