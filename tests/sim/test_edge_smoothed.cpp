@@ -139,129 +139,16 @@ TEST_CASE("edge-smoothed: patch test, an affine field is reproduced exactly, wit
 }
 
 TEST_CASE("edge-smoothed: CG with every preconditioner equals the direct solution", "[fem][edge][preconditioner][long]") {
-  TetMesh m = make_box(Vec3(4, 1, 1), {16, 4, 4});
-  jitter(m, 0.25, 7);
-  const Preconditioner all[] = {Preconditioner::Jacobi, Preconditioner::BlockJacobi, Preconditioner::Cholesky,
-                                Preconditioner::Amg};
-  for (bool dynamic : {false, true})
-    for (FemKind kind : {FemKind::Linear, FemKind::Corotational}) {
-      auto run = [&](SolverMethod method, Preconditioner pc, StiffnessBackend backend = StiffnessBackend::MatrixFree) {
-        FemSimulationOptions opt;
-        opt.kind = kind;
-        opt.formulation = kEdge;
-        opt.method = method;
-        opt.backend = backend;
-        opt.dynamic = dynamic;
-        opt.cg.tolerance = 1e-11;
-        opt.cg.max_iterations = 20000;
-        opt.cg.preconditioner = pc;
-        opt.cholesky.background = false;
-        opt.gravity = Vec3(0, 0, -9.81);
-        FemSimulation sim(m, table(1e5, 0.49), opt);
-        fix_ends(m, sim);
-        sim.set_force(VertexId(40), Vec3(0, 30, 5));
-        int iterations = 0;
-        for (int f = 0; f < 3; ++f) {
-          const FrameStats& st = sim.step();
-          INFO(st.message);
-          REQUIRE(st.info == SolveInfo::Success);
-          iterations += st.iterations;
-        }
-        return std::pair<Eigen::VectorXd, int>(sim.displacement(), iterations);
-      };
-      const auto [ref, _] = run(SolverMethod::Direct, Preconditioner::Jacobi);
-      for (Preconditioner pc : all) {
-        // Dynamic frames (mass on the diagonal) converge fast with any preconditioner; the
-        // point-wise ones are checked on the static frames only (the smoothed product is the
-        // dearest, ~2.5x nodal-averaged's, and these run instrumented in CI too).
-        if (dynamic && (pc == Preconditioner::Jacobi || pc == Preconditioner::BlockJacobi)) continue;
-        const auto [u, it] = run(SolverMethod::Cg, pc);
-        INFO("dynamic " << dynamic << ", kind " << int(kind) << ", " << to_string(pc) << ": " << it << " iterations");
-        CHECK((u - ref).norm() <= 1e-7 * ref.norm());
-        if (pc == Preconditioner::Cholesky && kind == FemKind::Linear) CHECK(it <= 3 * 3);  // the exact factor
-      }
-      const auto [ua, ita] = run(SolverMethod::Cg, Preconditioner::BlockJacobi, StiffnessBackend::Assembled);
-      INFO("assembled backend: " << ita << " iterations");
-      CHECK((ua - ref).norm() <= 1e-7 * ref.norm());
-    }
+  check_cg_equals_direct(kEdge, false);
 }
 
 TEST_CASE("edge-smoothed: through cuts, CG with the stale factor and the patched multigrid equals the direct solution",
           "[fem][edge][preconditioner][cut]") {
-  for (Preconditioner pc : {Preconditioner::Cholesky, Preconditioner::Amg})
-    for (FemKind kind : {FemKind::Linear, FemKind::Corotational}) {
-      INFO(to_string(pc) << ", kind " << int(kind));
-      TetMesh m = make_box(Vec3(4, 1, 1), {16, 4, 4});
-      m.discard_change();
-      FemSimulationOptions opt;
-      opt.kind = kind;
-      opt.formulation = kEdge;
-      opt.cg.tolerance = 1e-8;
-      opt.cg.max_iterations = 5000;
-      opt.cg.preconditioner = pc;
-      opt.cholesky.settle_frames = 0;  // the stale factor preconditions through the cuts
-      opt.cholesky.settle_with_amg = false;
-      FemSimulation sim(m, table(1e5, 0.45), opt);  // check_equals_direct's material
-      fix_ends(m, sim);
-      std::vector<VertexId> top;
-      for (VertexId v : m.vertices())
-        if (m.rest(v).z() > 1 - 1e-9) top.push_back(v);
-      for (VertexId v : top) sim.set_force(v, Vec3(0, 0, -2));
-      REQUIRE(sim.step().info == SolveInfo::Success);
-      for (int depth = 1; depth <= 3; ++depth) {
-        crack(m, 0, 2.0, 2, 1.0 - 0.25 * depth - 1e-3);
-        sim.apply(m.take_change());
-        const FrameStats& st = sim.step();
-        INFO("depth " << depth << ": " << st.message);
-        CHECK(st.info == SolveInfo::Success);
-      }
-      check_equals_direct(m, opt, top, sim);
-    }
+  check_cuts_equal_direct(kEdge);
 }
 
 TEST_CASE("edge-smoothed: the locally updated model equals a fresh one after edits and cuts", "[fem][edge][local]") {
-  for (FemKind kind : {FemKind::Linear, FemKind::Corotational}) {
-    INFO("kind " << int(kind));
-    TetMesh m = make_box(Vec3(1, 1.5, 1), {5, 6, 5});
-    jitter(m, 0.25, 21);
-    for (TetId t : m.tets())
-      if (t.idx() % 4 == 0) m.set_label(t, 2);
-    m.discard_change();
-    const MaterialTable mats = two_materials();
-    FemModel local(m, mats, kind, kEdge);
-    std::mt19937 rng(77), check_rng(5);
-    Eigen::VectorXd u = random_vector(local.rows(), rng, 0.05);
-    local.update_rotations(u);
-    auto compare = [&](const char* what) {
-      m.validate();
-      FemModel scratch(m, mats, kind, kEdge);
-      Eigen::VectorXd us = u.head(3 * m.vertex_capacity());
-      local.update_rotations(u);
-      scratch.update_rotations(us);
-      INFO(what << ", " << m.num_tets() << " tets");
-      CHECK(local.num_edges() == scratch.num_edges());
-      CHECK(model_difference(local, scratch, m, check_rng) <= 1e-12);
-    };
-    int edits = 0;
-    for (int batch = 0; edits < 1500; ++batch) {
-      for (int k = 0; k < 1 + batch % 5; ++k) edits += random_edit(m, rng, true);
-      const TopologyChange change = m.take_change();
-      local.apply(change);
-      interpolate_added_vertices(change, local.vertex_slots(), u);
-      if (batch % 100 == 0) compare("random edits");
-    }
-    for (int depth = 1; depth <= 3; ++depth) {
-      crack(m, 0, 0.5, 2, 1.0 - 0.2 * depth - 1e-3);
-      const TopologyChange change = m.take_change();
-      local.apply(change);
-      interpolate_added_vertices(change, local.vertex_slots(), u);
-      if (kind == FemKind::Linear) {
-        FemModel scratch(m, mats, kind, kEdge);
-        CHECK(model_difference(local, scratch, m, check_rng) <= 1e-12);
-      }
-    }
-    compare("crack");
-  }
+  check_local_updates(kEdge);
 }
 
 TEST_CASE("edge-smoothed: work per local update does not grow with mesh size", "[fem][edge][local][locality]") {
