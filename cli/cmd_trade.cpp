@@ -48,7 +48,7 @@ void add_trade(CLI::App& app) {
   cmd->add_option("--frames", o->frames, "Override the scene's number of frames (at least 1)")
       ->check(CLI::Range(1, 1000000000));
   cmd->add_option("--models", o->models, "Models to run")->capture_default_str();
-  cmd->add_option("--formulations", o->formulations, "FEM formulations to run (standard, nodal-averaged, edge-smoothed, mixed)")
+  cmd->add_option("--formulations", o->formulations, "FEM formulations to run (standard, nodal-averaged, edge-smoothed, mixed, mixed-edge-smoothed)")
       ->capture_default_str();
   cmd->add_option("--resolutions", o->resolutions,
                   "Mesh levels: 0 the scene's, k refined k times (1:8), -1 one coarser (a generated mesh with half the "
