@@ -156,9 +156,10 @@ inline Cantilever cantilever(int nx, double nu, Formulation f) {
 
 // CG with every preconditioner, and the assembled backend, equals the direct solution (static and
 // dynamic frames, linear and corotational); the exact Cholesky factor takes one iteration a
-// frame. `pointwise_dynamic`: also Jacobi and block-Jacobi on the dynamic frames.
-inline void check_cg_equals_direct(Formulation f, bool pointwise_dynamic) {
-  TetMesh m = make_box(Vec3(4, 1, 1), {16, 4, 4});
+// frame. `pointwise_dynamic`: also Jacobi and block-Jacobi on the dynamic frames. `nx`: cells
+// along the 4 x 1 x 1 box (nx / 4 across).
+inline void check_cg_equals_direct(Formulation f, bool pointwise_dynamic, int nx = 16) {
+  TetMesh m = make_box(Vec3(4, 1, 1), {nx, nx / 4, nx / 4});
   jitter(m, 0.25, 7);
   const Preconditioner all[] = {Preconditioner::Jacobi, Preconditioner::BlockJacobi, Preconditioner::Cholesky,
                                 Preconditioner::Amg};
