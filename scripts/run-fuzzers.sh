@@ -4,7 +4,8 @@
 # crashes per target; exits 1 if any target crashed (artifacts are kept in the work dir).
 #   FUZZ_SECONDS=60 scripts/run-fuzzers.sh            # all targets
 #   scripts/run-fuzzers.sh vtu gmsh                    # some targets
-# Env: FUZZ_BUILD_DIR (default /tmp/incise-fuzz-build), FUZZ_WORK_DIR (default a mktemp dir),
+# Env: FUZZ_BUILD_DIR (default /tmp/incise-fuzz-build; CI passes build-sanitize, whose
+#      scripts/sanitize.sh configuration has the targets), FUZZ_WORK_DIR (default a mktemp dir),
 #      FUZZ_MAX_LEN (default 16384).
 set -uo pipefail
 
