@@ -47,10 +47,12 @@
 // element's with the stress sigma_bar_t = (1/6) sum_{e∈t} sigma_e, so K x is three passes again
 // (eps per tet, sigma per edge, forces per tet), with per-tet rotations (eps_t = sym(R^T H_t)).
 // The smoothed stiffness is never larger than the per-tet one (averaging lowers a quadratic
-// energy), so the per-tet deviatoric element stays what the preconditioners see: the diagonal
-// blocks, elements() (the background factor, the multigrid's coarse operator) are those of
-// NodalAveraged, a close SPD stand-in; assemble() (the direct solver, the assembled backend) is
-// the exact smoothed K. The edge table is kept locally by apply() (O(change)).
+// energy), so the per-tet deviatoric element is a close SPD stand-in where exact blocks would
+// cost the edge domains of every vertex: the diagonal blocks (Jacobi, block-Jacobi) and the
+// multigrid's coarse operator are NodalAveraged's. assemble() (the direct solver, the assembled
+// backend) and elements() (the background factor) are the exact smoothed K: nodal_b() holds the
+// smoothed rows under the vertex rows, K = B^T B, and the per-tet blocks of elements() are zero.
+// The edge table is kept locally by apply() (O(change)).
 #include <cstdint>
 #include <unordered_map>
 #include <vector>
@@ -83,7 +85,8 @@ struct FemElements {
   std::vector<Eigen::Matrix3d> bm, rot;
   std::vector<double> vol, mu, lambda;  // lambda: -2 mu / 3 for NodalAveraged (deviatoric blocks)
   // NodalAveraged: B (rows: vertex slots, columns: unknowns) with K = sum of blocks + B^T B;
-  // empty (0 x 0) for Standard.
+  // edge-smoothed: the smoothed rows follow and the blocks are zero (mu = lambda = 0); empty
+  // (0 x 0) for Standard.
   Eigen::SparseMatrix<double, Eigen::RowMajor> nodal_b;
   Eigen::Matrix3d block(std::size_t t, int i, int j) const {
     return element_block(bm[t], vol[t], mu[t], lambda[t], rot[t], i, j);
