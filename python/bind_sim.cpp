@@ -9,6 +9,7 @@
 #include "mesh/errors.h"
 #include "mesh/generate.h"
 #include "mesh/io/tet_io.h"
+#include "quality/improve_checks.h"
 #include "scene/run_scene.h"
 #include "sim/fem_simulation.h"
 #include "sim/preconditioner.h"
@@ -102,6 +103,7 @@ py::dict stats_dict(const FrameStats& s) {
   d["iterations"] = s.iterations;
   d["relative_residual"] = s.relative_residual;
   d["solve_ms"] = s.solve_ms;
+  d["frame_ms"] = s.frame_ms;
   d["budget_exhausted"] = s.budget_exhausted;
   d["info"] = info_name(s.info);
   d["message"] = s.message.empty() ? std::string(to_string(s.info)) : s.message;
@@ -245,9 +247,13 @@ void bind_sim(py::module_& m) {
       .def("set_gravity", [](Fem& f, const py::object& g) { f.sim.set_gravity(to_vec3(g, "gravity")); })
       .def("check_constraints", [](const Fem& f) { f.sim.check_constraints(); },
            "Raises InvalidArgument when a part of the mesh has a rigid mode left")
-      .def("step", [](Fem& f) { return stats_dict(f.sim.step()); },
+      .def("step", [](Fem& f, double spent_ms) {
+             check_finite_range("FemSimulation.step", "spent_ms", spent_ms, 0, 1e9, PythonNames{});
+             return stats_dict(f.sim.step(spent_ms));
+           }, py::arg("spent_ms") = 0.0,
            "One frame; returns the CG statistics (iterations, relative_residual, solve_ms, "
-           "budget_exhausted, info, message)")
+           "budget_exhausted, info, message). spent_ms: what the frame already spent (a cut "
+           "step), taken off the solver's budget_ms so that the budget bounds the whole frame")
       .def_property_readonly("last_stats", [](const Fem& f) { return stats_dict(f.sim.last_stats()); })
       .def("reset_state", [](Fem& f) { f.sim.reset_state(); })
       .def("apply", [](Fem& f, const TopologyChange& c) { f.sim.apply(c); }, py::arg("change"),

@@ -6,6 +6,7 @@
 #include <iomanip>
 #include <sstream>
 #include <unordered_map>
+#include <utility>
 
 #include "mesh/errors.h"
 
@@ -400,6 +401,12 @@ CutOptions SceneRunner::cut_options(const SceneInput& in) {
 }
 
 CutStepReport SceneRunner::blade_step(const BladeSegment& blade, const CutOptions& given) {
+  const auto t0 = std::chrono::steady_clock::now();
+  struct Spent {  // this outside step's time counts against the next frame's budget
+    std::chrono::steady_clock::time_point t0;
+    double& into;
+    ~Spent() { into += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count(); }
+  } spent{t0, outside_ms_};
   if (!blade_ || !blade_->in_cut()) {
     CutOptions options = given;
     if (options.finish_improve_slice == 0) options.finish_improve_slice = kFinishImproveSlice;
@@ -433,8 +440,10 @@ CutStepReport SceneRunner::took_blade_step(CutStepReport r) {
 
 CutStepReport SceneRunner::finish_blade() {
   if (!blade_ || !blade_->in_cut()) return {};
+  const auto t0 = std::chrono::steady_clock::now();
   CutStepReport r = blade_->finish([this](VertexId v) { return position(v); });
   r = took_blade_step(std::move(r));
+  outside_ms_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   record({.kind = SceneInput::Kind::Finish});
   return r;
 }
@@ -504,10 +513,15 @@ void SceneRunner::edit(const std::function<std::vector<std::vector<TetId>>(TetMe
 }
 
 SceneFrame SceneRunner::step() {
+  const auto frame_start = std::chrono::steady_clock::now();
+  // Outside blade steps taken since the last frame count against this frame's budget; those
+  // replayed below run inside the frame and are counted by its clock.
+  const double outside = std::exchange(outside_ms_, 0.0);
   const Scene& s = scene_;
   SceneFrame out;
   out.frame = frame_;
   replay_inputs();  // what an outside hand did before this frame, then the scene's blades
+  outside_ms_ = 0;  // the replayed steps ran inside this frame's clock
   out.cut_ms = cut_scene_blades(out.cut_improve_ms);
   total_cut_ms_ += out.cut_ms;
   // Loads and probes at this frame, then the outside probe.
@@ -539,8 +553,12 @@ SceneFrame SceneRunner::step() {
     fem_->clear_forces();
     for (std::size_t v = 0; v < force_.size(); ++v)
       if (force_[v].squaredNorm() > 0) fem_->set_force(VertexId(std::uint32_t(v)), force_[v]);
+    // The frame's cutting so far (an outside blade since the last frame, the scene's blades, the
+    // backends' updates, the loads) comes off solver.budget_ms: the budget bounds the frame.
+    const double spent =
+        outside + std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - frame_start).count();
     try {
-      st = fem_->step();
+      st = fem_->step(spent);
     } catch (const InvalidArgument& e) {
       fail(s, "fixed", e.what());
     }

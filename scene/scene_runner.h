@@ -163,6 +163,7 @@ private:
   std::vector<Vec3> force_;
   int frame_ = 0;
   double total_cut_ms_ = 0;
+  double outside_ms_ = 0;  // outside blade steps since the last frame: taken off its solver budget
   std::size_t fragments_handled_ = 0;
   std::function<void(const TopologyChange&)> observer_;
 };

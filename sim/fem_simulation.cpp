@@ -362,8 +362,8 @@ void FemSimulation::relinearize() {
   std::size_t count = packets;
   // A budget that cannot afford every tet's rotation gets the share it can; the cursor takes
   // the rest in turn over the next frames (measured cost per packet: the first refresh is whole).
-  if (opt_.cg.budget_ms > 0 && relinearize_ms_per_packet_ > 0 && packets > 0)
-    count = std::clamp(std::size_t(opt_.relinearize_share * opt_.cg.budget_ms / relinearize_ms_per_packet_),
+  if (frame_budget_ms_ > 0 && relinearize_ms_per_packet_ > 0 && packets > 0)
+    count = std::clamp(std::size_t(opt_.relinearize_share * frame_budget_ms_ / relinearize_ms_per_packet_),
                        std::size_t(1), packets);
   if (count >= packets) {
     model_.update_rotations(u_);
@@ -390,12 +390,17 @@ void FemSimulation::static_rhs_and_guess() {
     if (!free_[i]) x_[Eigen::Index(i)] = target_[Eigen::Index(i)];
 }
 
-const FrameStats& FemSimulation::step() {
+const FrameStats& FemSimulation::step(double spent_ms) {
   const auto t0 = frame_start_ = std::chrono::steady_clock::now();
+  // What the caller already spent on this frame (a cut step and its updates) comes off the
+  // budget, so that budget_ms bounds the whole frame, not only the solve.
+  spent_ms = std::max(0.0, spent_ms);
+  frame_budget_ms_ = opt_.cg.budget_ms > 0 ? std::max(1e-6, opt_.cg.budget_ms - spent_ms) : 0.0;
   // Iterations on the cheaper preconditioner say nothing of the factor's staleness: a budget
   // that cannot afford the factor must not keep a core busy refreshing it.
   const int last_iterations = stats_.cheaper_preconditioner ? 0 : stats_.iterations;
   stats_ = FrameStats{};
+  stats_.outside_ms = spent_ms;
   grow();
   // Under-constrained static problems are refused before anything else, so no factorization of
   // a singular matrix is started for them.
@@ -458,7 +463,7 @@ const FrameStats& FemSimulation::step() {
       k = assembled_.get();
     }
   };
-  const double budget = opt_.cg.budget_ms;
+  const double budget = frame_budget_ms_;
   auto remaining = [&] {
     if (budget <= 0) return 0.0;
     return std::max(1e-6, budget - ms_since(t0));
@@ -522,7 +527,7 @@ const FrameStats& FemSimulation::step() {
 // MINRES between frames).
 void FemSimulation::step_mixed(std::chrono::steady_clock::time_point t0) {
   MixedSolver& ms = *mixed_;
-  const double budget = opt_.cg.budget_ms;
+  const double budget = frame_budget_ms_;
   auto remaining = [&] { return budget <= 0 ? 0.0 : std::max(1e-6, budget - ms_since(t0)); };
   auto record = [&](const MixedStats& m) {
     stats_.iterations += m.iterations;

@@ -94,6 +94,7 @@ struct FrameStats {
   // Before the first solve started: factor adoption, rotations, right-hand side. A budgeted
   // frame's solve gets only what this left of budget_ms (at least one iteration runs).
   double setup_ms = 0;
+  double outside_ms = 0;                 // spent before step() on this frame (its argument), taken off the budget
   bool budget_exhausted = false;
   bool cheaper_preconditioner = false;   // the budget could not afford the preconditioner (CG used its cheaper one)
   double relinearized = 1;               // corotational: share of the tets whose rotations this frame refreshed
@@ -126,7 +127,10 @@ public:
   // (not positive definite, NaN/Inf in the solution or its residual) is returned in the stats
   // as NotPositiveDefinite or NumericalIssue with a message; the displacement keeps its last
   // finite value.
-  const FrameStats& step();
+  // spent_ms: what this frame already spent before the solve (a cut step, the backends'
+  // updates); it comes off cg.budget_ms, so a budget bounds the whole frame. When it exceeds
+  // the budget the frame still runs one iteration (every frame progresses).
+  const FrameStats& step(double spent_ms = 0);
   const FrameStats& last_stats() const { return stats_; }
   // The static solve's rigid-mode check on its own (O(mesh)); throws InvalidArgument.
   void check_constraints() const { check_rigid_modes(); }
@@ -156,6 +160,7 @@ public:
 
 private:
   std::chrono::steady_clock::time_point frame_start_;  // of the current step()
+  double frame_budget_ms_ = 0;  // this frame's: cg.budget_ms less what the caller spent before step(); 0: none
   void grow();
   void update_free(std::uint32_t v);
   void check_rigid_modes() const;

@@ -32,6 +32,20 @@ def test_fem_reproduces_uniaxial_stretch(box, backend):
     assert again["iterations"] <= 1
 
 
+def test_fem_frame_budget_takes_off_what_the_frame_spent(box):
+    # A budget already spent (by a cut, say) leaves the solve one iteration; the next frames
+    # resume the interrupted solve and converge.
+    sim = incise.FemSimulation(box, incise.Material(1e5, 0.45), tolerance=1e-10, budget_ms=1e5,
+                               preconditioner="jacobi")
+    clamp_and_pull(box, sim, 1e-2)
+    s = sim.step(spent_ms=2e5)
+    assert s["iterations"] == 1 and s["budget_exhausted"]
+    for _ in range(50):
+        if sim.step()["info"] == "success":
+            break
+    assert sim.last_stats["info"] == "success"
+
+
 def test_fem_statistics_budget_and_errors(box):
     # Jacobi: the cap of 3 iterations must stop the solve (Cholesky would converge first).
     sim = incise.FemSimulation(box, {1: incise.Material(1e5, 0.45)}, kind="corotational",
@@ -44,6 +58,8 @@ def test_fem_statistics_budget_and_errors(box):
     assert sim.last_stats == s
     with pytest.raises(incise.InvalidArgument, match="vertex 100000 is not a live vertex"):
         sim.fix(100000)
+    with pytest.raises(incise.InvalidArgument, match="spent_ms"):
+        sim.step(spent_ms=-1)
     with pytest.raises(incise.InvalidArgument, match="kind: unknown value 'quadratic'"):
         incise.FemSimulation(box, kind="quadratic")
     with pytest.raises(incise.InvalidArgument, match="poisson"):

@@ -3,8 +3,10 @@
 // of a static scene becomes.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 
 #include "scene/run_scene.h"
@@ -57,6 +59,24 @@ TEST_CASE("a partial cut over frames: the beam stays one piece, frames mark the 
   std::string header;
   std::getline(csv, header);
   CHECK(header.find("cut_ms,tets") != std::string::npos);
+  // outside_ms (what the frame spent before the solver, taken off a budget) holds the cut.
+  std::vector<std::string> names;
+  {
+    std::stringstream hs(header);
+    for (std::string h; std::getline(hs, h, ',');) names.push_back(h);
+  }
+  auto col = [&](const std::string& n) { return std::size_t(std::find(names.begin(), names.end(), n) - names.begin()); };
+  REQUIRE(col("outside_ms") < names.size());
+  int cut_frames = 0;
+  for (std::string row; std::getline(csv, row);) {
+    std::vector<double> v;
+    std::stringstream rs(row);
+    for (std::string x; std::getline(rs, x, ',');) v.push_back(std::stod(x));
+    REQUIRE(v.size() == names.size());
+    CHECK(v[col("outside_ms")] >= v[col("cut_ms")]);
+    cut_frames += v[col("cut_ms")] > 0;
+  }
+  CHECK(cut_frames >= 3);
   const TetMesh last = read_tet_mesh((out / "frame_0005.vtu").string());
   CHECK(last.num_tets() == sum.tets);
   CHECK(tet_components(last).count == 1);
