@@ -27,7 +27,9 @@ foreach(t IN LISTS _incise_targets)
   set_target_properties(${t} PROPERTIES EXPORT_NAME ${_name})
 endforeach()
 
-install(TARGETS incise RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+if(TARGET incise)
+  install(TARGETS incise RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+endif()
 install(TARGETS ${_incise_targets} EXPORT inciseTargets
   ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
   INCLUDES DESTINATION ${INCISE_INSTALL_INCLUDEDIR})
