@@ -178,7 +178,7 @@ TEST_CASE("edge-smoothed: work per local update does not grow with mesh size", "
 }
 
 TEST_CASE("edge-smoothed: the cantilever within 5% of Timoshenko at 80x8x8 for every nu, converging with h",
-          "[fem][edge][verification][long]") {
+          "[fem][edge][verification][long][scale]") {
   // Measured (bench_fem_locking), error against Timoshenko at nu = 0.3 / 0.45 / 0.49 / 0.4999:
   //   nodal-averaged 40x4x4 -12.3 / -15.1 / -16.9 / -20.9 %   80x8x8 -4.0 / -5.6 / -6.4 / -7.0 %
   //   edge-smoothed  40x4x4  +1.4 /  -1.5 /  -3.1 /  -7.7 %   80x8x8 -0.03 / -1.5 / -2.2 / -2.7 %

@@ -125,7 +125,7 @@ TEST_CASE("uniaxial bar is exact", "[fem][verification]") {
   }
 }
 
-TEST_CASE("cantilever tip deflection converges to Timoshenko beam theory", "[fem][verification]") {
+TEST_CASE("cantilever tip deflection converges to Timoshenko beam theory", "[fem][verification][scale]") {
   // Beam L x h x h clamped at x = 0, shear load P (z) spread over the tip face.
   const double len = 8, h = 1, e = 1e6, nu = 0.3, p = -10;
   const double inertia = h * h * h * h / 12, area = h * h, g = e / (2 * (1 + nu));

@@ -174,7 +174,7 @@ TEST_CASE("nodal-averaged: work per local update does not grow with mesh size", 
 }
 
 TEST_CASE("nodal-averaged: no volumetric locking in the cantilever, and the bending error left converges with h",
-          "[fem][nodal][verification][long]") {
+          "[fem][nodal][verification][long][scale]") {
   // Measured (bench_fem_locking), error against Timoshenko at nu = 0.3 / 0.45 / 0.49 / 0.4999:
   //   standard        40x4x4  -21.3 / -40.2 / -71.2 / -98.6 %   80x8x8  -7.0 / -16.4 / -41.9 / -97.2 %
   //   nodal-averaged  40x4x4  -12.3 / -15.1 / -16.9 / -20.9 %   80x8x8  -4.0 /  -5.6 /  -6.4 /  -7.0 %
@@ -204,7 +204,7 @@ TEST_CASE("nodal-averaged: no volumetric locking in the cantilever, and the bend
   }
 }
 
-TEST_CASE("nodal-averaged: 120x12x12 cantilever within 5% of Timoshenko at nu = 0.4999", "[long][fem][nodal]") {
+TEST_CASE("nodal-averaged: 120x12x12 cantilever within 5% of Timoshenko at nu = 0.4999", "[long][fem][nodal][scale]") {
   const Cantilever n = cantilever(120, 0.4999, kNodal);
   WARN("120x12x12, nu 0.4999: nodal-averaged " << 100 * n.error() << "%");
   CHECK(std::abs(n.error()) <= 0.05);

@@ -295,7 +295,7 @@ TEST_CASE("implicit Euler is stable at 100x the explicit limit", "[springs]") {
   CHECK(e.step(dt, Integrator::SymplecticEuler).stable_step_exceeded);
 }
 
-TEST_CASE("damping decays energy", "[springs][long]") {
+TEST_CASE("damping decays energy", "[springs][long][scale]") {
   TetMesh m = make_ellipsoid(Vec3(1, 0.6, 0.5), 2);
   for (Integrator integ : kAll) {
     SpringOptions o;
