@@ -143,7 +143,7 @@ TEST_CASE("mixed edge-smoothed: after local edits the solver equals one built fr
   }
 }
 
-TEST_CASE("mixed edge-smoothed: the cantilever bends within 5% of Timoshenko up to nu = 0.5", "[fem][mixed][edge][verification]") {
+TEST_CASE("mixed edge-smoothed: the cantilever bends within 5% of Timoshenko up to nu = 0.5", "[fem][mixed][edge][verification][scale]") {
   // 8x1x1, 4 cells across (3,072 tets): the plain mixed element is 16-19% too stiff at every nu
   // (docs/mixed.md), the edge-smoothed one within a few percent.
   for (double nu : {0.3, 0.49, 0.5}) {

@@ -187,7 +187,7 @@ TEST_CASE("Lame cylinder: internal pressure on a quarter tube on rollers matches
 }
 
 TEST_CASE("Lame cylinder per formulation: nodal-averaged, edge-smoothed and mixed do not lock, mixed holds at nu = 0.5",
-          "[scene][rollers][verification][formulation]") {
+          "[scene][rollers][verification][formulation][scale]") {
   // The same quarter tube and load as above at nu from 0.3 to 0.5: the inner wall's radial
   // displacement against the closed form. Standard tets lock as nu -> 0.5; the other two stay
   // within 3% and improve under refinement.
