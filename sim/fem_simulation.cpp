@@ -371,11 +371,15 @@ void FemSimulation::relinearize() {
     model_.update_rotations_partial(u_, relinearize_cursor_, count);
     relinearize_cursor_ = (relinearize_cursor_ + count) % packets;
   }
-  if (packets > 0) {
+  // The cost per packet is learnt from refreshes of at least kMeasuredPackets: a frame whose
+  // budget a cut had used up refreshes one packet, and its fixed cost (the parallel loop's
+  // start) counted as one packet's made the next frames refresh a tenth of what they could.
+  constexpr std::size_t kMeasuredPackets = 32;
+  if (packets > 0 && (count >= packets || count >= kMeasuredPackets || relinearize_ms_per_packet_ <= 0)) {
     const double per = ms_since(t0) / double(count);
     relinearize_ms_per_packet_ = relinearize_ms_per_packet_ > 0 ? 0.7 * relinearize_ms_per_packet_ + 0.3 * per : per;
-    stats_.relinearized = std::min(stats_.relinearized, double(count) / double(packets));
   }
+  if (packets > 0) stats_.relinearized = std::min(stats_.relinearized, double(count) / double(packets));
   b_rot_.setZero(model_.rows());
   model_.add_rotation_rhs(b_rot_);
   assembled_dirty_ = system_dirty_ = true;
