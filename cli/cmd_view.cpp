@@ -56,9 +56,10 @@ void add_view(CLI::App& app) {
                   "simulation to the network: give it deliberately");
   cmd->add_option("--web-dir", o->web_dir, "Where the page's files are (default: " + o->web_dir + ")");
   cmd->add_option("--budget-ms", o->budget_ms,
-                  "Solver budget per frame in ms, instead of the scene's solver.budget_ms (0: none). Default: the "
-                  "scene's, or 30 when the scene sets none: a budget keeps the frame rate while a cut makes the "
-                  "solve slow, and an unfinished solve goes on next frame (docs/view.md)")
+                  "Budget per frame in ms, the frame's blade steps and the solve together, instead of the scene's "
+                  "solver.budget_ms (0: none). Default: the scene's, or 30 when the scene sets none: a budget keeps "
+                  "the frame rate while a cut makes the solve slow, and an unfinished solve goes on next frame "
+                  "(docs/view.md)")
       ->check(CLI::Range(0.0, 1e6));
   cmd->add_flag("--paused", o->paused, "Start paused (Step or Resume on the page)");
   cmd->add_option("--record", o->record,
