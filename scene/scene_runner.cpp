@@ -14,6 +14,10 @@ namespace incise {
 
 namespace {
 
+double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
 // Content errors name the scene file and the key, as the parser's do.
 [[noreturn]] void fail(const Scene& s, const std::string& key, const std::string& what) {
   throw IoError(s.path, 0, key + ": " + what);
@@ -402,11 +406,7 @@ CutOptions SceneRunner::cut_options(const SceneInput& in) {
 
 CutStepReport SceneRunner::blade_step(const BladeSegment& blade, const CutOptions& given) {
   const auto t0 = std::chrono::steady_clock::now();
-  struct Spent {  // this outside step's time counts against the next frame's budget
-    std::chrono::steady_clock::time_point t0;
-    double& into;
-    ~Spent() { into += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count(); }
-  } spent{t0, outside_ms_};
+  CutStepReport r;
   if (!blade_ || !blade_->in_cut()) {
     CutOptions options = given;
     if (options.finish_improve_slice == 0) options.finish_improve_slice = kFinishImproveSlice;
@@ -415,10 +415,11 @@ CutStepReport SceneRunner::blade_step(const BladeSegment& blade, const CutOption
     if (!blade_) blade_ = std::make_unique<Cutter>(mesh_, options);
     else blade_->options() = options;
     blade_->start(blade);
-    return {};
+  } else {
+    r = took_blade_step(blade_->advance(blade, [this](VertexId v) { return position(v); }, max_displacement_bound()));
   }
-  CutStepReport r = blade_->advance(blade, [this](VertexId v) { return position(v); }, max_displacement_bound());
-  return took_blade_step(std::move(r));
+  outside_ms_ += ms_since(t0);  // an outside step counts against the next frame's budget
+  return r;
 }
 
 void SceneRunner::record(SceneInput in) {
@@ -443,7 +444,7 @@ CutStepReport SceneRunner::finish_blade() {
   const auto t0 = std::chrono::steady_clock::now();
   CutStepReport r = blade_->finish([this](VertexId v) { return position(v); });
   r = took_blade_step(std::move(r));
-  outside_ms_ += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  outside_ms_ += ms_since(t0);
   record({.kind = SceneInput::Kind::Finish});
   return r;
 }
@@ -555,8 +556,7 @@ SceneFrame SceneRunner::step() {
       if (force_[v].squaredNorm() > 0) fem_->set_force(VertexId(std::uint32_t(v)), force_[v]);
     // The frame's cutting so far (an outside blade since the last frame, the scene's blades, the
     // backends' updates, the loads) comes off solver.budget_ms: the budget bounds the frame.
-    const double spent =
-        outside + std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - frame_start).count();
+    const double spent = outside + ms_since(frame_start);
     try {
       st = fem_->step(spent);
     } catch (const InvalidArgument& e) {
@@ -574,7 +574,7 @@ SceneFrame SceneRunner::step() {
       st.iterations += ss.cg_iterations;
       st.relative_residual = ss.cg_relative_residual;
     }
-    st.solve_ms = st.frame_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    st.solve_ms = st.frame_ms = ms_since(t0);
     disp = Eigen::VectorXd::Zero(Eigen::Index(3 * mesh_.vertex_capacity()));
     const auto& x = springs_->positions();
     for (VertexId v : mesh_.vertices()) disp.segment<3>(3 * v.idx()) = x[v.idx()] - mesh_.rest(v);
