@@ -52,20 +52,29 @@ Eigen::Vector3d shape_gradient(const Eigen::Matrix3d& bm, int j) {
 
 }  // namespace
 
-// The coarse factor: CHOLMOD's supernodal LL^T when built with it. On the organ's coarse
-// matrix (1,614 unknowns, 151k nonzeros in L) it factored in 17 ms against 27 for Eigen's
-// SimplicialLDLT (no dense kernels) and solved in 0.22 ms against 0.46 (same run, OpenBLAS one
-// thread); AMD ordering only, as METIS, CHOLMOD's second try, saved nothing there.
+// The coarse factor, with CHOLMOD when built with it: simplicial LL^T up to kSupernodalFrom
+// unknowns, supernodal (dense kernels, one BLAS thread) above. On the organ's ring-2 coarse
+// matrix (700-800 unknowns, ~40k nonzeros in L, refactored at every patch through a cut)
+// simplicial factored in 1.6-1.9 ms against 2.9-3.3 supernodal and solved in 0.025 ms against
+// 0.036; on the ring-1 one (1,614 unknowns, 151k in L) supernodal factored in 17 ms against 27
+// for Eigen's SimplicialLDLT and solved in 0.22 ms against 0.46. AMD ordering only, as METIS,
+// CHOLMOD's second try, saved nothing there.
 struct AggregationAmg::Coarse {
 #ifdef INCISE_HAVE_CHOLMOD
+  static constexpr Eigen::Index kSupernodalFrom = 1200;
   Coarse() {
     single_threaded_blas();
     ldlt.cholmod().print = 0;  // a failure (not positive definite) is reported by ok, not on stdout
     ldlt.cholmod().nmethods = 1;
     ldlt.cholmod().method[0].ordering = CHOLMOD_AMD;
   }
-  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> ldlt;
+  void compute(const Eigen::SparseMatrix<double>& a) {
+    ldlt.setMode(a.rows() < kSupernodalFrom ? Eigen::CholmodSimplicialLLt : Eigen::CholmodSupernodalLLt);
+    ldlt.compute(a);
+  }
+  Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Lower> ldlt;
 #else
+  void compute(const Eigen::SparseMatrix<double>& a) { ldlt.compute(a); }
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> ldlt;
 #endif
   Eigen::Index rows = 0;
@@ -486,7 +495,7 @@ void AggregationAmg::factor() {
   // slab): the cycle is the smoother alone. CHOLMOD must not see an empty matrix (it crashed).
   coarse_->ok = false;
   if (n > 0) {
-    coarse_->ldlt.compute(ac);
+    coarse_->compute(ac);
     coarse_->ok = coarse_->ldlt.info() == Eigen::Success;
   }
 #ifdef INCISE_HAVE_CHOLMOD

@@ -10,7 +10,7 @@
 // vertex, collinear vertices) are dropped. That is the tentative (unsmoothed) prolongator P,
 // one 3x6 block per vertex. The coarse operator A_c = P^T A P is assembled element by element
 // from the model's per-tet data (its current rotations, as K x uses them) straight into 6x6
-// blocks per pair of aggregates, and factored directly (CHOLMOD's supernodal LL^T, Eigen's
+// blocks per pair of aggregates, and factored directly (CHOLMOD's LL^T, Eigen's
 // SimplicialLDLT without CHOLMOD; ~6 unknowns per aggregate). Kept (fixed, prescribed) unknowns have zero rows in P, like block-Jacobi's.
 //
 // Application, z = M^-1 r:
