@@ -3,6 +3,7 @@
 #include "mesh/tet_mesh.h"
 
 #include <algorithm>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <unordered_map>
@@ -419,44 +420,101 @@ TopologyChange TetMesh::take_change() {
 void TetMesh::discard_change() { (void)take_change(); }
 
 CompactMaps TetMesh::compact() {
+  std::vector<std::uint32_t> vo, to;
+  for (std::uint32_t i = 0; i < rest_.size(); ++i)
+    if (vertex_alive_[i]) vo.push_back(i);
+  for (std::uint32_t i = 0; i < tet_v_.size(); ++i)
+    if (tet_alive_[i]) to.push_back(i);
+  return renumber(vo, to);
+}
+
+namespace {
+
+// Morton code of p in the box [lo, lo + extent]^3: 21 bits per axis, interleaved.
+std::uint64_t morton(const Vec3& p, const Vec3& lo, double extent) {
+  auto spread = [](std::uint64_t x) {  // bit k of x to bit 3k
+    x &= 0x1fffff;
+    x = (x | x << 32) & 0x1f00000000ffffULL;
+    x = (x | x << 16) & 0x1f0000ff0000ffULL;
+    x = (x | x << 8) & 0x100f00f00f00f00fULL;
+    x = (x | x << 4) & 0x10c30c30c30c30c3ULL;
+    x = (x | x << 2) & 0x1249249249249249ULL;
+    return x;
+  };
+  std::uint64_t code = 0;
+  for (int d = 0; d < 3; ++d) {
+    const double u = extent > 0 ? (p[d] - lo[d]) / extent : 0.0;
+    const auto q = std::uint64_t(std::clamp(u, 0.0, 1.0) * double((1u << 21) - 1));
+    code |= spread(q) << d;
+  }
+  return code;
+}
+
+}  // namespace
+
+CompactMaps TetMesh::compact_spatially() {
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::max()), hi = -lo;
+  for (std::uint32_t i = 0; i < rest_.size(); ++i)
+    if (vertex_alive_[i]) {
+      lo = lo.cwiseMin(rest_[i]);
+      hi = hi.cwiseMax(rest_[i]);
+    }
+  const double extent = (hi - lo).maxCoeff();
+  // Sorted by (code, old id): ties keep their relative order, so the result is deterministic.
+  auto ordered = [&](std::size_t n, const std::vector<std::uint8_t>& alive, auto&& position) {
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed;
+    for (std::uint32_t i = 0; i < n; ++i)
+      if (alive[i]) keyed.emplace_back(morton(position(i), lo, extent), i);
+    std::sort(keyed.begin(), keyed.end());
+    std::vector<std::uint32_t> order(keyed.size());
+    for (std::size_t k = 0; k < keyed.size(); ++k) order[k] = keyed[k].second;
+    return order;
+  };
+  const auto vo = ordered(rest_.size(), vertex_alive_, [&](std::uint32_t i) { return rest_[i]; });
+  const auto to = ordered(tet_v_.size(), tet_alive_, [&](std::uint32_t i) {
+    const auto& v = tet_v_[i];
+    return Vec3(0.25 * (rest_[v[0].idx()] + rest_[v[1].idx()] + rest_[v[2].idx()] + rest_[v[3].idx()]));
+  });
+  return renumber(vo, to);
+}
+
+CompactMaps TetMesh::renumber(const std::vector<std::uint32_t>& vertex_order, const std::vector<std::uint32_t>& tet_order) {
   discard_change();
   CompactMaps maps;
   maps.vertex.assign(rest_.size(), VertexId());
   maps.tet.assign(tet_v_.size(), TetId());
-  std::uint32_t nv = 0, nt = 0;
-  for (std::uint32_t i = 0; i < rest_.size(); ++i)
-    if (vertex_alive_[i]) maps.vertex[i] = VertexId(nv++);
-  for (std::uint32_t i = 0; i < tet_v_.size(); ++i)
-    if (tet_alive_[i]) maps.tet[i] = TetId(nt++);
-  for (std::uint32_t i = 0; i < rest_.size(); ++i) {
-    if (!vertex_alive_[i]) continue;
-    std::uint32_t j = maps.vertex[i].idx();
-    rest_[j] = rest_[i];
-    auto inc = std::move(vertex_tets_[i]);
-    for (TetId& t : inc) t = maps.tet[t.idx()];
-    vertex_tets_[j] = std::move(inc);
+  const std::uint32_t nv = std::uint32_t(vertex_order.size()), nt = std::uint32_t(tet_order.size());
+  for (std::uint32_t j = 0; j < nv; ++j) maps.vertex[vertex_order[j]] = VertexId(j);
+  for (std::uint32_t j = 0; j < nt; ++j) maps.tet[tet_order[j]] = TetId(j);
+  std::vector<Vec3> rest(nv);
+  std::vector<std::vector<TetId>> vertex_tets(nv);
+  for (std::uint32_t j = 0; j < nv; ++j) {
+    const std::uint32_t i = vertex_order[j];
+    rest[j] = rest_[i];
+    vertex_tets[j] = std::move(vertex_tets_[i]);
+    for (TetId& t : vertex_tets[j]) t = maps.tet[t.idx()];
   }
-  for (std::uint32_t i = 0; i < tet_v_.size(); ++i) {
-    if (!tet_alive_[i]) continue;
-    std::uint32_t j = maps.tet[i].idx();
-    auto v = tet_v_[i];
-    for (VertexId& x : v) x = maps.vertex[x.idx()];
-    auto n = tet_n_[i];
-    for (TetId& u : n)
-      if (u.is_valid()) u = maps.tet[u.idx()];
-    tet_v_[j] = v;
-    tet_n_[j] = n;
-    face_tag_[j] = face_tag_[i];
-    label_[j] = label_[i];
+  std::vector<std::array<VertexId, 4>> tet_v(nt);
+  std::vector<std::array<TetId, 4>> tet_n(nt);
+  std::vector<std::array<std::uint16_t, 4>> face_tag(nt);
+  std::vector<int> label(nt);
+  for (std::uint32_t j = 0; j < nt; ++j) {
+    const std::uint32_t i = tet_order[j];
+    for (int k = 0; k < 4; ++k) {
+      tet_v[j][k] = maps.vertex[tet_v_[i][k].idx()];
+      tet_n[j][k] = tet_n_[i][k].is_valid() ? maps.tet[tet_n_[i][k].idx()] : TetId();
+    }
+    face_tag[j] = face_tag_[i];
+    label[j] = label_[i];
   }
-  rest_.resize(nv);
-  vertex_tets_.resize(nv);
+  rest_ = std::move(rest);
+  vertex_tets_ = std::move(vertex_tets);
   vertex_alive_.assign(nv, 1);
   touched_mark_.assign(nv, 0);
-  tet_v_.resize(nt);
-  tet_n_.resize(nt);
-  face_tag_.resize(nt);
-  label_.resize(nt);
+  tet_v_ = std::move(tet_v);
+  tet_n_ = std::move(tet_n);
+  face_tag_ = std::move(face_tag);
+  label_ = std::move(label);
   tet_alive_.assign(nt, 1);
   free_vertices_.clear();
   free_tets_.clear();

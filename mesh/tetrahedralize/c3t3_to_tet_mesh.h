@@ -11,7 +11,8 @@
 namespace incise::detail {
 
 // Cells in the complex become tets (orientation fixed by the sign of the volume, the
-// subdomain index becomes the label through `label_of`); boundary faces get kTagSurface.
+// subdomain index becomes the label through `label_of`); boundary faces get kTagSurface;
+// elements numbered along a space-filling curve (TetMesh::compact_spatially).
 template <class C3t3, class LabelOf>
 TetMesh c3t3_to_tet_mesh(const C3t3& c3t3, LabelOf label_of) {
   TetMesh mesh;
@@ -36,7 +37,7 @@ TetMesh c3t3_to_tet_mesh(const C3t3& c3t3, LabelOf label_of) {
   }
   make_boundary_manifold(mesh);
   tag_boundary(mesh, kTagSurface);
-  mesh.discard_change();
+  mesh.compact_spatially();  // the complex's order is scattered in space: solvers run faster in this one
   return mesh;
 }
 

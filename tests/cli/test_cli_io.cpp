@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -151,6 +152,18 @@ TEST_CASE("incise convert: every direction, and failures leave no trace", "[cli]
     CHECK(read_tet_mesh(d / ("back_" + name + ".msh")).num_tets() == m.num_tets());
   }
   CHECK(slurp(d / "c.vtu").find("BigEndian") != std::string::npos);
+  // Renumbered along the curve: the same tets (labels, volume), in another order.
+  REQUIRE(run(d, "convert " + (d / "src.msh") + " " + (d / "z.vtu") + " --spatial-order").rc == 0);
+  {
+    TetMesh z = read_tet_mesh(d / "z.vtu");
+    REQUIRE(z.num_tets() == m.num_tets());
+    CHECK(z.total_volume() == Approx(m.total_volume()).epsilon(1e-12));
+    std::multiset<int> la, lb;
+    for (TetId t : m.tets()) la.insert(m.label(t));
+    for (TetId t : z.tets()) lb.insert(z.label(t));
+    CHECK(la == lb);
+    z.validate({true, true});
+  }
   // Boundary as a surface.
   REQUIRE(run(d, "convert " + (d / "src.msh") + " " + (d / "boundary.stl")).rc == 0);
   REQUIRE(run(d, "info --json " + (d / "boundary.stl")).rc == 0);

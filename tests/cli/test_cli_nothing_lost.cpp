@@ -121,6 +121,7 @@ TEST_CASE("convert: options the output format has no use for are refused", "[cli
       {"a.vtu", "--header64", "--header64 applies to binary .vtu"},
       {"a.vtu", "--no-boundary", "--no-boundary applies to .msh and .mesh output only"},
       {"a.off", "--binary", "--binary applies"},
+      {"a.stl", "--spatial-order", "--spatial-order applies to tet mesh output only"},
   };
   for (const Case& c : cases) {
     check_failed(run_incise("convert " + q(box) + " " + q(dir / c.out) + " " + c.opt, dir), c.expect);

@@ -1,8 +1,11 @@
 // Mesh core: invariants after every edit, volume and tags preserved, batch records, locality.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
+#include <numeric>
+#include <set>
 #include <random>
 
 #include "mesh/errors.h"
@@ -338,6 +341,79 @@ TEST_CASE("compact renumbers densely and returns old-to-new maps", "[mesh]") {
   m.validate();
   CHECK(m.total_volume() == Approx(vol).epsilon(1e-12));
   for (auto& [old, p] : pos) CHECK(m.rest(maps.vertex[old]) == p);
+}
+
+TEST_CASE("compact_spatially keeps the mesh and numbers neighbours close", "[mesh]") {
+  // A box with edits and dead slots, copied with its vertices and tets in random order (a
+  // mesher's scattered numbering), then renumbered along the curve.
+  TetMesh box = make_box(Vec3(1, 1, 1), {6, 6, 6});
+  std::mt19937 rng(11);
+  for (int i = 0; i < 300; ++i) random_edit(box, rng);
+  for (TetId t : box.tets())
+    if (t.idx() % 7 == 0) box.set_label(t, 3);
+  const BoundaryFace bf0 = box.boundary_faces().front();
+  box.set_face_tag(bf0.tet, bf0.local, kTagCut);  // tags follow their faces
+  box.compact();
+  std::vector<std::uint32_t> vperm(box.num_vertices()), tperm(box.num_tets());
+  std::iota(vperm.begin(), vperm.end(), 0u);
+  std::iota(tperm.begin(), tperm.end(), 0u);
+  std::shuffle(vperm.begin(), vperm.end(), rng);
+  std::shuffle(tperm.begin(), tperm.end(), rng);
+  TetMesh m;
+  std::vector<VertexId> to(box.num_vertices());
+  for (std::uint32_t i : vperm) to[i] = m.add_vertex(box.rest(VertexId(i)));
+  for (std::uint32_t i : tperm) {
+    const auto& v = box.tet_vertices(TetId(i));
+    const TetId t = m.add_tet(to[v[0].idx()], to[v[1].idx()], to[v[2].idx()], to[v[3].idx()], box.label(TetId(i)));
+    for (int f = 0; f < 4; ++f) m.set_face_tag(t, f, box.face_tag(TetId(i), f));
+  }
+  m.remove_tet(*m.tets().begin());  // a dead slot
+  m.discard_change();
+  // Each tet by its corner positions (in its vertex order) with its label and face tags.
+  auto signature = [](const TetMesh& x) {
+    std::multiset<std::vector<double>> out;
+    for (TetId t : x.tets()) {
+      std::vector<double> s;
+      for (VertexId v : x.tet_vertices(t))
+        for (int d = 0; d < 3; ++d) s.push_back(x.rest(v)[d]);
+      s.push_back(x.label(t));
+      for (int f = 0; f < 4; ++f) s.push_back(x.face_tag(t, f));
+      out.insert(s);
+    }
+    return out;
+  };
+  // Median id span of a tet's corners: how far apart in memory its vertices are (a curve's
+  // jumps between octants make a few tets wide, so not the mean).
+  auto span = [](const TetMesh& x) {
+    std::vector<std::uint32_t> spans;
+    for (TetId t : x.tets()) {
+      const auto& v = x.tet_vertices(t);
+      std::uint32_t lo = v[0].idx(), hi = lo;
+      for (VertexId w : v) lo = std::min(lo, w.idx()), hi = std::max(hi, w.idx());
+      spans.push_back(hi - lo);
+    }
+    std::nth_element(spans.begin(), spans.begin() + spans.size() / 2, spans.end());
+    return double(spans[spans.size() / 2]);
+  };
+  const auto before = signature(m);
+  const std::size_t nv = m.num_vertices(), nt = m.num_tets(), bf = m.boundary_faces().size();
+  const double scattered = span(m), vol = m.total_volume();
+  const CompactMaps maps = m.compact_spatially();
+  m.validate();
+  CHECK(m.num_vertices() == nv);
+  CHECK(m.num_tets() == nt);
+  CHECK(m.tet_capacity() == nt);
+  CHECK(m.boundary_faces().size() == bf);
+  CHECK(m.total_volume() == Approx(vol).epsilon(1e-12));
+  CHECK(signature(m) == before);
+  for (std::uint32_t i = 0; i < vperm.size(); ++i) CHECK(m.rest(maps.vertex[to[i].idx()]) == box.rest(VertexId(i)));
+  INFO("median id span of a tet's corners: scattered " << scattered << ", along the curve " << span(m));
+  CHECK(span(m) < 0.25 * scattered);
+  // Deterministic: the same mesh in another order gets the same numbering.
+  TetMesh again = box;
+  again.compact_spatially();
+  REQUIRE(again.num_vertices() == nv);
+  for (VertexId v : again.vertices()) CHECK(again.rest(v) == m.rest(v));
 }
 
 TEST_CASE("edits are local: incidence visits per edit do not grow with mesh size", "[mesh][locality]") {

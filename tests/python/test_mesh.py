@@ -82,6 +82,20 @@ def test_compact_maps_are_identity_on_a_fresh_mesh(box):
     assert np.array_equal(tmap, np.arange(box.num_tets))
 
 
+def test_compact_spatially_permutes_consistently():
+    # A box read back with its vertices in reversed order: the curve's numbering maps every old
+    # point and tet to its new id, and the mesh is the same.
+    box = incise.generate_box((2.0, 1.0, 1.0), (4, 3, 2))
+    pts, tets = box.points[::-1].copy(), (box.num_vertices - 1 - box.tets)
+    m = incise.TetMesh(pts, tets)
+    vmap, tmap = m.compact_spatially()
+    assert sorted(vmap) == list(range(m.num_vertices)) and sorted(tmap) == list(range(m.num_tets))
+    assert np.array_equal(m.points[vmap], pts)
+    assert np.array_equal(m.tets[tmap], vmap[tets])
+    assert m.volume() == pytest.approx(box.volume(), rel=1e-12)
+    m.validate(check_manifold_boundary=True)
+
+
 # Issue 18 section 3: the arrays get the checks a file gets, with incise's messages.
 PTS = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
 
