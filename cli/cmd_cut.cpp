@@ -25,7 +25,7 @@ void add_cut(CLI::App& app) {
     std::string in, out, json, mode = "subdivide", surface;
     std::vector<double> blade, sweep, plane;
     int steps = 1;
-    double snap = 0.05, budget_ms = 0;
+    double snap = 0.05, budget_ms = 0, finish_insert = CutOptions{}.finish_insertion_below_deg;
     int work = CutOptions::kDefaultImproveWork;
     bool no_improve = false, quiet = false;
   };
@@ -66,15 +66,22 @@ void add_cut(CLI::App& app) {
                   "default; a time cap makes the output depend on the machine's speed and load)")
       ->check(time_limit_range(1e6))
       ->capture_default_str();
+  auto* finish_opt = cmd->add_option("--finish-insert", o->finish_insert,
+                  "After the blade: insert vertices into tets whose smallest dihedral angle stays below this many "
+                  "degrees (where cuts cross or meet the surface at a small angle; 0: no insertion)")
+      ->check(CLI::Range(0.0, 90.0))
+      ->capture_default_str();
   cmd->add_option("--json", o->json, "Write the cut report (JSON) here");
   cmd->add_flag("-q,--quiet", o->quiet, "No per-step progress on stderr");
-  cmd->callback([o, steps_opt] {
+  cmd->callback([o, steps_opt, finish_opt] {
     const int kinds = int(!o->blade.empty()) + int(!o->plane.empty()) + int(!o->surface.empty());
     if (kinds != 1) throw InvalidArgument("cut: give exactly one of --blade (with --sweep), --plane, --surface");
     if (!o->blade.empty() && o->sweep.empty()) throw InvalidArgument("cut: --blade needs --sweep DX DY DZ");
     // A plane or a surface cut is one step with nothing swept: the options would be ignored.
     if (o->blade.empty() && (!o->sweep.empty() || steps_opt->count() > 0))
       throw InvalidArgument("cut: --sweep and --steps go with --blade only");
+    if (o->blade.empty() && finish_opt->count() > 0)
+      throw InvalidArgument("cut: --finish-insert goes with --blade only (a plane or surface cut has no withdrawn blade)");
     for (const auto* v : {&o->blade, &o->sweep, &o->plane})
       for (double x : *v)
         if (!std::isfinite(x) || std::abs(x) > 1e15)
@@ -100,6 +107,7 @@ void add_cut(CLI::App& app) {
     opt.improve = !o->no_improve;
     opt.improve_budget_ms = o->budget_ms;
     opt.improve_options.max_work = o->work;
+    opt.finish_insertion_below_deg = o->finish_insert;
     const QualityRange before = quality_range(mesh);
     const std::size_t tets_before = mesh.num_tets(), verts_before = mesh.num_vertices();
 

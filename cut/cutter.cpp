@@ -140,9 +140,19 @@ SeparationResult Cutter::open_faces(const CutStep& step, std::span<const CutFace
   remember_fresh(step, sep, positions);
   add_separation(rep, sep);
   rep.tets_cut += step.tets_cut();
-  auto frags = find_fragments(*mesh_, sep.opened_tets, opt_.fragment_search_limit, *fragment_scratch_);
-  rep.fragments.insert(rep.fragments.end(), frags.begin(), frags.end());
+  fragment_starts_.insert(fragment_starts_.end(), sep.opened_tets.begin(), sep.opened_tets.end());
   return sep;
+}
+
+void Cutter::find_detached(CutStepReport& rep) {
+  if (fragment_starts_.empty()) return;
+  std::vector<TetId> starts;
+  for (TetId t : fragment_starts_)
+    if (mesh_->is_alive(t)) starts.push_back(t);
+  for (TetId t : rep.change.added_tets)
+    if (mesh_->is_alive(t)) starts.push_back(t);
+  fragment_starts_.clear();
+  rep.fragments = find_fragments(*mesh_, starts, opt_.fragment_search_limit, *fragment_scratch_);
 }
 
 void Cutter::set_front(const CutStep& step, const BladeSegment& front) {
@@ -335,6 +345,7 @@ CutStepReport Cutter::finish(const PositionFn& caller_positions) {
 // finish() and finish_more(): the record taken, the grid kept exact, the figures filled in.
 void Cutter::end_finish_record(CutStepReport& rep, bool grid_stale, std::chrono::steady_clock::time_point t0) {
   rep.change = mesh_->take_change();
+  find_detached(rep);
   keep_finish_seeds(rep.change);
   if (!grid_stale) {
     grid_.update(*mesh_, rep.change);
@@ -356,6 +367,8 @@ void Cutter::improve_finish_slice(CutStepReport& rep, int work) {
   io.frozen = opt_.frozen;
   io.time_budget_ms = opt_.improve_budget_ms;
   io.max_work = work;
+  io.insertion = opt_.finish_insertion_below_deg > 0;
+  io.insertion_below_deg = opt_.finish_insertion_below_deg;
   const auto ti = std::chrono::steady_clock::now();
   // Later slices seed only the region's tets still short of the targets (with their ring):
   // queueing the whole region again each slice cost more than its operations.
@@ -513,6 +526,7 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
   improve_after(rep, seeds, frozen);
   if (pr.sheet && opt_.improve && !seeds.empty() && !rep.improve.budget_exhausted) pr.improve_queue.clear();
   rep.change = mesh_->take_change();
+  find_detached(rep);
   // Decisions about vertices the improvement moved off the cut surface or removed are void.
   for (VertexId v : rep.change.removed_vertices) pr.memory.forget(v);
   for (const VertexOrigin& o : rep.change.moved_vertices) {
@@ -607,7 +621,7 @@ CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const Position
     rep.cut_area = c.area / 2;
     rep.exposed_area = c.area;
     front_ = std::move(c.neighbours);
-    rep.fragments = find_fragments(*mesh_, front_, opt_.fragment_search_limit, *fragment_scratch_);
+    fragment_starts_ = front_;
   } else {
     CutStep step(*mesh_, positions, opt_.snap);
     step.set_fixed(opt_.frozen);
@@ -630,7 +644,7 @@ CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const Position
     front_vertices_ = step.segment_vertices(blade_.a, blade_.b);
     front_segment_ = blade_;
     has_front_ = use_front;
-    rep.fragments = find_fragments(*mesh_, sep.opened_tets, opt_.fragment_search_limit, *fragment_scratch_);
+    fragment_starts_.insert(fragment_starts_.end(), sep.opened_tets.begin(), sep.opened_tets.end());
     if (opt_.improve && !front_.empty()) {
       const auto ti = std::chrono::steady_clock::now();
       ImproveOptions io = opt_.improve_options;
@@ -651,6 +665,7 @@ CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const Position
     }
   }
   rep.change = mesh_->take_change();
+  find_detached(rep);
   if (!grid_stale) {  // else the next first contact rebuilds it
     grid_.update(*mesh_, rep.change);
     grid_edits_ = mesh_->counters().edits;

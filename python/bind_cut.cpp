@@ -21,7 +21,7 @@ struct PyCutter {
 
 std::unique_ptr<PyCutter> make_cutter(const py::object& mesh_obj, const std::string& mode, double snap, bool improve,
                                       double improve_budget_ms, int improve_work, const py::object& frozen,
-                                      std::size_t fragment_search_limit) {
+                                      std::size_t fragment_search_limit, double finish_insert) {
   if (!py::isinstance<TetMesh>(mesh_obj))
     throw InvalidArgument("Cutter: mesh: expected an incise.TetMesh, got " +
                           py::str(py::type::of(mesh_obj).attr("__name__")).cast<std::string>());
@@ -39,6 +39,8 @@ std::unique_ptr<PyCutter> make_cutter(const py::object& mesh_obj, const std::str
     throw InvalidArgument("cut: improve_work: " + std::to_string(improve_work) + " is out of range [0, 100000000]");
   o.improve_budget_ms = improve_budget_ms;
   o.improve_options.max_work = improve_work;
+  check_finite_range("cut", "finish_insert", finish_insert, 0, 90, PythonNames{});  // `incise cut --finish-insert`
+  o.finish_insertion_below_deg = finish_insert;
   if (!frozen.is_none()) o.frozen = to_vertices(mesh, frozen);
   o.fragment_search_limit = fragment_search_limit;
   return std::unique_ptr<PyCutter>(new PyCutter{mesh_obj, mesh, Cutter(mesh, std::move(o))});
@@ -85,7 +87,8 @@ void bind_cut(py::module_& m) {
       .def(py::init(&make_cutter), py::arg("mesh"), py::kw_only(), py::arg("mode") = "subdivide",
            py::arg("snap") = 0.05, py::arg("improve") = true, py::arg("improve_budget_ms") = 0.0,
            py::arg("improve_work") = CutOptions::kDefaultImproveWork,
-           py::arg("frozen") = py::none(), py::arg("fragment_search_limit") = std::size_t(20000))
+           py::arg("frozen") = py::none(), py::arg("fragment_search_limit") = std::size_t(20000),
+           py::arg("finish_insert") = CutOptions{}.finish_insertion_below_deg)
       .def(
           "start", [](PyCutter& c, const py::object& a, const py::object& b) {
             c.cutter.start({to_vec3(a, "blade a"), to_vec3(b, "blade b")});

@@ -312,7 +312,9 @@ private:
     }
     // Insertion checks its growth against scope_.growth_left. (Ids freed by this pass's
     // contractions are not reused before the batch ends, so both can mix.)
-    if (!any && opt_.insertion && insertion_allowed && mesh_.is_alive(t) && scope_.growth_left > 0) {
+    if (!any && opt_.insertion && insertion_allowed && mesh_.is_alive(t) && scope_.growth_left > 0 &&
+        (opt_.insertion_below_deg <= 0 ||
+         angle_quality(mesh_, t, AngleTargets{}).min_dihedral < opt_.insertion_below_deg)) {
       if (auto ins = improve_by_insertion(mesh_, t, scope_, insert_)) {
         ++rep.insertions;
         rep.boundary_insertions += ins->on_boundary;

@@ -34,6 +34,8 @@ struct ImproveOptions {
   bool multi_face_removal = true;    // ... multi-face removal among them (quality/multi_face_removal.h)
   bool smoothing = true;             // optimization-based vertex smoothing
   bool insertion = false;            // vertex insertion into a cavity (quality/insertion.h) where the rest fails
+  double insertion_below_deg = 0;    // ... only into tets whose smallest dihedral is below this (0: any tet short
+                                     // of the targets): refinement where slivers are left, not everywhere
   int max_cavity = 16;               // ... largest cavity (tets replaced by one insertion)
   bool boundary_insertion = true;    // ... also on boundary faces (split in their plane, tag kept), where
                                      // move_surface (move_cut for cut faces) allows boundary changes

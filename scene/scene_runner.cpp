@@ -338,12 +338,15 @@ double SceneRunner::cut_scene_blades(double& improve_ms) {
   const auto current = [this](VertexId v) { return position(v); };
   double ms = 0;
   double bound = -1;  // measured once, in the first step that needs it
-  std::vector<std::vector<TetId>> parts;
+  // A step's detached parts are handled before the next cutter call: that call (a finish()
+  // improving the same region) replaces tets, and the part's list would name dead ones.
   auto take = [&](CutStepReport& r, const Cutter* from) {
     apply_change(r.change, from);
     ms += r.ms;
     improve_ms += r.ms_improve;
+    std::vector<std::vector<TetId>> parts;
     for (Fragment& fr : r.fragments) parts.push_back(std::move(fr.tets));
+    handle_fragments(parts);
   };
   // The improvement of blades withdrawn earlier goes on, one slice a frame.
   if (blade_ && blade_->finishing()) {
@@ -369,7 +372,6 @@ double SceneRunner::cut_scene_blades(double& improve_ms) {
       take(fin, cutters_[i].get());
     }
   }
-  handle_fragments(parts);
   return ms;
 }
 

@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <iostream>
 #include <map>
+#include <unordered_set>
 #include <vector>
 
 #include "cut/cutter.h"
@@ -37,6 +38,25 @@ inline void check_cut_invariants(const TetMesh& m, const std::map<int, double>& 
 
 // Area of the parallelogram swept by segment a-b moving by d, clipped to the box [lo, hi]
 // (Sutherland-Hodgman against the six sides): the area a straight cut must open in a box.
+// Each detached part a step reports is what the mesh holds after the step: live tets forming a
+// whole face-connected part (the step's improvement replaces tets; a stale list once left a
+// part's new tets behind when a scene removed it).
+inline void check_fragments(const TetMesh& m, const CutStepReport& r) {
+  for (const Fragment& f : r.fragments) {
+    std::unordered_set<std::uint32_t> in;
+    for (TetId t : f.tets) {
+      REQUIRE(m.is_alive(t));
+      in.insert(t.idx());
+    }
+    REQUIRE(in.size() == f.tets.size());
+    for (TetId t : f.tets)
+      for (int k = 0; k < 4; ++k) {
+        const TetId n = m.neighbor(t, k);
+        REQUIRE((!n.is_valid() || in.count(n.idx())));
+      }
+  }
+}
+
 inline double swept_area_in_box(const Vec3& a, const Vec3& b, const Vec3& d, const Vec3& lo, const Vec3& hi) {
   std::vector<Vec3> poly = {a, b, b + d, a + d};
   for (int axis = 0; axis < 3; ++axis)

@@ -132,11 +132,13 @@ TEST_CASE("torture: random progressive cuts keep every invariant after every ste
         const CutStepReport r = cutter.advance({mid - 0.5 * len * d2, mid + 0.5 * len * d2});
         moved += r.improve.volume_change;
         check_cut_invariants(m, vol0, 1e-9, moved);
+        check_fragments(m, r);
         through += !r.fragments.empty();
       }
       const CutStepReport fin = cutter.finish();
       moved += fin.improve.volume_change;
       check_cut_invariants(m, vol0, 1e-9, moved);
+      check_fragments(m, fin);
       if (check_area) {
         const double swept = swept_area_in_box(start - 0.5 * len * dir, start + 0.5 * len * dir, travel * sweep, lo, hi);
         const double opened = 0.5 * (tagged_area(m, kTagCut) - area_before);
