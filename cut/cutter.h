@@ -88,15 +88,16 @@ struct CutOptions {
   // 20 operations a step: a step that commits a layer of tets then costs ~1 ms more, and the
   // work its tets need is spread over the next steps (cutter.cpp, improve queue).
   static constexpr int kDefaultImproveWork = 8;
-  // Operations of finish()'s improvement (the front released; once per cut, so more).
-  int finish_improve_work = 2000;
+  // Operations of finish()'s improvement (the front released; once per cut, so more). An
+  // insertion attempt counts 10 (ImproveOptions::insertion_work): 2000 before insertion.
+  int finish_improve_work = 5000;
   // finish()'s improvement also inserts vertices (quality/insertion.h) into tets whose smallest
   // dihedral stays below this many degrees after flips, contraction and smoothing (0: none).
   // Where a cut crosses earlier cuts or meets the surface at a small angle, the wedge between
   // the two sheets has no good tets at the old size: it needs smaller ones. 100 random steps
-  // (bench_cut --only quality): the liver's tets below 10 deg 348 -> 186 (seed 2026), 235 -> 94,
-  // 293 -> 133 (seeds 7, 99) for 11-15% more tets; the 26.8k organ's 538 -> 351 (1.18% ->
-  // 0.72%, smallest 0.087 -> 0.96 deg) for 6% more. Inserting into every tet short of the
+  // (bench_cut --only quality): the liver's tets below 10 deg 348 -> 219 (seed 2026), 235 -> 83,
+  // 293 -> 112 (seeds 7, 99) for 13-14% more tets; the 26.8k organ's 538 -> 346 (1.18% ->
+  // 0.72%, smallest 0.087 -> 0.96 deg) for 5.5% more. Inserting into every tet short of the
   // targets (35 deg) went to 0.5-0.8% but grew the liver by 60-80%.
   double finish_insertion_below_deg = 15;
   // At most this many of them in finish() itself, the rest in later finish_more() calls (one

@@ -315,6 +315,7 @@ private:
     if (!any && opt_.insertion && insertion_allowed && mesh_.is_alive(t) && scope_.growth_left > 0 &&
         (opt_.insertion_below_deg <= 0 ||
          angle_quality(mesh_, t, AngleTargets{}).min_dihedral < opt_.insertion_below_deg)) {
+      work_ += std::max(opt_.insertion_work, 1) - 1;  // the tet's step counted one already
       if (auto ins = improve_by_insertion(mesh_, t, scope_, insert_)) {
         ++rep.insertions;
         rep.boundary_insertions += ins->on_boundary;
