@@ -83,7 +83,7 @@ TEST_CASE("quality floor: cuts ending inside the liver leave no slivers at the b
   }
 }
 
-TEST_CASE("quality floor: a cut finished beside an earlier cut bends through its vertices", "[cut][quality][long]") {
+TEST_CASE("quality floor: a cut finished beside an earlier cut bends through its vertices", "[cut][quality][long][scale]") {
   // bench_cut's 100 random steps on the liver (seed 2026). The 15th cut's blade ends near faces
   // of earlier cuts: vertices of those faces a hair from its plane, beside its sides, kept
   // their side (their star reached past the rim, and a cut vertex cannot be moved onto the
@@ -114,7 +114,7 @@ TEST_CASE("quality floor: a cut finished beside an earlier cut bends through its
   CHECK(after_finish <= before_finish);
 }
 
-TEST_CASE("quality floor: contracting along bent cut sheets and rims leaves fewer bad tets", "[cut][quality][long]") {
+TEST_CASE("quality floor: contracting along bent cut sheets and rims leaves fewer bad tets", "[cut][quality][long][scale]") {
   // bench_cut's 100 random steps on the liver (seed 2026), with the cutter's default
   // contraction along curved and bent surfaces (ImproveOptions::collapse_deviation 0.05) and
   // without it: the short edges finish() leaves on bent cut sheets and along rims go
