@@ -621,7 +621,7 @@ CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const Position
     rep.cut_area = c.area / 2;
     rep.exposed_area = c.area;
     front_ = std::move(c.neighbours);
-    fragment_starts_ = front_;
+    fragment_starts_.insert(fragment_starts_.end(), front_.begin(), front_.end());
   } else {
     CutStep step(*mesh_, positions, opt_.snap);
     step.set_fixed(opt_.frozen);

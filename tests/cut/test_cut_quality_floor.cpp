@@ -53,6 +53,26 @@ std::vector<RandomBlade> random_blades(const TetMesh& m, int count, unsigned see
   return out;
 }
 
+// Each blade: placed, swept in 5 steps, finished. `seen(report, is_finish)` sees every report;
+// returns the label volume the tolerance-mode contractions moved.
+template <class Seen>
+double cut_with(Cutter& cutter, const std::vector<RandomBlade>& blades, Seen&& seen) {
+  double moved = 0;
+  for (const RandomBlade& b : blades) {
+    cutter.start({b.a, b.b});
+    for (int s = 1; s <= 5; ++s) {
+      const Vec3 off = b.sweep * (s / 5.0);
+      const CutStepReport r = cutter.advance({b.a + off, b.b + off});
+      moved += r.improve.volume_change;
+      seen(r, false);
+    }
+    const CutStepReport fin = cutter.finish();
+    moved += fin.improve.volume_change;
+    seen(fin, true);
+  }
+  return moved;
+}
+
 }  // namespace
 
 TEST_CASE("quality floor: cuts ending inside the liver leave no slivers at the blade's sides", "[cut][quality]") {
@@ -131,15 +151,7 @@ TEST_CASE("quality floor: contracting along bent cut sheets and rims leaves fewe
     if (!with) opt.improve_options.collapse_deviation = 0;
     REQUIRE(CutOptions{}.improve_options.collapse_deviation > 0);
     Cutter cutter(m, opt);
-    double moved = 0;
-    for (const RandomBlade& b : blades) {
-      cutter.start({b.a, b.b});
-      for (int s = 1; s <= 5; ++s) {
-        const Vec3 off = b.sweep * (s / 5.0);
-        moved += cutter.advance({b.a + off, b.b + off}).improve.volume_change;
-      }
-      moved += cutter.finish().improve.volume_change;
-    }
+    const double moved = cut_with(cutter, blades, [](const CutStepReport&, bool) {});
     check_cut_invariants(m, vol0, 1e-9, moved);
     below[with] = quality_range(m, 10.0).below;
   }
@@ -166,20 +178,10 @@ TEST_CASE("quality floor: finish() refines the wedges where cuts cross", "[cut][
     REQUIRE(opt.finish_insertion_below_deg == 15);
     if (!with) opt.finish_insertion_below_deg = 0;
     Cutter cutter(m, opt);
-    double moved = 0;
-    for (const RandomBlade& b : blades) {
-      cutter.start({b.a, b.b});
-      for (int s = 1; s <= 5; ++s) {
-        const Vec3 off = b.sweep * (s / 5.0);
-        const CutStepReport r = cutter.advance({b.a + off, b.b + off});
-        moved += r.improve.volume_change;
-        CHECK(r.improve.insertions == 0);  // the steps never insert: only finish() does
-      }
-      const CutStepReport fin = cutter.finish();
-      moved += fin.improve.volume_change;
-      if (with) insertions += fin.improve.insertions;
-      else CHECK(fin.improve.insertions == 0);
-    }
+    const double moved = cut_with(cutter, blades, [&](const CutStepReport& r, bool finish) {
+      if (!finish || !with) CHECK(r.improve.insertions == 0);  // the steps never insert: only finish() does
+      if (finish && with) insertions += r.improve.insertions;
+    });
     check_cut_invariants(m, vol0, 1e-9, moved);
     below[with] = quality_range(m, 10.0).below;
     tets[with] = m.num_tets();
