@@ -24,19 +24,18 @@ double dihedral_at(const std::array<Vec3, 4>& p, int i, int j) {
   return std::atan2(u.cross(w).norm(), u.dot(w)) * 180.0 / 3.14159265358979323846;
 }
 
-}  // namespace
+// Boundary edges with how many boundary faces hold them and the sum of the dihedral angles of
+// the tets around them: only those held by two (manifold) have one interior angle.
+struct Edge {
+  int faces = 0;
+  double angle = 0;
+};
 
-std::optional<BoundaryAngle> smallest_boundary_angle(const TetMesh& mesh) {
-  // Boundary edges with how many boundary faces hold them: only those held by two (manifold)
-  // have one interior angle.
-  struct Edge {
-    int faces = 0;
-    double angle = 0;
-  };
+std::unordered_map<std::uint64_t, Edge> boundary_edge_angles(const TetMesh& mesh) {
   std::unordered_map<std::uint64_t, Edge> edges;
   for (const BoundaryFace& f : mesh.boundary_faces())
     for (int k = 0; k < 3; ++k) ++edges[edge_key(f.vertices[k], f.vertices[(k + 1) % 3])].faces;
-  if (edges.empty()) return std::nullopt;
+  if (edges.empty()) return edges;
   for (TetId t : mesh.tets()) {
     const auto& v = mesh.tet_vertices(t);
     std::array<Vec3, 4> p;
@@ -47,11 +46,36 @@ std::optional<BoundaryAngle> smallest_boundary_angle(const TetMesh& mesh) {
         if (it != edges.end()) it->second.angle += dihedral_at(p, i, j);
       }
   }
+  return edges;
+}
+
+}  // namespace
+
+std::optional<BoundaryAngle> smallest_boundary_angle(const TetMesh& mesh) {
+  const auto edges = boundary_edge_angles(mesh);
   std::optional<BoundaryAngle> out;
   for (const auto& [key, e] : edges)
     if (e.faces == 2 && (!out || e.angle < out->degrees))
       out = BoundaryAngle{e.angle, VertexId(static_cast<std::uint32_t>(key >> 32)),
                           VertexId(static_cast<std::uint32_t>(key & 0xffffffffu))};
+  return out;
+}
+
+SharpBoundary sharp_boundary(const TetMesh& mesh, double degrees) {
+  const auto edges = boundary_edge_angles(mesh);
+  SharpBoundary out;
+  for (const auto& [key, e] : edges) out.edges += e.faces == 2 && e.angle < degrees;
+  if (out.edges == 0) return out;
+  for (TetId t : mesh.tets()) {
+    const auto& v = mesh.tet_vertices(t);
+    bool held = false;
+    for (int i = 0; i < 4 && !held; ++i)
+      for (int j = i + 1; j < 4 && !held; ++j) {
+        const auto it = edges.find(edge_key(v[i], v[j]));
+        held = it != edges.end() && it->second.faces == 2 && it->second.angle < degrees;
+      }
+    if (held) out.tets.push_back(t);
+  }
   return out;
 }
 

@@ -5,6 +5,7 @@
 // most this angle: no improvement that keeps the surface can lift the worst dihedral angle
 // above it (the sample liver's sharpest edge, 34.98 degrees, caps it just under 35).
 #include <optional>
+#include <vector>
 
 #include "mesh/tet_mesh.h"
 
@@ -17,5 +18,13 @@ struct BoundaryAngle {
 
 // nullopt for a mesh without manifold boundary edges. O(mesh).
 std::optional<BoundaryAngle> smallest_boundary_angle(const TetMesh& mesh);
+
+// The tets the boundary forces below an angle: every tet around a boundary edge whose interior
+// angle is under `degrees` has a dihedral angle under it there, in any mesh of that surface.
+struct SharpBoundary {
+  std::size_t edges = 0;      // manifold boundary edges with an interior angle under `degrees`
+  std::vector<TetId> tets;    // the tets around them, each once, in id order
+};
+SharpBoundary sharp_boundary(const TetMesh& mesh, double degrees);
 
 }  // namespace incise

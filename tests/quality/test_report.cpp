@@ -357,3 +357,36 @@ TEST_CASE("sharpest boundary edge: the bound on the smallest dihedral angle", "[
   CHECK_FALSE(smallest_boundary_angle(TetMesh{}));
   CHECK(format_quality_report(compute_quality_report(box)).find("sharpest edge 90.00 deg") != std::string::npos);
 }
+
+TEST_CASE("tets forced below an angle by sharp boundary edges", "[quality][report]") {
+  // The unit box of 2x2x2 cells sheared by x += 2 y: its z-edges at (x, y) = (0, 0) and (3, 1)
+  // have the interior angle atan(1/2) = 26.57 deg, the other two 153.43, the rest 90 or flat.
+  TetMesh sheared = make_box(Vec3(1, 1, 1), {2, 2, 2});
+  for (VertexId v : sheared.vertices()) sheared.set_rest(v, sheared.rest(v) + Vec3(2 * sheared.rest(v).y(), 0, 0));
+  auto on_sharp_line = [&](VertexId v) {
+    const Vec3 p = sheared.rest(v);
+    return (std::abs(p.x()) < 1e-12 && std::abs(p.y()) < 1e-12) || (std::abs(p.x() - 3) < 1e-12 && std::abs(p.y() - 1) < 1e-12);
+  };
+  // Independently: the tets with an edge along one of those two lines (two segments each).
+  std::vector<TetId> expected;
+  for (TetId t : sheared.tets()) {
+    const auto& tv = sheared.tet_vertices(t);
+    bool held = false;
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j)
+        held = held || (on_sharp_line(tv[i]) && on_sharp_line(tv[j]) &&
+                        std::abs(sheared.rest(tv[i]).x() - sheared.rest(tv[j]).x()) < 1e-12);
+    if (held) expected.push_back(t);
+  }
+  REQUIRE_FALSE(expected.empty());
+  const SharpBoundary s = sharp_boundary(sheared, 30);
+  CHECK(s.edges == 4);
+  CHECK(s.tets == expected);
+  // Each of them is below the edge's angle, as the bound says.
+  for (TetId t : s.tets) CHECK(tet_quality(sheared, t).min_dihedral < std::atan2(1.0, 2.0) * 180 / M_PI + 1e-9);
+  // Below the sharpest edge nothing is forced; the box's 90-degree edges are not under 89.9, all 24 segments are under 90.01.
+  CHECK(sharp_boundary(sheared, 26).edges == 0);
+  CHECK(sharp_boundary(sheared, 26).tets.empty());
+  CHECK(sharp_boundary(make_box(Vec3(1, 1, 1), {2, 2, 2}), 89.9).tets.empty());
+  CHECK(sharp_boundary(make_box(Vec3(1, 1, 1), {2, 2, 2}), 90.01).edges == 24);
+}
