@@ -26,7 +26,7 @@ void add_cut(CLI::App& app) {
     std::vector<double> blade, sweep, plane;
     int steps = 1;
     double snap = 0.05, budget_ms = 0, finish_insert = CutOptions{}.finish_insertion_below_deg;
-    int work = CutOptions::kDefaultImproveWork;
+    int work = CutOptions::kDefaultImproveWork, finish_work = CutOptions{}.finish_improve_work;
     bool no_improve = false, quiet = false;
   };
   auto o = std::make_shared<Opts>();
@@ -71,9 +71,14 @@ void add_cut(CLI::App& app) {
                   "degrees (where cuts cross or meet the surface at a small angle; 0: no insertion)")
       ->check(CLI::Range(0.0, 90.0))
       ->capture_default_str();
+  auto* finish_work_opt = cmd->add_option("--finish-work", o->finish_work,
+                  "Operations of the improvement once the blade is withdrawn (an insertion attempt counts 10; "
+                  "0: none). Like --improve-work, a count: the result does not depend on the machine")
+      ->check(CLI::Range(0, 100000000))
+      ->capture_default_str();
   cmd->add_option("--json", o->json, "Write the cut report (JSON) here");
   cmd->add_flag("-q,--quiet", o->quiet, "No per-step progress on stderr");
-  cmd->callback([o, steps_opt, finish_opt] {
+  cmd->callback([o, steps_opt, finish_opt, finish_work_opt] {
     const int kinds = int(!o->blade.empty()) + int(!o->plane.empty()) + int(!o->surface.empty());
     if (kinds != 1) throw InvalidArgument("cut: give exactly one of --blade (with --sweep), --plane, --surface");
     if (!o->blade.empty() && o->sweep.empty()) throw InvalidArgument("cut: --blade needs --sweep DX DY DZ");
@@ -82,6 +87,8 @@ void add_cut(CLI::App& app) {
       throw InvalidArgument("cut: --sweep and --steps go with --blade only");
     if (o->blade.empty() && finish_opt->count() > 0)
       throw InvalidArgument("cut: --finish-insert goes with --blade only (a plane or surface cut has no withdrawn blade)");
+    if (o->blade.empty() && finish_work_opt->count() > 0)
+      throw InvalidArgument("cut: --finish-work goes with --blade only (a plane or surface cut has no withdrawn blade)");
     for (const auto* v : {&o->blade, &o->sweep, &o->plane})
       for (double x : *v)
         if (!std::isfinite(x) || std::abs(x) > 1e15)
@@ -108,6 +115,7 @@ void add_cut(CLI::App& app) {
     opt.improve_budget_ms = o->budget_ms;
     opt.improve_options.max_work = o->work;
     opt.finish_insertion_below_deg = o->finish_insert;
+    opt.finish_improve_work = o->finish_work;
     const QualityRange before = quality_range(mesh);
     const std::size_t tets_before = mesh.num_tets(), verts_before = mesh.num_vertices();
 

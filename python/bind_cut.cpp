@@ -21,7 +21,8 @@ struct PyCutter {
 
 std::unique_ptr<PyCutter> make_cutter(const py::object& mesh_obj, const std::string& mode, double snap, bool improve,
                                       double improve_budget_ms, int improve_work, const py::object& frozen,
-                                      std::size_t fragment_search_limit, double finish_insert) {
+                                      std::size_t fragment_search_limit, double finish_insert, int finish_work,
+                                      int finish_slice) {
   if (!py::isinstance<TetMesh>(mesh_obj))
     throw InvalidArgument("Cutter: mesh: expected an incise.TetMesh, got " +
                           py::str(py::type::of(mesh_obj).attr("__name__")).cast<std::string>());
@@ -41,6 +42,12 @@ std::unique_ptr<PyCutter> make_cutter(const py::object& mesh_obj, const std::str
   o.improve_options.max_work = improve_work;
   check_finite_range("cut", "finish_insert", finish_insert, 0, 90, PythonNames{});  // `incise cut --finish-insert`
   o.finish_insertion_below_deg = finish_insert;
+  // `incise cut --finish-work`: the same range; a slice of 0 is the whole of it in finish().
+  for (const auto& [name, v] : {std::pair<const char*, int>{"finish_work", finish_work}, {"finish_slice", finish_slice}})
+    if (v < 0 || v > 100000000)
+      throw InvalidArgument(std::string("cut: ") + name + ": " + std::to_string(v) + " is out of range [0, 100000000]");
+  o.finish_improve_work = finish_work;
+  o.finish_improve_slice = finish_slice;
   if (!frozen.is_none()) o.frozen = to_vertices(mesh, frozen);
   o.fragment_search_limit = fragment_search_limit;
   return std::unique_ptr<PyCutter>(new PyCutter{mesh_obj, mesh, Cutter(mesh, std::move(o))});
@@ -88,7 +95,8 @@ void bind_cut(py::module_& m) {
            py::arg("snap") = 0.05, py::arg("improve") = true, py::arg("improve_budget_ms") = 0.0,
            py::arg("improve_work") = CutOptions::kDefaultImproveWork,
            py::arg("frozen") = py::none(), py::arg("fragment_search_limit") = std::size_t(20000),
-           py::arg("finish_insert") = CutOptions{}.finish_insertion_below_deg)
+           py::arg("finish_insert") = CutOptions{}.finish_insertion_below_deg,
+           py::arg("finish_work") = CutOptions{}.finish_improve_work, py::arg("finish_slice") = 0)
       .def(
           "start", [](PyCutter& c, const py::object& a, const py::object& b) {
             c.cutter.start({to_vec3(a, "blade a"), to_vec3(b, "blade b")});
@@ -104,7 +112,14 @@ void bind_cut(py::module_& m) {
           py::arg("positions") = py::none(),
           "The blade is withdrawn: cuts the tets the blade was still in (embedding its last front), "
           "improves around the front with its vertices free, and forgets the cut. Returns a step report "
-          "(its 'change' empty when there was nothing to do)")
+          "(its 'change' empty when there was nothing to do). With finish_slice > 0 the improvement runs "
+          "at most that many operations here and the rest in finish_more() calls")
+      .def(
+          "finish_more", [](PyCutter& c) { return report(c.cutter.finish_more()); },
+          "One more slice of the withdrawn blade's improvement (finish_slice operations; call once a frame "
+          "while `finishing`). Take its 'change' like a step's: give it to every simulation's apply")
+      .def_property_readonly("finishing", [](const PyCutter& c) { return c.cutter.finishing(); },
+                             "True while the withdrawn blade's improvement has slices left (finish_more)")
       .def(
           "advance",
           [](PyCutter& c, const py::object& a, const py::object& b, const py::object& positions) {

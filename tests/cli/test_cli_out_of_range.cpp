@@ -53,6 +53,8 @@ TEST_CASE("cut: degenerate blades are errors, a blade that misses is a warning",
       {"--plane 0.5 0 0 1 0 0 --steps 3", "--sweep and --steps go with --blade only"},
       {"--plane 0.5 0 0 1 0 0 --finish-insert 10", "--finish-insert goes with --blade only"},
       {"--blade 0.3 -1 2 0.3 2 2 --sweep 0 0 -3 --finish-insert 91", "--finish-insert"},
+      {"--plane 0.5 0 0 1 0 0 --finish-work 10", "--finish-work goes with --blade only"},
+      {"--blade 0.3 -1 2 0.3 2 2 --sweep 0 0 -3 --finish-work -1", "--finish-work"},
       {"--blade 0.3 -1 2 0.3 2 2 --sweep 0 0 -inf", "--sweep: '-inf': numbers must be finite"},
   };
   for (const Case& c : cases) {

@@ -116,6 +116,40 @@ def test_progressive_cut_is_step_count_independent_and_reproducible():
         incise.Cutter(incise.generate_box((1.0, 1.0, 1.0), (2, 2, 2)), improve_work=-1)
 
 
+def test_finish_in_slices_and_without_improvement():
+    """finish_slice spreads the withdrawn blade's improvement over finish_more() calls (a
+    simulation calls it once a frame); finish_work=0 turns it off."""
+
+    def cut(**kw):
+        mesh = incise.generate_box((4.0, 1.0, 1.0), (16, 4, 4))
+        mesh.take_change()
+        cutter = incise.Cutter(mesh, **kw)
+        a, b = np.array([2.03, -0.5, 1.1]), np.array([2.03, 1.5, 1.1])
+        cutter.start(a, b)
+        for k in range(1, 11):
+            cutter.advance(a + [0, 0, -0.6 * k / 10], b + [0, 0, -0.6 * k / 10])
+        return mesh, cutter, cutter.finish()
+
+    mesh, cutter, r = cut(finish_slice=5)
+    assert r["ms_improve"] > 0 and cutter.finishing
+    calls = 0
+    while cutter.finishing:
+        more = cutter.finish_more()
+        assert not mesh.has_pending_change  # the slice's change is in its report
+        assert more["ms"] >= 0 and "change" in more
+        mesh.validate(check_manifold_boundary=True)
+        calls += 1
+        assert calls <= CUT_FINISH_WORK // 5 + 1
+    assert calls >= 1
+    assert cutter.finish_more()["tets_added"] == 0  # nothing left: an empty report
+    mesh0, cutter0, r0 = cut(finish_work=0)
+    assert r0["ms_improve"] == 0 and not cutter0.finishing
+    mesh0.validate(check_manifold_boundary=True)
+
+
+CUT_FINISH_WORK = 5000  # CutOptions::finish_improve_work, the default of finish_work
+
+
 # Issue 18 section 3: the cutter refuses what `incise cut` refuses, and a blade never placed.
 @pytest.mark.parametrize(
     "kwargs, message",
@@ -124,6 +158,8 @@ def test_progressive_cut_is_step_count_independent_and_reproducible():
         ({"improve_budget_ms": 1e300}, "improve_budget_ms: 1e\\+300 is out of range"),
         ({"improve_budget_ms": float("nan")}, "improve_budget_ms: 'nan': expected a finite number"),
         ({"improve_work": -1}, r"improve_work: -1 is out of range \[0, 100000000\]"),
+        ({"finish_work": -1}, r"finish_work: -1 is out of range \[0, 100000000\]"),
+        ({"finish_slice": -5}, r"finish_slice: -5 is out of range \[0, 100000000\]"),
     ],
 )
 def test_cutter_options_as_the_cli(box, kwargs, message):
