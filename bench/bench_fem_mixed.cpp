@@ -13,7 +13,7 @@
 //     the Richardson extrapolation of the finest three mixed meshes (and the published values),
 //     then CG / MINRES iterations and ms per preconditioner (cold start, tolerance 1e-8).
 //   bench_fem_mixed [--out DIR] [--quick] [--nu 0.3,0.45,0.49,0.4999,0.5] [--only lame|cantilever|minres|frames|product|cook]
-//                   [--cycle additive] [--ring 1]  (the multigrid of the minres section)
+//                   [--cycle multiplicative] [--ring 1]  (the multigrid of the minres section)
 //                   [--cook-meshes 4,8,16,32,64] [--cook-nu 0.3333333333333333,0.49,0.4999,0.5] [--cook-iter-meshes 16,32]
 #include <array>
 #include <cmath>
@@ -313,7 +313,7 @@ int main(int argc, char** argv) {
       if (!section("minres")) break;
       MixedOptions o;
       o.preconditioner = pc;
-      if (args.get("--cycle", "") == "additive") o.amg.cycle = AggregationAmgOptions::Cycle::Additive;
+      if (args.get("--cycle", "") == "multiplicative") o.amg.cycle = AggregationAmgOptions::Cycle::Multiplicative;
       if (args.num("--ring", 2) != 2) o.amg.ring = int(args.num("--ring", 2));
       o.max_iterations = 20000;
       const char* name = pc == MixedPreconditioner::Amg ? "amg" : pc == MixedPreconditioner::Cholesky ? "cholesky" : "block-jacobi";

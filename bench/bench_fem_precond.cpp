@@ -351,8 +351,8 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
     AggregationAmgOptions amg = {};
     bool settle_amg = false;  // the factor's settle policy with amg instead of block-Jacobi
   };
-  AggregationAmgOptions additive, ring1, lazy;
-  additive.cycle = AggregationAmgOptions::Cycle::Additive;
+  AggregationAmgOptions multiplicative, ring1, lazy;
+  multiplicative.cycle = AggregationAmgOptions::Cycle::Multiplicative;
   ring1.ring = 1;
   lazy.topology_rebuild_iterations = 20;
   const Config configs[] = {{"cholesky (stale factor)", Preconditioner::Cholesky, 0},
@@ -360,14 +360,16 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
                             {"block-jacobi", Preconditioner::BlockJacobi, 0},
                             {"jacobi", Preconditioner::Jacobi, 0},
                             {"amg", Preconditioner::Amg, 0},
-                            {"amg additive", Preconditioner::Amg, 0, 0, additive},
+                            {"amg multiplicative", Preconditioner::Amg, 0, 0, multiplicative},
                             {"amg ring 1", Preconditioner::Amg, 0, 0, ring1},
                             {"amg lazy (rebuild >20 it)", Preconditioner::Amg, 0, 0, lazy},
                             {"cholesky settle 3 + amg (default)", Preconditioner::Cholesky, 3, 0, {}, true},
                             {"settle block-jacobi 16 ms", Preconditioner::Cholesky, 3, 16.0},
                             {"default budget 16 ms", Preconditioner::Cholesky, 3, 16.0, {}, true},
                             {"block-jacobi budget 16 ms", Preconditioner::BlockJacobi, 0, 16.0},
-                            {"amg budget 16 ms", Preconditioner::Amg, 0, 16.0}};
+                            {"amg budget 16 ms", Preconditioner::Amg, 0, 16.0},
+                            {"default with multiplicative amg", Preconditioner::Cholesky, 3, 0, multiplicative, true},
+                            {"default budget 16 ms with multiplicative amg", Preconditioner::Cholesky, 3, 16.0, multiplicative, true}};
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "incise-bench-cut-scene";
   // INCISE_BENCH_CUT_CONFIGS="amg,block-jacobi": only the configurations of these names (quick runs).
   const std::string filter = std::getenv("INCISE_BENCH_CUT_CONFIGS") ? std::getenv("INCISE_BENCH_CUT_CONFIGS") : "";
