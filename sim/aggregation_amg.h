@@ -16,10 +16,10 @@
 // Application, z = M^-1 r:
 //  - additive (default): z = S r + P A_c^-1 P^T r, no product; SPD for any SPD A_c. About
 //    twice the iterations of the multiplicative cycle at a third of the cost each, never
-//    slower in the runs measured (docs/solver.md): on the organ cut scene, default policy,
+//    slower on the organ cut scene in the runs measured (docs/solver.md): default policy,
 //    24.4 / 24.6 ms median a frame against 25.8 / 26.1 (p95 33.3 / 33.4 against 38.0 / 35.5)
-//    on a quiet machine; amg alone 27.5-29 against 33-41 in slower runs; MINRES on the mixed
-//    formulation the same time.
+//    on a quiet machine; amg alone 27.5-29 against 33-41 in slower runs. The same within run-to-
+//    run variation under a 16 ms budget at 96.7k tets, and for MINRES on the mixed formulation.
 //  - multiplicative: a symmetric two-level V-cycle, damped block-Jacobi S before and after the
 //    coarse correction: z = w S r; z += P A_c^-1 P^T (r - A z); z += w S (r - A z). Two
 //    products A x per application. SPD when w < 2 / lambda_max(S A) (w is 4/3 over an
