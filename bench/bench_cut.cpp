@@ -194,8 +194,8 @@ std::string where_bad(const TetMesh& m, double deg) {
 // mesh of this surface does better); `bridge`, a short edge (under a fifth of the tet's longest)
 // through the inside joining two boundary vertices: the tissue between two sheets is thinner
 // than that there, and removing the edge lays the new tets flat on the sheets while contracting
-// it would glue them; `short rim edge`, a short boundary edge (its ends on creases or corners
-// that contraction keeps); `other`.
+// it would glue them; `short boundary edge`, a short edge on the boundary (contraction along
+// the boundary keeps ends on creases and corners; others were not revisited); `other`.
 std::string why_below(const TetMesh& m, double deg) {
   std::vector<char> forced(m.tet_capacity(), 0), on_boundary(m.vertex_capacity(), 0);
   for (TetId t : sharp_boundary(m, deg).tets) forced[t.idx()] = 1;
@@ -230,7 +230,7 @@ std::string why_below(const TetMesh& m, double deg) {
       ++other;
   }
   char buf[160];
-  std::snprintf(buf, sizeof buf, "forced %zu / bridge %zu / short rim edge %zu / other %zu", n_forced, bridge, rim_edge, other);
+  std::snprintf(buf, sizeof buf, "forced %zu / bridge %zu / short boundary edge %zu / other %zu", n_forced, bridge, rim_edge, other);
   return buf;
 }
 
