@@ -15,8 +15,9 @@
 //
 // Application, z = M^-1 r:
 //  - additive (default): z = S r + P A_c^-1 P^T r, no product; SPD for any SPD A_c. About
-//    twice the iterations of the multiplicative cycle at a third of the cost each, never
-//    slower on the organ cut scene in the runs measured (docs/solver.md): default policy,
+//    twice the iterations of the multiplicative cycle at a third of the cost each; its median
+//    frame on the organ cut scene was never slower in the runs measured (docs/solver.md; amg
+//    alone had the worse p95 in two quiet runs, 43 / 41 ms against 36 / 38): default policy,
 //    24.4 / 24.6 ms median a frame against 25.8 / 26.1 (p95 33.3 / 33.4 against 38.0 / 35.5)
 //    on a quiet machine; amg alone 27.5-29 against 33-41 in slower runs. The same within run-to-
 //    run variation under a 16 ms budget at 96.7k tets, and for MINRES on the mixed formulation.
