@@ -207,6 +207,7 @@ SceneRunner::SceneRunner(const Scene& scene, const TetMesh* mesh) : scene_(scene
     o.snap = c.snap;
     o.improve = c.improve;
     o.finish_improve_slice = kFinishImproveSlice;
+    o.improve_budget_ms = improve_time_cap();
     cutters_.push_back(std::make_unique<Cutter>(mesh_, o));
     cutters_.back()->start({c.a, c.b});
   }
@@ -398,6 +399,12 @@ CutStepReport SceneRunner::advance_blade(const BladeSegment& blade, const CutOpt
   return r;
 }
 
+// A frame budget is a time: the cut's improvement gets a share of it (0: no budget, the
+// improvement bounded by its operation counts alone, reproducibly).
+double SceneRunner::improve_time_cap() const {
+  return fem_ && scene_.cg.budget_ms > 0 ? kCutImproveShareOfBudget * scene_.cg.budget_ms : 0.0;
+}
+
 CutOptions SceneRunner::cut_options(const SceneInput& in) {
   CutOptions o;
   o.mode = in.mode == "remove" ? CutMode::Remove : CutMode::Subdivide;
@@ -412,6 +419,7 @@ CutStepReport SceneRunner::blade_step(const BladeSegment& blade, const CutOption
   if (!blade_ || !blade_->in_cut()) {
     CutOptions options = given;
     if (options.finish_improve_slice == 0) options.finish_improve_slice = kFinishImproveSlice;
+    if (options.improve_budget_ms == 0) options.improve_budget_ms = improve_time_cap();
     // One cutter for every outside cut: its first-contact grid is built once and kept up to
     // date by the changes it is notified of.
     if (!blade_) blade_ = std::make_unique<Cutter>(mesh_, options);

@@ -54,6 +54,10 @@ public:
   // operations a frame, the rest in the frames after: one frame took 0.3 s for all of it on a
   // 27k-tet organ; 100 a frame keeps the slowest frame's cut near 30 ms at the same quality.
   static constexpr int kFinishImproveSlice = 100;
+  // Under solver.budget_ms the cutters' improvement (each step's and each finish slice) also
+  // stops after this share of the budget: an operation count is a time only on one machine
+  // (a 100-operation slice took 18-25 ms on the organ on a slow day, more than a 16 ms frame).
+  static constexpr double kCutImproveShareOfBudget = 0.25;
 
   // Builds the mesh (a copy of `mesh` when given: other resolutions of the same body, with the
   // scene's boxes selecting on it the same way), selects every box, builds the model. Throws
@@ -138,6 +142,7 @@ private:
   CutStepReport blade_step(const BladeSegment& blade, const CutOptions& options);
   void record(SceneInput in);
   static CutOptions cut_options(const SceneInput& in);
+  double improve_time_cap() const;
   void hold_probe(const std::vector<VertexId>& vertices, const Vec3& displacement);
   void free_probe();
 

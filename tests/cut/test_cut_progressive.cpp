@@ -281,6 +281,8 @@ TEST_CASE("progressive: finish()'s improvement in slices ends as well as in one 
       worst_ms = std::max(worst_ms, r.ms);
       ++calls;
       REQUIRE(calls <= o.finish_improve_work / std::max(slice, 1) + 1);  // the operations are bounded
+      // A slice that changes nothing would leave the next the same work: it ends the improvement.
+      CHECK((!r.change.empty() || !cutter.finishing()));
       check_cut_invariants(m, vol0, 1e-9, moved);  // a valid mesh after every slice
     }
     CHECK(cutter.finish_more().change.empty());  // nothing left: an empty record
