@@ -419,7 +419,6 @@ CutStepReport SceneRunner::blade_step(const BladeSegment& blade, const CutOption
   if (!blade_ || !blade_->in_cut()) {
     CutOptions options = given;
     if (options.finish_improve_slice == 0) options.finish_improve_slice = kFinishImproveSlice;
-    if (options.improve_budget_ms == 0) options.improve_budget_ms = improve_time_cap();
     // One cutter for every outside cut: its first-contact grid is built once and kept up to
     // date by the changes it is notified of.
     if (!blade_) blade_ = std::make_unique<Cutter>(mesh_, options);

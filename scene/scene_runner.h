@@ -54,9 +54,11 @@ public:
   // operations a frame, the rest in the frames after: one frame took 0.3 s for all of it on a
   // 27k-tet organ; 100 a frame keeps the slowest frame's cut near 30 ms at the same quality.
   static constexpr int kFinishImproveSlice = 100;
-  // Under solver.budget_ms the cutters' improvement (each step's and each finish slice) also
-  // stops after this share of the budget: an operation count is a time only on one machine
-  // (a 100-operation slice took 18-25 ms on the organ on a slow day, more than a 16 ms frame).
+  // Under solver.budget_ms the scene's own blades' improvement (each step's and each finish
+  // slice) also stops after this share of the budget: an operation count is a time only on one
+  // machine (a 100-operation slice took 18-25 ms on the organ on a slow day, more than a 16 ms
+  // frame). An outside blade (blade_step, the viewer's) keeps operation counts alone: a take
+  // must replay to the same mesh.
   static constexpr double kCutImproveShareOfBudget = 0.25;
 
   // Builds the mesh (a copy of `mesh` when given: other resolutions of the same body, with the
