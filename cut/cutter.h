@@ -179,7 +179,8 @@ public:
   bool finishing() const { return finish_left_ > 0; }
   // The next slice of that improvement (finish_improve_slice operations at most) around the
   // withdrawn blade's front, its edits in one record; empty when nothing is left. It ends
-  // when the operations are spent or the pass has converged; start() drops what is left.
+  // when the operations are spent, the pass has converged or a slice changed nothing (the
+  // next would repeat it); start() drops what is left.
   CutStepReport finish_more();
   // Edits of the mesh made elsewhere, taken by the first-contact grid in O(change).
   void notify(const TopologyChange& change);
