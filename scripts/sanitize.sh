@@ -25,8 +25,14 @@ CXX=${SANITIZE_CXX:-clang++} cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_T
 cmake --build "$BUILD_DIR" -j "${JOBS:-$(nproc)}"
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
-# The cut torture test runs 10,000 steps in Release; fewer instrumented.
-export INCISE_TORTURE_STEPS=${INCISE_TORTURE_STEPS:-500}
-# The graded stuffing test meshes 300 random shapes in Release; 40 instrumented (300 took 467 s).
-export INCISE_STUFFING_INPUTS=${INCISE_STUFFING_INPUTS:-40}
-ctest --test-dir "$BUILD_DIR" --output-on-failure -j "${JOBS:-$(nproc)}" --timeout 1200
+# The cut torture test runs 10,000 steps in Release; 300 instrumented (500 took 126 s).
+export INCISE_TORTURE_STEPS=${INCISE_TORTURE_STEPS:-300}
+# The graded stuffing test meshes 300 random shapes in Release; 24 instrumented (300 took 467 s).
+export INCISE_STUFFING_INPUTS=${INCISE_STUFFING_INPUTS:-24}
+# CI ran 51 min on a slow day against a 45-min target; these trims take ~4 min of CPU off.
+# The edge-smoothed copies of the two preconditioner-through-CG tests (150 s instrumented)
+# run the same CG and preconditioner code as their nodal-averaged copies, which stay; the
+# edge-smoothed kernel itself stays instrumented through its other tests. Release runs all.
+ctest --test-dir "$BUILD_DIR" --output-on-failure -j "${JOBS:-$(nproc)}" --timeout 1200 \
+  -E '^sim:edge-smoothed: (CG with every preconditioner|through cuts, CG with the stale factor)'
+
