@@ -351,9 +351,11 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
     AggregationAmgOptions amg = {};
     bool settle_amg = false;  // the factor's settle policy with amg instead of block-Jacobi
   };
-  AggregationAmgOptions multiplicative, ring1, lazy;
+  AggregationAmgOptions multiplicative, ring1, ring1_multiplicative, lazy;
   multiplicative.cycle = AggregationAmgOptions::Cycle::Multiplicative;
   ring1.ring = 1;
+  ring1_multiplicative = ring1;
+  ring1_multiplicative.cycle = AggregationAmgOptions::Cycle::Multiplicative;
   lazy.topology_rebuild_iterations = 20;
   const Config configs[] = {{"cholesky (stale factor)", Preconditioner::Cholesky, 0},
                             {"cholesky settle 3 block-jacobi", Preconditioner::Cholesky, 3},
@@ -369,6 +371,8 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
                             {"block-jacobi budget 16 ms", Preconditioner::BlockJacobi, 0, 16.0},
                             {"amg budget 16 ms", Preconditioner::Amg, 0, 16.0},
                             {"default with multiplicative amg", Preconditioner::Cholesky, 3, 0, multiplicative, true},
+                            {"default with amg ring 1", Preconditioner::Cholesky, 3, 0, ring1, true},
+                            {"default with multiplicative amg ring 1", Preconditioner::Cholesky, 3, 0, ring1_multiplicative, true},
                             {"default budget 16 ms with multiplicative amg", Preconditioner::Cholesky, 3, 16.0, multiplicative, true}};
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "incise-bench-cut-scene";
   // INCISE_BENCH_CUT_CONFIGS="amg,block-jacobi": only the configurations of these names (quick runs).

@@ -1,6 +1,6 @@
 #include "sim/aggregation_amg.h"
 
-#include "sim/blas_threads.h"
+#include "sim/block_cholesky.h"
 
 #include <algorithm>
 #include <chrono>
@@ -8,12 +8,6 @@
 #include <random>
 
 #include <Eigen/Eigenvalues>
-#include <Eigen/SparseCore>
-#ifdef INCISE_HAVE_CHOLMOD
-#include <Eigen/CholmodSupport>
-#else
-#include <Eigen/SparseCholesky>
-#endif
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
@@ -24,6 +18,7 @@ namespace {
 
 using Mat6 = Eigen::Matrix<double, 6, 6>;
 using Vec6 = Eigen::Matrix<double, 6, 1>;
+constexpr Eigen::Index kParallelFrom = 6000;  // unknowns: below, one thread applies the coarse correction
 
 double now_ms() {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -52,32 +47,10 @@ Eigen::Vector3d shape_gradient(const Eigen::Matrix3d& bm, int j) {
 
 }  // namespace
 
-// The coarse factor, with CHOLMOD when built with it: simplicial LL^T up to kSupernodalFrom
-// unknowns, supernodal (dense kernels, one BLAS thread) above. On the organ's ring-2 coarse
-// matrix (700-800 unknowns, ~40k nonzeros in L, refactored at every patch through a cut)
-// simplicial factored in 1.6-1.9 ms against 2.9-3.3 supernodal and solved in 0.025 ms against
-// 0.036; on the ring-1 one (1,614 unknowns, 151k in L) supernodal factored in 17 ms against 27
-// for Eigen's SimplicialLDLT and solved in 0.22 ms against 0.46. AMD ordering only, as METIS,
-// CHOLMOD's second try, saved nothing there.
+// The coarse factor: sim/block_cholesky.h (CHOLMOD's simplicial LL^T before, 3-5x slower on
+// the organ's coarse matrix: bench_fem_precond --only amg-build).
 struct AggregationAmg::Coarse {
-#ifdef INCISE_HAVE_CHOLMOD
-  static constexpr Eigen::Index kSupernodalFrom = 1200;
-  Coarse() {
-    single_threaded_blas();
-    ldlt.cholmod().print = 0;  // a failure (not positive definite) is reported by ok, not on stdout
-    ldlt.cholmod().nmethods = 1;
-    ldlt.cholmod().method[0].ordering = CHOLMOD_AMD;
-  }
-  void compute(const Eigen::SparseMatrix<double>& a) {
-    ldlt.setMode(a.rows() < kSupernodalFrom ? Eigen::CholmodSimplicialLLt : Eigen::CholmodSupernodalLLt);
-    ldlt.compute(a);
-  }
-  Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Lower> ldlt;
-#else
-  void compute(const Eigen::SparseMatrix<double>& a) { ldlt.compute(a); }
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> ldlt;
-#endif
-  Eigen::Index rows = 0;
+  BlockCholesky6 factor;
   bool ok = false;
 };
 
@@ -465,51 +438,26 @@ void AggregationAmg::coarse_rows(const std::vector<std::uint32_t>& which) {
 }
 
 // The coarse matrix from the rows (lower triangle; aggregates left empty by a patch have no
-// unknowns), factored by sparse LDL^T.
+// unknowns), factored by block sparse LL^T.
 void AggregationAmg::factor() {
   const double tf = now_ms();
   const std::size_t na = agg_.count();
-  offset_.assign(na + 1, 0);
-  for (std::size_t ai = 0; ai < na; ++ai) offset_[ai + 1] = offset_[ai] + modes_[ai];
-  stats_.coarse_unknowns = std::size_t(offset_[na]);
-  stats_.aggregates = 0;
-  for (std::size_t ai = 0; ai < na; ++ai) stats_.aggregates += modes_[ai] > 0;
-  std::vector<Eigen::Triplet<double>> lower;
-  for (std::size_t ai = 0; ai < na; ++ai)
-    for (const auto& [b, m] : rows_[ai]) {
-      if (std::size_t(b) > ai) continue;
-      const int ka = modes_[ai], kb = modes_[std::size_t(b)];
-      for (int p = 0; p < ka; ++p)
-        for (int q = 0; q < kb; ++q) {
-          const Eigen::Index row = offset_[ai] + p, col = offset_[std::size_t(b)] + q;
-          if (row >= col) lower.emplace_back(row, col, m(p, q));
-        }
-    }
-  const Eigen::Index n = offset_[na];
-  Eigen::SparseMatrix<double> ac(n, n);
-  ac.setFromTriplets(lower.begin(), lower.end());
-  stats_.coarse_nonzeros = std::size_t(ac.nonZeros());
+  stats_.coarse_unknowns = stats_.aggregates = stats_.coarse_nonzeros = 0;
+  for (std::size_t ai = 0; ai < na; ++ai) {
+    const int ka = modes_[ai];
+    if (ka == 0) continue;
+    ++stats_.aggregates;
+    stats_.coarse_unknowns += std::size_t(ka);
+    for (const auto& [b, m] : rows_[ai])
+      if (std::size_t(b) < ai) stats_.coarse_nonzeros += std::size_t(ka * modes_[std::size_t(b)]);
+      else if (std::size_t(b) == ai) stats_.coarse_nonzeros += std::size_t(ka * (ka + 1) / 2);
+  }
   if (!coarse_) coarse_ = std::make_unique<Coarse>();
-  coarse_->rows = n;
   // No coarse unknowns (no vertex is wholly free, e.g. rollers on every vertex of a plane-strain
-  // slab): the cycle is the smoother alone. CHOLMOD must not see an empty matrix (it crashed).
-  coarse_->ok = false;
-  if (n > 0) {
-    coarse_->compute(ac);
-    coarse_->ok = coarse_->ldlt.info() == Eigen::Success;
-  }
-#ifdef INCISE_HAVE_CHOLMOD
-  if (coarse_->ok) stats_.factor_nonzeros = std::size_t(coarse_->ldlt.cholmod().lnz);
-#else
-  if (coarse_->ok) {
-    // SimplicialLDLT does not fail on an indefinite or singular matrix: check the pivots (a
-    // part the cut set free makes A_c singular; without a coarse level M^-1 stays SPD).
-    const auto d = coarse_->ldlt.vectorD();
-    const double dmax = d.cwiseAbs().maxCoeff();
-    for (Eigen::Index i = 0; i < d.size() && coarse_->ok; ++i) coarse_->ok = d[i] > 1e-12 * dmax;
-  }
-  if (coarse_->ok) stats_.factor_nonzeros = std::size_t(coarse_->ldlt.matrixL().nestedExpression().nonZeros());
-#endif
+  // slab): the cycle is the smoother alone. A part the cut set free makes A_c singular: the
+  // factor refuses it (pivot check), and without a coarse level M^-1 stays SPD.
+  coarse_->ok = stats_.coarse_unknowns > 0 && coarse_->factor.compute(rows_, modes_);
+  stats_.factor_nonzeros = coarse_->ok ? coarse_->factor.nonzeros() : 0;
   stats_.factor_ok = coarse_->ok;
   stats_.factor_ms = now_ms() - tf;
 }
@@ -546,27 +494,35 @@ void AggregationAmg::apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
   // z += P A_c^-1 P^T x
   auto coarse_correct = [&](const Eigen::VectorXd& x, Eigen::VectorXd& out) {
     if (!coarse) return;
-    // Fixed-size 6-vectors per aggregate (P's columns beyond k are zero), then the k first
-    // into the coarse vector: no dynamic-size segment per vertex.
-    rc_.resize(coarse_->rows);
+    // Fixed-size 6-vectors per aggregate (P's columns beyond k are zero, and the factor
+    // returns zero there).
+    // Aggregates own disjoint vertices: both passes split over them on large meshes (the
+    // application was serial beside a two-thread K x; ~0.18 ms of ~0.75 a CG iteration on
+    // the organ).
     const std::size_t na = agg_.count();
-    for (std::size_t ai = 0; ai < na; ++ai) {
-      const int k = modes_[ai];
-      if (k == 0) continue;
-      Vec6 acc = Vec6::Zero();
+    rc_.resize(na);
+    auto over_aggregates = [&](auto&& f) {
+      if (x.size() < kParallelFrom) {
+        for (std::size_t ai = 0; ai < na; ++ai) f(ai);
+        return;
+      }
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, na, 8), [&](const tbb::blocked_range<std::size_t>& rg) {
+        for (std::size_t ai = rg.begin(); ai != rg.end(); ++ai) f(ai);
+      });
+    };
+    over_aggregates([&](std::size_t ai) {
+      Vec6& acc = rc_[ai];
+      acc.setZero();
+      if (modes_[ai] == 0) return;
       for (std::uint32_t v : agg_.members[ai])
         if (covered(v)) acc.noalias() += p_[v].transpose() * x.segment<3>(3 * Eigen::Index(v));
-      rc_.segment(offset_[ai], k) = acc.head(k);
-    }
-    ec_ = coarse_->ldlt.solve(rc_);
-    for (std::size_t ai = 0; ai < na; ++ai) {
-      const int k = modes_[ai];
-      if (k == 0) continue;
-      Vec6 e = Vec6::Zero();
-      e.head(k) = ec_.segment(offset_[ai], k);
+    });
+    coarse_->factor.solve_in_place(rc_);
+    over_aggregates([&](std::size_t ai) {
+      if (modes_[ai] == 0) return;
       for (std::uint32_t v : agg_.members[ai])
-        if (covered(v)) out.segment<3>(3 * Eigen::Index(v)).noalias() += p_[v] * e;
-    }
+        if (covered(v)) out.segment<3>(3 * Eigen::Index(v)).noalias() += p_[v] * rc_[ai];
+    });
   };
   if (opt_.cycle == AggregationAmgOptions::Cycle::Additive) {
     smoother_.apply(r, z);

@@ -10,8 +10,8 @@
 // vertex, collinear vertices) are dropped. That is the tentative (unsmoothed) prolongator P,
 // one 3x6 block per vertex. The coarse operator A_c = P^T A P is assembled element by element
 // from the model's per-tet data (its current rotations, as K x uses them) straight into 6x6
-// blocks per pair of aggregates, and factored directly (CHOLMOD's LL^T, Eigen's
-// SimplicialLDLT without CHOLMOD; ~6 unknowns per aggregate). Kept (fixed, prescribed) unknowns have zero rows in P, like block-Jacobi's.
+// blocks per pair of aggregates, and factored directly (sim/block_cholesky.h: sparse LL^T on
+// the aggregate graph; ~6 unknowns per aggregate). Kept (fixed, prescribed) unknowns have zero rows in P, like block-Jacobi's.
 //
 // Application, z = M^-1 r:
 //  - additive (default): z = S r + P A_c^-1 P^T r, no product; SPD for any SPD A_c. About
@@ -140,7 +140,6 @@ private:
   std::vector<double> scale_;
   std::vector<Eigen::Matrix<double, 6, 6>> t_;
   std::vector<int> modes_;
-  std::vector<Eigen::Index> offset_;
   // Per vertex slot: its position scaled in its aggregate ((x - c) / h), and its 3x6 block of P
   // (columns beyond its aggregate's k are zero).
   std::vector<Eigen::Vector3d> pos_;
@@ -150,7 +149,8 @@ private:
   std::vector<std::uint32_t> pending_;  // vertices named by changes since the last build/patch
   std::unique_ptr<Coarse> coarse_;
 
-  mutable Eigen::VectorXd t1_, t2_, rc_, ec_;
+  mutable Eigen::VectorXd t1_, t2_;
+  mutable std::vector<Eigen::Matrix<double, 6, 1>> rc_;  // the coarse vector, per aggregate
 };
 
 }  // namespace incise

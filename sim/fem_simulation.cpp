@@ -177,7 +177,7 @@ void FemSimulation::apply(const TopologyChange& change) {
   if (mixed_) mixed_->apply(change);
   if (cholesky_) cholesky_->apply(change);
   if (amg_) amg_->apply(change);
-  if (!change.empty()) assembled_dirty_ = direct_dirty_ = system_dirty_ = true;
+  if (!change.empty()) assembled_dirty_ = direct_dirty_ = system_dirty_ = changed_since_frame_ = true;
 }
 
 namespace {
@@ -415,6 +415,7 @@ const FrameStats& FemSimulation::step(double spent_ms) {
   if (mixed_) {
     step_mixed(t0);
     stats_.frame_ms = ms_since(t0);
+    changed_since_frame_ = false;
     return stats_;
   }
   // The asynchronous factor: adopt a finished one, start a fresh one if due, before anything
@@ -489,7 +490,12 @@ const FrameStats& FemSimulation::step(double spent_ms) {
       refresh_operator();
       static_rhs_and_guess();
       std::span<const Eigen::VectorXd> prediction;
-      if (opt_.warm_start && opt_.predict && it == 0 && opt_.method == SolverMethod::Cg && !resumable()) {
+      // Not in a frame right after a topology change: the history at the new vertices is
+      // interpolated from their parents and knows nothing of the opening, and extrapolating
+      // it cost CG iterations (organ cut scene: 24 / 43 median / max a frame against 21 / 40
+      // from the last solution, four products more; docs/solver.md).
+      if (opt_.warm_start && opt_.predict && it == 0 && opt_.method == SolverMethod::Cg && !resumable() &&
+          !changed_since_frame_) {
         // directions() fills (and may reallocate) d_: take its data after the call, not in the
         // same argument list (the order arguments are evaluated in is unspecified; clang took
         // data() first and handed CG a null or stale pointer).
@@ -523,6 +529,7 @@ const FrameStats& FemSimulation::step(double spent_ms) {
     }
   }
   stats_.frame_ms = ms_since(t0);
+  changed_since_frame_ = false;
   return stats_;
 }
 

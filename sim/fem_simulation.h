@@ -185,6 +185,7 @@ private:
   const LinearOperator* system_k_ = nullptr;
   double system_a_ = -1, system_c_ = -1;
   bool system_dirty_ = true;
+  bool changed_since_frame_ = false;  // a topology change since the last step(): no prediction
   WarmStartPredictor predictor_;
   std::unique_ptr<AsyncCholesky> cholesky_;  // Preconditioner::Cholesky: built on first use
   std::unique_ptr<AggregationAmg> amg_;      // Preconditioner::Amg: built on first use
