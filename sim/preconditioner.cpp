@@ -1,6 +1,9 @@
 #include "sim/preconditioner.h"
 
-#include <Eigen/Cholesky>
+#include <cmath>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "mesh/errors.h"
 
@@ -61,26 +64,46 @@ private:
 
 }  // namespace
 
+namespace {
+
+// The inverse of a symmetric 3x3 block (its lower triangle) by the adjugate, when Sylvester's
+// criterion says it is positive definite. About 40 flops: an LLT and a solve against the
+// identity per block took 0.6-1.0 ms a frame on the organ's 5,800 vertices, a frame that sets
+// the blocks up again each time the rotations change.
+bool spd_inverse(const Eigen::Matrix3d& m, Eigen::Matrix3d& inv) {
+  const double a = m(0, 0), b = m(1, 0), c = m(2, 0), d = m(1, 1), e = m(2, 1), f = m(2, 2);
+  const double ca = d * f - e * e, cb = c * e - b * f, cc = b * e - c * d;
+  const double det = a * ca + b * cb + c * cc;
+  if (!(a > 0 && a * d - b * b > 0 && det > 0) || !std::isfinite(det)) return false;
+  const double s = 1.0 / det;
+  inv << ca, cb, cc, cb, a * f - c * c, b * c - a * e, cc, b * c - a * e, a * d - b * b;
+  inv *= s;
+  return true;
+}
+
+}  // namespace
+
 void BlockJacobi::setup(const LinearOperator& a, const std::vector<std::uint8_t>* free) {
   const Eigen::VectorXd& d = a.diagonal();
   const auto& blocks = a.diagonal_blocks();
   const std::size_t nv = std::size_t(a.rows() / 3);
   inv_.resize(nv);
-  for (std::size_t v = 0; v < nv; ++v) {
+  auto vertex = [&](std::size_t v) {
     const Eigen::Index i = Eigen::Index(3 * v);
     Eigen::Matrix3d& m = inv_[v];
     const bool all_free = is_free(free, i) && is_free(free, i + 1) && is_free(free, i + 2);
-    if (all_free && v < blocks.size()) {
-      Eigen::LLT<Eigen::Matrix3d> llt(blocks[v]);
-      if (llt.info() == Eigen::Success && blocks[v].trace() > 0) {
-        m = llt.solve(Eigen::Matrix3d::Identity());
-        continue;
-      }
-    }
+    if (all_free && v < blocks.size() && spd_inverse(blocks[v], m)) return;
     m.setZero();
     for (int c = 0; c < 3; ++c)
       if (is_free(free, i + c)) m(c, c) = d[i + c] > 0 ? 1.0 / d[i + c] : 1.0;
+  };
+  if (nv < 4096) {
+    for (std::size_t v = 0; v < nv; ++v) vertex(v);
+    return;
   }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 1024), [&](const tbb::blocked_range<std::size_t>& rg) {
+    for (std::size_t v = rg.begin(); v != rg.end(); ++v) vertex(v);
+  });
 }
 
 void BlockJacobi::apply_vertex(std::size_t v, const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
