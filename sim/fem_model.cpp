@@ -98,17 +98,6 @@ FemModel::FemModel(const TetMesh& mesh, const MaterialTable& materials, FemKind 
   std::sort(order.begin(), order.end());
   kernel_.configure(*mesh_);
   for (const auto& [v, t] : order) kernel_.add(*mesh_, t, verts_[t], bm_[t], vol_[t] * mu_[t], vol_[t] * lambda_[t]);
-  // Each vertex's room for its corner terms, in order, so that compute_vertex never moves one
-  // (it runs in parallel here).
-  std::size_t at = corner_.size();
-  for (std::size_t v = 0; v < mesh_->vertex_capacity(); ++v)
-    if (mesh_->is_alive(VertexId(std::uint32_t(v)))) {
-      const std::size_t n = mesh_->incident_tets(VertexId(std::uint32_t(v))).size();
-      corner_begin_[v] = std::uint32_t(at);
-      corner_room_[v] = std::uint32_t(n + 4);
-      at += n + 4;
-    }
-  corner_.resize(at, Corner::Zero());
   parallel_range(vertex_capacity_, [&](std::size_t v) { compute_vertex(std::uint32_t(v)); });
 }
 
@@ -127,8 +116,7 @@ void FemModel::grow() {
     kappa_.reserve(room);
     rho_.reserve(room);
     quat_.reserve(room);
-    corner_at_.reserve(4 * room);
-    corner_.reserve(4 * room + 4 * mesh_->vertex_capacity());
+    corner_.reserve(4 * room);
     force_.reserve(room);
   }
   if (nt > tet_capacity_) {
@@ -141,7 +129,7 @@ void FemModel::grow() {
     kappa_.resize(nt, 0);
     rho_.resize(nt, 0);
     quat_.resize(nt, Eigen::Quaterniond::Identity());
-    corner_at_.resize(4 * nt, 0);
+    corner_.resize(4 * nt, Corner::Zero());
     force_.resize(nt);
     if (nodal_averaged()) {
       div_.resize(nt, 0.0);
@@ -169,8 +157,6 @@ void FemModel::grow() {
     corner_slots_.resize(cap);
     blocks_.resize(cap, Eigen::Matrix3d::Zero());
     iso_.resize(cap, 0.0);
-    corner_begin_.resize(cap, 0);
-    corner_room_.resize(cap, 0);
     if (nodal_averaged()) {
       nvol_.resize(cap, 0.0);
       nkv_.resize(cap, 0.0);
@@ -228,14 +214,8 @@ void FemModel::compute_vertex(std::uint32_t vi) {
   }
   iso_[vi] = iso;
   mass_.segment<3>(3 * vi).setConstant(m);
-  if (slots.size() > corner_room_[vi]) {  // moves to the end: only serial callers get here
-    corner_begin_[vi] = std::uint32_t(corner_.size());
-    corner_room_[vi] = std::uint32_t(slots.size() + 4);
-    corner_.resize(corner_.size() + corner_room_[vi], Corner::Zero());
-  }
   for (std::size_t i = 0; i < slots.size(); ++i) {
-    const std::uint32_t ti = slots[i] / 4, j = slots[i] % 4, at = corner_begin_[vi] + std::uint32_t(i);
-    corner_at_[slots[i]] = at;
+    const std::uint32_t ti = slots[i] / 4, j = slots[i] % 4, at = slots[i];
     // The corner's terms (as corner_terms() computes them for a packet).
     const Eigen::Matrix3d r = quat_[ti].toRotationMatrix();
     const Eigen::Vector3d g = shape_gradient(bm_[ti], int(j));
@@ -251,10 +231,10 @@ void FemModel::compute_vertex(std::uint32_t vi) {
 void FemModel::vertex_block(std::uint32_t vi) {
   Eigen::Matrix3d blk = iso_[vi] * Eigen::Matrix3d::Identity();
   Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
-  const Corner* c = corner_.data() + corner_begin_[vi];
-  for (std::size_t i = 0, n = corner_slots_[vi].size(); i < n; ++i) {
-    blk.noalias() += c[i].col(0) * c[i].col(0).transpose();
-    rhs += c[i].col(1);
+  for (std::uint32_t slot : corner_slots_[vi]) {
+    const Corner& c = corner_[slot];
+    blk.noalias() += c.col(0) * c.col(0).transpose();
+    rhs += c.col(1);
   }
   rhs_.segment<3>(3 * vi) = rhs;
   if (nodal_averaged()) volumetric_block(vi, blk);
@@ -900,7 +880,7 @@ void FemModel::update_rotation_packets(const Eigen::VectorXd& u, bool exact, std
         const Eigen::Quaterniond q(l.q[0][k], l.q[1][k], l.q[2][k], l.q[3][k]);
         quat_[ti] = q;
         for (int j = 0; j < 4; ++j)
-          corner_[corner_at_[4 * std::size_t(ti) + j]] << t.c[3 * j][k], t.f[3 * j][k], t.c[3 * j + 1][k],
+          corner_[4 * std::size_t(ti) + std::size_t(j)] << t.c[3 * j][k], t.f[3 * j][k], t.c[3 * j + 1][k],
               t.f[3 * j + 1][k], t.c[3 * j + 2][k], t.f[3 * j + 2][k];
         kernel_.set_rotation(ti, q);  // no two threads write the same slot
       }

@@ -263,14 +263,11 @@ private:
   std::vector<Eigen::Quaterniond> quat_;
   // Per tet corner, what depends on R: column 0 c = sqrt(V (mu + lambda)) R grad N_j, so block
   // (j, j) of the element matrix is V mu |grad N_j|^2 I + c c^T (the first term is constant:
-  // iso_); column 1 the corner's force in b_R. Stored vertex by vertex, so the per-vertex sums
-  // read them in order (a gather by tet missed the cache on nearly every corner): vertex v's
-  // corners from corner_begin_[v] (room for corner_room_[v]); the per-tet pass writes corner
-  // slot 4t+j at corner_at_[4t+j]. A vertex whose corners outgrow their room moves to the end
-  // (apply() stays local; the hole is left).
+  // iso_); column 1 the corner's force in b_R. By corner slot 4t+j: the per-tet pass writes
+  // them in order, and the per-vertex sums gather them through corner_slots_ (on a mesh
+  // numbered along a space-filling curve a vertex's tets are near each other in memory).
   using Corner = Eigen::Matrix<double, 3, 2>;
   std::vector<Corner> corner_;
-  std::vector<std::uint32_t> corner_at_;  // by corner slot 4t+j
   bool warm_rotations_ = true;
   RotationRefinement refinement_;
   RotationStats rotation_stats_;
@@ -287,7 +284,6 @@ private:
   Eigen::VectorXd diag_, mass_;
   std::vector<Eigen::Matrix3d> blocks_;  // per vertex
   std::vector<double> iso_;              // per vertex: sum of V mu |grad N|^2 over its corners
-  std::vector<std::uint32_t> corner_begin_, corner_room_;  // per vertex, in corner_
   Eigen::VectorXd rhs_;  // b_R, summed per vertex with the diagonal blocks (deviatoric part)
   // NodalAveraged, per vertex: V_a and kappa_a V_a; scratch of the volumetric passes.
   std::vector<double> nvol_, nkv_;
