@@ -1,5 +1,6 @@
 #include "sim/aggregation_amg.h"
 
+#include "sim/blas_threads.h"
 #include "sim/block_cholesky.h"
 
 #include <algorithm>
@@ -8,6 +9,12 @@
 #include <random>
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/SparseCore>
+#ifdef INCISE_HAVE_CHOLMOD
+#include <Eigen/CholmodSupport>
+#else
+#include <Eigen/SparseCholesky>
+#endif
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
@@ -47,10 +54,37 @@ Eigen::Vector3d shape_gradient(const Eigen::Matrix3d& bm, int j) {
 
 }  // namespace
 
-// The coarse factor: sim/block_cholesky.h (CHOLMOD's simplicial LL^T before, 3-5x slower on
-// the organ's coarse matrix: bench_fem_precond --only amg-build).
+// The coarse factor. Up to AggregationAmgOptions::block_factor_aggregates aggregates of
+// (mostly) six modes: the block Cholesky of sim/block_cholesky.h, 3-5x faster than CHOLMOD's
+// simplicial LL^T on the 27k-tet organ's coarse matrix (137 aggregates: 1.0 ms against
+// 3.6-5.5) and 1.4x at 96.7k tets (465: 16.8 against 24.2). Larger ones, or translations only
+// (three modes padded to six), go to a general sparse factor: CHOLMOD (simplicial LL^T up to
+// kSupernodalFrom unknowns, supernodal with one BLAS thread above; AMD ordering) or Eigen's
+// SimplicialLDLT without it. At 360k tets CHOLMOD's supernodal factored ring 2's 1,488
+// aggregates in 156 ms against 197, ring 1's 3,541 in 669 against 2,555
+// (bench_fem_precond --only amg-build).
 struct AggregationAmg::Coarse {
+  bool block = true;  // which factor holds the matrix
   BlockCholesky6 factor;
+#ifdef INCISE_HAVE_CHOLMOD
+  static constexpr Eigen::Index kSupernodalFrom = 1200;
+  Coarse() {
+    single_threaded_blas();
+    ldlt.cholmod().print = 0;  // a failure (not positive definite) is reported by ok, not on stdout
+    ldlt.cholmod().nmethods = 1;
+    ldlt.cholmod().method[0].ordering = CHOLMOD_AMD;
+  }
+  void compute(const Eigen::SparseMatrix<double>& a) {
+    ldlt.setMode(a.rows() < kSupernodalFrom ? Eigen::CholmodSimplicialLLt : Eigen::CholmodSupernodalLLt);
+    ldlt.compute(a);
+  }
+  Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Lower> ldlt;
+#else
+  void compute(const Eigen::SparseMatrix<double>& a) { ldlt.compute(a); }
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> ldlt;
+#endif
+  std::vector<Eigen::Index> offset;  // general factor: each aggregate's first coarse unknown
+  Eigen::VectorXd rc, ec;            // general factor: the packed coarse vectors
   bool ok = false;
 };
 
@@ -453,12 +487,51 @@ void AggregationAmg::factor() {
       else if (std::size_t(b) == ai) stats_.coarse_nonzeros += std::size_t(ka * (ka + 1) / 2);
   }
   if (!coarse_) coarse_ = std::make_unique<Coarse>();
+  Coarse& co = *coarse_;
   // No coarse unknowns (no vertex is wholly free, e.g. rollers on every vertex of a plane-strain
   // slab): the cycle is the smoother alone. A part the cut set free makes A_c singular: the
   // factor refuses it (pivot check), and without a coarse level M^-1 stays SPD.
-  coarse_->ok = stats_.coarse_unknowns > 0 && coarse_->factor.compute(rows_, modes_);
-  stats_.factor_nonzeros = coarse_->ok ? coarse_->factor.nonzeros() : 0;
-  stats_.factor_ok = coarse_->ok;
+  co.ok = false;
+  stats_.factor_nonzeros = 0;
+  co.block = stats_.aggregates <= std::size_t(std::max(0, opt_.block_factor_aggregates)) &&
+             double(stats_.coarse_unknowns) >= 4.5 * double(stats_.aggregates);
+  if (stats_.coarse_unknowns == 0) {
+  } else if (co.block) {
+    co.ok = co.factor.compute(rows_, modes_);
+    if (co.ok) stats_.factor_nonzeros = co.factor.nonzeros();
+  } else {
+    co.offset.assign(na + 1, 0);
+    for (std::size_t ai = 0; ai < na; ++ai) co.offset[ai + 1] = co.offset[ai] + modes_[ai];
+    std::vector<Eigen::Triplet<double>> lower;
+    for (std::size_t ai = 0; ai < na; ++ai)
+      for (const auto& [b, m] : rows_[ai]) {
+        if (std::size_t(b) > ai) continue;
+        const int ka = modes_[ai], kb = modes_[std::size_t(b)];
+        for (int p = 0; p < ka; ++p)
+          for (int q = 0; q < kb; ++q) {
+            const Eigen::Index row = co.offset[ai] + p, col = co.offset[std::size_t(b)] + q;
+            if (row >= col) lower.emplace_back(row, col, m(p, q));
+          }
+      }
+    const Eigen::Index n = co.offset[na];
+    Eigen::SparseMatrix<double> ac(n, n);
+    ac.setFromTriplets(lower.begin(), lower.end());
+    co.compute(ac);
+    co.ok = co.ldlt.info() == Eigen::Success;
+#ifdef INCISE_HAVE_CHOLMOD
+    if (co.ok) stats_.factor_nonzeros = std::size_t(co.ldlt.cholmod().lnz);
+#else
+    if (co.ok) {
+      // SimplicialLDLT does not fail on an indefinite or singular matrix: check the pivots.
+      const auto d = co.ldlt.vectorD();
+      const double dmax = d.cwiseAbs().maxCoeff();
+      for (Eigen::Index i = 0; i < d.size() && co.ok; ++i) co.ok = d[i] > 1e-12 * dmax;
+    }
+    if (co.ok) stats_.factor_nonzeros = std::size_t(co.ldlt.matrixL().nestedExpression().nonZeros());
+#endif
+  }
+  stats_.factor_ok = co.ok;
+  stats_.block_factor = co.block;
   stats_.factor_ms = now_ms() - tf;
 }
 
@@ -517,7 +590,18 @@ void AggregationAmg::apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
       for (std::uint32_t v : agg_.members[ai])
         if (covered(v)) acc.noalias() += p_[v].transpose() * x.segment<3>(3 * Eigen::Index(v));
     });
-    coarse_->factor.solve_in_place(rc_);
+    Coarse& co = *coarse_;
+    if (co.block) {
+      co.factor.solve_in_place(rc_);
+    } else {
+      co.rc.resize(co.offset.back());
+      for (std::size_t ai = 0; ai < na; ++ai) co.rc.segment(co.offset[ai], modes_[ai]) = rc_[ai].head(modes_[ai]);
+      co.ec = co.ldlt.solve(co.rc);
+      for (std::size_t ai = 0; ai < na; ++ai) {
+        rc_[ai].setZero();
+        rc_[ai].head(modes_[ai]) = co.ec.segment(co.offset[ai], modes_[ai]);
+      }
+    }
     over_aggregates([&](std::size_t ai) {
       if (modes_[ai] == 0) return;
       for (std::uint32_t v : agg_.members[ai])

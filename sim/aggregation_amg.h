@@ -11,7 +11,7 @@
 // one 3x6 block per vertex. The coarse operator A_c = P^T A P is assembled element by element
 // from the model's per-tet data (its current rotations, as K x uses them) straight into 6x6
 // blocks per pair of aggregates, and factored directly (sim/block_cholesky.h: sparse LL^T on
-// the aggregate graph; ~6 unknowns per aggregate). Kept (fixed, prescribed) unknowns have zero rows in P, like block-Jacobi's.
+// the aggregate graph, for a few hundred aggregates; CHOLMOD above; ~6 unknowns per aggregate). Kept (fixed, prescribed) unknowns have zero rows in P, like block-Jacobi's.
 //
 // Application, z = M^-1 r:
 //  - additive (default): z = S r + P A_c^-1 P^T r, no product; SPD for any SPD A_c. About
@@ -72,12 +72,17 @@ struct AggregationAmgOptions {
   // frame needs more than this many iterations (> 0). The stale one leaves the vertices a cut
   // added to the smoother, and its A_c still couples across the cut: SPD all the same.
   int topology_rebuild_iterations = 0;
+  // The coarse factor: the block Cholesky (sim/block_cholesky.h) up to this many aggregates
+  // when they carry about six modes each, a general sparse factor (CHOLMOD) otherwise; the
+  // block one was faster at 137 and 465 aggregates, slower at 1,086 and more (the .cpp).
+  int block_factor_aggregates = 700;
 };
 
 struct AmgBuildStats {
   double aggregate_ms = 0, prolongator_ms = 0, coarse_ms = 0, factor_ms = 0, total_ms = 0;
   std::size_t aggregates = 0, coarse_unknowns = 0, coarse_nonzeros = 0, factor_nonzeros = 0;
   bool factor_ok = false;
+  bool block_factor = false;           // the block Cholesky factored A_c (not the general one)
   std::size_t patched_aggregates = 0;  // a patch: the aggregates it made
 };
 

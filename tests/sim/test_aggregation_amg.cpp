@@ -90,6 +90,9 @@ TEST_CASE("aggregation: every free vertex in one aggregate, fixed ones in none",
 TEST_CASE("amg: M^-1 is symmetric positive definite", "[amg][preconditioner]") {
   TetMesh m = make_box(Vec3(4, 1, 1), {16, 4, 4});
   jitter(m, 0.25, 7);
+  // block: the coarse matrix's block Cholesky (small coarse levels), or (0) the general
+  // sparse factor that larger ones get.
+  for (int block : {700, 0})
   for (Cycle cycle : {Cycle::Multiplicative, Cycle::Additive})
     for (FemKind kind : {FemKind::Linear, FemKind::Corotational}) {
       FemSimulationOptions opt;
@@ -97,21 +100,24 @@ TEST_CASE("amg: M^-1 is symmetric positive definite", "[amg][preconditioner]") {
       opt.cg.tolerance = 1e-10;
       opt.cg.preconditioner = Preconditioner::Amg;
       opt.amg.cycle = cycle;
+      opt.amg.block_factor_aggregates = block;
       FemSimulation sim(m, table(1e5, 0.45), opt);
       fix_ends(m, sim);
       for (VertexId v : top_of(m)) sim.set_force(v, Vec3(0, 3e3, -2e3));  // large: rotations
       for (int f = 0; f < 3; ++f) REQUIRE(sim.step().info == SolveInfo::Success);
       REQUIRE(sim.amg() != nullptr);
       REQUIRE(sim.amg()->build_stats().factor_ok);
-      INFO("cycle " << int(cycle) << ", kind " << int(kind));
+      CHECK(sim.amg()->build_stats().block_factor == (block > 0));
+      INFO("cycle " << int(cycle) << ", kind " << int(kind) << ", block factor " << block);
       check_spd(sim);
     }
 }
 
 TEST_CASE("amg: CG equals the direct solution through cuts; aggregates never span the cut", "[amg][preconditioner][cut]") {
+  for (int block : {700, 0})
   for (Cycle cycle : {Cycle::Multiplicative, Cycle::Additive})
     for (FemKind kind : {FemKind::Linear, FemKind::Corotational}) {
-      INFO("cycle " << int(cycle) << ", kind " << int(kind));
+      INFO("cycle " << int(cycle) << ", kind " << int(kind) << ", block factor " << block);
       TetMesh m = make_box(Vec3(4, 1, 1), {16, 4, 4});
       m.discard_change();
       FemSimulationOptions opt;
@@ -119,6 +125,7 @@ TEST_CASE("amg: CG equals the direct solution through cuts; aggregates never spa
       opt.cg.tolerance = 1e-8;
       opt.cg.preconditioner = Preconditioner::Amg;
       opt.amg.cycle = cycle;
+      opt.amg.block_factor_aggregates = block;
       FemSimulation sim(m, table(1e5, 0.45), opt);
       fix_ends(m, sim);
       const std::vector<VertexId> top = top_of(m);
@@ -145,6 +152,7 @@ TEST_CASE("amg: CG equals the direct solution through cuts; aggregates never spa
       // The cuts were patched locally (one build, then a patch per cut), and M^-1 is still SPD.
       CHECK(sim.amg()->builds() == 1);
       CHECK(sim.amg()->patches() == 4);
+      CHECK(sim.amg()->build_stats().block_factor == (block > 0));
       check_spd(sim);
       check_equals_direct(m, opt, top, sim);
     }
