@@ -472,7 +472,8 @@ void AggregationAmg::coarse_rows(const std::vector<std::uint32_t>& which) {
 }
 
 // The coarse matrix from the rows (lower triangle; aggregates left empty by a patch have no
-// unknowns), factored by block sparse LL^T.
+// unknowns), factored by the block Cholesky or, for large or translations-only coarse
+// levels, the general sparse factor (Coarse, above).
 void AggregationAmg::factor() {
   const double tf = now_ms();
   const std::size_t na = agg_.count();
