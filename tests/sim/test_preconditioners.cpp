@@ -8,6 +8,7 @@
 #include <thread>
 
 #include <Eigen/Cholesky>
+#include <tbb/global_control.h>
 
 #include "mesh/generate.h"
 #include "sim/async_cholesky.h"
@@ -283,6 +284,56 @@ TEST_CASE("CG applies the preconditioner once per iteration, not once more after
   // One application for the start, one per iteration that continues: the converged last
   // residual needs none (it cost a whole Cholesky solve per frame).
   CHECK(pc.applications == cg.iterations());
+}
+
+TEST_CASE("CG's iterates do not depend on the thread count, and kept unknowns keep their values", "[cg]") {
+  // Long enough for the iteration's vector passes to split over threads (their partial sums
+  // are per fixed block, added in block order). A shifted 1D Laplacian 3x_i - x_{i-1} - x_{i+1}
+  // (SPD, well conditioned), every seventh unknown kept at a prescribed value.
+  struct Shifted : Laplacian {
+    explicit Shifted(Eigen::Index n) : Laplacian(n) { d.setConstant(3.0); }
+    void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const override {
+      Laplacian::multiply(x, y);
+      y += x;
+    }
+  };
+  const Eigen::Index n = 100003;
+  Shifted a(n);
+  std::vector<std::uint8_t> free(std::size_t(n), 1);
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> u(-1, 1);
+  Eigen::VectorXd b(n), start(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    b[i] = u(rng);
+    start[i] = i % 7 == 0 ? u(rng) : 0.0;
+    if (i % 7 == 0) free[std::size_t(i)] = 0;
+  }
+  auto run = [&](int threads, SolveStats& stats) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+    ConjugateGradient cg;
+    cg.set_tolerance(1e-12);
+    cg.set_preconditioner(Preconditioner::Jacobi);
+    cg.compute(a, &free);
+    Eigen::VectorXd x = start;
+    cg.solve_with_guess(b, x);
+    stats = cg.stats();
+    return x;
+  };
+  SolveStats s1, s2;
+  const Eigen::VectorXd x1 = run(1, s1), x2 = run(2, s2);
+  REQUIRE(s1.info == SolveInfo::Success);
+  CHECK(s1.iterations == s2.iterations);
+  CHECK(s1.relative_residual == s2.relative_residual);
+  CHECK((x1.array() == x2.array()).all());  // bit for bit
+  // The answer: kept unknowns at their values, and A x = b on the free rows.
+  Eigen::VectorXd ax;
+  a.multiply(x1, ax);
+  double worst = 0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (!free[std::size_t(i)]) CHECK(x1[i] == start[i]);
+    else worst = std::max(worst, std::abs(ax[i] - b[i]));
+  }
+  CHECK(worst < 1e-9);
 }
 
 TEST_CASE("a budget that cannot afford the preconditioner's application uses its cheaper one", "[cg][preconditioner][budget]") {
