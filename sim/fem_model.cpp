@@ -116,7 +116,6 @@ void FemModel::grow() {
     kappa_.reserve(room);
     rho_.reserve(room);
     quat_.reserve(room);
-    corner_.reserve(4 * room);
     force_.reserve(room);
   }
   if (nt > tet_capacity_) {
@@ -129,7 +128,6 @@ void FemModel::grow() {
     kappa_.resize(nt, 0);
     rho_.resize(nt, 0);
     quat_.resize(nt, Eigen::Quaterniond::Identity());
-    corner_.resize(4 * nt, Corner::Zero());
     force_.resize(nt);
     if (nodal_averaged()) {
       div_.resize(nt, 0.0);
@@ -214,27 +212,24 @@ void FemModel::compute_vertex(std::uint32_t vi) {
   }
   iso_[vi] = iso;
   mass_.segment<3>(3 * vi).setConstant(m);
-  for (std::size_t i = 0; i < slots.size(); ++i) {
-    const std::uint32_t ti = slots[i] / 4, j = slots[i] % 4, at = slots[i];
-    // The corner's terms (as corner_terms() computes them for a packet).
-    const Eigen::Matrix3d r = quat_[ti].toRotationMatrix();
-    const Eigen::Vector3d g = shape_gradient(bm_[ti], int(j));
-    corner_[at].col(0) = std::sqrt(vol_[ti] * (mu_[ti] + lambda_[ti])) * (r * g);
-    corner_[at].col(1) = vol_[ti] * r * stress_of(Eigen::Matrix3d::Identity() - r.transpose(), mu_[ti], lambda_[ti]) * g;
-  }
   vertex_block(vi);
 }
 
 // Block (i, i) of the element matrix, V (mu |g|^2 I + (mu + lambda) (R g)(R g)^T), summed over the
-// vertex's corners (the rotation-free part is iso_, the rest the corners' c c^T), and the
-// vertex's b_R: the sum of its corners' forces.
+// vertex's corners (the rotation-free part is iso_, the rest c c^T with c = sqrt(V (mu + lambda))
+// R g), and the vertex's b_R: the sum of its corners' forces V R sigma(I - R^T) g. From the
+// stored rotations, as corner_terms() computes them for a packet (the whole-mesh pass,
+// relinearize(), scatters them instead).
 void FemModel::vertex_block(std::uint32_t vi) {
   Eigen::Matrix3d blk = iso_[vi] * Eigen::Matrix3d::Identity();
   Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
   for (std::uint32_t slot : corner_slots_[vi]) {
-    const Corner& c = corner_[slot];
-    blk.noalias() += c.col(0) * c.col(0).transpose();
-    rhs += c.col(1);
+    const std::uint32_t ti = slot / 4;
+    const Eigen::Matrix3d r = quat_[ti].toRotationMatrix();
+    const Eigen::Vector3d g = shape_gradient(bm_[ti], int(slot % 4));
+    const Eigen::Vector3d c = std::sqrt(vol_[ti] * (mu_[ti] + lambda_[ti])) * (r * g);
+    blk.noalias() += c * c.transpose();
+    rhs += vol_[ti] * r * stress_of(Eigen::Matrix3d::Identity() - r.transpose(), mu_[ti], lambda_[ti]) * g;
   }
   rhs_.segment<3>(3 * vi) = rhs;
   if (nodal_averaged()) volumetric_block(vi, blk);
@@ -721,7 +716,7 @@ INCISE_SIMD_CLONES void deformation_gradients(const TetLanes& __restrict t, Rota
                             t.d[3 * c + 2][k] * t.b[6 + m][k];
 }
 
-// Corner j's terms (see corner_; compute_vertex has the same for one corner): the diagonal's
+// Corner j's terms (vertex_block() has the same for one corner): the diagonal's
 // sqrt(V (mu + lambda)) R grad N_j, and b_R's force P grad N_j with
 // P = V R sigma(I - R^T) = V R (2 mu (I - sym R) + lambda (3 - tr R) I).
 INCISE_SIMD_CLONES void corner_terms(const RotationLanes& __restrict l, TetLanes& __restrict t) {
@@ -761,24 +756,120 @@ INCISE_SIMD_CLONES void corner_terms(const RotationLanes& __restrict l, TetLanes
   }
 }
 
+// A packet's rotations and corner terms from its F (lanes filled by the caller): warm-started
+// Newton steps from l.q (vectorized across the packet) unless `exact`, the exact decomposition
+// for live lanes that did not converge (or all of them); counts those in `polar`.
+void rotate_packet(RotationLanes& l, TetLanes& t, const bool* live, bool exact, const RotationRefinement& opt,
+                   int& steps, std::size_t& polar) {
+  deformation_gradients(t, l);
+  if (!exact) steps = std::max(steps, refine_rotations(l, opt.max_steps, opt.tolerance));
+  for (std::size_t k = 0; k < kLanes; ++k) {
+    if (!live[k] || (!exact && l.step[k] <= opt.tolerance)) continue;
+    Eigen::Matrix3d f;
+    for (int i = 0; i < 9; ++i) f(i / 3, i % 3) = l.f[i][k];
+    const Eigen::Quaterniond q = Eigen::Quaterniond(polar_rotation(f)).normalized();
+    l.q[0][k] = q.w(), l.q[1][k] = q.x(), l.q[2][k] = q.y(), l.q[3][k] = q.z();
+    ++polar;
+  }
+  corner_terms(l, t);
+}
+
+// Lane k's edge differences u_{j+1} - u_0 from u; false (and F = I, R = I: what a NaN
+// displacement gets) where they are not finite.
+inline bool gather_edges(const double* up, const std::uint32_t* v, std::size_t stride, std::size_t k, TetLanes& t) {
+  const double* u0 = up + 3 * std::size_t(v[0]);
+  double check = 0;
+  for (int j = 0; j < 3; ++j) {
+    const double* uj = up + 3 * std::size_t(v[std::size_t(j + 1) * stride]);
+    for (int c = 0; c < 3; ++c) check += t.d[3 * c + j][k] = uj[c] - u0[c];
+  }
+  if (std::isfinite(check)) return true;
+  for (int i = 0; i < 9; ++i) t.d[i][k] = 0;
+  return false;
+}
+
+// Most Newton steps and exact decompositions over the threads of a pass.
+struct PassStats {
+  std::atomic<std::size_t> polar{0};
+  std::atomic<int> steps{0};
+  void add(std::size_t p, int s) {
+    if (p) polar += p;
+    int prev = steps.load();
+    while (prev < s && !steps.compare_exchange_weak(prev, s)) {
+    }
+  }
+};
+
 }  // namespace
 
-// Every tet from scratch, then every vertex from its incident tets.
-void FemModel::update_rotations_exact(const Eigen::VectorXd& u) {
-  update_rotation_packets(u, true, 0, rotation_packets());
-  parallel_range(vertex_capacity_, [&](std::size_t v) { compute_vertex(std::uint32_t(v)); });
+void FemModel::update_rotations_exact(const Eigen::VectorXd& u) { relinearize(u, true); }
+void FemModel::update_rotations_warm(const Eigen::VectorXd& u) { relinearize(u, false); }
+
+// The whole mesh in one pass over the kernel's packets (slabs three apart in parallel, as its
+// product): per packet the rotations, written back to the kernel and to quat_, and the corner
+// terms scattered straight into the vertices' diagonal blocks and b_R. No per-corner storage and
+// no gather pass: the blocks stay in cache while a slab sweeps its vertices, where the per-vertex
+// gather read 192 bytes a tet back from memory (its half of the relinearization's time).
+void FemModel::relinearize(const Eigen::VectorXd& u, bool exact) {
+  // Each vertex from its rotation-free part; its corners add the rest.
+  parallel_range(vertex_capacity_, [&](std::size_t v) {
+    blocks_[v] = iso_[v] * Eigen::Matrix3d::Identity();
+    rhs_.segment<3>(3 * v).setZero();
+  });
+  PassStats stats;
+  const double* up = u.data();
+  static_assert(sizeof(Eigen::Matrix3d) == 9 * sizeof(double), "blocks_ is contiguous 3x3 blocks");
+  double* const bp = reinterpret_cast<double*>(blocks_.data());  // raw: no aliasing reloads
+  double* const rp = rhs_.data();
+  kernel_.for_each_packet([&](const StiffnessKernel::Packet& p, StiffnessKernel::Rotations* rot,
+                              const std::uint32_t* tets, std::size_t n) {
+    static_assert(StiffnessKernel::kLanes == kLanes, "one packet of the kernel is one packet of rotations");
+    RotationLanes l;
+    TetLanes t;
+    bool live[kLanes];
+    for (std::size_t k = 0; k < kLanes; ++k) {
+      live[k] = k < n;
+      for (int i = 0; i < 9; ++i) t.b[i][k] = p.b[i][k];  // zero in unused lanes
+      t.vmu[k] = p.mu[k];
+      t.vlam[k] = p.lam[k];
+      if (live[k] && gather_edges(up, &p.v[0][k], kLanes, k, t)) {
+        for (int i = 0; i < 4; ++i) l.q[i][k] = rot->q[i][k];
+      } else {
+        if (!live[k])
+          for (int i = 0; i < 9; ++i) t.d[i][k] = 0;
+        l.q[0][k] = 1, l.q[1][k] = l.q[2][k] = l.q[3][k] = 0;
+      }
+    }
+    int steps = 0;
+    std::size_t polar = 0;
+    rotate_packet(l, t, live, exact, refinement_, steps, polar);
+    for (std::size_t k = 0; k < n; ++k) {
+      for (int i = 0; i < 4; ++i) rot->q[i][k] = l.q[i][k];
+      quat_[tets[k]] = Eigen::Quaterniond(l.q[0][k], l.q[1][k], l.q[2][k], l.q[3][k]);
+    }
+    // Corner by corner: consecutive tets share vertices (as the product's scatter).
+    for (int j = 0; j < 4; ++j)
+      for (std::size_t k = 0; k < n; ++k) {
+        const std::size_t v = p.v[j][k];
+        const double c0 = t.c[3 * j][k], c1 = t.c[3 * j + 1][k], c2 = t.c[3 * j + 2][k];
+        const double xy = c0 * c1, xz = c0 * c2, yz = c1 * c2;
+        double* b = bp + 9 * v;
+        b[0] += c0 * c0, b[1] += xy, b[2] += xz;
+        b[3] += xy, b[4] += c1 * c1, b[5] += yz;
+        b[6] += xz, b[7] += yz, b[8] += c2 * c2;
+        double* r = rp + 3 * v;
+        r[0] += t.f[3 * j][k], r[1] += t.f[3 * j + 1][k], r[2] += t.f[3 * j + 2][k];
+      }
+    stats.add(polar, steps);
+  });
+  parallel_range(vertex_capacity_, [&](std::size_t v) {
+    if (nodal_averaged()) volumetric_block(std::uint32_t(v), blocks_[v]);
+    diag_.segment<3>(3 * v) = blocks_[v].diagonal();
+  });
+  rotation_stats_ = {mesh_->num_tets(), stats.polar.load(), stats.steps.load()};
 }
 
-// Newton steps from the stored quaternions, then the diagonal blocks from the corner terms
-// (slots and the rotation-free part are current since the last apply()).
-void FemModel::update_rotations_warm(const Eigen::VectorXd& u) {
-  update_rotation_packets(u, false, 0, rotation_packets());
-  parallel_range(vertex_capacity_, [&](std::size_t v) { vertex_block(std::uint32_t(v)); });
-}
-
-// Packets of kLanes consecutive tet ids, in parallel: gather, F, the rotation (warm-started
-// Newton steps, vectorized across the packet, and the exact decomposition for lanes that did not
-// converge; or the exact one for all), the corner terms, scatter.
+// Packets of kLanes consecutive tet ids: the unit of partial updates.
 std::size_t FemModel::rotation_packets() const { return (tet_capacity_ + kLanes - 1) / kLanes; }
 
 void FemModel::update_rotations_partial(const Eigen::VectorXd& u, std::size_t first, std::size_t count) {
@@ -825,9 +916,10 @@ void FemModel::update_rotations_partial(const Eigen::VectorXd& u, std::size_t fi
   rotation_stats_.tets = std::min(count * kLanes, mesh_->num_tets());
 }
 
+// Packets [begin, end), in parallel: the rotations only (the caller refreshes the blocks of their
+// vertices).
 void FemModel::update_rotation_packets(const Eigen::VectorXd& u, bool exact, std::size_t begin, std::size_t end) {
-  std::atomic<std::size_t> fallbacks{0};
-  std::atomic<int> most_steps{0};
+  PassStats stats;
   const double* up = u.data();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(begin, end, 64), [&](const tbb::blocked_range<std::size_t>& range) {
     RotationLanes l;
@@ -840,58 +932,31 @@ void FemModel::update_rotation_packets(const Eigen::VectorXd& u, bool exact, std
         const std::size_t ti = p * kLanes + k;
         live[k] = ti < tet_capacity_ && alive_[ti];
         Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
-        double check = 0;
         if (live[k]) {
-          const auto& v = verts_[ti];
-          const double* u0 = up + 3 * std::size_t(v[0]);
-          for (int j = 0; j < 3; ++j) {
-            const double* uj = up + 3 * std::size_t(v[j + 1]);
-            for (int c = 0; c < 3; ++c) check += t.d[3 * c + j][k] = uj[c] - u0[c];
-          }
           const Eigen::Matrix3d& bm = bm_[ti];
           for (int i = 0; i < 9; ++i) t.b[i][k] = bm(i / 3, i % 3);
           t.vmu[k] = vol_[ti] * mu_[ti];
           t.vlam[k] = vol_[ti] * lambda_[ti];
-          q = quat_[ti];
-        }
-        if (!live[k] || !std::isfinite(check)) {  // F = I and R = I (what a NaN displacement gets)
-          for (int i = 0; i < 9; ++i) t.d[i][k] = 0;
-          q = Eigen::Quaterniond::Identity();
-          if (!live[k])
-            for (int i = 0; i < 9; ++i) t.b[i][k] = 0;
-          if (!live[k]) t.vmu[k] = t.vlam[k] = 0;
+          if (gather_edges(up, verts_[ti].data(), 1, k, t)) q = quat_[ti];
+        } else {
+          for (int i = 0; i < 9; ++i) t.d[i][k] = t.b[i][k] = 0;
+          t.vmu[k] = t.vlam[k] = 0;
         }
         l.q[0][k] = q.w(), l.q[1][k] = q.x(), l.q[2][k] = q.y(), l.q[3][k] = q.z();
       }
-      deformation_gradients(t, l);
-      if (!exact) steps = std::max(steps, refine_rotations(l, refinement_.max_steps, refinement_.tolerance));
-      for (std::size_t k = 0; k < kLanes; ++k) {
-        if (!live[k] || (!exact && l.step[k] <= refinement_.tolerance)) continue;
-        Eigen::Matrix3d f;
-        for (int i = 0; i < 9; ++i) f(i / 3, i % 3) = l.f[i][k];
-        const Eigen::Quaterniond q = Eigen::Quaterniond(polar_rotation(f)).normalized();
-        l.q[0][k] = q.w(), l.q[1][k] = q.x(), l.q[2][k] = q.y(), l.q[3][k] = q.z();
-        ++polar;
-      }
-      corner_terms(l, t);
+      rotate_packet(l, t, live, exact, refinement_, steps, polar);
       for (std::size_t k = 0; k < kLanes; ++k) {
         if (!live[k]) continue;
         const std::uint32_t ti = std::uint32_t(p * kLanes + k);
         const Eigen::Quaterniond q(l.q[0][k], l.q[1][k], l.q[2][k], l.q[3][k]);
         quat_[ti] = q;
-        for (int j = 0; j < 4; ++j)
-          corner_[4 * std::size_t(ti) + std::size_t(j)] << t.c[3 * j][k], t.f[3 * j][k], t.c[3 * j + 1][k],
-              t.f[3 * j + 1][k], t.c[3 * j + 2][k], t.f[3 * j + 2][k];
         kernel_.set_rotation(ti, q);  // no two threads write the same slot
       }
     }
-    fallbacks += polar;
-    int prev = most_steps.load();
-    while (prev < steps && !most_steps.compare_exchange_weak(prev, steps)) {
-    }
+    stats.add(polar, steps);
   });
-  rotation_stats_ = {end - begin >= rotation_packets() ? mesh_->num_tets() : (end - begin) * kLanes, fallbacks.load(),
-                     most_steps.load()};
+  rotation_stats_ = {end - begin >= rotation_packets() ? mesh_->num_tets() : (end - begin) * kLanes, stats.polar.load(),
+                     stats.steps.load()};
 }
 
 std::vector<double> FemModel::von_mises(const Eigen::VectorXd& u) const {

@@ -166,8 +166,8 @@ public:
   // equals a full update's.
   void update_rotations_partial(const Eigen::VectorXd& u, std::size_t first, std::size_t count);
   std::size_t rotation_packets() const;
-  // Off: every tet's rotation from scratch (polar_rotation) and every vertex recomputed from its
-  // incident tets, the path before warm starts (benchmarks and tests compare the two).
+  // Off: every tet's rotation from scratch (polar_rotation), the path before warm starts
+  // (benchmarks and tests compare the two).
   void set_warm_started_rotations(bool on) { warm_rotations_ = on; }
   void set_rotation_refinement(const RotationRefinement& r) { refinement_ = r; }
   const RotationStats& rotation_stats() const { return rotation_stats_; }
@@ -218,9 +218,10 @@ private:
   void grow();
   void compute_tet(std::uint32_t t);
   void compute_vertex(std::uint32_t v);  // corner slots, mass, diagonal from incident tets
-  void vertex_block(std::uint32_t v);    // the diagonal block from the corner terms
+  void vertex_block(std::uint32_t v);    // the diagonal block and b_R from its tets' rotations
   void update_rotations_exact(const Eigen::VectorXd& u);
   void update_rotations_warm(const Eigen::VectorXd& u);
+  void relinearize(const Eigen::VectorXd& u, bool exact);  // every tet, in the kernel's order
   void update_rotation_packets(const Eigen::VectorXd& u, bool exact, std::size_t begin, std::size_t end);
   Eigen::Matrix3d tet_stress(std::uint32_t t, const Eigen::VectorXd& x, bool subtract_rotation,
                              const Eigen::Matrix3d& r) const;  // r: the tet's rotation
@@ -261,13 +262,6 @@ private:
   // R as a unit quaternion (identity for Linear): 32 bytes a tet to write each frame instead of
   // 72, the next frame's start; the passes that need R rebuild it (a few flops).
   std::vector<Eigen::Quaterniond> quat_;
-  // Per tet corner, what depends on R: column 0 c = sqrt(V (mu + lambda)) R grad N_j, so block
-  // (j, j) of the element matrix is V mu |grad N_j|^2 I + c c^T (the first term is constant:
-  // iso_); column 1 the corner's force in b_R. By corner slot 4t+j: the per-tet pass writes
-  // them in order, and the per-vertex sums gather them through corner_slots_ (on a mesh
-  // numbered along a space-filling curve a vertex's tets are near each other in memory).
-  using Corner = Eigen::Matrix<double, 3, 2>;
-  std::vector<Corner> corner_;
   bool warm_rotations_ = true;
   RotationRefinement refinement_;
   RotationStats rotation_stats_;
@@ -277,7 +271,8 @@ private:
   StiffnessKernel kernel_;
 
   // Per vertex: its incident corners as slots 4 * tet + local, so the gather pass reads only
-  // the per-corner forces (one indirection, no local-index search). Rebuilt with the vertex.
+  // the per-corner forces and vertex_block() its corners (one indirection, no local-index
+  // search). Rebuilt with the vertex.
   std::vector<std::vector<std::uint32_t>> corner_slots_;
 
   // Per unknown.

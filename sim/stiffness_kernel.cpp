@@ -393,6 +393,25 @@ void StiffnessKernel::multiply_padded(const Block& blk, const double* x, double*
 #endif
 }
 
+void StiffnessKernel::for_each_packet(const PacketVisitor& fn) {
+  const std::size_t nslabs = blocks_.empty() ? 0 : blocks_.size() - 1;
+  auto run = [&](Block& blk) {
+    for (std::size_t pi = 0; pi < blk.packets.size(); ++pi)
+      fn(blk.packets[pi], corot_ ? &blk.rotations[pi] : nullptr, blk.tet.data() + pi * kLanes,
+         std::min(kLanes, blk.size() - pi * kLanes));
+  };
+  if (count_ < kSerialBelow || nslabs < 6) {
+    for (Block& blk : blocks_) run(blk);
+    return;
+  }
+  for (std::size_t colour = 0; colour < 3; ++colour)
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (nslabs - colour + 2) / 3, 1),
+                      [&](const tbb::blocked_range<std::size_t>& rg) {
+                        for (std::size_t i = rg.begin(); i != rg.end(); ++i) run(blocks_[3 * i + colour]);
+                      });
+  run(blocks_.back());
+}
+
 void StiffnessKernel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y, Eigen::Index rows) const {
   const std::size_t nslabs = blocks_.empty() ? 0 : blocks_.size() - 1;
   const bool parallel = count_ >= kSerialBelow && nslabs >= 6;

@@ -17,6 +17,7 @@
 // tet of its block into its slot. Small meshes run serially (no threading overhead).
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -67,6 +68,14 @@ public:
   };
 
   std::size_t tets() const { return count_; }
+
+  // Every packet once, as multiply() runs them: slabs three apart at the same time, each slab on
+  // one thread, the overflow block last. fn(packet, its rotations (corotational; else null), its
+  // tet ids, its live lanes) may rewrite the rotations and add into per-vertex arrays at the
+  // packet's vertices without locks, and the order in which a vertex receives its tets' terms does
+  // not depend on the thread count. (The corotational relinearization: FemModel.)
+  using PacketVisitor = std::function<void(const Packet&, Rotations*, const std::uint32_t*, std::size_t)>;
+  void for_each_packet(const PacketVisitor& fn);
 
 private:
   struct Block {
