@@ -21,8 +21,10 @@
 // get the closest proper rotation (the SVD column of the smallest singular value is flipped),
 // never NaN (sim/rotation_extraction.h). Each frame's rotations are Newton steps from the
 // previous frame's (kept as quaternions), the exact decomposition where they do not converge;
-// the diagonal blocks and b_R are then per-vertex sums of per-corner terms (the rotation-free
-// part of each vertex's block is kept from the last apply()). For Linear, R = I and b_R = 0.
+// the diagonal blocks and b_R are then per-vertex sums of per-corner terms, which the same pass
+// (over the kernel's packets, colour by colour) adds straight into the vertices (the
+// rotation-free part of each vertex's block is kept from the last apply()). For Linear, R = I
+// and b_R = 0.
 //
 // Formulation::NodalAveraged (sim/formulation.h): sigma = 2 mu dev(eps) + kappa tr(eps) I with
 // kappa = lambda + 2 mu / 3, the deviatoric part per tet (the standard element with lambda
