@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstring>
 
 #include <Eigen/SparseCore>
 
@@ -823,15 +824,17 @@ void FemModel::relinearize(const Eigen::VectorXd& u, bool exact) {
   double* const rp = rhs_.data();
   kernel_.for_each_packet([&](const StiffnessKernel::Packet& p, StiffnessKernel::Rotations* rot,
                               const std::uint32_t* tets, std::size_t n) {
-    static_assert(StiffnessKernel::kLanes == kLanes, "one packet of the kernel is one packet of rotations");
+    static_assert(StiffnessKernel::kLanes == kLanes && sizeof(TetLanes::b) == sizeof(StiffnessKernel::Packet::b),
+                  "one packet of the kernel is one packet of rotations");
     RotationLanes l;
     TetLanes t;
     bool live[kLanes];
+    // The packet's layout is the lanes' (zeros in unused lanes): whole-array copies.
+    std::memcpy(t.b, p.b, sizeof t.b);
+    std::memcpy(t.vmu, p.mu, sizeof t.vmu);
+    std::memcpy(t.vlam, p.lam, sizeof t.vlam);
     for (std::size_t k = 0; k < kLanes; ++k) {
       live[k] = k < n;
-      for (int i = 0; i < 9; ++i) t.b[i][k] = p.b[i][k];  // zero in unused lanes
-      t.vmu[k] = p.mu[k];
-      t.vlam[k] = p.lam[k];
       if (live[k] && gather_edges(up, &p.v[0][k], kLanes, k, t)) {
         for (int i = 0; i < 4; ++i) l.q[i][k] = rot->q[i][k];
       } else {
