@@ -10,6 +10,7 @@
 #include "cut/fragments.h"
 #include "cut/separate.h"
 #include "cut/sheet.h"
+#include "mesh/clock.h"
 #include "mesh/errors.h"
 #include "quality/metrics.h"
 
@@ -18,10 +19,6 @@ namespace incise {
 using namespace cut_detail;
 
 namespace {
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
 bool finite(const Vec3& x) { return x.allFinite(); }
 
 void add_separation(CutStepReport& rep, const SeparationResult& sep) {

@@ -8,15 +8,12 @@
 #include <unordered_map>
 #include <utility>
 
+#include "mesh/clock.h"
 #include "mesh/errors.h"
 
 namespace incise {
 
 namespace {
-
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 // Content errors name the scene file and the key, as the parser's do.
 [[noreturn]] void fail(const Scene& s, const std::string& key, const std::string& what) {

@@ -1,5 +1,6 @@
 #include "sim/aggregation_amg.h"
 
+#include "mesh/clock.h"
 #include "sim/blas_threads.h"
 #include "sim/block_cholesky.h"
 
@@ -26,10 +27,6 @@ namespace {
 using Mat6 = Eigen::Matrix<double, 6, 6>;
 using Vec6 = Eigen::Matrix<double, 6, 1>;
 constexpr Eigen::Index kParallelFrom = 6000;  // unknowns: below, one thread applies the coarse correction
-
-double now_ms() {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
 
 Eigen::Matrix3d cross_matrix(const Eigen::Vector3d& p) {
   Eigen::Matrix3d m;

@@ -1,5 +1,6 @@
 #include "sim/async_cholesky.h"
 
+#include "mesh/clock.h"
 #include "sim/blas_threads.h"
 
 #include <chrono>
@@ -29,10 +30,6 @@ using FactorType = Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eige
 #else
 using FactorType = Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower>;
 #endif
-
-double now_ms() {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
 
 // The factorization thread yields to the frame: at the lowest priority it runs on what the
 // frame's parallel loops leave idle, instead of halving them (a 2 ms budget on the 80x8x8

@@ -11,15 +11,12 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "mesh/clock.h"
 #include "mesh/errors.h"
 
 namespace incise {
 
 namespace {
-
-double now_ms() {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
 
 // The iteration's vector work, fused into four passes (it was eight: projections, dots, axpys
 // and a norm, each a trip through vectors larger than a core's L2 on the organ), split over

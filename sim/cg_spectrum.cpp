@@ -7,15 +7,12 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "mesh/clock.h"
 #include "mesh/errors.h"
 
 namespace incise {
 
 namespace {
-
-double now_ms() {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
 
 bool positive(double x) { return x > 0 && std::isfinite(x); }
 

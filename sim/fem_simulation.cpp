@@ -6,6 +6,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "mesh/clock.h"
 #include "mesh/errors.h"
 #include "sim/assembled_stiffness.h"
 #include "sim/mixed_solver.h"
@@ -46,10 +47,6 @@ private:
   Eigen::VectorXd diag_;
   std::vector<Eigen::Matrix3d> blocks_;
 };
-
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 }  // namespace
 

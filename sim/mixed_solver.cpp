@@ -9,15 +9,12 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "mesh/clock.h"
 #include "mesh/errors.h"
 
 namespace incise {
 
 namespace {
-
-double now_ms() {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
 
 void check_mixed_material(const Material& m, const std::string& what) {
   // The standard check, but 0.5 itself is allowed: the pressure carries the constraint.

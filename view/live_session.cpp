@@ -8,6 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "mesh/clock.h"
 #include "mesh/errors.h"
 #include "mesh/io/atomic_file.h"
 #include "quality/metrics.h"
@@ -21,7 +22,6 @@ namespace incise::view {
 
 namespace {
 using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 // Colours are recomputed every this many frames (von Mises is a pass over every tet) and after
 // each cut step; in between the page keeps the last ones.
 constexpr int kColourEvery = 30;

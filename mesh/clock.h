@@ -1,0 +1,19 @@
+#pragma once
+// Wall-clock milliseconds for frame budgets and timing reports, from the steady clock (it never
+// jumps, so differences are elapsed time even when the system clock is set). One place for the
+// solver, the cutter, scenes and the viewer.
+#include <chrono>
+
+namespace incise {
+
+// Milliseconds since the clock's fixed origin: only differences of two calls mean anything.
+inline double now_ms() {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// Milliseconds elapsed since t0.
+inline double ms_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace incise
