@@ -213,6 +213,23 @@ bool cpu_has_avx2() {
 }
 #endif
 
+// Every block once: slabs three apart at the same time (they share no vertex), each slab on one
+// thread, then the overflow block serially; or all in order on this thread.
+template <class Blocks, class Run>
+void for_each_block(Blocks& blocks, bool parallel, Run&& run) {
+  if (!parallel) {
+    for (auto& blk : blocks) run(blk);
+    return;
+  }
+  const std::size_t nslabs = blocks.size() - 1;
+  for (std::size_t colour = 0; colour < 3; ++colour)
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (nslabs - colour + 2) / 3, 1),
+                      [&](const tbb::blocked_range<std::size_t>& rg) {
+                        for (std::size_t i = rg.begin(); i != rg.end(); ++i) run(blocks[3 * i + colour]);
+                      });
+  run(blocks.back());
+}
+
 }  // namespace
 
 bool StiffnessKernel::simd_available() {
@@ -393,28 +410,18 @@ void StiffnessKernel::multiply_padded(const Block& blk, const double* x, double*
 #endif
 }
 
+bool StiffnessKernel::parallel() const { return count_ >= kSerialBelow && blocks_.size() >= 7; }  // 6 slabs
+
 void StiffnessKernel::for_each_packet(const PacketVisitor& fn) {
-  const std::size_t nslabs = blocks_.empty() ? 0 : blocks_.size() - 1;
-  auto run = [&](Block& blk) {
+  for_each_block(blocks_, parallel(), [&](Block& blk) {
     for (std::size_t pi = 0; pi < blk.packets.size(); ++pi)
       fn(blk.packets[pi], corot_ ? &blk.rotations[pi] : nullptr, blk.tet.data() + pi * kLanes,
          std::min(kLanes, blk.size() - pi * kLanes));
-  };
-  if (count_ < kSerialBelow || nslabs < 6) {
-    for (Block& blk : blocks_) run(blk);
-    return;
-  }
-  for (std::size_t colour = 0; colour < 3; ++colour)
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (nslabs - colour + 2) / 3, 1),
-                      [&](const tbb::blocked_range<std::size_t>& rg) {
-                        for (std::size_t i = rg.begin(); i != rg.end(); ++i) run(blocks_[3 * i + colour]);
-                      });
-  run(blocks_.back());
+  });
 }
 
 void StiffnessKernel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y, Eigen::Index rows) const {
-  const std::size_t nslabs = blocks_.empty() ? 0 : blocks_.size() - 1;
-  const bool parallel = count_ >= kSerialBelow && nslabs >= 6;
+  const bool parallel = this->parallel();
   const bool padded = simd_ && simd_available();
   auto for_vertices = [&](std::size_t nv, auto&& f) {
     if (!parallel) {
@@ -442,16 +449,7 @@ void StiffnessKernel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y, Eig
     if (padded) multiply_padded(blk, xp, yp);
     else multiply_block(blk, 0, blk.packets.size(), xp, yp);
   };
-  if (!parallel) {
-    for (const Block& blk : blocks_) run(blk);
-  } else {
-    for (std::size_t colour = 0; colour < 3; ++colour)  // slabs 3 apart share no vertex
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (nslabs - colour + 2) / 3, 1),
-                        [&](const tbb::blocked_range<std::size_t>& rg) {
-                          for (std::size_t i = rg.begin(); i != rg.end(); ++i) run(blocks_[3 * i + colour]);
-                        });
-    run(blocks_.back());  // the overflow block, serially
-  }
+  for_each_block(blocks_, parallel, run);
   if (padded) {
     y.resize(rows);
     double* yo = y.data();

@@ -84,6 +84,7 @@ private:
     std::vector<std::uint32_t> tet;    // by slot
     std::size_t size() const { return tet.size(); }
   };
+  bool parallel() const;  // enough tets and slabs for the coloured parallel passes
   void multiply_block(const Block& blk, std::size_t begin, std::size_t end, const double* x, double* y) const;
   void multiply_padded(const Block& blk, const double* x, double* y) const;
 
