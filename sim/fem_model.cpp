@@ -757,11 +757,12 @@ INCISE_SIMD_CLONES void corner_terms(const RotationLanes& __restrict l, TetLanes
   }
 }
 
-// A packet's rotations and corner terms from its F (lanes filled by the caller): warm-started
-// Newton steps from l.q (vectorized across the packet) unless `exact`, the exact decomposition
-// for live lanes that did not converge (or all of them); counts those in `polar`.
+// A packet's rotations from its F (lanes filled by the caller), and its corner terms when
+// `corners`: warm-started Newton steps from l.q (vectorized across the packet) unless `exact`,
+// the exact decomposition for live lanes that did not converge (or all of them); counts those
+// in `polar`.
 void rotate_packet(RotationLanes& l, TetLanes& t, const bool* live, bool exact, const RotationRefinement& opt,
-                   int& steps, std::size_t& polar) {
+                   bool corners, int& steps, std::size_t& polar) {
   deformation_gradients(t, l);
   if (!exact) steps = std::max(steps, refine_rotations(l, opt.max_steps, opt.tolerance));
   for (std::size_t k = 0; k < kLanes; ++k) {
@@ -772,7 +773,7 @@ void rotate_packet(RotationLanes& l, TetLanes& t, const bool* live, bool exact, 
     l.q[0][k] = q.w(), l.q[1][k] = q.x(), l.q[2][k] = q.y(), l.q[3][k] = q.z();
     ++polar;
   }
-  corner_terms(l, t);
+  if (corners) corner_terms(l, t);
 }
 
 // Lane k's edge differences u_{j+1} - u_0 from u; false (and F = I, R = I: what a NaN
@@ -845,7 +846,7 @@ void FemModel::relinearize(const Eigen::VectorXd& u, bool exact) {
     }
     int steps = 0;
     std::size_t polar = 0;
-    rotate_packet(l, t, live, exact, refinement_, steps, polar);
+    rotate_packet(l, t, live, exact, refinement_, true, steps, polar);
     for (std::size_t k = 0; k < n; ++k) {
       for (int i = 0; i < 4; ++i) rot->q[i][k] = l.q[i][k];
       quat_[tets[k]] = Eigen::Quaterniond(l.q[0][k], l.q[1][k], l.q[2][k], l.q[3][k]);
@@ -947,7 +948,8 @@ void FemModel::update_rotation_packets(const Eigen::VectorXd& u, bool exact, std
         }
         l.q[0][k] = q.w(), l.q[1][k] = q.x(), l.q[2][k] = q.y(), l.q[3][k] = q.z();
       }
-      rotate_packet(l, t, live, exact, refinement_, steps, polar);
+      // No corner terms: the caller recomputes the touched vertices from their tets' rotations.
+      rotate_packet(l, t, live, exact, refinement_, false, steps, polar);
       for (std::size_t k = 0; k < kLanes; ++k) {
         if (!live[k]) continue;
         const std::uint32_t ti = std::uint32_t(p * kLanes + k);
