@@ -18,7 +18,7 @@
 //  4. beam_ratio: a beam clamped at both ends under gravity, cut through at midspan: midspan
 //     sag after / before, against beam theory: 3 (Euler-Bernoulli: two cantilevers of half
 //     the length), 2.78 with shear (Timoshenko) for this beam's L/h = 10.
-// Usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive] [--case NAME_PART] [--steps N]
+// Usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive|curved] [--case NAME_PART] [--steps N]
 //                  [ORGAN]   (default samples/liver.msh; --case, --steps: only the progressive rows whose case
 //                  name contains NAME_PART, with N steps, for profiling)
 #include <algorithm>
@@ -28,6 +28,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <functional>
+#include <unordered_map>
 #include <limits>
 #include <random>
 #include <string>
@@ -483,6 +485,172 @@ std::size_t crossed_tets(const TetMesh& m, const Sweep& s) {
   return c;
 }
 
+// ---- 6 -------------------------------------------------------------------------------------
+// Curved blade paths (issue 36): a vertical blade (z from -0.5 to 1.5) through a 4x2x1 box
+// (cells 0.125) along a path in the xy-plane given as a function of t in [0, 1], in N steps,
+// then finish(). The analytic part: the region the path closes off (its area times the height).
+struct CurvedPath {
+  std::string name;
+  std::function<Vec3(double)> at;  // the path at t (z = 0)
+  double part_volume;              // the part the path should detach (the smaller one)
+};
+
+std::vector<CurvedPath> curved_paths() {
+  const double pi = std::acos(-1.0);
+  std::vector<CurvedPath> out;
+  // A half circle of radius 1 about (2.03, 0) (off the grid's planes), entering and leaving through y = 0 (straight in and
+  // out over the first and last 5% of t).
+  out.push_back({"arc", [pi](double t) {
+                   if (t < 0.05) return Vec3(1.03, -0.2 + 4 * t, 0);
+                   if (t > 0.95) return Vec3(3.03, 4 * (1 - t) - 0.2, 0);
+                   const double a = pi * (1 - (t - 0.05) / 0.9);
+                   return Vec3(2.03 + std::cos(a), std::sin(a), 0);
+                 },
+                 pi / 2});
+  // An S: x = 2.03 + 0.5 sin(pi y), y from -0.2 to 2.2; the part right of it has area 3.94.
+  out.push_back({"S", [pi](double t) {
+                   const double y = -0.2 + 2.4 * t;
+                   return Vec3(2.03 + 0.5 * std::sin(pi * y), y, 0);
+                 },
+                 3.94});
+  // A 90-degree turn: up x = 1.53 from y = -0.2 to 1.03, then along y = 1.03 out through x = 4;
+  // it cuts off the corner [1.53, 4] x [0, 1.03].
+  out.push_back({"turn", [](double t) {
+                   const double len = 1.23 + 2.67, s = t * len;
+                   return s <= 1.23 ? Vec3(1.53, -0.2 + s, 0) : Vec3(1.53 + (s - 1.23), 1.03, 0);
+                 },
+                 2.47 * 1.03});
+  return out;
+}
+
+// Volumes of the parts that share no vertex.
+std::vector<double> part_volumes(const TetMesh& m) {
+  std::vector<std::uint32_t> parent(m.vertex_capacity());
+  for (std::uint32_t i = 0; i < parent.size(); ++i) parent[i] = i;
+  auto find = [&](std::uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (TetId t : m.tets())
+    for (int k = 1; k < 4; ++k) parent[find(m.tet_vertices(t)[k].idx())] = find(m.tet_vertices(t)[0].idx());
+  std::unordered_map<std::uint32_t, double> vol;
+  for (TetId t : m.tets()) vol[find(m.tet_vertices(t)[0].idx())] += m.volume(t);
+  std::vector<double> out;
+  for (const auto& [r, v] : vol) out.push_back(v);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// Tets of the uncut box whose edges cross the path (in the xy-plane: the blade spans the height).
+std::size_t crossed_by_path(const TetMesh& m, const std::vector<Vec3>& path) {
+  auto cross2 = [](const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b) {
+    auto o = [](const Vec3& u, const Vec3& v, const Vec3& w) {
+      return (v.x() - u.x()) * (w.y() - u.y()) - (v.y() - u.y()) * (w.x() - u.x());
+    };
+    return o(p, q, a) * o(p, q, b) < 0 && o(a, b, p) * o(a, b, q) < 0;
+  };
+  std::size_t c = 0;
+  for (TetId t : m.tets()) {
+    const auto& tv = m.tet_vertices(t);
+    bool hit = false;
+    for (int i = 0; i < 4 && !hit; ++i)
+      for (int j = i + 1; j < 4 && !hit; ++j)
+        for (std::size_t k = 0; k + 1 < path.size() && !hit; ++k)
+          hit = cross2(m.rest(tv[i]), m.rest(tv[j]), path[k], path[k + 1]);
+    c += hit;
+  }
+  return c;
+}
+
+void curved(bool quick, const std::string& only_case, int only_steps, double tolerance) {
+  std::printf("# curved paths (a vertical blade along a path in N steps through a 4x2x1 box of cells 0.125, "
+              "then finish(); the straight row is the same blade through the box in 100 steps)\n");
+  std::printf("case,steps,tets_before,crossed,tets_after,added_per_crossed,over_straight,parts,part_volume,"
+              "volume_error,min_dihedral,below_10deg_pct,ms_median,ms_p95,ms_max,ms_finish,open_over_swept\n");
+  const TetMesh box = make_box(Vec3(4, 2, 1), {32, 16, 8});
+  double straight_ratio = 0;
+  auto run = [&](const std::string& name, const std::vector<Vec3>& pts, double expect, double tolerance) {
+    TetMesh m = box;
+    m.discard_change();
+    const std::size_t crossed = crossed_by_path(m, pts);
+    CutOptions opt;
+    opt.path_tolerance = tolerance;
+    Cutter cutter(m, opt);
+    auto blade = [](const Vec3& p) { return BladeSegment{Vec3(p.x(), p.y(), -0.5), Vec3(p.x(), p.y(), 1.5)}; };
+    cutter.start(blade(pts[0]));
+    std::vector<double> ms;
+    for (std::size_t k = 1; k < pts.size(); ++k) ms.push_back(cutter.advance(blade(pts[k])).ms);
+    const double fin = cutter.finish().ms;
+    const QualityRange q = quality_range(m, 10.0);
+    const auto vols = part_volumes(m);
+    const double added = double(m.num_tets() - box.num_tets()) / double(std::max<std::size_t>(crossed, 1));
+    // The area the blade swept inside the box: the polyline's length inside it times the height.
+    double swept = 0;
+    for (std::size_t k = 0; k + 1 < pts.size(); ++k) {
+      Vec3 p = pts[k], q = pts[k + 1];
+      // Clip the segment to the box's xy-rectangle [0, 4] x [0, 2] (parametric, Liang-Barsky).
+      double t0 = 0, t1 = 1;
+      const Vec3 d = q - p;
+      for (int ax = 0; ax < 2; ++ax)
+        for (const double lim : {0.0, ax == 0 ? 4.0 : 2.0}) {
+          const double num = lim - p[ax], den = d[ax];
+          const bool lower = lim == 0.0;
+          if (den == 0) {
+            if (lower ? p[ax] < lim : p[ax] > lim) t1 = -1;
+            continue;
+          }
+          const double t = num / den;
+          if (lower == (den > 0)) t0 = std::max(t0, t);
+          else t1 = std::min(t1, t);
+        }
+      if (t1 > t0) swept += (t1 - t0) * d.norm();
+    }
+    if (name == "straight") straight_ratio = added;
+    std::printf("%s%s,%zu,%zu,%zu,%zu,%.3f,%.3f,%zu,%.5f,%.5f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.4f\n", name.c_str(),
+                tolerance > 0 ? "" : " (exact planes)", pts.size() - 1,
+                box.num_tets(), crossed, m.num_tets(), added, straight_ratio > 0 ? added / straight_ratio : 0.0,
+                vols.size(), vols.empty() ? 0.0 : vols[0], vols.empty() ? 1.0 : std::abs(vols[0] - expect) / expect,
+                q.min_dihedral, 100.0 * double(q.below) / double(m.num_tets()), percentile(ms, 0.5),
+                percentile(ms, 0.95), percentile(ms, 1.0), fin, tagged_area(m) / swept);
+    std::fflush(stdout);
+  };
+  {
+    std::vector<Vec3> pts;
+    for (int k = 0; k <= 100; ++k) pts.push_back(Vec3(2.03, -0.2 + 2.4 * k / 100.0, 0));
+    run("straight", pts, 3.94, tolerance);
+  }
+  for (const CurvedPath& c : curved_paths()) {
+    if (!only_case.empty() && c.name.find(only_case) == std::string::npos) continue;
+    std::vector<int> counts = {20, 100, 400};
+    if (!quick) counts.push_back(4000);
+    for (int n : counts) {
+      if (only_steps > 0 && n != only_steps) continue;
+      std::vector<Vec3> pts;
+      for (int k = 0; k <= n; ++k) pts.push_back(c.at(double(k) / n));
+      // The analytic volume of the path's inscribed polyline, not of the smooth path.
+      double expect = c.part_volume;
+      if (c.name != "S") {
+        expect = 0;  // shoelace over the polyline's part inside the box, closed along the box's sides
+        std::vector<Vec3> in;
+        for (const Vec3& p : pts)
+          if (p.y() >= 0 && p.x() <= 4) in.push_back(p);
+        if (c.name == "turn") {
+          in.insert(in.begin(), Vec3(1.53, 0, 0));
+          in.push_back(Vec3(4, 1.03, 0));
+          in.push_back(Vec3(4, 0, 0));
+        }
+        in.push_back(in.front());
+        for (std::size_t k = 0; k + 1 < in.size(); ++k)
+          expect += 0.5 * (in[k].x() * in[k + 1].y() - in[k + 1].x() * in[k].y());
+        expect = std::abs(expect);
+      }
+      run(c.name, pts, expect, tolerance);
+      // The cutter before issue 36: a new sheet wherever a step leaves the plane.
+      if (n <= 100) run(c.name, pts, expect, 0);
+    }
+  }
+}
+
 void progressive(const TetMesh& organ, const std::string& name, bool quick, const std::string& only_case,
                  int only_steps) {
   std::printf("# progressive (one blade motion in N steps, then finish(): growth per crossed tet, area, parts, "
@@ -565,15 +733,17 @@ int main(int argc, char** argv) {
   bool quick = false, with_1m = true;
   std::string organ_path = std::string(INCISE_SOURCE_DIR) + "/samples/liver.msh", only, only_case;
   int only_steps = 0;
+  double path_tolerance = CutOptions{}.path_tolerance;  // the curved rows' CutOptions::path_tolerance
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
     else if (!std::strcmp(argv[i], "--no-1m")) with_1m = false;
     else if (!std::strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
     else if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only_case = argv[++i];
     else if (!std::strcmp(argv[i], "--steps") && i + 1 < argc) only_steps = std::atoi(argv[++i]);
+    else if (!std::strcmp(argv[i], "--path-tolerance") && i + 1 < argc) path_tolerance = std::atof(argv[++i]);
     else if (argv[i][0] == '-') {
-      std::fprintf(stderr, "usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive] "
-                           "[--case NAME_PART] [--steps N] [ORGAN]\n");
+      std::fprintf(stderr, "usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive|curved] "
+                           "[--case NAME_PART] [--steps N] [--path-tolerance X] [ORGAN]\n");
       return 1;
     } else organ_path = argv[i];
   }
@@ -586,5 +756,6 @@ int main(int argc, char** argv) {
   if (want("snap")) snap_trade(organ);
   if (want("beam")) beam_ratio(quick);
   if (want("progressive")) progressive(organ, name, quick, only_case, only_steps);
+  if (want("curved")) curved(quick, only_case, only_steps, path_tolerance);
   return 0;
 }

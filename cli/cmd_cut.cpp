@@ -10,6 +10,7 @@
 
 #include "cli/checks.h"
 #include "cli/commands.h"
+#include "cut/blade_path.h"
 #include "cut/cutter.h"
 #include "mesh/errors.h"
 #include "mesh/io/atomic_file.h"
@@ -22,7 +23,7 @@ namespace incise::cli {
 
 void add_cut(CLI::App& app) {
   struct Opts {
-    std::string in, out, json, mode = "subdivide", surface;
+    std::string in, out, json, mode = "subdivide", surface, path;
     std::vector<double> blade, sweep, plane;
     int steps = 1;
     double snap = 0.05, budget_ms = 0, finish_insert = CutOptions{}.finish_insertion_below_deg;
@@ -38,6 +39,9 @@ void add_cut(CLI::App& app) {
   auto* steps_opt = cmd->add_option("--steps", o->steps, "Progressive steps: the blade moves D/N per step (N cuts)")
       ->check(CLI::Range(1, 100000))
       ->capture_default_str();
+  cmd->add_option("--path", o->path,
+                  "Instead of --blade/--sweep: a blade path file, one position 'AX AY AZ BX BY BZ' per line (the "
+                  "first places the blade, each later one is a step; '#' comments)");
   cmd->add_option("--plane", o->plane, "Instead of a blade: plane through P with normal N: PX PY PZ NX NY NZ")
       ->expected(6);
   cmd->add_option("--surface", o->surface, "Instead of a blade: cut along a triangulated surface (OFF, OBJ, STL, ...)");
@@ -79,16 +83,19 @@ void add_cut(CLI::App& app) {
   cmd->add_option("--json", o->json, "Write the cut report (JSON) here");
   cmd->add_flag("-q,--quiet", o->quiet, "No per-step progress on stderr");
   cmd->callback([o, steps_opt, finish_opt, finish_work_opt] {
-    const int kinds = int(!o->blade.empty()) + int(!o->plane.empty()) + int(!o->surface.empty());
-    if (kinds != 1) throw InvalidArgument("cut: give exactly one of --blade (with --sweep), --plane, --surface");
+    const int kinds =
+        int(!o->blade.empty()) + int(!o->plane.empty()) + int(!o->surface.empty()) + int(!o->path.empty());
+    if (kinds != 1) throw InvalidArgument("cut: give exactly one of --blade (with --sweep), --path, --plane, --surface");
+    const bool blade = !o->blade.empty() || !o->path.empty();
     if (!o->blade.empty() && o->sweep.empty()) throw InvalidArgument("cut: --blade needs --sweep DX DY DZ");
     // A plane or a surface cut is one step with nothing swept: the options would be ignored.
     if (o->blade.empty() && (!o->sweep.empty() || steps_opt->count() > 0))
-      throw InvalidArgument("cut: --sweep and --steps go with --blade only");
-    if (o->blade.empty() && finish_opt->count() > 0)
-      throw InvalidArgument("cut: --finish-insert goes with --blade only (a plane or surface cut has no withdrawn blade)");
-    if (o->blade.empty() && finish_work_opt->count() > 0)
-      throw InvalidArgument("cut: --finish-work goes with --blade only (a plane or surface cut has no withdrawn blade)");
+      throw InvalidArgument(o->path.empty() ? "cut: --sweep and --steps go with --blade only"
+                                            : "cut: --sweep and --steps go with --blade, not --path (a path gives every step)");
+    if (!blade && finish_opt->count() > 0)
+      throw InvalidArgument("cut: --finish-insert goes with --blade or --path only (a plane or surface cut has no withdrawn blade)");
+    if (!blade && finish_work_opt->count() > 0)
+      throw InvalidArgument("cut: --finish-work goes with --blade or --path only (a plane or surface cut has no withdrawn blade)");
     for (const auto* v : {&o->blade, &o->sweep, &o->plane})
       for (double x : *v)
         if (!std::isfinite(x) || std::abs(x) > 1e15)
@@ -107,6 +114,8 @@ void add_cut(CLI::App& app) {
     mesh.discard_change();
     SurfaceMesh surface;
     if (!o->surface.empty()) surface = read_surface(o->surface);
+    std::vector<BladeSegment> path;
+    if (!o->path.empty()) path = read_blade_path(o->path);
 
     CutOptions opt;
     opt.mode = o->mode == "remove" ? CutMode::Remove : CutMode::Subdivide;
@@ -158,6 +167,11 @@ void add_cut(CLI::App& app) {
       // The blade is withdrawn: the last front's tets get the improvement with it free.
       CutStepReport fin = cutter.finish();
       if (!fin.change.empty()) record(std::move(fin), o->steps + 1);
+    } else if (!path.empty()) {
+      cutter.start(path[0]);
+      for (std::size_t k = 1; k < path.size(); ++k) record(cutter.advance(path[k]), int(k));
+      CutStepReport fin = cutter.finish();
+      if (!fin.change.empty()) record(std::move(fin), int(path.size()));
     } else if (!o->plane.empty()) {
       record(cutter.cut_plane(Vec3(o->plane[0], o->plane[1], o->plane[2]), Vec3(o->plane[3], o->plane[4], o->plane[5])),
              1);
@@ -170,7 +184,7 @@ void add_cut(CLI::App& app) {
     // Remove mode can carve the whole body: a mesh without tets is no mesh (readers refuse it).
     if (mesh.num_tets() == 0) throw InvalidArgument("cut: the cut removes every tet of " + o->in + "; nothing written");
     if (tets_cut == 0)
-      std::cerr << "cut: warning: the " << (o->blade.empty() ? (o->plane.empty() ? "surface" : "plane") : "blade")
+      std::cerr << "cut: warning: the " << (!blade ? (o->plane.empty() ? "surface" : "plane") : "blade")
                 << " does not reach the mesh; " << o->out << " is the input unchanged\n";
     const QualityRange after = quality_range(mesh);
     write_tet_mesh(mesh, o->out, {}, tx);

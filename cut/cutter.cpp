@@ -42,6 +42,15 @@ struct Cutter::Progress {
   BladeSegment back;
   std::vector<VertexId> back_vertices;
   bool edited = false;  // this cut changed the mesh (finish() improves only then)
+  // Curved paths (CutOptions::path_tolerance): the distance the sheet's plane may be from the
+  // blade, and how far the blade must be from a finished sheet's front before the next sheet
+  // starts there (both lengths, set from the local edge; 0 before the blade met the body).
+  double tol = 0, reach = 0;
+  // A sheet ended because the blade left its plane; the next starts from its front, `resume`,
+  // once the blade is `reach` away from it (a quad from a front the blade has just left would
+  // point across the path, not along it).
+  std::optional<BladeSegment> resume;
+  BladeSegment last_blade;  // where an unfinished cut's blade was when start() began the next
   // start() was called with a sheet unfinished: the next step (or finish) completes it first,
   // in the same record (start() itself hands out no change).
   bool complete_first = false;
@@ -152,6 +161,48 @@ void Cutter::find_detached(CutStepReport& rep) {
   rep.fragments = find_fragments(*mesh_, starts, opt_.fragment_search_limit, *fragment_scratch_);
 }
 
+void Cutter::keep_shut_faces(std::span<const CutFacePair> shut) {
+  for (const CutFacePair& f : shut) {
+    if (!mesh_->is_alive(f.a.tet)) continue;
+    auto fv = mesh_->face_vertices(f.a.tet, f.a.local);
+    std::sort(fv.begin(), fv.end(), [](VertexId x, VertexId y) { return x.idx() < y.idx(); });
+    shut_faces_.push_back({fv[0], fv[1], fv[2]});
+  }
+}
+
+void Cutter::revive_shut(std::vector<CutFacePair>& faces) {
+  std::vector<std::array<VertexId, 3>> keys = std::move(shut_faces_);
+  shut_faces_.clear();
+  std::sort(keys.begin(), keys.end(), [](const auto& x, const auto& y) {
+    return std::make_tuple(x[0].idx(), x[1].idx(), x[2].idx()) < std::make_tuple(y[0].idx(), y[1].idx(), y[2].idx());
+  });
+  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+  auto same = [](std::array<VertexId, 3> a, const std::array<VertexId, 3>& b) {
+    std::sort(a.begin(), a.end(), [](VertexId x, VertexId y) { return x.idx() < y.idx(); });
+    return a == b;
+  };
+  for (const auto& k : keys) {
+    if (!mesh_->is_alive(k[0])) continue;
+    // The interior face with these corners, if the edits since left it (else it is gone or open).
+    for (TetId t : mesh_->incident_tets(k[0])) {
+      int f = -1;
+      for (int j = 0; j < 4 && f < 0; ++j)
+        if (same(mesh_->face_vertices(t, j), k)) f = j;
+      if (f < 0) continue;
+      const TetId n = mesh_->neighbor(t, f);
+      if (!n.is_valid()) break;
+      for (int g = 0; g < 4; ++g)
+        if (mesh_->neighbor(n, g) == t) {
+          bool listed = false;
+          for (const CutFacePair& c : faces)
+            listed = listed || (c.a.tet == t && c.a.local == f) || (c.b.tet == t && c.b.local == f);
+          if (!listed) faces.push_back({{t, f}, {n, g}});
+        }
+      break;
+    }
+  }
+}
+
 void Cutter::set_front(const CutStep& step, const BladeSegment& front) {
   front_ = step.live_candidates();
   front_vertices_ = step.segment_vertices(front.a, front.b);
@@ -185,22 +236,38 @@ void Cutter::start(const BladeSegment& blade) {
   if (!finite(blade.a) || !finite(blade.b)) throw InvalidArgument("cut: blade endpoints must be finite");
   finish_seeds_.clear();  // a new cut: the last one's remaining improvement is dropped
   finish_left_ = 0;
+  progress_->last_blade = blade_;
   blade_ = blade;
   started_ = true;
-  const bool unfinished = progress_->sheet.has_value();
+  const bool unfinished = progress_->sheet.has_value() || progress_->resume.has_value();
   if (!unfinished) {
     front_.clear();
     *progress_ = Progress{};
+    shut_faces_.clear();
   }
   progress_->complete_first = unfinished;
   front_vertices_.clear();
   has_front_ = false;
 }
 
+void Cutter::resume_to_blade(const PositionFn& positions, const BladeSegment& blade) {
+  Progress& pr = *progress_;
+  if (!pr.resume) return;
+  const BladeSegment back = *pr.resume;
+  pr.resume.reset();
+  if (swept_triangles(back, blade).empty()) return;
+  // The blade stopped (or is withdrawn) less than an edge past the last sheet's front: what it
+  // swept since is one more sheet, cut with the rest.
+  start_sheet(back, blade, positions);
+  refresh_waiting(positions, front_);
+}
+
 void Cutter::complete_previous(CutStepReport& rep, const PositionFn& positions) {
   if (!progress_->complete_first) return;
+  resume_to_blade(positions, progress_->last_blade);
   finish_sheet(rep, positions);
   *progress_ = Progress{};
+  shut_faces_.clear();
   front_.clear();
   front_vertices_.clear();
   has_front_ = false;
@@ -270,9 +337,22 @@ void Cutter::refresh_waiting(const PositionFn& positions, std::span<const TetId>
   }
 }
 
+void Cutter::open_stale(CutStepReport& rep, const PositionFn& positions) {
+  if (shut_faces_.empty()) return;
+  CutStep step(*mesh_, positions, opt_.snap);
+  std::vector<CutFacePair> faces;
+  revive_shut(faces);
+  if (faces.empty()) return;
+  keep_shut_faces(open_faces(step, faces, rep, positions).shut);
+  if (mesh_->has_pending_change()) progress_->edited = true;
+}
+
 void Cutter::finish_sheet(CutStepReport& rep, const PositionFn& positions) {
   Progress& pr = *progress_;
-  if (!pr.sheet) return;
+  if (!pr.sheet) {
+    open_stale(rep, positions);
+    return;
+  }
   const Piece sp = pr.sheet->piece();
   const BladeSegment front = pr.sheet->front();
   refresh_waiting(positions, {});
@@ -285,6 +365,7 @@ void Cutter::finish_sheet(CutStepReport& rep, const PositionFn& positions) {
   // it was).
   if (pr.waiting.empty() && closed.empty()) {
     pr.sheet.reset();
+    open_stale(rep, positions);
     return;
   }
   CutStep step(*mesh_, positions, opt_.snap, &pr.memory, false);
@@ -296,7 +377,9 @@ void Cutter::finish_sheet(CutStepReport& rep, const PositionFn& positions) {
   step.collect(sp, seeds, {});
   step.embed_boundary(sp);
   step.split_crossings(sp);
-  open_faces(step, step.cut_faces(std::span<const Piece>(&sp, 1)), rep, positions);
+  std::vector<CutFacePair> faces = step.cut_faces(std::span<const Piece>(&sp, 1));
+  revive_shut(faces);
+  keep_shut_faces(open_faces(step, faces, rep, positions).shut);
   set_front(step, front);
   pr.sheet.reset();
   pr.waiting.clear();
@@ -314,6 +397,7 @@ CutStepReport Cutter::finish(const PositionFn& caller_positions) {
   const bool grid_stale = mesh_->counters().edits != grid_edits_;
   std::vector<TetId> live;
   for (const auto& e : progress_->improve_queue) live.push_back(e.first);
+  resume_to_blade(positions, blade_);
   finish_sheet(rep, positions);
   const bool edited = progress_->edited;
   live.insert(live.end(), front_.begin(), front_.end());
@@ -325,6 +409,7 @@ CutStepReport Cutter::finish(const PositionFn& caller_positions) {
   front_vertices_.clear();
   has_front_ = false;
   *progress_ = Progress{};
+  shut_faces_.clear();
   finish_seeds_.clear();
   finish_left_ = 0;
   if (opt_.mode == CutMode::Subdivide && opt_.improve && edited && !live.empty()) {
@@ -432,6 +517,41 @@ CutStepReport Cutter::advance(const BladeSegment& blade, const PositionFn& calle
   return run(tris, positions, max_displacement, true);
 }
 
+void Cutter::start_sheet(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions) {
+  Progress& pr = *progress_;
+  pr.sheet = Sheet::start(from, to, pr.tol);
+  pr.memory = CutMemory{};
+  pr.waiting.clear();
+  pr.closed.clear();
+  pr.back_known = has_front_ && front_segment_.a == from.a && front_segment_.b == from.b;
+  pr.back = from;
+  pr.back_vertices = pr.back_known ? front_vertices_ : std::vector<VertexId>{};
+  if (pr.sheet && pr.back_known) pr.sheet->set_back_is_crease(true);
+  // The local edge where this sheet starts sets the next tolerance (the mesh may be graded).
+  if (opt_.path_tolerance > 0) {
+    const double h = local_edge(positions);
+    if (h > 0) {
+      pr.tol = opt_.path_tolerance * h;
+      pr.reach = h;
+    }
+  }
+}
+
+double Cutter::local_edge(const PositionFn& positions) const {
+  auto pos = [&](VertexId v) { return positions ? positions(v) : mesh_->rest(v); };
+  double sum = 0;
+  std::size_t n = 0;
+  // A sample: the front holds a few hundred tets at most, and the mean of 32 is enough here.
+  const std::size_t stride = std::max<std::size_t>(1, front_.size() / 32);
+  for (std::size_t i = 0; i < front_.size(); i += stride) {
+    if (!mesh_->is_alive(front_[i])) continue;
+    const auto& tv = mesh_->tet_vertices(front_[i]);
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b, ++n) sum += (pos(tv[a]) - pos(tv[b])).norm();
+  }
+  return n ? sum / double(n) : 0.0;
+}
+
 CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions,
                             double max_displacement) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -454,27 +574,46 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
   };
   std::vector<VertexId> frozen;
   std::vector<TetId> seeds;
-  if (!(pr.sheet && pr.sheet->extend(to))) {
+  if (pr.tol == 0 && opt_.path_tolerance > 0) {
+    const double h = local_edge(positions);
+    pr.tol = opt_.path_tolerance * h;
+    pr.reach = h;
+  }
+  bool waits = false;  // the blade left the plane and is not yet far enough from the front
+  if (!(pr.sheet && pr.sheet->extend(to, pr.tol))) {
     // A new plane (the first step, or the blade turned): the old sheet is cut in full, its
     // front becoming a crease the new sheet starts from.
+    if (pr.sheet && pr.tol > 0) pr.resume = pr.sheet->front();
     finish_sheet(rep, positions);
-    pr.sheet = Sheet::start(from, to);
-    pr.memory = CutMemory{};
-    pr.waiting.clear();
-    pr.closed.clear();
-    pr.back_known = has_front_ && front_segment_.a == from.a && front_segment_.b == from.b;
-    pr.back = from;
-    pr.back_vertices = pr.back_known ? front_vertices_ : std::vector<VertexId>{};
-    if (pr.sheet && pr.back_known) pr.sheet->set_back_is_crease(true);
+    const BladeSegment back = pr.resume ? *pr.resume : from;
+    auto far = [&](const BladeSegment& b) {
+      return std::max((b.a - to.a).norm(), (b.b - to.b).norm()) >= pr.reach;
+    };
+    if (pr.resume && !far(*pr.resume)) {
+      waits = true;
+    } else {
+      pr.resume.reset();
+      start_sheet(back, to, positions);
+      if (!(back.a == from.a && back.b == from.b)) {
+        local.triangles = swept_triangles(back, to);
+        if (local.triangles.empty()) local.triangles = tris;
+        finish_piece(local);
+      }
+    }
   }
-  if (!pr.sheet) {
+  if (waits) {
+    // Nothing is cut while the blade moves away from the last front: finish_sheet() cut what
+    // the old sheet swept, and the next sheet sweeps from that front.
+    seeds = front_;
+    frozen = front_vertices_;
+  } else if (!pr.sheet) {
     // The quad is not planar (the blade turned out of its plane within the step): it is cut in
     // full like a one-shot surface, its front embedded for the next step to continue from.
-    std::vector<Piece> pieces = make_pieces(tris);
-    if (pr.back_known) mark_inner_segment(pieces, from.a, from.b);
+    std::vector<Piece> pieces = make_pieces(local.triangles);
+    if (pr.back_known) mark_inner_segment(pieces, pr.back.a, pr.back.b);
     CutStep step(*mesh_, positions, opt_.snap);
     step.set_fixed(opt_.frozen);
-    if (pr.back_known) step.add_known_segment(from.a, from.b, pr.back_vertices);
+    if (pr.back_known) step.add_known_segment(pr.back.a, pr.back.b, pr.back_vertices);
     seeds = front_;
     for (const Piece& p : pieces) {
       step.collect(p, seeds, scan);

@@ -66,6 +66,13 @@ struct CutOptions {
   // blade. A floor of 1e-6 always applies (points of earlier splits are floating point).
   double snap = 0.05;
   bool improve = true;             // local flips + smoothing after each step
+  // A progressive cut's sheet stays one plane while the blade stays within this distance of
+  // it, relative to the mean edge of the tets the blade is in (its ends are projected onto the
+  // plane): a curving path, or tissue moving under the blade, is cut as a few planar sheets
+  // whose number follows the path's curvature and the mesh size, not the number of steps
+  // (docs/cut.md#curved-paths). Past it a new sheet starts from the last front, once the blade
+  // is an edge away from it. 0: a new sheet wherever the swept quad leaves the plane.
+  double path_tolerance = 0.25;
   // Used when improve (rings, budget, ...); frozen is set per step. Contraction tolerance 0.01:
   // where the rim passes within a hair of a surface vertex, the edge between them may go even
   // on the curved surface (moving it by at most that hair, well inside the snap threshold).
@@ -210,6 +217,19 @@ private:
                       double max_displacement);
   // Cuts what the current sheet still has waiting, embedding its boundary; forgets the sheet.
   void finish_sheet(CutStepReport& rep, const PositionFn& positions);
+  // A new sheet from `from` (a finished sheet's front, or the blade's last position) to `to`.
+  void start_sheet(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions);
+  // Cut faces an earlier sheet's finish left shut (their opening would have pinched the
+  // boundary until the next sheet opened its side): offered again at every later finish of a
+  // sheet, as corner triples (the tets around them may have been replaced since).
+  std::vector<std::array<VertexId, 3>> shut_faces_;
+  void keep_shut_faces(std::span<const cut_detail::CutFacePair> shut);
+  void revive_shut(std::vector<cut_detail::CutFacePair>& faces);
+  void open_stale(CutStepReport& rep, const PositionFn& positions);  // the shut faces alone
+  // A curved path's next sheet, from the last front to the blade, when one is due (finish()).
+  void resume_to_blade(const PositionFn& positions, const BladeSegment& blade);
+  // Mean edge length of (a sample of) the tets the blade is in; 0 when it is in none.
+  double local_edge(const PositionFn& positions) const;
   // Local improvement of the region just cut; the waiting tets' vertices stay put.
   void improve_after(CutStepReport& rep, std::vector<TetId> seeds, std::vector<VertexId> frozen);
   // A cut start() left unfinished is completed before the next edit (cut/cutter.cpp).

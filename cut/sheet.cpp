@@ -19,16 +19,22 @@ bool turn_ok(const Vec3& p, const Vec3& x, const Vec3& q, const Vec3& n, bool* c
 }
 }  // namespace
 
-std::optional<Sheet> Sheet::start(const BladeSegment& from, const BladeSegment& to) {
-  const auto tris = swept_triangles(from, to);
+std::optional<Sheet> Sheet::start(const BladeSegment& from, const BladeSegment& blade, double tol) {
+  BladeSegment to = blade;
+  auto tris = swept_triangles(from, to);
   if (tris.empty()) return std::nullopt;
   Sheet s;
   s.plane_ = tris[0];
   s.normal_ = tris[0].normal().normalized();
   for (const Vec3& x : {from.a, from.b, to.a, to.b}) s.scale_ = std::max(s.scale_, (x - from.a).norm());
   if (tris.size() == 2) {
-    if (!(tris[1].normal().dot(s.normal_) > 0)) return std::nullopt;
-    if (std::abs(s.normal_.dot(to.a - s.plane_.p[0])) > kPlanarTol * s.scale_) return std::nullopt;
+    const double off = s.normal_.dot(to.a - s.plane_.p[0]);
+    if (std::abs(off) > kPlanarTol * s.scale_) {
+      if (!(std::abs(off) <= tol) || !(s.normal_.norm() > 0)) return std::nullopt;
+      to.a -= off * s.normal_;
+      tris = swept_triangles(from, to);
+    }
+    if (tris.size() == 2 && !(tris[1].normal().dot(s.normal_) > 0)) return std::nullopt;
   }
   for (const Vec3& x : {from.a, from.b, to.b, to.a})
     if (s.ring_.empty() || !(x == s.ring_.back())) {
@@ -61,8 +67,20 @@ bool Sheet::convex() const {
   return true;
 }
 
-bool Sheet::extend(const BladeSegment& to) {
+double Sheet::deviation(const BladeSegment& b) const {
+  return std::max(std::abs(normal_.dot(b.a - plane_.p[0])), std::abs(normal_.dot(b.b - plane_.p[0])));
+}
+
+bool Sheet::extend(const BladeSegment& blade, double tol) {
   const BladeSegment from = front();
+  BladeSegment to = blade;
+  // Within the tolerance of the plane: projected onto it (an end within rounding of the plane
+  // is kept as it is, so a straight sweep gives the same polygon with or without a tolerance).
+  for (Vec3* x : {&to.a, &to.b}) {
+    const double off = normal_.dot(*x - plane_.p[0]);
+    const double exact = kPlanarTol * std::max(scale_, (*x - plane_.p[0]).norm());
+    if (std::abs(off) > exact && std::abs(off) <= tol) *x -= off * normal_;
+  }
   const auto tris = swept_triangles(from, to);
   if (tris.empty()) return true;  // the blade did not move: nothing swept
   double scale = scale_;

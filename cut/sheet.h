@@ -21,10 +21,17 @@ class Sheet {
 public:
   // The sheet one step starts: the quad the blade swept from `from` to `to` (one of its two
   // triangles may be degenerate), or nothing when the quad is not planar or folds over.
-  static std::optional<Sheet> start(const BladeSegment& from, const BladeSegment& to);
+  // `tol` (a length): a to.a within it of the plane of (from.a, from.b, to.b) is projected
+  // onto it (a blade that twisted a little), 0: planar to rounding only.
+  static std::optional<Sheet> start(const BladeSegment& from, const BladeSegment& to, double tol = 0);
   // Grows the sheet by the quad swept from the current front to `to` when that quad lies in the
   // plane, faces the same way and keeps the polygon convex; false (sheet unchanged) otherwise.
-  bool extend(const BladeSegment& to);
+  // `tol` (a length): blade ends within it of the plane count as in it and are projected onto
+  // it, so a curving path (or tissue moving under the blade) continues the sheet while it
+  // stays that close; the front is then the projected blade (front() != the blade).
+  bool extend(const BladeSegment& to, double tol = 0);
+  // How far the blade `b` is from the plane (its farther end).
+  double deviation(const BladeSegment& b) const;
   // The polygon as a cut piece: fan triangles, every edge a boundary segment (the front marked),
   // the plane fixed at the first step's triangle.
   const Piece& piece() const { return piece_; }

@@ -28,7 +28,12 @@ void check_scene(const incise::Scene& s) {
     if (!finite(c.a) || !finite(c.b) || !finite(c.sweep)) std::abort();
     if (c.from_frame < 0 || c.to_frame < c.from_frame || c.to_frame >= s.frames) std::abort();
     if (!(c.snap >= 0 && c.snap < 0.5)) std::abort();
-    if ((c.b - c.a).norm() == 0 || c.sweep.norm() == 0) std::abort();
+    if ((c.b - c.a).norm() == 0 || (c.path.empty() && c.sweep.norm() == 0)) std::abort();
+    for (std::size_t i = 0; i < c.path.size(); ++i) {
+      const auto& k = c.path[i];
+      if (!finite(k.a) || !finite(k.b) || (k.b - k.a).norm() == 0 || k.frame >= s.frames) std::abort();
+      if (i > 0 && !(k.frame > c.path[i - 1].frame)) std::abort();
+    }
   }
   int last = 0;
   for (const auto& in : s.inputs) {

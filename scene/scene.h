@@ -56,9 +56,17 @@ enum class SceneModel { FemLinear, FemCorotational, Springs };
 // `to_frame` (one cut step per frame; equal frames: the whole sweep before that frame's solve).
 // Before frame k's solve it has swept (k - from + 1) / (to - from + 1) of it, where a probe
 // ramped over the same frames applies (k - from) / (to - from) (docs/scene.md).
+// Or a path: the blade's ends at key frames (`path`), placed at the first before its frame's
+// solve and moved to its position at each later frame up to the last key (linear between keys),
+// one step per frame; from_frame/to_frame are then the first key's frame + 1 and the last's.
+struct SceneCutKey {
+  int frame = 0;
+  Vec3 a = Vec3::Zero(), b = Vec3::Zero();
+};
 struct SceneCut {
   std::string key;              // "cuts[0]", for messages
   Vec3 a = Vec3::Zero(), b = Vec3::Zero(), sweep = Vec3::Zero();
+  std::vector<SceneCutKey> path;  // non-empty: a path cut (a, b are its first key's; no sweep)
   int from_frame = 0, to_frame = 0;
   std::string mode = "subdivide";  // or "remove"
   double snap = 0.05;

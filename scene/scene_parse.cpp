@@ -192,6 +192,37 @@ void read_blade_options(const Reader& rd, const json& c, const std::string& key,
   }
 }
 
+// A cut's "path": [{"frame": F, "blade": [[ax,ay,az],[bx,by,bz]]}, ...], at least two keys,
+// frames increasing and below the run's frame count, every blade's ends distinct.
+void read_cut_path(const Reader& rd, const json& jp, const std::string& key, int frames, SceneCut& cut) {
+  if (!jp.is_array() || jp.size() < 2)
+    rd.fail(key, "expected an array of at least two {\"frame\": F, \"blade\": [[ax,ay,az],[bx,by,bz]]}");
+  for (std::size_t i = 0; i < jp.size(); ++i) {
+    const std::string k = key + "[" + std::to_string(i) + "]";
+    rd.keys(jp[i], k, {"frame", "blade"});
+    if (!jp[i].contains("frame")) rd.fail(k + ".frame", "missing");
+    if (!jp[i].contains("blade") || !jp[i]["blade"].is_array() || jp[i]["blade"].size() != 2)
+      rd.fail(k + ".blade", "expected [[ax,ay,az],[bx,by,bz]]");
+    SceneCutKey p;
+    p.frame = rd.integer(jp[i]["frame"], k + ".frame", cut.path.empty() ? 0 : cut.path.back().frame + 1);
+    if (p.frame >= frames)
+      rd.fail(k + ".frame", "frame " + std::to_string(p.frame) + " is after the run's last frame (" +
+                                std::to_string(frames - 1) + ", time.frames " + std::to_string(frames) + ")");
+    p.a = rd.vec3(jp[i]["blade"][0], k + ".blade[0]");
+    p.b = rd.vec3(jp[i]["blade"][1], k + ".blade[1]");
+    if (!((p.b - p.a).norm() > 0)) rd.fail(k + ".blade", "the blade's two ends are the same point");
+    cut.path.push_back(p);
+  }
+  bool moves = false;
+  for (std::size_t i = 1; i < cut.path.size(); ++i)
+    moves = moves || !(cut.path[i].a == cut.path[0].a && cut.path[i].b == cut.path[0].b);
+  if (!moves) rd.fail(key, "the blade never moves (every key has the first key's position)");
+  cut.a = cut.path.front().a;
+  cut.b = cut.path.front().b;
+  cut.from_frame = cut.path.front().frame + 1;
+  cut.to_frame = cut.path.back().frame;
+}
+
 }  // namespace
 
 double SceneLoad::factor(int frame) const {
@@ -417,9 +448,17 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     for (std::size_t i = 0; i < jc.size(); ++i) {
       const std::string key = "cuts[" + std::to_string(i) + "]";
       const json& c = jc[i];
-      rd.keys(c, key, {"blade", "sweep", "from_frame", "to_frame", "mode", "snap", "improve"});
+      rd.keys(c, key, {"blade", "sweep", "from_frame", "to_frame", "path", "mode", "snap", "improve"});
       SceneCut cut;
       cut.key = key;
+      if (c.contains("path")) {
+        for (const char* k : {"blade", "sweep", "from_frame", "to_frame"})
+          if (c.contains(k)) rd.fail(key + "." + k, "not with \"path\" (a path gives the blade's ends at frames)");
+        read_cut_path(rd, c["path"], key + ".path", s.frames, cut);
+        read_blade_options(rd, c, key, cut.mode, cut.snap, cut.improve);
+        s.cuts.push_back(cut);
+        continue;
+      }
       if (!c.contains("blade") || !c["blade"].is_array() || c["blade"].size() != 2)
         rd.fail(key + ".blade", "expected [[ax,ay,az],[bx,by,bz]]");
       cut.a = rd.vec3(c["blade"][0], key + ".blade[0]");

@@ -105,6 +105,18 @@ double sweep_fraction(const SceneCut& c, int frame) {
   return double(frame - c.from_frame + 1) / double(c.to_frame - c.from_frame + 1);
 }
 
+// Where a path cut's blade is at `frame` (linear between the keys around it).
+BladeSegment path_blade(const SceneCut& c, int frame) {
+  const auto& p = c.path;
+  if (frame <= p.front().frame) return {p.front().a, p.front().b};
+  for (std::size_t i = 1; i < p.size(); ++i)
+    if (frame <= p[i].frame) {
+      const double t = double(frame - p[i - 1].frame) / double(p[i].frame - p[i - 1].frame);
+      return {(1 - t) * p[i - 1].a + t * p[i].a, (1 - t) * p[i - 1].b + t * p[i].b};
+    }
+  return {p.back().a, p.back().b};
+}
+
 }  // namespace
 
 SceneRunner::SceneRunner(const Scene& scene, const TetMesh* mesh) : scene_(scene) {
@@ -358,6 +370,18 @@ double SceneRunner::cut_scene_blades(double& improve_ms) {
     }
   for (std::size_t i = 0; i < cutters_.size(); ++i) {
     const SceneCut& c = scene_.cuts[i];
+    if (!c.path.empty()) {
+      if (swept_[i] >= 1 || frame_ < c.from_frame) continue;
+      if (bound < 0) bound = max_displacement_bound();
+      CutStepReport r = cutters_[i]->advance(path_blade(c, frame_), current, bound);
+      take(r, cutters_[i].get());
+      if (frame_ >= c.to_frame) {
+        swept_[i] = 1;
+        CutStepReport fin = cutters_[i]->finish(current);
+        take(fin, cutters_[i].get());
+      }
+      continue;
+    }
     const double f = sweep_fraction(c, frame_);
     if (f <= swept_[i]) continue;
     const Vec3 off = f * c.sweep;
