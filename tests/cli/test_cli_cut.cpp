@@ -2,6 +2,8 @@
 // tags in the written file, and one-line errors that leave nothing behind.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -150,4 +152,63 @@ TEST_CASE("incise cut fails with one line naming the problem, and writes nothing
   Run help = run_incise("cut --help", dir);
   for (const char* d : {"--snap FLOAT:in [0, 0.5)=0.05", "=subdivide", "--improve-work INT:INT in [0 - 100000000]=8"})
     CHECK(help.out.find(d) != std::string::npos);
+}
+
+TEST_CASE("incise cut --path: a blade along a curved path detaches what the path closes off", "[cli][cut]") {
+  const fs::path dir = scratch_dir("cli_cut_path");
+  const std::string box = (dir / "box.msh").string(), out = (dir / "cut.msh").string(), js = (dir / "cut.json").string();
+  REQUIRE(run_incise("generate box --size 4 2 1 --cells 16 8 4 -o '" + box + "'", dir).code == 0);
+  // A vertical blade along a half circle of radius 1 about (2.03, 0), in and out through y = 0.
+  const double pi = std::acos(-1.0);
+  {
+    std::ofstream p(dir / "arc.path");
+    p << "# blade ends per step: AX AY AZ BX BY BZ\n1.03 -0.2 -0.5 1.03 -0.2 1.5\n";
+    for (int k = 0; k <= 60; ++k) {
+      const double a = pi * (1 - k / 60.0), x = 2.03 + std::cos(a), y = std::sin(a);
+      p << x << " " << y << " -0.5  " << x << " " << y << " 1.5\n";
+    }
+    p << "\n3.03 -0.2 -0.5 3.03 -0.2 1.5\n";
+  }
+  Run r = run_incise("cut '" + box + "' -o '" + out + "' --path '" + (dir / "arc.path").string() + "' --json '" + js + "' -q",
+                     dir);
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+  std::ifstream in(js);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  CHECK(j["fragments"].get<int>() == 1);
+  CHECK(j["steps"].size() >= 62);
+  const incise::TetMesh m = incise::read_tet_mesh(out);
+  REQUIRE_NOTHROW(m.validate({true, true}));
+  CHECK(incise::tet_components(m).count == 2);
+  // The cut faces: both sides of a half-cylinder wall, about pi x 1 each.
+  CHECK(tagged_area(m, incise::kTagCut) == Approx(2 * pi).epsilon(0.04));
+
+  // Bad path files: one line naming the file and line, nothing written.
+  struct Case {
+    std::string text, expect;
+  };
+  const Case cases[] = {
+      {"0 0 0 1 1 1\n", "bad.path:1: a path needs at least two"},
+      {"0 0 0 1 1 1\n0 0 0 1 1\n", "bad.path:2: expected 6 numbers"},
+      {"0 0 0 1 1 1\n0 0 zero 1 1 1\n", "bad.path:2: 'zero' is not a number"},
+      {"0 0 0 1 1 1\n# c\n0 0 nan 1 1 1\n", "bad.path:3: coordinates must be finite"},
+      {"1 1 1 1 1 1\n0 0 0 1 1 1\n", "bad.path:1: the blade's two ends are the same point"},
+      {"0 0 0 1 1 1\n0 0 0 1 1 1\n", "the blade never moves"},
+  };
+  const std::string out2 = (dir / "out2.msh").string();
+  for (const Case& c : cases) {
+    {
+      std::ofstream p(dir / "bad.path");
+      p << c.text;
+    }
+    Run b = run_incise("cut '" + box + "' -o '" + out2 + "' --path '" + (dir / "bad.path").string() + "'", dir);
+    INFO(c.text << "\n" << b.err);
+    CHECK(b.code == 1);
+    CHECK(b.err.find(c.expect) != std::string::npos);
+    CHECK(std::count(b.err.begin(), b.err.end(), '\n') == 1);
+    CHECK(!fs::exists(out2));
+  }
+  Run both = run_incise("cut '" + box + "' -o '" + out2 + "' --path '" + (dir / "arc.path").string() + "' --steps 4", dir);
+  CHECK(both.code == 1);
+  CHECK(both.err.find("--steps go with --blade, not --path") != std::string::npos);
 }

@@ -146,3 +146,48 @@ TEST_CASE("scene cut errors name the key", "[cut][scene][errors]") {
                                 "s.json"),
                     Catch::Contains("cuts[0].to_frame: frame 6 is after the run's last frame"));
 }
+
+TEST_CASE("a path cut bends where its keys say and detaches the beam's end", "[cut][scene]") {
+  // A vertical blade enters the beam's side at x = 2.03 and turns towards +x halfway across:
+  // keys at frames 1, 3 and 5 (placed at 1, one step a frame over 2..5, withdrawn after 5).
+  const Scene s = parse_scene(beam_scene(R"({"path": [
+      {"frame": 1, "blade": [[2.03, -0.5, -0.5], [2.03, -0.5, 1.5]]},
+      {"frame": 3, "blade": [[2.03, 0.5, -0.5], [2.03, 0.5, 1.5]]},
+      {"frame": 5, "blade": [[2.53, 1.5, -0.5], [2.53, 1.5, 1.5]]}]})"),
+                              "scene.json");
+  REQUIRE(s.cuts.size() == 1);
+  CHECK(s.cuts[0].path.size() == 3);
+  CHECK(s.cuts[0].from_frame == 2);
+  CHECK(s.cuts[0].to_frame == 5);
+  const fs::path out = temp_dir("path");
+  SceneRunOptions ro;
+  ro.out_dir = out.string();
+  const SceneRunSummary sum = run_scene(s, ro);
+  CHECK(sum.fragments_handled == 1);  // the free end, removed (static FEM)
+  CHECK(sum.frames_not_converged == 0);
+  const TetMesh last = read_tet_mesh((out / "frame_0005.vtu").string());
+  double volume = 0;
+  for (TetId t : last.tets()) volume += last.volume(t);
+  // What stays: x < 2.03 for y < 0.5, then left of the line towards (2.53, 1.5), which reaches
+  // x = 2.28 at y = 1: 2.03 + 0.0625 (of 4).
+  CHECK(volume == Approx(2.03 + 0.0625).epsilon(0.002));
+
+  CHECK_THROWS_WITH(parse_scene(beam_scene(R"({"path": [{"frame": 1, "blade": [[0, 0, 0], [1, 0, 0]]}]})"), "s.json"),
+                    Catch::Contains("cuts[0].path: expected an array of at least two"));
+  CHECK_THROWS_WITH(
+      parse_scene(beam_scene(R"({"path": [{"frame": 2, "blade": [[0, 0, 0], [1, 0, 0]]}, {"frame": 2, "blade": [[0, 1, 0], [1, 1, 0]]}]})"),
+                  "s.json"),
+      Catch::Contains("cuts[0].path[1].frame: expected an integer >= 3"));
+  CHECK_THROWS_WITH(
+      parse_scene(beam_scene(R"({"path": [{"frame": 2, "blade": [[0, 0, 0], [1, 0, 0]]}, {"frame": 6, "blade": [[0, 1, 0], [1, 1, 0]]}]})"),
+                  "s.json"),
+      Catch::Contains("cuts[0].path[1].frame: frame 6 is after the run's last frame"));
+  CHECK_THROWS_WITH(
+      parse_scene(beam_scene(R"({"path": [{"frame": 1, "blade": [[0, 0, 0], [1, 0, 0]]}, {"frame": 2, "blade": [[0, 0, 0], [1, 0, 0]]}]})"),
+                  "s.json"),
+      Catch::Contains("cuts[0].path: the blade never moves"));
+  CHECK_THROWS_WITH(
+      parse_scene(beam_scene(R"({"path": [{"frame": 1, "blade": [[0, 0, 0], [1, 0, 0]]}, {"frame": 2, "blade": [[0, 1, 0], [1, 1, 0]]}], "sweep": [0, 0, 1]})"),
+                  "s.json"),
+      Catch::Contains("cuts[0].sweep: not with \"path\""));
+}

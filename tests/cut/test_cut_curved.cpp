@@ -1,0 +1,174 @@
+// Blade paths that curve (issue 36): a vertical blade through a box along an arc, an S and a
+// 90-degree turn. One drag must detach exactly the region the path closes off, and the mesh must
+// grow with the cut, not with the number of steps the hand took (CutOptions::path_tolerance).
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <functional>
+#include <numeric>
+#include <unordered_map>
+
+#include "cut/cutter.h"
+#include "mesh/generate.h"
+#include "quality/metrics.h"
+#include "tests/cut/cut_checks.h"
+
+using namespace incise;
+using namespace incise::testing;
+
+namespace {
+
+const double kPi = std::acos(-1.0);
+
+// Volumes of the parts that share no vertex, smallest first.
+std::vector<double> part_volumes(const TetMesh& m) {
+  std::vector<std::uint32_t> parent(m.vertex_capacity());
+  std::iota(parent.begin(), parent.end(), 0u);
+  auto find = [&](std::uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (TetId t : m.tets())
+    for (int k = 1; k < 4; ++k) parent[find(m.tet_vertices(t)[std::size_t(k)].idx())] = find(m.tet_vertices(t)[0].idx());
+  std::unordered_map<std::uint32_t, double> vol;
+  for (TetId t : m.tets()) vol[find(m.tet_vertices(t)[0].idx())] += m.volume(t);
+  std::vector<double> out;
+  for (const auto& [root, v] : vol) out.push_back(v);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+struct PathCut {
+  std::vector<double> parts;  // part volumes, smallest first
+  std::size_t added = 0;      // tets added
+  QualityRange quality;
+};
+
+// A vertical blade (z from -0.5 to 1.5) at the path's points, one step per point after the
+// first, then finish(); the mesh's invariants checked after every step when asked.
+PathCut cut_along(TetMesh m, const std::vector<Vec3>& path, bool check_each = false, CutOptions opt = {}) {
+  const auto vol0 = label_volumes(m);
+  const std::size_t before = m.num_tets();
+  Cutter cutter(m, opt);
+  auto blade = [](const Vec3& p) { return BladeSegment{Vec3(p.x(), p.y(), -0.5), Vec3(p.x(), p.y(), 1.5)}; };
+  cutter.start(blade(path[0]));
+  double moved = 0;
+  for (std::size_t k = 1; k < path.size(); ++k) {
+    moved += cutter.advance(blade(path[k])).improve.volume_change;
+    if (check_each) check_cut_invariants(m, vol0, 1e-9, moved);
+  }
+  moved += cutter.finish().improve.volume_change;
+  check_cut_invariants(m, vol0, 1e-9, moved);
+  return {part_volumes(m), m.num_tets() - before, quality_range(m, 10.0)};
+}
+
+std::vector<Vec3> sample(const std::function<Vec3(double)>& at, int steps) {
+  std::vector<Vec3> out;
+  for (int k = 0; k <= steps; ++k) out.push_back(at(double(k) / steps));
+  return out;
+}
+
+// Area the polygon (closed) encloses in the xy-plane.
+double shoelace(const std::vector<Vec3>& poly) {
+  double a = 0;
+  for (std::size_t k = 0; k < poly.size(); ++k) {
+    const Vec3& p = poly[k];
+    const Vec3& q = poly[(k + 1) % poly.size()];
+    a += p.x() * q.y() - q.x() * p.y();
+  }
+  return 0.5 * std::abs(a);
+}
+
+// A half circle of radius 1 about (2.03, 0) entering and leaving a 4 x 2 x 1 box through y = 0
+// (the same path as bench_cut --only curved).
+Vec3 arc(double t) {
+  if (t < 0.05) return Vec3(1.03, -0.2 + 4 * t, 0);
+  if (t > 0.95) return Vec3(3.03, 4 * (1 - t) - 0.2, 0);
+  const double a = kPi * (1 - (t - 0.05) / 0.9);
+  return Vec3(2.03 + std::cos(a), std::sin(a), 0);
+}
+
+// The arc's polyline inside the box, closed along y = 0: the region it detaches.
+double arc_region(const std::vector<Vec3>& path) {
+  std::vector<Vec3> in;
+  for (const Vec3& p : path)
+    if (p.y() >= 0) in.push_back(p);
+  return shoelace(in);
+}
+
+}  // namespace
+
+TEST_CASE("curved paths: an arc detaches the half disc it closes off, growing the mesh like a straight cut",
+          "[cut][curved][scale]") {
+  const TetMesh box = make_box(Vec3(4, 2, 1), {32, 16, 8});
+  // The straight through-cut of the same box in 100 steps: tets added per unit of path.
+  const PathCut straight = cut_along(box, sample([](double t) { return Vec3(2.03, -0.2 + 2.4 * t, 0); }, 100));
+  REQUIRE(straight.parts.size() == 2);
+  const double straight_rate = double(straight.added) / 2.0;  // the path is 2 long inside the box
+  for (int steps : {20, 100, 400, 4000}) {
+    CAPTURE(steps);
+    const auto path = sample(arc, steps);
+    const PathCut c = cut_along(box, path);
+    REQUIRE(c.parts.size() == 2);
+    // The detached part is the polyline's region times the height (1). Each sheet lies within
+    // path_tolerance (a quarter edge) of the blade: a few percent of the area at 20 long steps,
+    // under 1% once a step is shorter than an edge.
+    const double region = arc_region(path);
+    CHECK(c.parts[0] == Approx(region).epsilon(steps >= 100 ? 0.01 : 0.02));
+    // The path inside the box is about pi long: growth per unit length within 1.25x the straight cut's.
+    CHECK(double(c.added) / kPi <= 1.25 * straight_rate);
+    // What the cutter before path_tolerance made of this (a sheet a step): 1 part, 45k tets at 100 steps.
+    CHECK(c.added < box.num_tets() / 2);
+  }
+}
+
+TEST_CASE("curved paths: an S and a 90-degree turn give one sheet with corners, the parts the polygon says",
+          "[cut][curved][scale]") {
+  const TetMesh box = make_box(Vec3(4, 2, 1), {32, 16, 8});
+  // S: x = 2.03 + 0.5 sin(pi y) from y = -0.2 to 2.2: the part right of it has area 4 - 2.03 * 2.
+  const auto s = [](double t) {
+    const double y = -0.2 + 2.4 * t;
+    return Vec3(2.03 + 0.5 * std::sin(kPi * y), y, 0);
+  };
+  // Turn: up x = 1.53 to y = 1.03, then along y = 1.03 out through x = 4: the corner
+  // [1.53, 4] x [0, 1.03] comes off.
+  const auto turn = [](double t) {
+    const double len = 1.23 + 2.67, d = t * len;
+    return d <= 1.23 ? Vec3(1.53, -0.2 + d, 0) : Vec3(1.53 + (d - 1.23), 1.03, 0);
+  };
+  for (int steps : {20, 100, 400}) {
+    CAPTURE(steps);
+    const PathCut cs = cut_along(box, sample(s, steps));
+    REQUIRE(cs.parts.size() == 2);
+    CHECK(cs.parts[0] == Approx(8 - 2.03 * 2).epsilon(0.01));
+    const auto tp = sample(turn, steps);
+    const PathCut ct = cut_along(box, tp);
+    REQUIRE(ct.parts.size() == 2);
+    std::vector<Vec3> region = {Vec3(1.53, 0, 0)};
+    for (const Vec3& p : tp)
+      if (p.y() >= 0 && p.x() <= 4) region.push_back(p);
+    region.push_back(Vec3(4, 1.03, 0));
+    region.push_back(Vec3(4, 0, 0));
+    CHECK(ct.parts[0] == Approx(shoelace(region)).epsilon(0.01));
+  }
+}
+
+TEST_CASE("curved paths: every step of an arc keeps the mesh valid and the label volumes", "[cut][curved]") {
+  // Coarser, so that the instrumented build checks every step of the path too.
+  const TetMesh box = make_box(Vec3(4, 2, 1), {16, 8, 4});
+  const auto path = sample(arc, 60);
+  const PathCut c = cut_along(box, path, true);
+  REQUIRE(c.parts.size() == 2);
+  CHECK(c.parts[0] == Approx(arc_region(path)).epsilon(0.03));
+}
+
+TEST_CASE("curved paths: path_tolerance 0 starts a sheet wherever the blade leaves the plane", "[cut][curved]") {
+  // The option's other end, as before it existed: the same arc on the coarse box grows more.
+  const TetMesh box = make_box(Vec3(4, 2, 1), {16, 8, 4});
+  const auto path = sample(arc, 60);
+  CutOptions exact;
+  exact.path_tolerance = 0;
+  const PathCut sheets = cut_along(box, path, false, exact);
+  const PathCut tolerant = cut_along(box, path);
+  CHECK(tolerant.added < sheets.added);
+}
