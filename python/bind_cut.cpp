@@ -4,6 +4,7 @@
 #include <cmath>
 #include "python/bindings.h"
 
+#include "cut/blade_path.h"
 #include "cut/cutter.h"
 #include "mesh/errors.h"
 #include "quality/improve_checks.h"
@@ -22,7 +23,7 @@ struct PyCutter {
 std::unique_ptr<PyCutter> make_cutter(const py::object& mesh_obj, const std::string& mode, double snap, bool improve,
                                       double improve_budget_ms, int improve_work, const py::object& frozen,
                                       std::size_t fragment_search_limit, double finish_insert, int finish_work,
-                                      int finish_slice) {
+                                      int finish_slice, double path_tolerance) {
   if (!py::isinstance<TetMesh>(mesh_obj))
     throw InvalidArgument("Cutter: mesh: expected an incise.TetMesh, got " +
                           py::str(py::type::of(mesh_obj).attr("__name__")).cast<std::string>());
@@ -48,6 +49,8 @@ std::unique_ptr<PyCutter> make_cutter(const py::object& mesh_obj, const std::str
       throw InvalidArgument(std::string("cut: ") + name + ": " + std::to_string(v) + " is out of range [0, 100000000]");
   o.finish_improve_work = finish_work;
   o.finish_improve_slice = finish_slice;
+  check_finite_range("cut", "path_tolerance", path_tolerance, 0, 10, PythonNames{});
+  o.path_tolerance = path_tolerance;
   if (!frozen.is_none()) o.frozen = to_vertices(mesh, frozen);
   o.fragment_search_limit = fragment_search_limit;
   return std::unique_ptr<PyCutter>(new PyCutter{mesh_obj, mesh, Cutter(mesh, std::move(o))});
@@ -88,6 +91,20 @@ py::dict report(CutStepReport&& r) {
 }  // namespace
 
 void bind_cut(py::module_& m) {
+  m.def(
+      "read_blade_path",
+      [](const std::string& path) {
+        const std::vector<BladeSegment> p = read_blade_path(path);
+        py::array_t<double> out({static_cast<py::ssize_t>(p.size()), py::ssize_t(2), py::ssize_t(3)});
+        double* d = out.mutable_data();
+        for (const BladeSegment& b : p)
+          for (const Vec3& x : {b.a, b.b})
+            for (int k = 0; k < 3; ++k) *d++ = x[k];
+        return out;
+      },
+      py::arg("path"),
+      "Blade positions from a path file (one 'AX AY AZ BX BY BZ' per line, as `incise cut --path` reads): an "
+      "(N, 2, 3) array; the first places the blade (Cutter.start), each later one is a step (Cutter.advance)");
   py::class_<PyCutter>(m, "Cutter",
                        "Cuts a TetMesh in place: a blade segment swept over calls (progressive cuts), a plane, "
                        "or a triangulated surface (cut/cutter.h, docs/cut.md)")
@@ -96,7 +113,8 @@ void bind_cut(py::module_& m) {
            py::arg("improve_work") = CutOptions::kDefaultImproveWork,
            py::arg("frozen") = py::none(), py::arg("fragment_search_limit") = std::size_t(20000),
            py::arg("finish_insert") = CutOptions{}.finish_insertion_below_deg,
-           py::arg("finish_work") = CutOptions{}.finish_improve_work, py::arg("finish_slice") = 0)
+           py::arg("finish_work") = CutOptions{}.finish_improve_work, py::arg("finish_slice") = 0,
+           py::arg("path_tolerance") = CutOptions{}.path_tolerance)
       .def(
           "start", [](PyCutter& c, const py::object& a, const py::object& b) {
             c.cutter.start({to_vec3(a, "blade a"), to_vec3(b, "blade b")});

@@ -180,3 +180,34 @@ def test_advance_needs_a_started_blade(box):
         c.advance((0.5, -1, 0.0), (0.5, 1, 0.0))
     with pytest.raises(incise.InvalidArgument, match="Cutter: mesh: expected an incise.TetMesh, got list"):
         incise.Cutter([1, 2, 3])
+
+
+def test_a_curved_path_from_a_file_detaches_what_it_closes_off(tmp_path):
+    # A vertical blade along a half circle (radius 1 about (2.03, 0)), in and out through y = 0.
+    t = np.linspace(np.pi, 0, 61)
+    rows = [(1.03, -0.2)] + list(zip(2.03 + np.cos(t), np.sin(t))) + [(3.03, -0.2)]
+    path = tmp_path / "arc.path"
+    path.write_text("# AX AY AZ BX BY BZ\n" + "".join(f"{x} {y} -0.5 {x} {y} 1.5\n" for x, y in rows))
+    blade = incise.read_blade_path(str(path))
+    assert blade.shape == (len(rows), 2, 3)
+    mesh = incise.generate_box((4.0, 2.0, 1.0), (16, 8, 4))
+    mesh.take_change()
+    cutter = incise.Cutter(mesh)
+    cutter.start(*blade[0])
+    fragments = []
+    for a, b in blade[1:]:
+        fragments += cutter.advance(a, b)["fragments"]
+    fragments += cutter.finish()["fragments"]
+    mesh.validate(check_manifold_boundary=True)
+    assert len(fragments) == 1
+    polyline = np.array(rows[1:-1])
+    x, y = polyline[:, 0], polyline[:, 1]
+    region = 0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))  # closed along y = 0
+    assert fragments[0]["volume"] == pytest.approx(region, rel=0.03)
+
+    with pytest.raises(incise.IoError, match=r"arc2.path:2: expected 6 numbers"):
+        bad = tmp_path / "arc2.path"
+        bad.write_text("0 0 0 1 1 1\n0 0 0 1\n")
+        incise.read_blade_path(str(bad))
+    with pytest.raises(incise.InvalidArgument, match="path_tolerance"):
+        incise.Cutter(mesh, path_tolerance=-1)
