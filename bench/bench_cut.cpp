@@ -18,7 +18,7 @@
 //  4. beam_ratio: a beam clamped at both ends under gravity, cut through at midspan: midspan
 //     sag after / before, against beam theory: 3 (Euler-Bernoulli: two cantilevers of half
 //     the length), 2.78 with shear (Timoshenko) for this beam's L/h = 10.
-// Usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive|curved] [--case NAME_PART] [--steps N]
+// Usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive|curved|deformed] [--case NAME_PART] [--steps N]
 //                  [ORGAN]   (default samples/liver.msh; --case, --steps: only the progressive rows whose case
 //                  name contains NAME_PART, with N steps, for profiling)
 #include <algorithm>
@@ -40,6 +40,7 @@
 #include "mesh/generate.h"
 #include "mesh/io/tet_io.h"
 #include "quality/boundary_angle.h"
+#include "quality/components.h"
 #include "quality/metrics.h"
 #include "sim/fem_simulation.h"
 #include "sim/spring_model.h"
@@ -651,6 +652,88 @@ void curved(bool quick, const std::string& only_case, int only_steps, double tol
   }
 }
 
+// ---- 7 -------------------------------------------------------------------------------------
+// A deforming organ (issue 36): held on its low-x side (15% of its length), a probe pressing
+// the top of its far end down by `push` of its height over frames 0-50, and a blade across it
+// going 60% down through its middle over frames 10-50, one step before each frame's static
+// corotational solve, then finish(). The cut's sheet in the rest shape (material_frame, the
+// default) against each step cut in the current shape; the quality of the result and the
+// boundary's sharpest angle after the cut (a crease the blade did not make shows there).
+void deformed(const TetMesh& organ_in, const std::string& name, bool quick, double path_tolerance) {
+  TetMesh organ = organ_in;
+  {
+    // Imaged organs carry specks: the largest face-connected part alone (a free speck would make
+    // the static solve singular).
+    const TetComponents comps = tet_components(organ);
+    const int keep = int(std::max_element(comps.sizes.begin(), comps.sizes.end()) - comps.sizes.begin());
+    for (TetId t : organ.tets())
+      if (comps.of_tet[t.idx()] != keep) organ.remove_tet(t);
+    organ.compact();
+  }
+  organ.discard_change();
+  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+  for (VertexId v : organ.vertices()) {
+    lo = lo.cwiseMin(organ.rest(v));
+    hi = hi.cwiseMax(organ.rest(v));
+  }
+  const Vec3 size = hi - lo, c = 0.5 * (lo + hi);
+  const auto b0 = smallest_boundary_angle(organ);
+  const QualityRange q0 = quality_range(organ, 10.0);
+  std::printf("# deformed organ (%s, %zu tets, uncut: smallest dihedral %.3f, sharpest boundary angle %.2f deg): "
+              "held at low x, probe pushing the far end's top down, blade 60%% down through the middle over "
+              "frames 10-50 on the current shape, corotational static\n",
+              name.c_str(), organ.num_tets(), q0.min_dihedral, b0 ? b0->degrees : 0.0);
+  std::printf("push,frame,tets_after,min_dihedral,below_10deg_pct,boundary_angle_after,cut_area,ms_step_median,"
+              "ms_step_p95,max_displacement\n");
+  std::vector<double> pushes = {0.0, 0.05, 0.15, 0.30};
+  if (quick) pushes = {0.0, 0.15};
+  for (double push : pushes)
+    for (bool material : {true, false}) {
+      TetMesh m = organ;
+      FemSimulationOptions o;
+      o.kind = FemKind::Corotational;
+      o.cg.tolerance = 1e-6;
+      FemSimulation fem(m, MaterialTable(Material{5e3, 0.4, 1}), o);
+      std::vector<VertexId> probe;
+      for (VertexId v : m.vertices()) {
+        const Vec3 p = m.rest(v);
+        if (p.x() <= lo.x() + 0.15 * size.x()) fem.fix(v);
+        else if (p.x() >= hi.x() - 0.15 * size.x() && p.z() >= hi.z() - 0.25 * size.z()) probe.push_back(v);
+      }
+      CutOptions opt;
+      opt.material_frame = material;
+      opt.path_tolerance = path_tolerance;
+      Cutter cutter(m, opt);
+      const Vec3 a(c.x() + 0.013 * size.x(), lo.y() - 0.1 * size.y(), hi.z() + 0.05 * size.z());
+      const Vec3 b(c.x() + 0.013 * size.x(), hi.y() + 0.1 * size.y(), hi.z() + 0.05 * size.z());
+      const Vec3 down(0, 0, -0.65 * size.z());
+      std::vector<double> ms;
+      double max_disp = 0;
+      auto current = [&](VertexId v) { return Vec3(m.rest(v) + fem.displacement().segment<3>(3 * v.idx())); };
+      for (int frame = 0; frame <= 55; ++frame) {
+        const double ramp = std::min(1.0, frame / 50.0);
+        for (VertexId v : probe)
+          if (m.is_alive(v)) fem.prescribe(v, Vec3(0, 0, -push * size.z() * ramp));
+        if (frame == 10) cutter.start({a, b});
+        if (frame > 10 && frame <= 50) {
+          const Vec3 off = down * (double(frame - 10) / 40.0);
+          CutStepReport r = cutter.advance({a + off, b + off}, current);
+          ms.push_back(r.ms);
+          fem.apply(r.change);
+          if (frame == 50) fem.apply(cutter.finish(current).change);
+        }
+        fem.step();
+      }
+      for (VertexId v : m.vertices()) max_disp = std::max(max_disp, fem.displacement().segment<3>(3 * v.idx()).norm());
+      const QualityRange q = quality_range(m, 10.0);
+      const auto b1 = smallest_boundary_angle(m);
+      std::printf("%.2f,%s,%zu,%.3f,%.3f,%.2f,%.4g,%.3f,%.3f,%.4g\n", push, material ? "rest" : "current", m.num_tets(),
+                  q.min_dihedral, 100.0 * double(q.below) / double(m.num_tets()), b1 ? b1->degrees : 0.0,
+                  tagged_area(m), percentile(ms, 0.5), percentile(ms, 0.95), max_disp);
+      std::fflush(stdout);
+    }
+}
+
 void progressive(const TetMesh& organ, const std::string& name, bool quick, const std::string& only_case,
                  int only_steps) {
   std::printf("# progressive (one blade motion in N steps, then finish(): growth per crossed tet, area, parts, "
@@ -742,7 +825,7 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--steps") && i + 1 < argc) only_steps = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--path-tolerance") && i + 1 < argc) path_tolerance = std::atof(argv[++i]);
     else if (argv[i][0] == '-') {
-      std::fprintf(stderr, "usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive|curved] "
+      std::fprintf(stderr, "usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive|curved|deformed] "
                            "[--case NAME_PART] [--steps N] [--path-tolerance X] [ORGAN]\n");
       return 1;
     } else organ_path = argv[i];
@@ -757,5 +840,6 @@ int main(int argc, char** argv) {
   if (want("beam")) beam_ratio(quick);
   if (want("progressive")) progressive(organ, name, quick, only_case, only_steps);
   if (want("curved")) curved(quick, only_case, only_steps, path_tolerance);
+  if (only == "deformed") deformed(organ, name, quick, path_tolerance);  // by name only: it needs an imaged organ (ORGAN)
   return 0;
 }

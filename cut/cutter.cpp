@@ -244,7 +244,9 @@ void Cutter::start(const BladeSegment& blade) {
     front_.clear();
     *progress_ = Progress{};
     shut_faces_.clear();
+    map_.reset();
   }
+  rest_known_ = false;  // the new blade is mapped at its first step
   progress_->complete_first = unfinished;
   front_vertices_.clear();
   has_front_ = false;
@@ -390,7 +392,8 @@ void Cutter::finish_sheet(CutStepReport& rep, const PositionFn& positions) {
 
 CutStepReport Cutter::finish(const PositionFn& caller_positions) {
   const auto t0 = std::chrono::steady_clock::now();
-  const PositionFn positions = with_fresh(caller_positions);
+  // A cut made in the rest shape (moving tissue) is finished there.
+  const PositionFn positions = with_fresh(map_ ? PositionFn{} : caller_positions);
   CutStepReport rep;
   if (mesh_->has_pending_change())
     throw InvalidArgument("cut: the mesh has edits not yet taken (call take_change() before finishing a cut)");
@@ -410,6 +413,8 @@ CutStepReport Cutter::finish(const PositionFn& caller_positions) {
   has_front_ = false;
   *progress_ = Progress{};
   shut_faces_.clear();
+  map_.reset();
+  rest_known_ = false;
   finish_seeds_.clear();
   finish_left_ = 0;
   if (opt_.mode == CutMode::Subdivide && opt_.improve && edited && !live.empty()) {
@@ -512,9 +517,53 @@ CutStepReport Cutter::advance(const BladeSegment& blade, const PositionFn& calle
   if (!finite(blade.a) || !finite(blade.b)) throw InvalidArgument("cut: blade endpoints must be finite");
   const BladeSegment from = blade_;
   blade_ = blade;
-  if (opt_.mode == CutMode::Subdivide) return sweep(from, blade, positions, max_displacement);
+  if (opt_.mode == CutMode::Subdivide) {
+    // Moving tissue: the blade is mapped into the rest shape through the local deformation
+    // around it, and the cut is made there, so the sheet and its front move with the tissue
+    // (docs/cut.md#moving-tissue). Still tissue (positions at rest) needs no map.
+    BladeSegment rest_from = rest_known_ ? rest_blade_ : from, rest_to = blade;
+    std::optional<LocalDeformation> fit;
+    if (positions && opt_.material_frame) fit = local_deformation(from, blade, positions, max_displacement);
+    if (fit) {
+      if (!map_) rest_from = fit->to_rest(from);  // the first step in moving tissue: both ends in this frame
+      map_ = fit;
+    }
+    if (map_) rest_to = map_->to_rest(blade);  // (outside the body: the last map)
+    rest_blade_ = rest_to;
+    rest_known_ = true;
+    if (map_) return sweep(rest_from, rest_to, {}, 0.0);
+    return sweep(rest_from, rest_to, positions, max_displacement);
+  }
   const auto tris = swept_triangles(from, blade);
   return run(tris, positions, max_displacement, true);
+}
+
+std::optional<cut_detail::LocalDeformation> Cutter::local_deformation(const BladeSegment& from, const BladeSegment& to,
+                                                          const PositionFn& positions, double max_displacement) {
+  // The tets the blade is in and has not cut yet: whole tissue (the faces behind the blade open
+  // as it deforms, and a fit across the gap would follow the opening, not the tissue).
+  std::vector<TetId> support;
+  for (TetId t : progress_->waiting)
+    if (mesh_->is_alive(t)) support.push_back(t);
+  if (support.empty())
+    for (TetId t : front_)
+      if (mesh_->is_alive(t)) support.push_back(t);
+  if (support.empty()) {
+    // First contact: the tets whose current box meets the box the blade swept.
+    Vec3 lo = from.a.cwiseMin(from.b).cwiseMin(to.a).cwiseMin(to.b);
+    Vec3 hi = from.a.cwiseMax(from.b).cwiseMax(to.a).cwiseMax(to.b);
+    const bool stale = mesh_->counters().edits != grid_edits_;
+    for (TetId t : first_contact(lo, hi, positions, max_displacement, stale)) {
+      Vec3 tlo = Vec3::Constant(1e300), thi = Vec3::Constant(-1e300);
+      for (VertexId v : mesh_->tet_vertices(t)) {
+        tlo = tlo.cwiseMin(positions(v));
+        thi = thi.cwiseMax(positions(v));
+      }
+      if ((tlo.array() <= hi.array()).all() && (thi.array() >= lo.array()).all()) support.push_back(t);
+    }
+    if (stale && !mesh_->has_pending_change()) grid_edits_ = mesh_->counters().edits;  // rebuilt just now
+  }
+  return fit_local_deformation(*mesh_, support, positions);
 }
 
 void Cutter::start_sheet(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions) {

@@ -42,6 +42,7 @@
 #include <vector>
 
 #include "cut/blade.h"
+#include "cut/local_deformation.h"
 #include "cut/snap_rule.h"
 #include "cut/tet_grid.h"
 #include "mesh/tet_mesh.h"
@@ -73,6 +74,14 @@ struct CutOptions {
   // (docs/cut.md#curved-paths). Past it a new sheet starts from the last front, once the blade
   // is an edge away from it. 0: a new sheet wherever the swept quad leaves the plane.
   double path_tolerance = 0.25;
+  // true: a progressive cut given current positions that differ from the rest ones maps each
+  // step's blade into the rest shape through the affine map that best fits the deformation of
+  // the tets the blade is in, and cuts there: the sheet and its front are in material
+  // coordinates and move with the tissue, instead of a world-space plane re-stitched into the
+  // rest shape at every step (creases where the tissue moved). Off by default: where the tissue
+  // bends under the blade the mapped path curves, and the sheets it takes cost quality
+  // (docs/cut.md#moving-tissue).
+  bool material_frame = false;
   // Used when improve (rings, budget, ...); frozen is set per step. Contraction tolerance 0.01:
   // where the rim passes within a hair of a surface vertex, the edge between them may go even
   // on the curved surface (moving it by at most that hair, well inside the snap threshold).
@@ -226,6 +235,14 @@ private:
   void keep_shut_faces(std::span<const cut_detail::CutFacePair> shut);
   void revive_shut(std::vector<cut_detail::CutFacePair>& faces);
   void open_stale(CutStepReport& rep, const PositionFn& positions);  // the shut faces alone
+  // Moving tissue (CutOptions::material_frame): the map of this cut's blade into the rest shape
+  // (set once the tissue under the blade is seen to have moved; the cut is then made in the rest
+  // shape to its finish) and where the last step put the blade there.
+  std::optional<cut_detail::LocalDeformation> map_;
+  BladeSegment rest_blade_;
+  bool rest_known_ = false;
+  std::optional<cut_detail::LocalDeformation> local_deformation(const BladeSegment& from, const BladeSegment& to,
+                                                                const PositionFn& positions, double max_displacement);
   // A curved path's next sheet, from the last front to the blade, when one is due (finish()).
   void resume_to_blade(const PositionFn& positions, const BladeSegment& blade);
   // Mean edge length of (a sample of) the tets the blade is in; 0 when it is in none.
