@@ -10,12 +10,18 @@ namespace {
 // computes as start + f * sweep are coplanar only up to rounding.
 constexpr double kPlanarTol = 1e-9;
 
-bool turn_ok(const Vec3& p, const Vec3& x, const Vec3& q, const Vec3& n, bool* collinear) {
+// The turn at x on the way p -> x -> q (the ring runs counter-clockwise about n): convex, or
+// reflex with x within `tol` (a length) of the line p-q, which counts as straight: a hand's
+// wobble or single-precision input bends the swept polygon's sides by that little (0: rounding
+// only). `collinear`: straight within the same bounds (x may be merged away).
+bool turn_ok(const Vec3& p, const Vec3& x, const Vec3& q, const Vec3& n, bool* collinear, double tol = 0) {
   const Vec3 e1 = x - p, e2 = q - x;
   const double l = e1.norm() * e2.norm();
   const double c = e1.cross(e2).dot(n);
-  *collinear = l == 0 || (std::abs(c) <= kPlanarTol * l && e1.dot(e2) > 0);
-  return c >= -kPlanarTol * l;
+  const double pq = (q - p).norm();
+  const bool near_line = tol > 0 && pq > 0 && std::abs((x - p).cross(q - p).dot(n)) <= tol * pq;
+  *collinear = l == 0 || ((std::abs(c) <= kPlanarTol * l || near_line) && e1.dot(e2) > 0);
+  return c >= -kPlanarTol * l || (near_line && e1.dot(e2) > 0);
 }
 }  // namespace
 
@@ -24,6 +30,7 @@ std::optional<Sheet> Sheet::start(const BladeSegment& from, const BladeSegment& 
   auto tris = swept_triangles(from, to);
   if (tris.empty()) return std::nullopt;
   Sheet s;
+  s.tol_ = tol;
   s.plane_ = tris[0];
   s.normal_ = tris[0].normal().normalized();
   for (const Vec3& x : {from.a, from.b, to.a, to.b}) s.scale_ = std::max(s.scale_, (x - from.a).norm());
@@ -62,7 +69,7 @@ bool Sheet::convex() const {
   const std::size_t n = ring_.size();
   for (std::size_t i = 0; i < n; ++i) {
     bool col = false;
-    if (!turn_ok(ring_[(i + n - 1) % n], ring_[i], ring_[(i + 1) % n], normal_, &col)) return false;
+    if (!turn_ok(ring_[(i + n - 1) % n], ring_[i], ring_[(i + 1) % n], normal_, &col, tol_)) return false;
   }
   return true;
 }
@@ -74,6 +81,8 @@ double Sheet::deviation(const BladeSegment& b) const {
 bool Sheet::extend(const BladeSegment& blade, double tol) {
   const BladeSegment from = front();
   BladeSegment to = blade;
+  const double old_tol = tol_;
+  tol_ = tol;
   // Within the tolerance of the plane: projected onto it (an end within rounding of the plane
   // is kept as it is, so a straight sweep gives the same polygon with or without a tolerance).
   for (Vec3* x : {&to.a, &to.b}) {
@@ -86,9 +95,9 @@ bool Sheet::extend(const BladeSegment& blade, double tol) {
   double scale = scale_;
   for (const Vec3& x : {to.a, to.b}) scale = std::max(scale, (x - plane_.p[0]).norm());
   for (const CutTriangle& t : tris)
-    if (!(t.normal().dot(normal_) > 0)) return false;  // folds back over the sheet
+    if (!(t.normal().dot(normal_) > 0)) { tol_ = old_tol; return false; }  // folds back over the sheet
   for (const Vec3& x : {to.a, to.b})
-    if (std::abs(normal_.dot(x - plane_.p[0])) > kPlanarTol * scale) return false;
+    if (std::abs(normal_.dot(x - plane_.p[0])) > kPlanarTol * scale) { tol_ = old_tol; return false; }
   std::vector<Vec3> ring;
   std::vector<bool> keep;
   for (std::size_t i = 0; i < ring_.size(); ++i) {
@@ -112,7 +121,7 @@ bool Sheet::extend(const BladeSegment& blade, double tol) {
     for (std::size_t i = 0; i < n; ++i) {
       if (keep[i] || ring[i] == to.a || ring[i] == to.b) continue;
       bool col = false;
-      turn_ok(ring[(i + n - 1) % n], ring[i], ring[(i + 1) % n], normal_, &col);
+      turn_ok(ring[(i + n - 1) % n], ring[i], ring[(i + 1) % n], normal_, &col, tol);
       if (!col) continue;
       ring.erase(ring.begin() + std::ptrdiff_t(i));
       keep.erase(keep.begin() + std::ptrdiff_t(i));
@@ -130,6 +139,7 @@ bool Sheet::extend(const BladeSegment& blade, double tol) {
     ring_ = std::move(old_ring);
     keep_ = std::move(old_keep);
     front_ = old_front;
+    tol_ = old_tol;
     return false;
   }
   scale_ = scale;

@@ -49,6 +49,7 @@ private:
   CutTriangle plane_;
   Vec3 normal_ = Vec3::Zero();
   double scale_ = 0;  // size of the first step's quad: tolerance reference
+  double tol_ = 0;    // the last path tolerance (a length): sides bent this little count as straight
   bool back_crease_ = false;
   Piece piece_;
 };

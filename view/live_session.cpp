@@ -25,9 +25,6 @@ using Clock = std::chrono::steady_clock;
 // Colours are recomputed every this many frames (von Mises is a pass over every tet) and after
 // each cut step; in between the page keeps the last ones.
 constexpr int kColourEvery = 30;
-// Within this distance (relative to the body's size) of the line of the blade's current
-// straight stretch a move counts as on it: about a pixel or two with the whole body in view.
-constexpr double kStraight = 0.005;
 // The clip view draws at most this many tets (the worst ones): 4 faces and 4 corners each on
 // the wire, so a wide angle on a large mesh stays a bounded message.
 constexpr std::size_t kMaxClipTets = 4000;
@@ -60,11 +57,9 @@ public:
 
   // input state
   bool paused = false, step_once = false, blade = false;
-  // The blade's ends move along straight stretches (blade_position()), each end on its own
-  // line, both lines in one plane.
+  // Where the blade is: the drag's own path is the blade's (a hand's wobble and the page's
+  // single precision stay within the cutter's path tolerance, CutOptions::path_tolerance).
   Vec3 blade_at = Vec3::Zero(), blade_b = Vec3::Zero();
-  Vec3 stretch_origin = Vec3::Zero(), stretch_dir = Vec3::Zero(), stretch_origin_b = Vec3::Zero(),
-       stretch_dir_b = Vec3::Zero();
   std::uint32_t colour = 0;
   std::uint32_t clip_deg = 0;  // the clip view: tets below this angle drawn (0: off)
   bool probe = false;
@@ -84,43 +79,6 @@ public:
   std::uint32_t scalar_version = 0;
   int frames_since_colour = 1 << 20;
 };
-
-// Where the blade's ends go for a move to (a, b): each onto the line of its end's current
-// straight stretch when both stay within kStraight of them and go on forward, else (a, b)
-// themselves, starting a new stretch from where the blade is, b put into the plane of the
-// blade and a's motion so that the stretch's two lines are coplanar. A straight stretch is
-// one swept polygon in the cutter (cut/sheet.h), whatever the number of steps; a hand's
-// wobble and the page's single precision would otherwise bend every step out of the plane
-// and start a new polygon each time (measured on the liver: a 400-pixel drag grew it from
-// 7.9k to 14.2k tets instead of ~1k more). The ends may move by different amounts: the page
-// keeps the blade on the mouse's ray (a fan from the eye), whose far end moves further than
-// its near end; a blade that only translated lagged behind the ray at depth and stopped short
-// of the far side of the body (no through-cut from the page).
-std::pair<Vec3, Vec3> LiveSession::blade_position(LiveState& s, const Vec3& a, const Vec3& b) const {
-  if (!s.stretch_dir.isZero()) {
-    auto onto = [&](const Vec3& p, const Vec3& origin, const Vec3& dir, const Vec3& at) -> std::optional<Vec3> {
-      const Vec3 r = p - origin;
-      const double along = r.dot(dir);
-      if ((r - along * dir).norm() > kStraight * body_size_ || along < (at - origin).dot(dir)) return std::nullopt;
-      return Vec3(origin + along * dir);
-    };
-    const auto a2 = onto(a, s.stretch_origin, s.stretch_dir, s.blade_at);
-    // An end that stood still at the stretch's start stays there while the other one moves.
-    const auto b2 = !s.stretch_dir_b.isZero() ? onto(b, s.stretch_origin_b, s.stretch_dir_b, s.blade_b)
-                    : (b - s.stretch_origin_b).norm() <= kStraight * body_size_ ? std::optional<Vec3>(s.stretch_origin_b)
-                                                                                : std::nullopt;
-    if (a2 && b2) return {*a2, *b2};
-  }
-  const Vec3 d = a - s.blade_at;
-  s.stretch_dir = d.norm() > 0 ? Vec3(d.normalized()) : Vec3::Zero();
-  s.stretch_origin = s.blade_at;
-  s.stretch_origin_b = s.blade_b;
-  Vec3 db = b - s.blade_b;
-  const Vec3 n = s.stretch_dir.cross(s.blade_b - s.blade_at);
-  if (n.norm() > 0) db -= db.dot(n.normalized()) * n.normalized();  // into the plane
-  s.stretch_dir_b = db.norm() > 0 ? Vec3(db.normalized()) : Vec3::Zero();
-  return {a, s.blade_b + db};
-}
 
 LiveSession::LiveSession(const Scene& scene, std::string record_dir)
     : record_dir_(std::move(record_dir)), scene_(scene), state_(std::make_unique<LiveState>(scene)) {
@@ -263,13 +221,12 @@ void LiveSession::loop() {
             s->blade = true;
             s->blade_at = a;
             s->blade_b = b;
-            s->stretch_dir = Vec3::Zero();
             break;
           case InputKind::BladeMove: {
             // Moves queued behind each other make one step (the cut does not depend on how a
             // motion is sliced, cut/cutter.h), so a fast mouse cannot queue up work.
             if (!s->blade || (i + 1 < in.size() && in[i + 1].kind == InputKind::BladeMove)) break;
-            const auto [at, bt] = blade_position(*s, a, b);
+            const Vec3 at = a, bt = b;
             if ((at - s->blade_at).norm() + (bt - s->blade_b).norm() <= 1e-9 * body_size_) break;  // did not move
             if (!((at - bt).norm() > 1e-6 * body_size_)) break;  // its ends would coincide
             s->blade_at = at;

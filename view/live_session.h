@@ -56,7 +56,6 @@ private:
   void loop();
   void publish();
   std::string check(const InputMessage& input) const;
-  std::pair<Vec3, Vec3> blade_position(LiveState& s, const Vec3& a, const Vec3& b) const;
   void start_take(LiveState& s);
   void end_take(LiveState& s);  // writes the take's series, stats and scene.json
 

@@ -9,6 +9,7 @@ Screenshots go to OUT_DIR.
 usage: browser_test.py INCISE SCENE.json OUT_DIR [incise view options...]
 """
 import json
+import math
 import os
 import re
 import shutil
@@ -201,7 +202,12 @@ def main():
         record = driver.find_element(By.ID, "record")
         record.click()
         wait_for("recording", lambda: status()["recording"] == "take-1")
-        drag(-150, 10, 10, 0, 30)
+        # A curved drag (an arc on the screen): the blade follows the drag's own path.
+        chain = ActionChains(driver, duration=20)
+        chain.move_to_element_with_offset(canvas, -150, 10).click_and_hold()
+        for k in range(30):
+            chain.move_by_offset(10, round(4 * math.cos(math.pi * (k + 0.5) / 30))).pause(0.03)
+        chain.release().perform()
         wait_for("cut faces on the server", lambda: status()["cut_triangles"] > 0)
         for k in range(2):
             f = status()["frame"]
@@ -217,6 +223,19 @@ def main():
         with open(os.path.join(take, "scene.json")) as fh:
             inputs = json.load(fh)["inputs"]
         blades = sum(1 for i in inputs if "blade" in i)
+        # The recorded blade path is the drag's: its near end bends step after step (the server
+        # once straightened drags onto lines, which left the middle of nearly every triple of
+        # consecutive positions exactly on the line through its neighbours).
+        near = [i["blade"][0] for i in inputs if "blade" in i]
+        bent = 0
+        for p, x, q in zip(near, near[1:], near[2:]):
+            d = [q[k] - p[k] for k in range(3)]
+            r = [x[k] - p[k] for k in range(3)]
+            cross = [r[1] * d[2] - r[2] * d[1], r[2] * d[0] - r[0] * d[2], r[0] * d[1] - r[1] * d[0]]
+            if math.sqrt(sum(c * c for c in cross)) > 1e-6 * math.sqrt(sum(c * c for c in d)) ** 2:
+                bent += 1
+        if len(near) < 10 or bent < (len(near) - 2) // 2:
+            fail(f"the take's blade path is straightened: {bent} of {len(near) - 2} positions off their neighbours' line")
         replay = os.path.join(out_dir, "replay")
         shutil.rmtree(replay, ignore_errors=True)
         r = subprocess.run([incise, "simulate", os.path.join(take, "scene.json"), "-o", replay], capture_output=True,
