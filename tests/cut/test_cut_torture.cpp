@@ -1,6 +1,6 @@
 // Torture: thousands of random progressive blade steps over boxes, balls and organ meshes
 // (image- and surface-meshed samples) at scales 1e-6, 1 and 1e6, with random snap thresholds,
-// rotating blades and axis-aligned blades through vertex layers. After EVERY step: validate()
+// rotating blades, curved paths and axis-aligned blades through vertex layers. After EVERY step: validate()
 // (incidence, orientation, closed manifold boundary) and every label's rest volume.
 // INCISE_TORTURE_STEPS sets the total (default 10000; the sanitizer run uses fewer).
 #include <catch2/catch.hpp>
@@ -114,20 +114,27 @@ TEST_CASE("torture: random progressive cuts keep every invariant after every ste
         sweep = (sweep - sweep.dot(dir) * dir).normalized();
       }
       const double len = diag * (0.3 + 1.2 * u01(rng));
-      const int nsteps = 2 + int(rng() % 7);
+      // A third of the cuts away from vertex layers walk a curved path: the motion turns about
+      // the blade by up to 90 degrees (either way) over the cut, in up to 30 steps (curved
+      // paths, CutOptions::path_tolerance).
+      const bool curved = centre == c && rng() % 3 == 0;
+      const double bend = curved ? 1.6 * (u01(rng) - 0.5) : 0.0;
+      const int nsteps = curved ? 4 + int(rng() % 27) : 2 + int(rng() % 7);
       const double travel = diag * (0.2 + 0.9 * u01(rng));
-      const double turn = (rng() % 2) ? 0.0 : 0.4 * (u01(rng) - 0.5);
+      const double turn = (rng() % 2 || curved) ? 0.0 : 0.4 * (u01(rng) - 0.5);
       const Vec3 axis = unit();
       Vec3 start = centre - 0.5 * travel * sweep;
       cutter.start({start - 0.5 * len * dir, start + 0.5 * len * dir});
       // A straight sweep on a fresh box must open exactly what it swept inside the box, however
       // it was sliced into steps (checked after finish(); rotating blades cut a bent surface).
-      const bool check_area = seq == 0 && turn == 0.0 && opt.snap <= 0.02 && base.name.rfind("box", 0) == 0;
+      const bool check_area = seq == 0 && turn == 0.0 && !curved && opt.snap <= 0.02 && base.name.rfind("box", 0) == 0;
+      Vec3 walk = start;  // a curved path's blade centre
       const double area_before = check_area ? tagged_area(m, kTagCut) : 0;
       for (int s = 1; s <= nsteps && steps < total; ++s, ++steps) {
         const double f = double(s) / nsteps;
         const Vec3 d2 = Eigen::AngleAxisd(turn * f, axis) * dir;
-        const Vec3 mid = start + f * travel * sweep;
+        walk += (travel / nsteps) * (Eigen::AngleAxisd(bend * f, dir) * sweep);
+        const Vec3 mid = curved ? walk : Vec3(start + f * travel * sweep);
         INFO(base.name << " sequence " << sequences << " step " << s << " snap " << opt.snap);
         const CutStepReport r = cutter.advance({mid - 0.5 * len * d2, mid + 0.5 * len * d2});
         moved += r.improve.volume_change;
