@@ -18,7 +18,7 @@
 //  4. beam_ratio: a beam clamped at both ends under gravity, cut through at midspan: midspan
 //     sag after / before, against beam theory: 3 (Euler-Bernoulli: two cantilevers of half
 //     the length), 2.78 with shear (Timoshenko) for this beam's L/h = 10.
-// Usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive|curved|deformed] [--case NAME_PART] [--steps N]
+// Usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive|curved|curved-organ|deformed] [--case NAME_PART] [--steps N]
 //                  [ORGAN]   (default samples/liver.msh; --case, --steps: only the progressive rows whose case
 //                  name contains NAME_PART, with N steps, for profiling)
 #include <algorithm>
@@ -652,6 +652,63 @@ void curved(bool quick, const std::string& only_case, int only_steps, double tol
   }
 }
 
+// The organ along curved paths at a tenth of an edge per step (the step-time goal of issue 36):
+// a vertical blade spanning the organ's height following a half circle that enters and leaves
+// through its low-y side, and an S across it in y, each against the straight sweep across the
+// middle in the same step size. Step times (cut + default improvement), tets, parts.
+void curved_organ(const TetMesh& organ, const std::string& name, double tolerance) {
+  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+  for (VertexId v : organ.vertices()) {
+    lo = lo.cwiseMin(organ.rest(v));
+    hi = hi.cwiseMax(organ.rest(v));
+  }
+  const Vec3 ext = hi - lo, c = 0.5 * (lo + hi);
+  const double h = mean_edge(organ), pi = std::acos(-1.0);
+  std::printf("# curved paths on %s (%zu tets, mean edge %.3g): a vertical blade at a tenth of an edge per step, "
+              "then finish()\n", name.c_str(), organ.num_tets(), h);
+  std::printf("case,steps,tets_after,parts,min_dihedral,below_10deg_pct,ms_median,ms_p95,ms_max,ms_finish\n");
+  struct P {
+    std::string name;
+    std::function<Vec3(double)> at;
+    double length;
+  };
+  const double r = 0.6 * ext.y();
+  std::vector<P> paths = {
+      {"straight", [&](double t) { return Vec3(c.x() + 0.013 * ext.x(), lo.y() - 0.1 * ext.y() + t * 1.2 * ext.y(), 0); },
+       1.2 * ext.y()},
+      {"arc", [&](double t) {
+         const double a = pi * (1 - t);
+         return Vec3(c.x() + r * std::cos(a), lo.y() - 0.1 * ext.y() + r * std::sin(a), 0);
+       },
+       pi * r},
+      {"S", [&](double t) {
+         const double y = lo.y() - 0.1 * ext.y() + t * 1.2 * ext.y();
+         return Vec3(c.x() + 0.15 * ext.x() * std::sin(2 * pi * t), y, 0);
+       },
+       1.3 * ext.y()},
+  };
+  for (const P& p : paths) {
+    TetMesh m = organ;
+    m.discard_change();
+    CutOptions opt;
+    opt.path_tolerance = tolerance;
+    Cutter cutter(m, opt);
+    const int n = int(std::ceil(p.length / (0.1 * h)));
+    auto blade = [&](const Vec3& q) {
+      return BladeSegment{Vec3(q.x(), q.y(), lo.z() - 0.1 * ext.z()), Vec3(q.x(), q.y(), hi.z() + 0.1 * ext.z())};
+    };
+    cutter.start(blade(p.at(0)));
+    std::vector<double> ms;
+    for (int k = 1; k <= n; ++k) ms.push_back(cutter.advance(blade(p.at(double(k) / n))).ms);
+    const double fin = cutter.finish().ms;
+    const QualityRange q = quality_range(m, 10.0);
+    std::printf("%s,%d,%zu,%zu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f\n", p.name.c_str(), n, m.num_tets(), vertex_parts(m),
+                q.min_dihedral, 100.0 * double(q.below) / double(m.num_tets()), percentile(ms, 0.5),
+                percentile(ms, 0.95), percentile(ms, 1.0), fin);
+    std::fflush(stdout);
+  }
+}
+
 // ---- 7 -------------------------------------------------------------------------------------
 // A deforming organ (issue 36): held on its low-x side (15% of its length), a probe pressing
 // the top of its far end down by `push` of its height over frames 0-50, and a blade across it
@@ -825,7 +882,7 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--steps") && i + 1 < argc) only_steps = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--path-tolerance") && i + 1 < argc) path_tolerance = std::atof(argv[++i]);
     else if (argv[i][0] == '-') {
-      std::fprintf(stderr, "usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive|curved|deformed] "
+      std::fprintf(stderr, "usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive|curved|curved-organ|deformed] "
                            "[--case NAME_PART] [--steps N] [--path-tolerance X] [ORGAN]\n");
       return 1;
     } else organ_path = argv[i];
@@ -840,6 +897,7 @@ int main(int argc, char** argv) {
   if (want("beam")) beam_ratio(quick);
   if (want("progressive")) progressive(organ, name, quick, only_case, only_steps);
   if (want("curved")) curved(quick, only_case, only_steps, path_tolerance);
+  if (only == "curved-organ") curved_organ(organ, name, path_tolerance);  // by name: give it an imaged organ
   if (only == "deformed") deformed(organ, name, quick, path_tolerance);  // by name only: it needs an imaged organ (ORGAN)
   return 0;
 }
