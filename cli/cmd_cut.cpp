@@ -183,7 +183,8 @@ void add_cut(CLI::App& app) {
     }
     // Remove mode can carve the whole body: a mesh without tets is no mesh (readers refuse it).
     if (mesh.num_tets() == 0) throw InvalidArgument("cut: the cut removes every tet of " + o->in + "; nothing written");
-    if (tets_cut == 0)
+    // Nothing changed at all: a cut along a plane of mesh faces splits no tet but opens faces.
+    if (tets_cut == 0 && tets_added == 0 && vertices_added == 0 && faces == 0)
       std::cerr << "cut: warning: the " << (!blade ? (o->plane.empty() ? "surface" : "plane") : "blade")
                 << " does not reach the mesh; " << o->out << " is the input unchanged\n";
     const QualityRange after = quality_range(mesh);

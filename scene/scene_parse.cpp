@@ -382,7 +382,11 @@ Scene parse_scene(const std::string& text, const std::string& path) {
       else if (m == "direct") s.method = SolverMethod::Direct;
       else rd.fail("solver.method", "expected \"cg\" or \"direct\", got \"" + m + "\"");
     }
-    if (js.contains("tolerance")) s.cg.tolerance = rd.positive(js["tolerance"], "solver.tolerance");
+    if (js.contains("tolerance")) {
+      s.cg.tolerance = rd.positive(js["tolerance"], "solver.tolerance");
+      // A relative residual of 1 or more is met by zero displacement: every frame "converged".
+      if (!(s.cg.tolerance < 1)) rd.fail("solver.tolerance", "expected a relative residual in (0, 1)");
+    }
     if (js.contains("max_iterations")) s.cg.max_iterations = rd.integer(js["max_iterations"], "solver.max_iterations", 1);
     if (js.contains("budget_ms")) s.cg.budget_ms = rd.non_negative(js["budget_ms"], "solver.budget_ms");
     if (js.contains("warm_start")) {  // true = "predict", "last" (previous frame only), false = cold

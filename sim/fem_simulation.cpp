@@ -62,6 +62,10 @@ FemSimulation::FemSimulation(const TetMesh& mesh, const MaterialTable& materials
   if (!(opt_.dt > 0) || !std::isfinite(opt_.dt)) throw InvalidArgument("fem: dt: expected a positive number");
   if (!(opt_.damping >= 0)) throw InvalidArgument("fem: damping: expected a number >= 0");
   if (opt_.nonlinear_iterations < 1) throw InvalidArgument("fem: nonlinear_iterations: expected an integer >= 1");
+  // A relative residual of 1 or more is met by the zero vector: every frame would "converge" at
+  // no displacement.
+  if (!(opt_.cg.tolerance > 0 && opt_.cg.tolerance < 1))
+    throw InvalidArgument("fem: tolerance: expected a relative residual in (0, 1), got " + std::to_string(opt_.cg.tolerance));
   cg_.set_tolerance(opt_.cg.tolerance);
   cg_.set_max_iterations(opt_.cg.max_iterations);
   cg_.set_budget_ms(opt_.cg.budget_ms);

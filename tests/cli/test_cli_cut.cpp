@@ -212,3 +212,21 @@ TEST_CASE("incise cut --path: a blade along a curved path detaches what the path
   CHECK(both.code == 1);
   CHECK(both.err.find("--steps go with --blade, not --path") != std::string::npos);
 }
+
+TEST_CASE("incise cut along a plane of mesh faces opens them and does not claim it missed", "[cli][cut]") {
+  const fs::path dir = scratch_dir("cli_cut_grid_plane");
+  const std::string box = (dir / "b.msh").string(), out = (dir / "c.msh").string(), js = (dir / "r.json").string();
+  REQUIRE(run_incise("generate box -o '" + box + "'", dir).code == 0);
+  Run r = run_incise("cut '" + box + "' -o '" + out + "' --plane 0.5 0.5 0.5 1 0 0 --json '" + js + "'", dir);
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+  CHECK(r.err.find("does not reach") == std::string::npos);
+  std::ifstream in(js);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  CHECK(j["cut_faces"].get<int>() > 0);
+  CHECK(incise::tet_components(incise::read_tet_mesh(out)).count == 2);
+  // A plane that misses says so.
+  Run miss = run_incise("cut '" + box + "' -o '" + out + "' --plane 5 0.5 0.5 1 0 0", dir);
+  CHECK(miss.code == 0);
+  CHECK(miss.err.find("does not reach the mesh") != std::string::npos);
+}

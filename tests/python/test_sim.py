@@ -64,6 +64,10 @@ def test_fem_statistics_budget_and_errors(box):
         incise.FemSimulation(box, kind="quadratic")
     with pytest.raises(incise.InvalidArgument, match="poisson"):
         incise.FemSimulation(box, incise.Material(1e5, 0.5))
+    # A relative residual of 1 or more is met by zero displacement: refused, not "converged".
+    for tol in (1.0, 2.0):
+        with pytest.raises(incise.InvalidArgument, match=r"tolerance: expected a relative residual in \(0, 1\)"):
+            incise.FemSimulation(box, tolerance=tol)
 
 
 def test_fem_keeps_its_mesh_alive():

@@ -59,6 +59,8 @@ TEST_CASE("scene errors name the key and what was expected", "[scene][errors]") 
   CHECK(error_of(kGood) == "(no error)");
   CHECK(error_of(with("solver", R"({"tolerance": -1})")) == "scene.json: solver.tolerance: expected a positive number");
   CHECK(error_of(with("solver", R"({"tolerance": "small"})")) == "scene.json: solver.tolerance: expected a positive number");
+  CHECK(error_of(with("solver", R"({"tolerance": 2})")) == "scene.json: solver.tolerance: expected a relative residual in (0, 1)");
+  CHECK(error_of(with("solver", R"({"tolerance": 1})")) == "scene.json: solver.tolerance: expected a relative residual in (0, 1)");
   CHECK(error_of(with("solver", R"({"max_iterations": 0})")) == "scene.json: solver.max_iterations: expected an integer >= 1");
   CHECK(error_of(with("solver", R"({"budget_ms": -5})")) == "scene.json: solver.budget_ms: expected a number >= 0");
   CHECK_THAT(error_of(with("solver", R"({"method": "lu"})")), Catch::StartsWith("scene.json: solver.method: expected \"cg\" or \"direct\""));
