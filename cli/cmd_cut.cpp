@@ -73,7 +73,7 @@ void add_cut(CLI::App& app) {
   auto* finish_opt = cmd->add_option("--finish-insert", o->finish_insert,
                   "After the blade: insert vertices into tets whose smallest dihedral angle stays below this many "
                   "degrees (where cuts cross or meet the surface at a small angle; 0: no insertion)")
-      ->check(CLI::Range(0.0, 90.0))
+      ->check(finite_range(0.0, 90.0))
       ->capture_default_str();
   auto* finish_work_opt = cmd->add_option("--finish-work", o->finish_work,
                   "Operations of the improvement once the blade is withdrawn (an insertion attempt counts 10; "

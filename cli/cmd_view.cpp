@@ -6,6 +6,7 @@
 #include <iostream>
 #include <memory>
 
+#include "cli/checks.h"
 #include "cli/commands.h"
 #include "mesh/errors.h"
 #include "scene/scene.h"
@@ -60,7 +61,7 @@ void add_view(CLI::App& app) {
                   "solver.budget_ms (0: none). Default: the scene's, or 30 when the scene sets none: a budget keeps "
                   "the frame rate while a cut makes the solve slow, and an unfinished solve goes on next frame "
                   "(docs/view.md)")
-      ->check(CLI::Range(0.0, 1e6));
+      ->check(finite_range(0.0, 1e6));
   cmd->add_flag("--paused", o->paused, "Start paused (Step or Resume on the page)");
   cmd->add_option("--record", o->record,
                   "Live: where the page's Record button writes its takes (DIR/take-N: the frames recorded, "

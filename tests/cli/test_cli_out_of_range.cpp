@@ -53,6 +53,7 @@ TEST_CASE("cut: degenerate blades are errors, a blade that misses is a warning",
       {"--plane 0.5 0 0 1 0 0 --steps 3", "--sweep and --steps go with --blade only"},
       {"--plane 0.5 0 0 1 0 0 --finish-insert 10", "--finish-insert goes with --blade or --path only"},
       {"--blade 0.3 -1 2 0.3 2 2 --sweep 0 0 -3 --finish-insert 91", "--finish-insert"},
+      {"--blade 0.3 -1 2 0.3 2 2 --sweep 0 0 -3 --finish-insert nan", "--finish-insert"},
       {"--plane 0.5 0 0 1 0 0 --finish-work 10", "--finish-work goes with --blade or --path only"},
       {"--blade 0.3 -1 2 0.3 2 2 --sweep 0 0 -3 --finish-work -1", "--finish-work"},
       {"--blade 0.3 -1 2 0.3 2 2 --sweep 0 0 -inf", "--sweep: '-inf': numbers must be finite"},
@@ -182,4 +183,6 @@ TEST_CASE("view: options of a live scene are refused in look mode", "[cli][optio
     check_failed(run_incise("view " + q(box) + " " + opt + (std::string(opt) == "--record " ? q(dir / "takes") : ""), dir),
                  "is for a scene (live mode)");
   CHECK(!fs::exists(dir / "takes"));
+  // A budget that is not a number is refused (it once became the default 30 ms).
+  check_failed(run_incise("view " + q(box) + " --budget-ms nan", dir), "--budget-ms: 'nan': expected a finite number");
 }
