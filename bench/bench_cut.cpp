@@ -411,8 +411,8 @@ void beam_ratio(bool quick) {
 }
 
 // ---- 5 -------------------------------------------------------------------------------------
-// Parts that share no vertex (a part held by one vertex or edge counts as attached).
-std::size_t vertex_parts(const TetMesh& m) {
+// Volumes of the parts that share no vertex.
+std::vector<double> part_volumes(const TetMesh& m) {
   std::vector<std::uint32_t> parent(m.vertex_capacity());
   for (std::uint32_t i = 0; i < parent.size(); ++i) parent[i] = i;
   auto find = [&](std::uint32_t x) {
@@ -421,10 +421,16 @@ std::size_t vertex_parts(const TetMesh& m) {
   };
   for (TetId t : m.tets())
     for (int k = 1; k < 4; ++k) parent[find(m.tet_vertices(t)[k].idx())] = find(m.tet_vertices(t)[0].idx());
-  std::size_t n = 0;
-  for (VertexId v : m.vertices()) n += !m.incident_tets(v).empty() && find(v.idx()) == v.idx();
-  return n;
+  std::unordered_map<std::uint32_t, double> vol;
+  for (TetId t : m.tets()) vol[find(m.tet_vertices(t)[0].idx())] += m.volume(t);
+  std::vector<double> out;
+  for (const auto& [r, v] : vol) out.push_back(v);
+  std::sort(out.begin(), out.end());
+  return out;
 }
+
+// Parts that share no vertex (a part held by one vertex or edge counts as attached).
+std::size_t vertex_parts(const TetMesh& m) { return part_volumes(m).size(); }
 
 double tagged_area(const TetMesh& m) {
   double a = 0;
@@ -524,23 +530,6 @@ std::vector<CurvedPath> curved_paths() {
   return out;
 }
 
-// Volumes of the parts that share no vertex.
-std::vector<double> part_volumes(const TetMesh& m) {
-  std::vector<std::uint32_t> parent(m.vertex_capacity());
-  for (std::uint32_t i = 0; i < parent.size(); ++i) parent[i] = i;
-  auto find = [&](std::uint32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  };
-  for (TetId t : m.tets())
-    for (int k = 1; k < 4; ++k) parent[find(m.tet_vertices(t)[k].idx())] = find(m.tet_vertices(t)[0].idx());
-  std::unordered_map<std::uint32_t, double> vol;
-  for (TetId t : m.tets()) vol[find(m.tet_vertices(t)[0].idx())] += m.volume(t);
-  std::vector<double> out;
-  for (const auto& [r, v] : vol) out.push_back(v);
-  std::sort(out.begin(), out.end());
-  return out;
-}
 
 // Tets of the uncut box whose edges cross the path (in the xy-plane: the blade spans the height).
 std::size_t crossed_by_path(const TetMesh& m, const std::vector<Vec3>& path) {
