@@ -12,6 +12,7 @@
 #include "mesh/errors.h"
 #include "mesh/generate.h"
 #include "mesh/io/input_checks.h"
+#include "mesh/io/input_file.h"
 #include "mesh/io/tet_io.h"
 #include "sim/integrator.h"
 
@@ -569,6 +570,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
 }
 
 Scene load_scene(const std::string& path) {
+  check_input_file(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw IoError(path, 0, "cannot open scene file");
   std::stringstream ss;

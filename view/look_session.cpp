@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mesh/errors.h"
+#include "mesh/io/input_file.h"
 #include "mesh/io/tet_io.h"
 #include "quality/report.h"
 #include "view/boundary_tracker.h"
@@ -25,6 +26,7 @@ constexpr std::size_t kKeptFrames = 32;  // a run's frames kept read (the others
 constexpr std::uint32_t kColourVonMises = 1, kColourQuality = 2, kColourLabel = 3, kColourTag = 4;
 
 std::string read_text(const std::string& path) {
+  check_input_file(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw IoError(path, 0, "cannot read");
   std::ostringstream s;

@@ -15,6 +15,7 @@
 #include "mesh/errors.h"
 #include "mesh/io/atomic_file.h"
 #include "mesh/io/formats.h"
+#include "mesh/io/input_file.h"
 #include "mesh/io/parse_util.h"
 #include "mesh/io/tet_io.h"
 
@@ -163,12 +164,10 @@ SurfaceMesh read_off(const std::string& path, std::uintmax_t file_size) {
 }  // namespace
 
 SurfaceMesh read_surface(const std::string& path) {
-  struct stat st {};
-  if (::stat(path.c_str(), &st) != 0) io::throw_io(path, 0, "cannot open file (does it exist?)");
-  if (S_ISDIR(st.st_mode)) io::throw_io(path, 0, "is a directory, not a file");
-  if (st.st_size == 0) io::throw_io(path, 0, "empty file");
+  const std::uintmax_t size = check_input_file(path);
+  if (size == 0) io::throw_io(path, 0, "empty file");
   if (io::lower_extension(path) == "ply") check_ply_header(path);
-  if (io::lower_extension(path) == "off") return read_off(path, std::uintmax_t(st.st_size));
+  if (io::lower_extension(path) == "off") return read_off(path, size);
   if (is_tet_mesh_path(path))
     io::throw_io(path, 0, "is a tetrahedral mesh format; a surface is needed here (OBJ, STL, PLY, OFF, glTF, ...)");
   Assimp::Importer importer;

@@ -11,6 +11,7 @@
 #include "mesh/generate.h"
 #include "mesh/io/formats.h"
 #include "mesh/io/input_checks.h"
+#include "mesh/io/input_file.h"
 #include "mesh/io/parse_util.h"
 
 namespace incise {
@@ -37,9 +38,7 @@ int label_rank(std::string_view name) {
 
 
 std::string read_file_bytes(const std::string& path) {
-  struct stat st {};
-  if (::stat(path.c_str(), &st) != 0) io::throw_io(path, 0, "cannot open file (does it exist?)");
-  if (S_ISDIR(st.st_mode)) io::throw_io(path, 0, "is a directory, not a file");
+  check_input_file(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) io::throw_io(path, 0, "cannot open file for reading");
   std::string data;

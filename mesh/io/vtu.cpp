@@ -76,7 +76,9 @@ private:
     int components = 1;
   };
   std::vector<double> decode(const Array& a, std::size_t expected);  // expected: values, or 0 = any
-  void decode_binary(const Array& a, const char* p, const char* e, bool base64, std::string& bytes);
+  // max_bytes: the most the piece's counts allow this array to hold (checked before inflating).
+  void decode_binary(const Array& a, const char* p, const char* e, bool base64, std::string& bytes,
+                     std::uint64_t max_bytes);
 
   std::string file_;
   const char* b_;
@@ -85,6 +87,7 @@ private:
   bool big_endian_ = false;
   int header_size_ = 4;
   bool zlib_ = false;
+  std::uint64_t cells_ = 0;  // the cell count of the piece being decoded (bounds its connectivity)
   const char* appended_ = nullptr;  // just after '_'
   bool appended_base64_ = false;
 };
@@ -204,7 +207,8 @@ private:
   bool bad_ = false;
 };
 
-void Vtu::decode_binary(const Array& a, const char* p, const char* e, bool base64, std::string& bytes) {
+void Vtu::decode_binary(const Array& a, const char* p, const char* e, bool base64, std::string& bytes,
+                        std::uint64_t max_bytes) {
   const std::string what = "DataArray '" + a.name + "': ";
   const int hs = header_size_;
   std::string buf;
@@ -251,6 +255,11 @@ void Vtu::decode_binary(const Array& a, const char* p, const char* e, bool base6
   // zlib cannot expand more than ~1032:1; anything beyond is a lying header.
   if (block > (std::uint64_t(1) << 32) || last > block || total > 1100 * compressed + 4096)
     fail_at(a.tag.start, what + "bad compression header");
+  // A block that inflates to far more than the piece's counts allow is refused before any of it
+  // is inflated (a small file declaring gigabytes).
+  if (total > max_bytes)
+    fail_at(a.tag.start, what + "the compression header declares " + std::to_string(total) +
+                             " bytes, more than the piece's counts allow (" + std::to_string(max_bytes) + ")");
   const char* d = need(header_bytes + compressed) + header_bytes;
   bytes.resize(static_cast<std::size_t>(total));
   std::uint64_t in = 0, outpos = 0;
@@ -282,9 +291,13 @@ std::vector<double> Vtu::decode(const Array& a, std::size_t expected) {
     }
   } else if (format == "binary" || format == "appended") {
     std::string bytes;
+    // What the counts allow: `expected` values, or (connectivity, expected 0) a generous bound of
+    // 64 values a cell. Plain binary data is bounded by the file itself.
+    const std::uint64_t type_bytes = std::uint64_t(num_size(a.type));
+    const std::uint64_t max_bytes = type_bytes * (expected ? std::uint64_t(expected) : 64 * std::uint64_t(cells_ + 1));
     if (format == "binary") {
       if (a.tag.self_closing) fail_at(a.tag.start, what + "no data");
-      decode_binary(a, a.tag.content, e_, true, bytes);
+      decode_binary(a, a.tag.content, e_, true, bytes, max_bytes);
     } else {
       if (!appended_) fail_at(a.tag.start, what + "format=\"appended\" but no <AppendedData>");
       auto off = a.tag.attr("offset");
@@ -293,7 +306,7 @@ std::vector<double> Vtu::decode(const Array& a, std::size_t expected) {
       auto r = std::from_chars(off->data(), off->data() + off->size(), o);
       if (r.ec != std::errc() || o > static_cast<unsigned long long>(e_ - appended_))
         fail_at(a.tag.start, what + "bad offset");
-      decode_binary(a, appended_ + o, e_, appended_base64_, bytes);
+      decode_binary(a, appended_ + o, e_, appended_base64_, bytes, max_bytes);
     }
     const std::size_t sz = static_cast<std::size_t>(num_size(a.type));
     if (bytes.size() % sz != 0) fail_at(a.tag.start, what + "byte count is not a multiple of the type size");
@@ -422,6 +435,7 @@ RawMesh Vtu::parse() {
       m.points.push_back(p);
     }
     if (pc.nc == 0) continue;
+    cells_ = pc.nc;
     std::vector<double> conn = decode(*pc.conn, 0);
     std::vector<double> offsets = decode(*pc.offsets, pc.nc);
     std::vector<double> types = decode(*pc.types, pc.nc);

@@ -15,6 +15,7 @@
 #include <CGAL/Mesh_triangulation_3.h>
 #include <CGAL/make_mesh_3.h>
 
+#include "mesh/io/input_file.h"
 #include "mesh/errors.h"
 #include "mesh/tetrahedralize/c3t3_to_tet_mesh.h"
 #include "mesh/tetrahedralize/mesh3_common.h"
@@ -34,7 +35,7 @@ using SizingField = CGAL::Mesh_constant_domain_field_3<Domain::R, Domain::Index>
 
 TetMesh tetrahedralize_image(const std::string& path, const TetraOptions& opt, TetraStats* stats) {
   const auto t0 = std::chrono::steady_clock::now();
-  if (!std::filesystem::exists(path)) throw IoError(path, 0, "no such file");
+  check_input_file(path);
   CGAL::Image_3 image;
   if (!image.read(path)) throw IoError(path, 0, "cannot read the image (CGAL Image_3: .inr, .inr.gz, Analyze, GIS)");
   if (image.xdim() == 0 || image.ydim() == 0 || image.zdim() == 0) throw IoError(path, 0, "empty image");
