@@ -41,6 +41,7 @@ void add_coarsen(CLI::App& app) {
     opt.improve = !o->no_improve;
     OutputTransaction tx;
     reserve_tet_mesh_output(tx, o->out);
+    forbid_tet_mesh_input(tx, o->in);
     ReadReport read;
     TetMesh mesh = read_tet_mesh(o->in, &read);
     const double volume = mesh.total_volume();

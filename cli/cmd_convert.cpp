@@ -49,7 +49,9 @@ void add_convert(CLI::App& app) {
     if (out_tet)
       reserve_tet_mesh_output(tx, o->out);
     else
-      check_output_path(o->out);
+      tx.reserve(o->out, "the output");
+    if (in_tet) forbid_tet_mesh_input(tx, o->in);
+    else tx.forbid_input(o->in);
     if (in_tet) {
       ReadReport report;
       TetMesh m = read_tet_mesh(o->in, &report);

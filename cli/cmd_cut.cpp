@@ -110,6 +110,9 @@ void add_cut(CLI::App& app) {
     OutputTransaction tx;  // the mesh and the report: both written or neither
     reserve_tet_mesh_output(tx, o->out);
     if (!o->json.empty()) tx.reserve(o->json, "--json");
+    forbid_tet_mesh_input(tx, o->in);
+    for (const std::string* f : {&o->surface, &o->path})
+      if (!f->empty()) tx.forbid_input(*f);
     TetMesh mesh = read_tet_mesh(o->in);
     mesh.discard_change();
     SurfaceMesh surface;

@@ -73,6 +73,7 @@ void add_improve(CLI::App& app) {
     OutputTransaction tx;  // the mesh and the report: both written or neither
     reserve_tet_mesh_output(tx, o->out);
     if (!o->json.empty()) tx.reserve(o->json, "--json");
+    forbid_tet_mesh_input(tx, o->in);
     ReadReport read;
     TetMesh mesh = read_tet_mesh(o->in, &read);
     const std::optional<BoundaryAngle> bound = smallest_boundary_angle(mesh);

@@ -66,6 +66,7 @@ void add_prepare(CLI::App& app) {
         OutputTransaction tx;
         reserve_tet_mesh_output(tx, out);
         tx.reserve(json_path, report_file->empty() ? "the quality report" : "--report");
+        tx.forbid_input(pipeline_input(cli));
         PipelineReport rep;
         TetMesh mesh = mesh_file(pipeline_input(cli), opt, &rep, log);
         ImproveReport imp;

@@ -144,6 +144,7 @@ void add_tetra(CLI::App& app) {
                        [](const PipelineCli& cli, const PipelineOptions& opt) {
                          OutputTransaction tx;  // the path is checked before meshing
                          reserve_tet_mesh_output(tx, cli.out);
+                         tx.forbid_input(cli.in);
                          PipelineReport rep;
                          auto log = [&](const std::string& m) {
                            if (!cli.quiet) std::cerr << "tetra: " << m << "\n";

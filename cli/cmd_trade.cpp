@@ -10,6 +10,7 @@
 #include "cli/commands.h"
 #include "mesh/errors.h"
 #include "mesh/io/atomic_file.h"
+#include "mesh/io/tet_io.h"
 #include "sim/formulation.h"
 #include "scene/trade.h"
 
@@ -107,12 +108,23 @@ void add_trade(CLI::App& app) {
                                 std::filesystem::path(o->out).lexically_normal())
       check_output_path(o->json);
     const Scene scene = load_scene(o->scene);
+    // No output may be the scene or its mesh: checked before the runs.
+    auto forbid_inputs = [&](OutputTransaction& t) {
+      t.forbid_input(o->scene);
+      if (!scene.mesh_file.empty()) forbid_tet_mesh_input(t, scene.mesh_file);
+    };
+    if (!o->json.empty() && std::filesystem::exists(o->json)) {  // (a new file is no input)
+      OutputTransaction early;
+      forbid_inputs(early);
+      early.reserve(o->json, "--json");
+    }
     const TradeResult result = run_trade(scene, to);
     std::error_code ec;
     std::filesystem::create_directories(o->out, ec);
     if (ec) throw IoError(o->out, 0, "cannot create output directory: " + ec.message());
     const std::filesystem::path dir(o->out);
     OutputTransaction tx;  // every file or none
+    forbid_inputs(tx);
     tx.write_text((dir / "trade.csv").string(), trade_csv(result.rows));
     tx.write_text((dir / "trade.svg").string(),
                   trade_svg(result.rows, "incise trade: " + std::filesystem::path(o->scene).filename().string(),

@@ -1,12 +1,14 @@
 #include "mesh/io/atomic_file.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+
 #include <filesystem>
 
 #include "mesh/errors.h"
@@ -128,6 +130,22 @@ void OutputTransaction::reserve(const std::string& path, const std::string& role
     io::throw_io(path, 0, role + " names the same file as " + r.role);
   }
   reserved_.push_back({path, key.string(), role});
+  check_not_input(reserved_.back());
+}
+
+void OutputTransaction::forbid_input(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return;
+  inputs_.push_back({path, static_cast<unsigned long long>(st.st_dev), static_cast<unsigned long long>(st.st_ino)});
+  for (const Reserved& r : reserved_) check_not_input(r);
+}
+
+void OutputTransaction::check_not_input(const Reserved& out) const {
+  struct stat st {};
+  if (inputs_.empty() || ::stat(out.path.c_str(), &st) != 0) return;
+  for (const Input& in : inputs_)
+    if (static_cast<unsigned long long>(st.st_dev) == in.dev && static_cast<unsigned long long>(st.st_ino) == in.ino)
+      io::throw_io(out.path, 0, out.role + " names the input " + in.path + ": refused, it would be overwritten");
 }
 
 AtomicFile& OutputTransaction::open(const std::string& path) {

@@ -64,6 +64,10 @@ public:
   // Checks `path` (check_output_path) and that no other reserved output of this transaction is
   // the same file (`role` names the option in that message, e.g. "--json").
   void reserve(const std::string& path, const std::string& role);
+  // An input of the command: no output may be the same file (by device and inode, so a link
+  // or another spelling of the path counts), checked now against the outputs reserved so far
+  // and later against each new one. A missing input is left to its reader.
+  void forbid_input(const std::string& path);
   // A staged file for `path` (reserved here if it was not); written by the caller.
   AtomicFile& open(const std::string& path);
   // Stages a whole text file.
@@ -76,6 +80,12 @@ private:
     std::string path, key, role;
   };
   std::vector<Reserved> reserved_;
+  struct Input {
+    std::string path;
+    unsigned long long dev = 0, ino = 0;
+  };
+  std::vector<Input> inputs_;
+  void check_not_input(const Reserved& out) const;
   std::vector<std::unique_ptr<AtomicFile>> files_;
 };
 

@@ -368,6 +368,12 @@ void write_tet_mesh(const TetMesh& mesh, const std::string& path, const WriteOpt
   io::write_impl(mesh, path, nullptr, options, tx);
 }
 
+void forbid_tet_mesh_input(OutputTransaction& tx, const std::string& path) {
+  tx.forbid_input(path);
+  if (format_from_path(path) == TetFormat::TetGen)
+    for (const std::string& f : io::output_files(path, TetFormat::TetGen)) tx.forbid_input(f);
+}
+
 void reserve_tet_mesh_output(OutputTransaction& tx, const std::string& path, const std::string& role) {
   for (const std::string& f : io::output_files(path, io::output_format(path, {}))) tx.reserve(f, role);
 }

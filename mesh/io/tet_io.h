@@ -71,6 +71,8 @@ void write_tet_mesh(const TetMesh& mesh, const std::string& path, const WriteOpt
 // Reserves in `tx` the files a mesh written to `path` consists of (base.node and base.ele for
 // TetGen), before any work: throws IoError for an unknown extension or an unwritable path.
 void reserve_tet_mesh_output(OutputTransaction& tx, const std::string& path, const std::string& role = "the output mesh");
+// Every file the input path `path` names (a TetGen pair: both) is an input no output may be.
+void forbid_tet_mesh_input(OutputTransaction& tx, const std::string& path);
 // VTU (or VTK legacy, by extension) with current positions and fields; atomic.
 void write_tet_mesh_with_fields(const TetMesh& mesh, const std::string& path, const MeshFields& fields,
                                 const WriteOptions& options = {});

@@ -230,3 +230,39 @@ TEST_CASE("every command that writes a mesh keeps an existing output when it fai
     CHECK(slurp(out) == kSentinel);
   }
 }
+
+TEST_CASE("no output may be an input: a report or mesh path naming an input is refused, the input kept",
+          "[cli][nothing-lost]") {
+  const fs::path dir = scratch_dir("cli_no_output_is_input");
+  const fs::path box = dir / "b.msh";
+  REQUIRE(run_incise("generate box --cells 2 2 2 -o '" + box.string() + "'", dir).code == 0);
+  std::string original;
+  {
+    std::ifstream in(box, std::ios::binary);
+    original.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  fs::create_symlink(box, dir / "link.msh");  // another name for the input: same inode
+  const std::string b = "'" + box.string() + "'", link = "'" + (dir / "link.msh").string() + "'";
+  const std::string out = "'" + (dir / "c.msh").string() + "'";
+  struct Case {
+    std::string args, expect;
+  };
+  const Case cases[] = {
+      {"cut " + b + " -o " + out + " --plane 0.4 0.5 0.5 1 0 0 --json " + b, "--json names the input"},
+      {"cut " + b + " -o " + out + " --plane 0.4 0.5 0.5 1 0 0 --json " + link, "--json names the input"},
+      {"cut " + b + " -o " + link + " --plane 0.4 0.5 0.5 1 0 0", "the output mesh names the input"},
+      {"improve " + b + " -o " + out + " --json " + b, "--json names the input"},
+      {"improve " + b + " -o " + b, "the output mesh names the input"},
+      {"coarsen " + b + " -o " + link, "the output mesh names the input"},
+      {"convert " + b + " " + link, "names the input"},
+  };
+  for (const Case& c : cases) {
+    Run r = run_incise(c.args, dir);
+    INFO(c.args << "\n" << r.err);
+    CHECK(r.code == 1);
+    CHECK(r.err.find(c.expect) != std::string::npos);
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+    std::ifstream in(box, std::ios::binary);
+    CHECK(std::string(std::istreambuf_iterator<char>(in), {}) == original);
+  }
+}
