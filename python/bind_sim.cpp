@@ -10,6 +10,7 @@
 #include "mesh/generate.h"
 #include "mesh/io/tet_io.h"
 #include "quality/improve_checks.h"
+#include "scene/run_directory.h"
 #include "scene/run_scene.h"
 #include "sim/fem_simulation.h"
 #include "sim/preconditioner.h"
@@ -361,7 +362,10 @@ void bind_sim(py::module_& m) {
             throw InvalidArgument("run_scene: frames: expected an integer in [1, 1000000000] (None: the scene's)");
           o.frames = static_cast<int>(n.data()[0]);
         }
-        const SceneRunSummary r = run_scene(load_scene(path), o);
+        // Into a directory as `incise simulate -o` writes one: never over a user's files, one
+        // run's output whatever happened before (scene/run_directory.h).
+        const SceneRunSummary r = out_dir.empty() ? run_scene(load_scene(path), o)
+                                                  : run_scene_into(load_scene(path), o, out_dir);
         py::dict d;
         d["frames"] = r.frames;
         d["total_iterations"] = r.total_iterations;

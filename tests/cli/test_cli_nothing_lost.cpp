@@ -139,8 +139,9 @@ TEST_CASE("simulate: DIR is always one run's output", "[cli][nothing-lost][simul
   const fs::path out = dir / "out";
   const std::string sim = "simulate -q " + q(dir / "scene.json") + " -o " + q(out);
   REQUIRE(run_incise(sim, dir).code == 0);
-  const std::vector<std::string> four{"frame_0000.vtu", "frame_0001.vtu", "frame_0002.vtu", "frame_0003.vtu",
-                                      "frames.pvd", "stats.csv"};
+  // A run directory carries its marker (.incise-run) besides the run's files.
+  const std::vector<std::string> four{".incise-run",    "frame_0000.vtu", "frame_0001.vtu", "frame_0002.vtu",
+                                      "frame_0003.vtu", "frames.pvd",     "stats.csv"};
   CHECK(listing(out) == four);
   {  // Progress numbers frames as the files do (it once said frame 1/4 for frame_0000).
     const Run loud = run_incise("simulate " + q(dir / "scene.json") + " -o " + q(dir / "loud"), dir);
@@ -161,13 +162,17 @@ TEST_CASE("simulate: DIR is always one run's output", "[cli][nothing-lost][simul
   CHECK(slurp(out / "frame_0000.vtu") == frame0);
 
   // A shorter successful re-run leaves no stale frames.
+  // A hidden run directory a killed run left beside DIR (its process is gone) is removed.
+  fs::create_directory(dir / ".out.run999999999_0");
   REQUIRE(run_incise(sim + " --frames 2", dir).code == 0);
-  CHECK(listing(out) == std::vector<std::string>{"frame_0000.vtu", "frame_0001.vtu", "frames.pvd", "stats.csv"});
+  CHECK(listing(out) ==
+        std::vector<std::string>{".incise-run", "frame_0000.vtu", "frame_0001.vtu", "frames.pvd", "stats.csv"});
 
   // Into a new directory a failed run keeps the frames it computed (docs/scene.md).
   r = run_incise("simulate -q " + q(dir / "breaks.json") + " -o " + q(dir / "fresh"), dir);
   check_failed(r, "frame 2");
-  CHECK(listing(dir / "fresh") == std::vector<std::string>{"frame_0000.vtu", "frame_0001.vtu", "frames.pvd", "stats.csv"});
+  CHECK(listing(dir / "fresh") ==
+        std::vector<std::string>{".incise-run", "frame_0000.vtu", "frame_0001.vtu", "frames.pvd", "stats.csv"});
 
   // A directory holding other files is refused before the run; the files stay.
   fs::create_directory(dir / "mine");
@@ -175,12 +180,20 @@ TEST_CASE("simulate: DIR is always one run's output", "[cli][nothing-lost][simul
   check_failed(run_incise("simulate -q " + q(dir / "scene.json") + " -o " + q(dir / "mine"), dir), "notes.txt");
   CHECK(slurp(dir / "mine" / "notes.txt") == kSentinel);
   CHECK(listing(dir / "mine") == std::vector<std::string>{"notes.txt"});
+  // ... also when they are named like a run's: a user's stats.csv and frames.pvd, no marker.
+  fs::create_directory(dir / "theirs");
+  put_sentinel(dir / "theirs" / "stats.csv");
+  put_sentinel(dir / "theirs" / "frames.pvd");
+  check_failed(run_incise("simulate -q " + q(dir / "scene.json") + " -o " + q(dir / "theirs"), dir),
+               "holds files incise simulate did not write (no .incise-run)");
+  CHECK(slurp(dir / "theirs" / "stats.csv") == kSentinel);
+  CHECK(slurp(dir / "theirs" / "frames.pvd") == kSentinel);
   // A file as DIR.
   check_failed(run_incise("simulate -q " + q(dir / "scene.json") + " -o " + q(dir / "scene.json"), dir),
                "not a directory");
   // No run directory is left beside DIR.
   CHECK(listing(dir) ==
-        std::vector<std::string>{"breaks.json", "fresh", "mine", "out", "scene.json", "stderr.txt", "stdout.txt"});
+        std::vector<std::string>{"breaks.json", "fresh", "mine", "out", "scene.json", "stderr.txt", "stdout.txt", "theirs"});
 }
 
 TEST_CASE("trade: a scene error leaves no output directory", "[cli][nothing-lost][trade]") {

@@ -257,3 +257,36 @@ def test_formulations_rollers_and_incompressible_pressure():
     sim = incise.FemSimulation(mesh)
     with pytest.raises(incise.InvalidArgument, match="components"):
         sim.constrain([0], "xq")
+
+
+def test_run_scene_into_a_directory_behaves_like_incise_simulate(tmp_path):
+    scene = tmp_path / "s.json"
+    body = """{
+      "mesh": {"generate": "box", "size": [4, 1, 1], "cells": [8, 2, 2]},
+      "model": "fem-linear",
+      "materials": {"*": {"young": 1e9, "poisson": 0.3}},
+      "fixed": [{"box": [-0.01, -0.01, -0.01, 0.01, 1.01, 1.01]}],
+      "loads": [{"type": "gravity", "g": [0, 0, -9.81]}],
+      "time": {"frames": %d}%s
+    }"""
+    scene.write_text(body % (5, ""))
+    # A directory of the user's files is refused and kept, also files named like a run's.
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "stats.csv").write_text("mine\n")
+    (mine / "notes.txt").write_text("mine\n")
+    with pytest.raises(incise.IoError, match="did not write"):
+        incise.run_scene(str(scene), str(mine))
+    assert sorted(p.name for p in mine.iterdir()) == ["notes.txt", "stats.csv"]
+    assert (mine / "stats.csv").read_text() == "mine\n"
+    # A run that fails at frame 2 after a 5-frame run leaves the 5-frame run whole.
+    out = tmp_path / "out"
+    assert incise.run_scene(str(scene), str(out))["frames"] == 5
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    breaks = tmp_path / "breaks.json"
+    breaks.write_text(body % (4, """, "fragments": "error",
+      "cuts": [{"blade": [[2.03, -0.5, 1.5], [2.03, 1.5, 1.5]], "sweep": [0, 0, -2], "from_frame": 2, "to_frame": 2}]"""))
+    with pytest.raises(incise.Error, match="keeps the earlier run"):
+        incise.run_scene(str(breaks), str(out))
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
