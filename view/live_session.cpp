@@ -439,7 +439,8 @@ void LiveSession::publish() {
                       {"scalar_lo", s.scalar_lo},
                       {"scalar_hi", s.scalar_hi},
                       {"error", s.error}};
-  snap->stats_json = j.dump();
+  // An error may quote a file's bytes (a take's path, a scene's message): invalid UTF-8 replaced.
+  snap->stats_json = j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   j["frames_played"] = s.frames;
   j["mean_frame_ms"] = s.frames ? s.total_frame_ms / double(s.frames) : 0.0;
   j["max_frame_ms"] = s.max_frame_ms;
@@ -451,7 +452,7 @@ void LiveSession::publish() {
   {
     std::lock_guard lock(mutex_);
     snapshot_ = std::move(snap);
-    status_ = j.dump();
+    status_ = j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
     listener = listener_;
   }
   if (listener) listener();

@@ -174,13 +174,25 @@ std::unique_ptr<LookSession> LookSession::open_run(const std::string& dir) {
   std::unique_ptr<LookSession> s(new LookSession);
   s->mode_ = "run";
   s->source_ = dir;
-  for (const auto& [t, name] : read_pvd(pvd.string())) {
-    s->times_.push_back(t);
-    s->frames_.push_back((fs::path(dir) / name).string());
-  }
+  // Files the run directory names must stay in it: a link out of it (to a file elsewhere) is
+  // refused, so the viewer serves nothing but the run.
   std::error_code ec;
-  if (const fs::path csv = fs::path(dir) / "stats.csv"; fs::is_regular_file(csv, ec))
-    s->stats_json_ = read_stats_csv(csv.string()).dump();
+  const fs::path root = fs::weakly_canonical(fs::absolute(dir), ec);
+  auto inside = [&](const fs::path& p) {
+    std::error_code e;
+    const fs::path real = fs::weakly_canonical(fs::absolute(p), e);
+    if (e) return false;
+    const auto rel = real.lexically_relative(root);
+    return !rel.empty() && *rel.begin() != "..";
+  };
+  for (const auto& [t, name] : read_pvd(pvd.string())) {
+    const fs::path frame = fs::path(dir) / name;
+    if (!inside(frame)) throw IoError(frame.string(), 0, "links out of the run directory: refused");
+    s->times_.push_back(t);
+    s->frames_.push_back(frame.string());
+  }
+  if (const fs::path csv = fs::path(dir) / "stats.csv"; fs::is_regular_file(csv, ec) && inside(csv))
+    s->stats_json_ = read_stats_csv(csv.string()).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   std::lock_guard lock(s->mutex_);
   s->show(0);
   return s;
@@ -323,9 +335,11 @@ void LookSession::show(std::size_t frame) {
                       {"scalar_hi", snap->scalar_hi},
                       {"paused", true},
                       {"error", ""}};
-  snap->stats_json = j.dump();
+  // File names and a run's stats.csv are the user's bytes: invalid UTF-8 is replaced.
+  constexpr auto replace = nlohmann::json::error_handler_t::replace;
+  snap->stats_json = j.dump(-1, ' ', false, replace);
   j["stats"] = nlohmann::json::parse(stats_json_);
-  status_ = j.dump();
+  status_ = j.dump(-1, ' ', false, replace);
   snapshot_ = std::move(snap);
 }
 

@@ -134,7 +134,9 @@ private:
   }
 
   void error(const std::string& what) {
-    if (errors_.size() < 16) errors_.push_back(nlohmann::json{{"error", what}}.dump());
+    // A message may quote a damaged file's bytes: invalid UTF-8 is replaced, not thrown on.
+    if (errors_.size() < 16)
+      errors_.push_back(nlohmann::json{{"error", what}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
   }
 
   // Token bucket: kMaxInputsPerSecond, bursts of as many.

@@ -154,6 +154,41 @@ TEST_CASE("a run directory's frames are shown one at a time, at the positions th
   CHECK_THROWS_AS(classify_view_argument((dir.path / "broken.json").string()), IoError);
 }
 
+TEST_CASE("a damaged frame of a run is an error for the page, and links out of the run are refused") {
+  TempDir dir;
+  const TetMesh a = make_box(Vec3(1, 1, 1), {2, 2, 2});
+  write_tet_mesh(a, (dir.path / "frame_0000.vtu").string());
+  {  // Random bytes, invalid UTF-8 among them, where frame 1 should be.
+    std::ofstream f(dir.path / "frame_0001.vtu", std::ios::binary);
+    for (int i = 0; i < 4096; ++i) f.put(char((i * 7919 + 13) % 256));
+  }
+  const std::string pvd = "<VTKFile type=\"Collection\">\n<Collection>\n"
+                          "    <DataSet timestep=\"0\" file=\"frame_0000.vtu\"/>\n"
+                          "    <DataSet timestep=\"1\" file=\"frame_0001.vtu\"/>\n</Collection>\n</VTKFile>\n";
+  write(dir.path / "frames.pvd", pvd);
+  auto run = LookSession::open_run(dir.path.string());
+  const std::string err = run->post({InputKind::Frame, {}, 1});
+  CHECK_FALSE(err.empty());  // the page gets an error frame; the view stays on frame 0
+  CHECK(run->snapshot()->frame == 0);
+  CHECK_NOTHROW(nlohmann::json::parse(run->status_json()));
+  // A frame or stats.csv linked to a file outside the run directory.
+  struct Other {
+    fs::path path;
+    ~Other() { fs::remove_all(path); }
+  } other{dir.path.parent_path() / (dir.path.filename().string() + "_elsewhere")};
+  fs::create_directories(other.path);
+  write_tet_mesh(a, (other.path / "elsewhere.vtu").string());
+  fs::remove(dir.path / "frame_0001.vtu");
+  fs::create_symlink(other.path / "elsewhere.vtu", dir.path / "frame_0001.vtu");
+  CHECK_THROWS_WITH(LookSession::open_run(dir.path.string()), Catch::Contains("links out of the run directory"));
+  fs::remove(dir.path / "frame_0001.vtu");
+  write_tet_mesh(a, (dir.path / "frame_0001.vtu").string());
+  write(other.path / "shells", "/bin/sh\n");
+  fs::create_symlink(other.path / "shells", dir.path / "stats.csv");
+  auto linked = LookSession::open_run(dir.path.string());
+  CHECK(nlohmann::json::parse(linked->status_json())["stats"].dump().find("/bin/sh") == std::string::npos);
+}
+
 TEST_CASE("a run with cuts shows its cut faces and its von Mises stress in look mode") {
   TempDir dir;
   const Scene scene = parse_scene(R"({
