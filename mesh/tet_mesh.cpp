@@ -3,6 +3,7 @@
 #include "mesh/tet_mesh.h"
 
 #include <algorithm>
+#include <atomic>
 #include <limits>
 #include <map>
 #include <sstream>
@@ -414,10 +415,22 @@ TopologyChange TetMesh::take_change() {
   pending_touched_.clear();
   batch_origin_.clear();
   pending_.any = false;
+  if (!ch.empty()) {
+    ch.mesh = identity_.id;
+    ch.serial = ++changes_taken_;
+  }
   return ch;
 }
 
-void TetMesh::discard_change() { (void)take_change(); }
+void TetMesh::discard_change() {
+  // Dropped, not handed out: no consumer is to expect it.
+  if (!take_change().empty()) --changes_taken_;
+}
+
+std::uint64_t TetMesh::Identity::next() {
+  static std::atomic<std::uint64_t> counter{0};
+  return ++counter;
+}
 
 CompactMaps TetMesh::compact() {
   std::vector<std::uint32_t> vo, to;

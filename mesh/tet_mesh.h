@@ -196,6 +196,10 @@ public:
   bool has_pending_change() const { return !pending_.empty(); }
   // Drops the pending record (readers and generators call it: a fresh mesh starts clean).
   void discard_change();
+  // This mesh's identity (a copy gets a new one) and how many changes take_change() has
+  // stamped: what TopologyChange::mesh and ::serial say (mesh/change_follower.h).
+  std::uint64_t id() const { return identity_.id; }
+  std::uint64_t changes_taken() const { return changes_taken_; }
 
   // ---- maintenance (explicit, outside the frame loop) ----------------------------------
   // Renumbers live elements densely, keeping relative order; clears free lists.
@@ -278,6 +282,21 @@ private:
     bool any = false;
   } pending_;
 
+  // A process-wide number per mesh object: copying a mesh makes a new one.
+  struct Identity {
+    std::uint64_t id = next();
+    Identity() = default;
+    Identity(const Identity&) : id(next()) {}
+    Identity& operator=(const Identity&) {
+      id = next();
+      return *this;
+    }
+    Identity(Identity&&) noexcept = default;
+    Identity& operator=(Identity&&) noexcept = default;
+    static std::uint64_t next();
+  };
+  Identity identity_;
+  std::uint64_t changes_taken_ = 0;
   EditCounters counters_;
 };
 

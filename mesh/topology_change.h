@@ -3,6 +3,7 @@
 // (one cut, one improvement pass) yields one TopologyChange; consumers (sim backends,
 // spatial indices) update their per-element data from it alone, without a global rebuild.
 #include <array>
+#include <cstdint>
 #include <vector>
 
 #include "mesh/handles.h"
@@ -42,6 +43,10 @@ struct TopologyChange {
   std::vector<VertexId> removed_vertices;
   // Vertices (old or new) whose set of incident tets changed, each listed once.
   std::vector<VertexId> touched_vertices;
+  // Which mesh made it and its place among that mesh's changes (1, 2, ...), stamped by
+  // TetMesh::take_change() on every change that is not empty; 0: made by hand. Consumers apply
+  // a mesh's changes in order, each once (mesh/change_follower.h).
+  std::uint64_t mesh = 0, serial = 0;
 
   bool empty() const {
     return removed_tets.empty() && added_tets.empty() && added_vertices.empty() &&

@@ -52,6 +52,7 @@ private:
 
 FemSimulation::FemSimulation(const TetMesh& mesh, const MaterialTable& materials, const FemSimulationOptions& options)
     : mesh_(&mesh),
+      follower_(mesh),
       opt_(options),
       // Mixed: the model holds the deviatoric part (lambda = 0, the standard element), the mixed
       // solver the rest; the model still gives masses, rotations and the stress output.
@@ -147,6 +148,7 @@ std::vector<double> FemSimulation::von_mises() const {
 }
 
 void FemSimulation::apply(const TopologyChange& change) {
+  follower_.follow(*mesh_, change);
   model_.apply(change);
   grow();
   interpolate_added_vertices(change, model_.vertex_slots(), u_);

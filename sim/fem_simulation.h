@@ -33,6 +33,7 @@
 
 #include <Eigen/Core>
 
+#include "mesh/change_follower.h"
 #include "mesh/tet_mesh.h"
 #include "sim/aggregation_amg.h"
 #include "sim/async_cholesky.h"
@@ -173,6 +174,7 @@ private:
   void step_mixed(std::chrono::steady_clock::time_point t0);
 
   const TetMesh* mesh_;
+  ChangeFollower follower_;  // apply() takes the mesh's changes in order, each once
   FemSimulationOptions opt_;
   FemModel model_;
   std::unique_ptr<AssembledStiffness> assembled_;

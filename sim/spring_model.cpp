@@ -51,7 +51,7 @@ constexpr std::array<std::array<int, 2>, 6> kEdges = {{{0, 1}, {0, 2}, {0, 3}, {
 }  // namespace
 
 SpringModel::SpringModel(const TetMesh& mesh, const MaterialTable& materials, const SpringOptions& options)
-    : opt_(options), materials_(materials) {
+    : opt_(options), materials_(materials), follower_(mesh) {
   if (!(opt_.damping >= 0) || !std::isfinite(opt_.damping))
     throw InvalidArgument("springs.damping: expected a finite value >= 0 [1/s]");
   if (!(opt_.min_volume_ratio >= 0) || !std::isfinite(opt_.min_volume_ratio))
@@ -258,6 +258,7 @@ void SpringModel::update_bound(const TetMesh& mesh, std::uint32_t v) {
 }
 
 void SpringModel::apply(const TetMesh& mesh, const TopologyChange& change) {
+  follower_.follow(mesh, change);
   ++counters_.updates;
   grow(mesh.vertex_capacity(), mesh.tet_capacity());
   touched_.clear();

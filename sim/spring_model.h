@@ -22,6 +22,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "mesh/change_follower.h"
 #include "mesh/tet_mesh.h"
 #include "mesh/topology_change.h"
 #include "sim/integrator.h"
@@ -225,6 +226,7 @@ private:
   unsigned warned_ = 0;  // bit per Integrator
 
   SpringUpdateCounters counters_;
+  ChangeFollower follower_;  // apply() takes the mesh's changes in order, each once
 };
 
 }  // namespace incise

@@ -290,3 +290,32 @@ def test_run_scene_into_a_directory_behaves_like_incise_simulate(tmp_path):
         incise.run_scene(str(breaks), str(out))
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []
+
+
+def test_apply_refuses_another_meshs_change_a_repeat_and_a_skip():
+    # A change names ids of its own mesh as it is after that change: applied to another mesh's
+    # simulation, or after the mesh moved on, it once crashed the process (malloc corruption, a
+    # segfault in the springs). Refused now, before the simulation touches its data.
+    mesh = incise.generate_box((1.0, 1.0, 1.0), (3, 3, 3))
+    other = incise.generate_box((1.0, 1.0, 1.0), (4, 4, 4))
+    mesh.take_change()
+    other.take_change()
+    fem = incise.FemSimulation(mesh, incise.Material(1e4, 0.3))
+    springs = incise.SpringSimulation(mesh, incise.Material(1e4, 0.3))
+    foreign = incise.Cutter(other).cut_plane((0.52, 0.5, 0.5), (1, 0, 0))["change"]
+    for sim in (fem, springs):
+        with pytest.raises(incise.InvalidArgument, match="another mesh's change"):
+            sim.apply(foreign)
+    cutter = incise.Cutter(mesh)
+    first = cutter.cut_plane((0.52, 0.5, 0.5), (1, 0, 0))["change"]
+    fem.apply(first)
+    with pytest.raises(incise.InvalidArgument, match="applied already"):
+        fem.apply(first)
+    second = cutter.cut_plane((0.5, 0.37, 0.5), (0, 1, 0))["change"]
+    with pytest.raises(incise.InvalidArgument, match="expected the mesh's change #1, got #2"):
+        springs.apply(second)  # the first skipped
+    with pytest.raises(incise.InvalidArgument, match="is not the mesh's latest"):
+        springs.apply(first)  # the mesh has moved past it
+    fem.apply(second)
+    assert fem.displacement.shape == (mesh.vertex_capacity, 3)
+    assert np.isfinite(fem.displacement).all()
