@@ -1,6 +1,9 @@
 // incise simulate SCENE.json -o DIR: plays a scene (docs/scene.md) and writes one VTU per
 // frame, a ParaView series (frames.pvd) and stats.csv.
 
+#include <atomic>
+#include <csignal>
+#include <cstring>
 #include <iostream>
 #include <memory>
 
@@ -11,8 +14,21 @@
 #include "mesh/io/atomic_file.h"
 #include "scene/run_directory.h"
 #include "scene/run_scene.h"
+#include "scene/scene_runner.h"
 
 namespace incise::cli {
+
+namespace {
+
+// SIGINT, SIGTERM or SIGHUP during a run: the run stops before its next frame (the frames so far
+// are kept as after any error, the hidden run directory removed). A second one acts as usual.
+std::atomic<int> g_signal{0};
+extern "C" void on_stop_signal(int s) {
+  g_signal.store(s);
+  std::signal(s, SIG_DFL);
+}
+
+}  // namespace
 
 void add_simulate(CLI::App& app) {
   struct Opts {
@@ -34,6 +50,11 @@ void add_simulate(CLI::App& app) {
     SceneRunOptions ro;
     ro.frames = o->frames;
     ro.progress = o->quiet ? nullptr : &std::cerr;
+    for (int s : {SIGINT, SIGTERM, SIGHUP}) std::signal(s, on_stop_signal);
+    ro.before_frame = [](SceneRunner&) {
+      if (const int s = g_signal.load())
+        throw Error("simulate: interrupted by signal " + std::to_string(s) + " (" + ::strsignal(s) + ")");
+    };
     const SceneRunSummary s = run_scene_into(scene, ro, o->out);
     if (o->json) {
       nlohmann::json j = {{"scene", o->scene},
