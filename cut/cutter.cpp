@@ -234,6 +234,7 @@ std::vector<TetId> Cutter::first_contact(const Vec3& lo, const Vec3& hi, const P
 
 void Cutter::start(const BladeSegment& blade) {
   if (!finite(blade.a) || !finite(blade.b)) throw InvalidArgument("cut: blade endpoints must be finite");
+  if (!((blade.b - blade.a).norm() > 0)) throw InvalidArgument("cut: the blade's two ends are the same point");
   finish_seeds_.clear();  // a new cut: the last one's remaining improvement is dropped
   finish_left_ = 0;
   progress_->last_blade = blade_;

@@ -566,6 +566,11 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     for (std::size_t i = 0; i < s.fixed.size(); ++i)
       if (s.fixed[i].axes != 7)
         rd.fail("fixed[" + std::to_string(i) + "].components", "rollers are for FEM models; springs fix whole vertices");
+  // A ramp that would end after the last frame never reaches its value (cuts refuse the same).
+  for (const SceneLoad& l : s.loads)
+    if (l.ramp && l.to_frame >= s.frames)
+      rd.fail(l.key + ".to_frame", "frame " + std::to_string(l.to_frame) + " is after the run's last frame (" +
+                                       std::to_string(s.frames - 1) + ", time.frames " + std::to_string(s.frames) + ")");
   return s;
 }
 

@@ -241,6 +241,7 @@ TEST_CASE("bad blades are refused with a clear error", "[cut]") {
   CHECK_THROWS_AS(Cutter(m, o), InvalidArgument);
   Cutter cutter(m, plain());
   CHECK_THROWS_AS(cutter.start({Vec3(NAN, 0, 0), Vec3(1, 0, 0)}), InvalidArgument);
+  CHECK_THROWS_WITH(cutter.start({Vec3(1, 0, 0), Vec3(1, 0, 0)}), Catch::Contains("two ends are the same point"));
   CHECK_THROWS_AS(cutter.cut_plane(Vec3(0, 0, 0), Vec3(0, 0, 0)), InvalidArgument);
   // A blade that does not move or misses the body changes nothing.
   cutter.start({Vec3(0, 0.5, 2), Vec3(1, 0.5, 2)});

@@ -145,6 +145,13 @@ TEST_CASE("scene cut errors name the key", "[cut][scene][errors]") {
   CHECK_THROWS_WITH(parse_scene(beam_scene(R"({"blade": [[2, 0, 1.2], [2, 1, 1.2]], "sweep": [0, 0, -1], "to_frame": 6})"),
                                 "s.json"),
                     Catch::Contains("cuts[0].to_frame: frame 6 is after the run's last frame"));
+  // ... and so is a load ramp (a probe that would never reach its displacement).
+  {
+    std::string s = beam_scene("");
+    s.replace(s.find(R"({"type": "gravity", "g": [0, 0, -1]})"), std::string(R"({"type": "gravity", "g": [0, 0, -1]})").size(),
+              R"({"type": "probe", "box": [3.9, -1, -1, 4.1, 2, 2], "displacement": [0, 0, -0.1], "from_frame": 0, "to_frame": 9})");
+    CHECK_THROWS_WITH(parse_scene(s, "s.json"), Catch::Contains("loads[0].to_frame: frame 9 is after the run's last frame (5"));
+  }
 }
 
 TEST_CASE("a path cut bends where its keys say and detaches the beam's end", "[cut][scene]") {
