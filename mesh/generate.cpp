@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "mesh/errors.h"
 
@@ -73,6 +74,11 @@ TetMesh make_box(const Vec3& size, const std::array<int, 3>& cells, int label, B
     if (cells[d] < 1) throw InvalidArgument("make_box: cell counts must be at least 1");
   }
   Vec3 h(size[0] / cells[0], size[1] / cells[1], size[2] / cells[2]);
+  // Sizes of 1e308 or 1e-308 are finite, but a cell's volume would overflow or vanish (the
+  // mesh's volume then printed as -nan).
+  if (const double v = h[0] * h[1] * h[2]; !(v > std::numeric_limits<double>::min()) || !std::isfinite(v * 6 * cells[0] * double(cells[1]) * cells[2]))
+    throw InvalidArgument("make_box: the cells' volume is not a normal positive number (sizes too large or too small "
+                          "for double precision)");
   return kuhn_lattice(cells, [&](int i, int j, int k) { return Vec3(i * h[0], j * h[1], k * h[2]); }, label, split);
 }
 

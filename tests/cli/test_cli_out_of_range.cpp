@@ -81,6 +81,15 @@ TEST_CASE("cut: remove mode that would carve every tet writes nothing", "[cli][o
   CHECK(slurp(out) == "sentinel\n");
 }
 
+TEST_CASE("generate box: sizes whose cells' volume double precision cannot hold are refused", "[cli][options]") {
+  const fs::path dir = scratch_dir("cli_range_generate");
+  const fs::path out = dir / "b.msh";
+  for (const char* s : {"1e308", "1e-308"})
+    check_failed(run_incise(std::string("generate box --size ") + s + " 1 1 -o " + q(out), dir), "cells' volume");
+  CHECK(!fs::exists(out));
+  CHECK(run_incise("generate box --size 1e-100 1e-100 1e-100 -o " + q(out), dir).code == 0);
+}
+
 TEST_CASE("tetra, prepare, improve, quality: option ranges", "[cli][options]") {
   const fs::path dir = scratch_dir("cli_range_options");
   const fs::path box = dir / "box.msh", surf = dir / "box.off", out = dir / "out.msh";
