@@ -192,6 +192,6 @@ TEST_CASE("view: options of a live scene are refused in look mode", "[cli][optio
     check_failed(run_incise("view " + q(box) + " " + opt + (std::string(opt) == "--record " ? q(dir / "takes") : ""), dir),
                  "is for a scene (live mode)");
   CHECK(!fs::exists(dir / "takes"));
-  // A budget that is not a number is refused (it once became the default 30 ms).
+  // A budget that is not a number is refused, not replaced by the default.
   check_failed(run_incise("view " + q(box) + " --budget-ms nan", dir), "--budget-ms: 'nan': expected a finite number");
 }
