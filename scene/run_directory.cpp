@@ -113,6 +113,13 @@ void RunDirectory::commit() {
   }
 }
 
+bool RunDirectory::holds_output() const {
+  std::error_code ec;
+  for (const auto& e : std::filesystem::directory_iterator(tmp_, ec))
+    if (e.path().filename() != kRunMarker) return true;
+  return false;
+}
+
 SceneRunSummary run_scene_into(const Scene& scene, SceneRunOptions options, const std::string& out) {
   RunDirectory run(out);
   options.out_dir = run.path();
@@ -123,7 +130,7 @@ SceneRunSummary run_scene_into(const Scene& scene, SceneRunOptions options, cons
     // The frames computed before the failure are kept (docs/scene.md) unless DIR holds an
     // earlier run: that one is not replaced by a broken one.
     if (run.holds_earlier_run()) throw Error(std::string(e.what()) + " (" + out + " keeps the earlier run)");
-    run.commit();
+    if (run.holds_output()) run.commit();  // a run that failed before its first frame leaves no DIR
     throw;
   }
   run.commit();

@@ -28,6 +28,8 @@ public:
   std::string path() const { return tmp_.string(); }
   // Whether DIR holds an earlier run (which a failed run must not replace).
   bool holds_earlier_run() const { return had_run_; }
+  // Whether the run wrote anything yet (a frame, the stats).
+  bool holds_output() const;
   // Puts the run in DIR: an atomic exchange when DIR exists, the earlier run then removed.
   void commit();
 
@@ -38,7 +40,8 @@ private:
 };
 
 // run_scene into DIR through a RunDirectory: a run that fails keeps the frames it wrote unless
-// DIR held an earlier run, which is then kept (the error says so).
+// DIR held an earlier run, which is then kept (the error says so); one that fails before
+// writing anything (a scene's mesh refused) leaves DIR as it was.
 SceneRunSummary run_scene_into(const Scene& scene, SceneRunOptions options, const std::string& out);
 
 }  // namespace incise

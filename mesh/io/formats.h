@@ -25,6 +25,9 @@ struct RawMesh {
   std::string format;
   // Scalar cell arrays beside the label (VTU), one value per tet in `tets` order.
   std::vector<std::pair<std::string, std::vector<double>>> cell_scalars;
+  // The points are a deformed shape: the file carries a 3-component point array named
+  // "displacement" (incise's simulation frames, Python write() with one).
+  bool deformed = false;
 };
 
 // Parses `text` (the content of `file`); throws IoError on anything malformed.
@@ -40,7 +43,7 @@ RawMesh parse_vtu(const std::string& file, const std::string& text);
 RawMesh parse_tetgen(const std::string& node_file, const std::string& node_text, const std::string& ele_file,
                      const std::string& ele_text);
 
-TetMesh build_mesh(RawMesh&& raw, const std::string& file, ReadReport* report);
+TetMesh build_mesh(RawMesh&& raw, const std::string& file, ReadReport* report, const ReadOptions& options = {});
 
 // The live part of a mesh, densely renumbered, for writers.
 struct FlatMesh {

@@ -13,6 +13,7 @@
 #include "mesh/io/input_checks.h"
 #include "mesh/io/input_file.h"
 #include "mesh/io/parse_util.h"
+#include "mesh/overlap.h"
 
 namespace incise {
 
@@ -79,7 +80,7 @@ TriKey sorted_key(std::uint32_t a, std::uint32_t b, std::uint32_t c) {
 
 }  // namespace
 
-TetMesh build_mesh(RawMesh&& raw, const std::string& file, ReadReport* report) {
+TetMesh build_mesh(RawMesh&& raw, const std::string& file, ReadReport* report, const ReadOptions& options) {
   const std::string& tfile = raw.tet_file.empty() ? file : raw.tet_file;
   if (raw.tets.empty()) {
     if (raw.skipped_cells > 0 || !raw.tris.empty())
@@ -136,6 +137,13 @@ TetMesh build_mesh(RawMesh&& raw, const std::string& file, ReadReport* report) {
                                       " (both on the same side of their shared face)");
     }
   }
+  if (options.refuse_overlaps && !raw.deformed)  // a deformed shape may press a cut's sides together
+    if (auto pair = find_overlapping_tets(m)) {
+      const std::size_t i = pair->second.idx();  // tets were added in file order: TetId = index
+      const long line = i < raw.tet_lines.size() ? raw.tet_lines[i] : 0;
+      io::throw_io(tfile, line, (line > 0 ? std::string("tet") : "tet #" + std::to_string(i)) + " overlaps tet #" +
+                                    std::to_string(pair->first.idx()) + " (their interiors intersect)");
+    }
   tag_boundary(m);
   std::size_t tagged = 0;
   if (!raw.tris.empty()) {
@@ -329,7 +337,9 @@ TetFormat format_from_path(const std::string& path) {
 
 bool is_tet_mesh_path(const std::string& path) { return format_from_path(path) != TetFormat::Auto; }
 
-TetMesh read_tet_mesh(const std::string& path, ReadReport* report) {
+TetMesh read_tet_mesh(const std::string& path, ReadReport* report) { return read_tet_mesh(path, ReadOptions{}, report); }
+
+TetMesh read_tet_mesh(const std::string& path, const ReadOptions& options, ReadReport* report) {
   TetFormat format = format_from_path(path);
   std::string ext = io::lower_extension(path);
   if (format == TetFormat::Auto) {
@@ -343,7 +353,7 @@ TetMesh read_tet_mesh(const std::string& path, ReadReport* report) {
     std::string node_text = io::read_file_bytes(node_file);
     std::string ele_text = io::read_file_bytes(ele_file);
     io::RawMesh raw = io::parse_tetgen(node_file, node_text, ele_file, ele_text);
-    return io::build_mesh(std::move(raw), node_file, report);
+    return io::build_mesh(std::move(raw), node_file, report, options);
   }
   std::string text = io::read_file_bytes(path);
   if (text.empty()) io::throw_io(path, 0, "empty file");
@@ -357,7 +367,7 @@ TetMesh read_tet_mesh(const std::string& path, ReadReport* report) {
   }
   text.clear();
   text.shrink_to_fit();
-  return io::build_mesh(std::move(raw), path, report);
+  return io::build_mesh(std::move(raw), path, report, options);
 }
 
 void write_tet_mesh(const TetMesh& mesh, const std::string& path, const WriteOptions& options) {

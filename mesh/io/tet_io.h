@@ -11,8 +11,8 @@
 // vtk/vtu cell data "label" -- also read as "gmsh:physical", "CellEntityIds", "medit:ref" --,
 // TetGen region attribute). Non-tet cells are skipped and counted, unreferenced vertices
 // kept. Quadratic tets are read as their four corners. Tets are reoriented to positive volume
-// on read. Every boundary face is tagged kTagSurface, or with the tag of a boundary triangle
-// the file carries (msh, medit). Positions are written in shortest round-trip form, so they
+// on read; overlapping tets are refused (ReadOptions). Every boundary face is tagged
+// kTagSurface, or with the tag of a boundary triangle the file carries (msh, medit). Positions are written in shortest round-trip form, so they
 // read back bit-exact. Every write is atomic (temporary file in the same directory, then
 // rename); a failed write leaves the destination untouched.
 #include <string>
@@ -53,6 +53,14 @@ struct ReadReport {
   std::vector<Field> cell_data;
 };
 
+struct ReadOptions {
+  // Refuse a mesh two of whose tets overlap (mesh/overlap.h): O(T log T), in parallel. Never
+  // applied to a deformed shape (a VTU / VTK file with a 3-component point array named
+  // "displacement", as simulation frames have), where the sides of a cut may be pressed into
+  // each other.
+  bool refuse_overlaps = true;
+};
+
 struct WriteOptions {
   TetFormat format = TetFormat::Auto;  // Auto: from the extension
   bool binary = false;                 // VTK legacy / VTU: binary (VTU: base64 raw)
@@ -65,6 +73,7 @@ struct WriteOptions {
 
 // Throws IoError("FILE:LINE: reason") on malformed input.
 TetMesh read_tet_mesh(const std::string& path, ReadReport* report = nullptr);
+TetMesh read_tet_mesh(const std::string& path, const ReadOptions& options, ReadReport* report = nullptr);
 void write_tet_mesh(const TetMesh& mesh, const std::string& path, const WriteOptions& options = {});
 // The same, staged in a command's transaction (written by tx.commit(), with its other outputs).
 void write_tet_mesh(const TetMesh& mesh, const std::string& path, const WriteOptions& options, OutputTransaction& tx);

@@ -102,10 +102,11 @@ public:
         std::vector<double> v;
         read_values(4 * n, binary_ ? NumType::UInt8 : NumType::Float64, v);
       } else if (equals_nocase(kw, "VECTORS") || equals_nocase(kw, "NORMALS") || equals_nocase(kw, "TENSORS")) {
-        c_.token_on_line("name");
+        const std::string name(c_.token_on_line("name"));
         NumType t = type_token_on_line();
         std::vector<double> v;
         read_values(attr_n_ * (equals_nocase(kw, "TENSORS") ? 9 : 3), t, v);
+        if (!in_cells_ && equals_nocase(kw, "VECTORS") && name == "displacement") m_.deformed = true;
       } else if (equals_nocase(kw, "TEXTURE_COORDINATES")) {
         c_.token_on_line("name");
         long long dim = c_.integer("dimension", true);

@@ -409,6 +409,8 @@ RawMesh Vtu::parse() {
       if (a.name == "connectivity") pc.conn = a;
       if (a.name == "offsets") pc.offsets = a;
       if (a.name == "types") pc.types = a;
+    } else if (section == "PointData" && a.name == "displacement" && a.components == 3) {
+      m.deformed = true;
     } else if (section == "CellData" && a.components == 1) {
       if (label_rank(a.name) > (pc.label ? label_rank(pc.label->name) : 0)) {
         if (pc.label) pc.scalars.push_back(*pc.label);

@@ -130,6 +130,33 @@ TEST_CASE("incise info and convert on bad files: one line, exit 1", "[cli][io]")
   CHECK_FALSE(fs::exists(d / "x.msh"));
 }
 
+TEST_CASE("a mesh with overlapping tets is refused by every command that reads it", "[cli][io]") {
+  Dir d;
+  // A generated box and a tet spanning it from a corner (it shares corners, no face).
+  TetMesh m = make_box(Vec3(1, 1, 1), {2, 2, 2});
+  auto corner = [&](const Vec3& p) {
+    for (VertexId v : m.vertices())
+      if ((m.rest(v) - p).norm() < 1e-12) return v;
+    return VertexId();
+  };
+  m.add_tet(corner(Vec3(0, 0, 0)), corner(Vec3(1, 0, 0)), corner(Vec3(0, 1, 0)), corner(Vec3(0, 0, 1)));
+  write_tet_mesh(m, d / "span.mesh");
+  std::ofstream(d / "scene.json") << R"({"mesh": "span.mesh", "model": "fem-linear",
+    "materials": {"*": {"young": 1e5, "poisson": 0.3}}, "fixed": [{"box": [-0.01, -0.01, -0.01, 0.01, 1.01, 1.01]}],
+    "loads": [{"type": "gravity", "g": [0, 0, -9.81]}], "time": {"frames": 2}})";
+  for (const std::string cmd : {"info " + (d / "span.mesh"), "quality " + (d / "span.mesh"),
+                                "convert " + (d / "span.mesh") + " " + (d / "x.vtu"),
+                                "cut " + (d / "span.mesh") + " -o " + (d / "x.vtu") + " --plane 0.5 0.5 0.5 1 0 0",
+                                "simulate " + (d / "scene.json") + " -o " + (d / "run")}) {
+    INFO(cmd);
+    const Run r = run(d, cmd);
+    require_one_line_error(r, d / "span.mesh:");
+    CHECK(r.err.find("overlaps tet #") != std::string::npos);
+  }
+  CHECK_FALSE(fs::exists(d / "x.vtu"));
+  CHECK_FALSE(fs::exists(d / "run"));
+}
+
 TEST_CASE("incise convert: every direction, and failures leave no trace", "[cli][io]") {
   Dir d;
   TetMesh m = make_box(Vec3(2, 1, 1), {3, 2, 2}, 4);

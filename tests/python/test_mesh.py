@@ -62,6 +62,21 @@ def test_from_arrays_errors():
         incise.TetMesh(pts, [[0, 1, 2, 3], [0, 1, 3, 2]])
 
 
+def test_from_arrays_refuses_overlapping_tets(box):
+    # A tet spanning the box from its corner: it shares no face, only corners, with the others.
+    p = box.points
+    lo, hi = p.min(axis=0), p.max(axis=0)
+    corner = lambda q: int(np.argmin(np.linalg.norm(p - q, axis=1)))
+    span = [corner(lo), corner([hi[0], lo[1], lo[2]]), corner([lo[0], hi[1], lo[2]]), corner([lo[0], lo[1], hi[2]])]
+    with pytest.raises(incise.Error, match=f"tet #{box.num_tets} overlaps tet #[0-9]+ \\(their interiors intersect\\)"):
+        incise.TetMesh(p, np.vstack([box.tets, [span]]))
+    # Moved out of the box, the same tet is accepted.
+    moved = np.vstack([p, p[span] - [2 * (hi[0] - lo[0]), 0, 0]])
+    n = len(p)
+    extra = incise.TetMesh(moved, np.vstack([box.tets, [[n, n + 1, n + 2, n + 3]]]))
+    assert extra.num_tets == box.num_tets + 1
+
+
 def test_generator_errors_are_invalid_argument():
     with pytest.raises(incise.InvalidArgument):
         incise.generate_box((1, 1, 1), (0, 1, 1))
