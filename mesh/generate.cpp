@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "mesh/errors.h"
+#include "mesh/memory_limit.h"
 
 namespace incise {
 
@@ -22,6 +23,13 @@ namespace {
 // axis are reflected along it (their diagonals alternate; still conforming, see BoxSplit).
 template <class Pos>
 TetMesh kuhn_lattice(const std::array<int, 3>& n, Pos pos, int label, BoxSplit split = BoxSplit::Kuhn) {
+  // The size before any work: ids are 32-bit, and the mesh must fit in memory.
+  const double cells = double(n[0]) * n[1] * n[2], verts = (double(n[0]) + 1) * (double(n[1]) + 1) * (double(n[2]) + 1);
+  const std::string what = std::to_string(n[0]) + "x" + std::to_string(n[1]) + "x" + std::to_string(n[2]) + " cells";
+  if (6 * cells >= double(TetId::invalid_index) || verts >= double(VertexId::invalid_index))
+    throw InvalidArgument(what + " make " + format_count(6 * cells) + " tets and " + format_count(verts) +
+                          " vertices, more than a mesh's 32-bit ids can number; use fewer cells");
+  refuse_past_memory(what, 6 * cells * kTetMeshBytesPerTet, format_count(6 * cells) + " tets", "use fewer cells");
   TetMesh m;
   const std::size_t nv = std::size_t(n[0] + 1) * (n[1] + 1) * (n[2] + 1);
   m.reserve(nv, 6 * std::size_t(n[0]) * n[1] * n[2]);

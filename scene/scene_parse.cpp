@@ -20,6 +20,11 @@ namespace incise {
 
 namespace {
 
+// The most integration steps a frame (time.substeps) and a run (frames x substeps) may take:
+// docs/scene.md, time.substeps.
+constexpr int kMaxSubsteps = 1000000;
+constexpr double kMaxSteps = 1e9;
+
 using json = nlohmann::json;
 namespace fs = std::filesystem;
 
@@ -426,6 +431,14 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     if (jt.contains("integrator")) s.integrator = rd.string(jt["integrator"], "time.integrator");
     if (jt.contains("damping")) s.damping = rd.non_negative(jt["damping"], "time.damping");
     if (jt.contains("substeps")) s.substeps = rd.integer(jt["substeps"], "time.substeps", 1);
+    // Work before it starts: a frame is an interactive step, not a batch job.
+    if (s.substeps > kMaxSubsteps)
+      rd.fail("time.substeps", std::to_string(s.substeps) + " integration steps a frame is more than the " +
+                                   std::to_string(kMaxSubsteps) + " allowed: use a larger time.dt");
+    if (double(s.frames) * s.substeps > kMaxSteps)
+      rd.fail("time.substeps", std::to_string(s.frames) + " frames of " + std::to_string(s.substeps) + " steps are " +
+                                   std::to_string(static_cast<long long>(s.frames) * s.substeps) + " steps, more than the " +
+                                   std::to_string(static_cast<long long>(kMaxSteps)) + " a run may take: use fewer frames or a larger time.dt");
   }
   if (s.model == SceneModel::Springs) {
     if (s.integrator.empty()) s.integrator = "symplectic-euler";

@@ -13,6 +13,7 @@
 #include "mesh/errors.h"
 #include "mesh/generate.h"
 #include "mesh/io/tet_io.h"
+#include "mesh/memory_limit.h"
 #include "mesh/point_locator.h"
 #include "mesh/refine.h"
 #include "quality/coarsen.h"
@@ -22,6 +23,11 @@
 namespace incise {
 
 namespace {
+
+// Memory of the reference solve per tet (the mesh, the mixed model and the exact Cholesky
+// factor of its displacement block, whose fill grows about as the cube root of the size):
+// docs/solver.md#picking-settings-for-a-scene-incise-trade.
+double reference_bytes_per_tet(double tets) { return 1500 * std::max(1.0, std::cbrt(tets / 3.3e5)); }
 
 const char* model_name(SceneModel m) {
   switch (m) {
@@ -254,6 +260,12 @@ TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
   if (ref_level <= levels.back())
     throw InvalidArgument("trade: the reference level (" + std::to_string(ref_level) +
                           ") must be above the finest resolution (" + std::to_string(levels.back()) + ")");
+  {
+    // The reference's size before it is built: each level splits every tet into 8.
+    const double tets = double(mesh(0).num_tets()) * std::pow(8.0, ref_level);
+    refuse_past_memory("trade: the reference at level " + std::to_string(ref_level), tets * reference_bytes_per_tet(tets),
+                       std::to_string(static_cast<long long>(tets)) + " tets", "use a lower --reference-level");
+  }
   const int frames = opt.frames >= 0 ? opt.frames : scene.frames;
 
 

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "mesh/errors.h"
+#include "mesh/memory_limit.h"
 #include "mesh/tetrahedralize/tetrahedralize.h"
 
 namespace incise::detail {
@@ -17,6 +18,27 @@ inline double bbox_diagonal(const std::vector<Vec3>& pts) {
   Eigen::AlignedBox3d box;
   for (const Vec3& p : pts) box.extend(p);
   return box.diagonal().norm();
+}
+
+// What Mesh_3 holds per tet of its result (triangulation, complex, the image or surface
+// domain): docs/tetra.md#size-limits.
+constexpr double kMeshingBytesPerTet = 1100;
+
+inline std::string fmt_length(double x) {
+  std::ostringstream os;
+  os << x;
+  return os.str();
+}
+
+// Refuses an estimated tet count past --max-tets or past this machine's memory, naming it.
+inline void check_estimate(const std::string& what, double tets, const std::string& how, const std::string& hint,
+                           const TetraOptions& opt) {
+  const std::string estimate = format_count(tets) + " tets";
+  if (tets > double(opt.max_tets))
+    throw InvalidArgument("tetrahedralize: " + what + " would need about " + estimate + " (" + how +
+                          "), more than the limit of " + std::to_string(opt.max_tets) + "; " + hint +
+                          " or raise --max-tets");
+  refuse_past_memory("tetrahedralize: " + what, tets * kMeshingBytesPerTet, estimate, hint);
 }
 
 struct Sizes {
@@ -52,14 +74,66 @@ inline Sizes resolve_sizes(const TetraOptions& opt, double diagonal, double volu
     min_size = std::min(min_size, size);
   }
   s.estimated_tets = estimate_tet_count(volume, min_size);
-  if (s.estimated_tets > double(opt.max_tets)) {
+  check_estimate("size " + fmt_length(min_size), s.estimated_tets,
+                 "volume " + fmt_length(volume) + " / size^3", "use a larger --size", opt);
+  return s;
+}
+
+// The most vertices refinement may insert before it is stopped: a generous multiple of the
+// estimate (criteria the estimate cannot see, a --facet-distance far below the size or a part
+// thinner than it, ask for far more), bounded by --max-tets and the memory.
+inline std::size_t refinement_vertex_limit(const TetraOptions& opt, double estimated_tets) {
+  double tets = std::max(16 * estimated_tets, 1e6);
+  tets = std::min(tets, double(opt.max_tets));
+  if (const std::uint64_t have = available_memory_bytes()) tets = std::min(tets, double(have) / kMeshingBytesPerTet);
+  return std::size_t(std::max(tets / 4, 1000.0));  // Delaunay meshes have 5-6 tets a vertex
+}
+
+struct RefinementLimitHit {};
+
+// A Mesh_3 criterion that never calls a facet or cell bad but stops refinement (by throwing
+// RefinementLimitHit) once the triangulation has more than `limit` vertices.
+template <class Tr, class Visitor>
+class VertexLimit : public CGAL::Mesh_3::Abstract_criterion<Tr, Visitor> {
+  using Base = CGAL::Mesh_3::Abstract_criterion<Tr, Visitor>;
+
+public:
+  explicit VertexLimit(std::size_t limit) : limit_(limit) {}
+
+protected:
+  void do_accept(Visitor& v) const override { v.visit(*this); }
+  Base* do_clone() const override { return new VertexLimit(*this); }
+  typename Base::Is_bad do_is_bad(const Tr& tr, const typename Base::Handle&) const override {
+    if (tr.number_of_vertices() > limit_) throw RefinementLimitHit{};
+    return {};
+  }
+
+private:
+  std::size_t limit_;
+};
+
+template <class Tr, class Criteria>
+void limit_refinement(Criteria& criteria, std::size_t max_vertices) {
+  criteria.add_facet_criterion(new VertexLimit<Tr, typename Criteria::Facet_criteria::Visitor>(max_vertices));
+  criteria.add_cell_criterion(new VertexLimit<Tr, typename Criteria::Cell_criteria::Visitor>(max_vertices));
+}
+
+// make_mesh_3 under limit_refinement: a refinement stopped by the limit is an InvalidArgument
+// that says which criteria to relax.
+template <class Make>
+auto refine_within(std::size_t max_vertices, const Sizes& sz, Make&& make) {
+  try {
+    return make();
+  } catch (const RefinementLimitHit&) {
     std::ostringstream os;
-    os << "tetrahedralize: size " << min_size << " would need about " << std::llround(s.estimated_tets)
-       << " tets (volume " << volume << " / size^3), more than the limit of " << opt.max_tets
-       << "; use a larger --size or raise --max-tets";
+    os << "tetrahedralize: refinement passed " << max_vertices << " vertices (about " << 5 * max_vertices
+       << " tets, against ~" << std::llround(sz.estimated_tets) << " expected from the size) and was stopped: the"
+       << " surface asks for far more than the size (facet distance " << sz.facet_distance << ", edge size "
+       << sz.edge_size << ", or parts thinner than the size " << sz.size
+       << "); use a larger --facet-distance or --edge-size (the limit is 16 times the size's estimate, at least"
+       << " a million tets, at most --max-tets and the memory: a smaller --size raises it for thin parts)";
     throw InvalidArgument(os.str());
   }
-  return s;
 }
 
 // Runs the optimizers `opt.optimize` asks for, in CGAL's order (ODT, Lloyd, perturb,

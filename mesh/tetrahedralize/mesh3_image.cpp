@@ -99,7 +99,11 @@ TetMesh tetrahedralize_image(const std::string& path, const TetraOptions& opt, T
   // No manifold(): the facet complex of a multi-label image includes the interfaces, which
   // are non-manifold at every triple junction, so refinement would never end. The outer
   // boundary is made manifold afterwards (make_boundary_manifold).
-  C3t3 c3t3 = CGAL::make_mesh_3<C3t3>(domain, criteria, no_perturb(), no_exude(), no_odt(), no_lloyd());
+  const std::size_t max_vertices = detail::refinement_vertex_limit(opt, sz.estimated_tets);
+  detail::limit_refinement<Tr>(criteria, max_vertices);
+  C3t3 c3t3 = detail::refine_within(max_vertices, sz, [&] {
+    return CGAL::make_mesh_3<C3t3>(domain, criteria, no_perturb(), no_exude(), no_odt(), no_lloyd());
+  });
   TetraStats local;
   TetraStats& st = stats ? *stats : local;
   st = TetraStats{};

@@ -60,7 +60,15 @@ TetMesh tetrahedralize_surface(const SurfaceMesh& surface, const TetraOptions& o
   CGAL::get_default_random() = CGAL::Random(opt.seed);
   Domain domain(poly, &rng);
   const double features = opt.features_angle < 0 ? auto_features_angle(surface) : opt.features_angle;
-  if (features > 0) domain.detect_features(features);
+  if (features > 0) {
+    // Protecting balls about an edge size apart along every feature, each with its own
+    // vertices and tets: counted before Mesh_3 places them (it cannot be stopped there).
+    const double balls = feature_length(surface, features) / sz.edge_size;
+    detail::check_estimate("edge size " + detail::fmt_length(sz.edge_size), 8 * balls,
+                           detail::fmt_length(balls) + " protecting balls along the features", 
+                           "use a larger --edge-size or --features 0", opt);
+    domain.detect_features(features);
+  }
 
   using namespace CGAL::parameters;
   Criteria criteria(edge_size = sz.edge_size / diag, facet_angle = opt.facet_angle, facet_size = sz.size / diag,
@@ -69,7 +77,11 @@ TetMesh tetrahedralize_surface(const SurfaceMesh& surface, const TetraOptions& o
   if (opt.progress)
     std::cerr << "tetra: Mesh_3 refinement (size " << sz.size << ", facet distance " << sz.facet_distance
               << ", ~" << static_cast<long long>(sz.estimated_tets) << " tets expected)\n";
-  C3t3 c3t3 = CGAL::make_mesh_3<C3t3>(domain, criteria, no_perturb(), no_exude(), no_odt(), no_lloyd(), manifold());
+  const std::size_t max_vertices = detail::refinement_vertex_limit(opt, sz.estimated_tets);
+  detail::limit_refinement<Tr>(criteria, max_vertices);
+  C3t3 c3t3 = detail::refine_within(max_vertices, sz, [&] {
+    return CGAL::make_mesh_3<C3t3>(domain, criteria, no_perturb(), no_exude(), no_odt(), no_lloyd(), manifold());
+  });
   TetraStats local;
   TetraStats& st = stats ? *stats : local;
   st = TetraStats{};

@@ -7,6 +7,8 @@
 #include <iostream>
 #include <sstream>
 
+#include <Eigen/Eigenvalues>
+
 #include "mesh/errors.h"
 #include "mesh/io/surface.h"
 #include "mesh/generate.h"
@@ -58,6 +60,29 @@ TetMesh tetrahedralize_stuffing(const SignedDistance& sdf, const TetraOptions& o
   return mesh;
 }
 
+namespace {
+
+// Whether every point lies within a billionth of the diagonal of one plane (the plane through
+// the centroid normal to the direction of least spread).
+bool is_flat(const SurfaceMesh& s) {
+  if (s.vertices.empty()) return true;
+  Vec3 c = Vec3::Zero();
+  for (const Vec3& p : s.vertices) c += p;
+  c /= double(s.vertices.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  Eigen::AlignedBox3d box;
+  for (const Vec3& p : s.vertices) {
+    cov += (p - c) * (p - c).transpose();
+    box.extend(p);
+  }
+  const Vec3 n = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors().col(0);
+  double off = 0;
+  for (const Vec3& p : s.vertices) off = std::max(off, std::abs((p - c).dot(n)));
+  return off <= 1e-9 * box.diagonal().norm();
+}
+
+}  // namespace
+
 TetMesh mesh_surface(const SurfaceMesh& input, const PipelineOptions& opt, PipelineReport* report,
                      const std::function<void(const std::string&)>& log) {
   PipelineReport local;
@@ -75,6 +100,10 @@ TetMesh mesh_surface(const SurfaceMesh& input, const PipelineOptions& opt, Pipel
   if (c.border_edges == surface.triangles.size() * 3)
     throw InvalidArgument("the surface encloses no volume (every edge is a border edge: a single sheet of " +
                           std::to_string(surface.triangles.size()) + " triangles)");
+
+  if (is_flat(surface))
+    throw InvalidArgument("the surface is flat (its " + std::to_string(surface.vertices.size()) +
+                          " points lie in one plane): it encloses no volume to mesh, with or without --repair");
 
   double input_volume = std::abs(c.signed_volume);
   if (!c.meshable() && !opt.repair)

@@ -85,7 +85,10 @@ std::string TetraStats::summary() const {
   return os.str();
 }
 
-double auto_features_angle(const SurfaceMesh& s) {
+namespace {
+
+// Every edge with two triangles: its length and the cosine of the angle between the normals.
+std::vector<std::pair<double, double>> edge_bends(const SurfaceMesh& s) {
   std::map<std::pair<int, int>, std::vector<int>> faces;
   for (std::size_t f = 0; f < s.triangles.size(); ++f)
     for (int k = 0; k < 3; ++k) {
@@ -96,17 +99,34 @@ double auto_features_angle(const SurfaceMesh& s) {
     const auto& t = s.triangles[f];
     return (s.vertices[t[1]] - s.vertices[t[0]]).cross(s.vertices[t[2]] - s.vertices[t[0]]).normalized();
   };
-  std::size_t n40 = 0, n60 = 0, edges = 0;
-  const double c40 = std::cos(40 * M_PI / 180), c60 = std::cos(60 * M_PI / 180);
+  std::vector<std::pair<double, double>> bends;
   for (const auto& [e, fs] : faces) {
     if (fs.size() != 2) continue;
+    bends.emplace_back((s.vertices[e.second] - s.vertices[e.first]).norm(), normal(fs[0]).dot(normal(fs[1])));
+  }
+  return bends;
+}
+
+}  // namespace
+
+double auto_features_angle(const SurfaceMesh& s) {
+  std::size_t n40 = 0, n60 = 0, edges = 0;
+  const double c40 = std::cos(40 * M_PI / 180), c60 = std::cos(60 * M_PI / 180);
+  for (const auto& [length, c] : edge_bends(s)) {
     ++edges;
-    const double c = normal(fs[0]).dot(normal(fs[1]));
     if (c < c40) ++n40;
     if (c < c60) ++n60;
   }
   const bool crisp = n60 > 0 && 2 * n60 >= n40 && 10 * n60 <= edges;
   return crisp ? 60.0 : 0.0;
+}
+
+double feature_length(const SurfaceMesh& s, double angle) {
+  const double c = std::cos(angle * M_PI / 180);
+  double length = 0;
+  for (const auto& [l, cb] : edge_bends(s))
+    if (cb < c) length += l;
+  return length;
 }
 
 std::size_t split_pinched_vertices(TetMesh& mesh) {

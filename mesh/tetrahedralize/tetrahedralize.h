@@ -98,6 +98,10 @@ bool is_image_path(const std::string& path);
 // triangulations get no protected features, which would only cost element quality.
 double auto_features_angle(const SurfaceMesh& surface);
 
+// Total length of the surface's edges whose faces' normals differ by more than `angle`
+// degrees: the sharp features Mesh_3 protects at that angle.
+double feature_length(const SurfaceMesh& surface, double angle);
+
 // Splits every vertex whose incident tets fall into several face-connected groups (two
 // regions touching only at a point, as Mesh_3 leaves on labeled images) into one vertex per
 // group, at the same position, so the boundary becomes manifold there. Returns the number

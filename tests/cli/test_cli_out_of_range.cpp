@@ -9,6 +9,7 @@
 
 #include "cli_run.h"
 #include "mesh/io/tet_io.h"
+#include "mesh/memory_limit.h"
 
 namespace fs = std::filesystem;
 using namespace incise::testing;
@@ -194,4 +195,33 @@ TEST_CASE("view: options of a live scene are refused in look mode", "[cli][optio
   CHECK(!fs::exists(dir / "takes"));
   // A budget that is not a number is refused, not replaced by the default.
   check_failed(run_incise("view " + q(box) + " --budget-ms nan", dir), "--budget-ms: 'nan': expected a finite number");
+}
+
+TEST_CASE("sizes are estimated before the work: past the ids or the memory is refused, naming the estimate",
+          "[cli][options][size]") {
+  const fs::path dir = scratch_dir("cli_range_size");
+  const fs::path out = dir / "g.msh";
+  check_failed(run_incise("generate box --cells 2147483647 1 1 -o " + q(out), dir),
+               "2147483647x1x1 cells make 12884901882 tets and 8589934592 vertices, more than a mesh's 32-bit ids");
+  const double have = double(incise::available_memory_bytes());
+  if (have > 0 && have < 200e9)  // 1.3e9 tets at 160 bytes
+    check_failed(run_incise("generate box --cells 600 600 600 -o " + q(out), dir),
+                 "600x600x600 cells would need about 207 GB (1296000000 tets), more than the");
+  CHECK(!fs::exists(out));
+  // trade: the reference four levels up from the beam's 5184 tets is 21M tets.
+  const std::string beam = q(fs::path(INCISE_SOURCE_DIR) / "samples" / "scenes" / "beam.json");
+  if (have > 0 && have < 120e9)
+    check_failed(run_incise("trade " + beam + " --resolutions 0 --reference-level 4 --output " + q(dir / "t.md"), dir),
+                 "trade: the reference at level 4 would need about");
+  CHECK(!fs::exists(dir / "t.md"));
+  // simulate: integration steps a frame and a run.
+  std::ofstream(dir / "s.json") << R"({"mesh": {"generate": "box", "cells": [2, 1, 1]}, "model": "springs",
+    "materials": {"*": {"young": 1e5, "poisson": 0.3}}, "time": {"frames": 4, "substeps": 1000000000}})";
+  check_failed(run_incise("simulate " + q(dir / "s.json") + " -o " + q(dir / "run"), dir),
+               "time.substeps: 1000000000 integration steps a frame is more than the 1000000 allowed");
+  std::ofstream(dir / "s2.json") << R"({"mesh": {"generate": "box", "cells": [2, 1, 1]}, "model": "springs",
+    "materials": {"*": {"young": 1e5, "poisson": 0.3}}, "time": {"frames": 100000, "substeps": 100000}})";
+  check_failed(run_incise("simulate " + q(dir / "s2.json") + " -o " + q(dir / "run"), dir),
+               "100000 frames of 100000 steps are 10000000000 steps, more than the 1000000000 a run may take");
+  CHECK(!fs::exists(dir / "run"));
 }
