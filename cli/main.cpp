@@ -26,6 +26,20 @@ void refuse_non_finite_words(int argc, char** argv) {
   }
 }
 
+// CLI11 takes an empty word as a value and then keeps the option's default (`--worst ""` ran
+// with 10): no value of incise is empty, so an empty word is refused, naming its option.
+void refuse_empty_words(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const std::size_t eq = a.find('=');
+    if (a.rfind("--", 0) == 0 && eq != std::string::npos && eq + 1 == a.size())
+      throw incise::InvalidArgument(a.substr(0, eq) + ": an empty value");
+    if (!a.empty()) continue;
+    std::string option = i > 1 && argv[i - 1][0] == '-' ? std::string(argv[i - 1]) + ": " : std::string();
+    throw incise::InvalidArgument(option + "an empty value" + (option.empty() ? " (argument " + std::to_string(i) + ")" : ""));
+  }
+}
+
 // One line like every other error (CLI11 prints its message and a "Run with --help" hint).
 std::string one_line(std::string s) {
   for (char& c : s)
@@ -56,6 +70,7 @@ int main(int argc, char** argv) {
 #endif
   try {
     refuse_non_finite_words(argc, argv);
+    refuse_empty_words(argc, argv);
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);

@@ -51,6 +51,7 @@ void TetMesh::star_split(TetId t, VertexId p, const std::array<double, 4>& w) {
 
 VertexId TetMesh::split_edge(VertexId a, VertexId b, double s) {
   if (!(s > 0 && s < 1)) throw InvalidArgument("split_edge: parameter must be in (0,1)");
+  if (a == b) throw InvalidArgument("split_edge: the edge's two vertices are the same (" + std::to_string(a.idx()) + ")");
   // Every tet containing the edge; no ordering needed, so an edge whose tets form several
   // fans (possible after remove_tet) splits as well.
   std::vector<TetId> around;

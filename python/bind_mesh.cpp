@@ -218,8 +218,13 @@ void bind_mesh(py::module_& m) {
           "Region label of each live tet (same order as tets)")
       .def_property_readonly("tet_ids", [](const TetMesh& mesh) { return id_array(mesh.tets()); })
       .def_property_readonly("vertex_ids", [](const TetMesh& mesh) { return id_array(mesh.vertices()); })
-      .def("is_alive_vertex", [](const TetMesh& mesh, long long v) { return v >= 0 && mesh.is_alive(VertexId(v)); })
-      .def("is_alive_tet", [](const TetMesh& mesh, long long t) { return t >= 0 && mesh.is_alive(TetId(t)); })
+      // Ids are 32-bit: a larger Python int must not wrap onto a live id.
+      .def("is_alive_vertex", [](const TetMesh& mesh, long long v) {
+        return v >= 0 && v < VertexId::invalid_index && mesh.is_alive(VertexId(std::uint32_t(v)));
+      })
+      .def("is_alive_tet", [](const TetMesh& mesh, long long t) {
+        return t >= 0 && t < TetId::invalid_index && mesh.is_alive(TetId(std::uint32_t(t)));
+      })
       .def("volume", &TetMesh::total_volume, "Total signed rest volume")
       .def(
           "boundary_faces",

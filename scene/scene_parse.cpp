@@ -1,7 +1,9 @@
 #include "scene/scene.h"
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
+#include <set>
 #include <fstream>
 #include <sstream>
 #include <string_view>
@@ -568,9 +570,12 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   // formulation, with pressure as an unknown, solves it.
   if (!is_mixed(s.formulation)) {
     auto check = [&](const Material& m, const std::string& key) {
-      if (m.poisson >= 0.5)
-        rd.fail(key, "Poisson's ratio 0.5 needs \"formulation\": \"mixed\" (pressure as an unknown); the other "
-                     "formulations take at most 0.4999");
+      if (m.poisson > 0.4999) {
+        char nu[32];
+        std::snprintf(nu, sizeof nu, "%.17g", m.poisson);
+        rd.fail(key, std::string("Poisson's ratio ") + nu + " needs \"formulation\": \"mixed\" (pressure as an "
+                     "unknown); the other formulations take at most 0.4999 (above, they lock and their solves fail)");
+      }
     };
     if (s.materials.has_default()) check(s.materials.fallback(), "materials.*.poisson");
     for (const auto& [label, m] : s.materials.by_label()) check(m, "materials." + std::to_string(label) + ".poisson");
@@ -614,6 +619,19 @@ TetMesh load_scene_mesh(const Scene& s) {
     mesh = read_tet_mesh(p.string());
   }
   mesh.discard_change();
+  // A material for a label no tet has would be silently unused (a typo, or the labels of
+  // another mesh): name the labels the mesh has.
+  if (!s.materials.by_label().empty()) {
+    std::set<int> labels;
+    for (TetId t : mesh.tets()) labels.insert(mesh.label(t));
+    for (const auto& [label, m] : s.materials.by_label())
+      if (!labels.count(label)) {
+        std::string have;
+        for (int l : labels) have += (have.empty() ? "" : ", ") + std::to_string(l);
+        throw IoError(s.path, 0, "materials." + std::to_string(label) + ": no tet of the mesh has label " +
+                                     std::to_string(label) + " (its labels: " + have + ")");
+      }
+  }
   return mesh;
 }
 

@@ -2,6 +2,8 @@
 // backward Euler with a matrix-free, Jacobi-preconditioned CG on the spring Jacobian.
 #include <cmath>
 #include <iostream>
+#include <optional>
+#include <sstream>
 
 #include "mesh/errors.h"
 #include "sim/spring_model.h"
@@ -46,6 +48,11 @@ StepStats SpringModel::step(double dt, Integrator integrator) {
       warn_once(integrator, dt, limit);
     }
   }
+  // A step that blows up (an explicit step far past the stable one, an implicit step whose
+  // solve diverged) must not leave NaN behind: steps that can are taken from a copy of the
+  // state (explicit ones past the limit only: the copy costs about what the step does).
+  std::optional<std::pair<std::vector<Vec3>, std::vector<Vec3>>> before;
+  if (st.stable_step_exceeded || integrator == Integrator::ImplicitEuler) before.emplace(x_, v_);
   const std::size_t n = x_.size();
   switch (integrator) {
     case Integrator::ExplicitEuler:
@@ -93,6 +100,22 @@ StepStats SpringModel::step(double dt, Integrator integrator) {
       st.cg_iterations = implicit_step(dt, st.cg_relative_residual);
       acc_valid_ = false;
       break;
+  }
+  if (before) {
+    bool finite = true;
+    for (std::size_t i = 0; i < n && finite; ++i) finite = x_[i].allFinite() && v_[i].allFinite();
+    if (!finite) {
+      x_ = std::move(before->first);
+      v_ = std::move(before->second);
+      acc_valid_ = false;
+      std::ostringstream os;
+      os << "spring step: the state became non-finite (dt " << dt;
+      if (const double limit = is_explicit(integrator) ? stable_time_step(integrator) : 0; limit > 0)
+        os << ", " << dt / limit << " times the stable time step";
+      os << "); the state before the step is kept: use a smaller dt"
+         << (is_explicit(integrator) ? " or the implicit-euler integrator" : "");
+      throw Error(os.str());
+    }
   }
   if (opt_.compute_energy) {
     st.kinetic_energy = kinetic_energy();

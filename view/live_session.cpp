@@ -20,6 +20,8 @@
 
 namespace incise::view {
 
+namespace fs = std::filesystem;
+
 namespace {
 using Clock = std::chrono::steady_clock;
 // Colours are recomputed every this many frames (von Mises is a pass over every tet) and after
@@ -82,7 +84,16 @@ public:
 
 LiveSession::LiveSession(const Scene& scene, std::string record_dir)
     : record_dir_(std::move(record_dir)), scene_(scene), state_(std::make_unique<LiveState>(scene)) {
-  if (!record_dir_.empty()) check_output_dir(record_dir_);
+  if (!record_dir_.empty()) {
+    check_output_dir(record_dir_);
+    // The page's Record button makes DIR/take-N much later: a mistyped path must not become a
+    // tree of new directories then, nor an error only the page shows.
+    const fs::path dir = fs::absolute(record_dir_).lexically_normal();
+    std::error_code ec;
+    if (!fs::exists(dir, ec) && !fs::is_directory(dir.parent_path(), ec))
+      throw IoError(record_dir_, 0, "--record: neither this directory nor its parent " + dir.parent_path().string() +
+                                        " exists (create it first)");
+  }
   Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
   for (VertexId v : state_->runner.mesh().vertices()) {
     lo = lo.cwiseMin(state_->runner.mesh().rest(v));
@@ -102,7 +113,6 @@ LiveSession::~LiveSession() {
 }
 
 void LiveSession::start_take(LiveState& s) {
-  namespace fs = std::filesystem;
   int n = 1;
   while (fs::exists(fs::path(record_dir_) / ("take-" + std::to_string(n)))) ++n;
   s.take_name = "take-" + std::to_string(n);

@@ -216,6 +216,8 @@ FlatMesh flatten(const TetMesh& mesh, const MeshFields* fields) {
     if (!mesh.is_alive(VertexId(v))) continue;
     vmap[v] = static_cast<std::uint32_t>(f.points.size());
     f.points.push_back(fields && fields->points ? (*fields->points)[v] : mesh.rest(VertexId(v)));
+    if (!f.points.back().allFinite())
+      throw InvalidArgument("vertex #" + std::to_string(v) + " has a non-finite position; files hold finite numbers only");
     f.vertex_ids.push_back(v);
   }
   f.tets.reserve(mesh.num_tets());
@@ -247,7 +249,14 @@ FlatMesh flatten(const TetMesh& mesh, const MeshFields* fields) {
       FlatMesh::DenseField d{in.name, in.components, {}};
       d.values.reserve(ids.size() * in.components);
       for (std::uint32_t id : ids)
-        for (int c = 0; c < in.components; ++c) d.values.push_back(in.values[std::size_t(id) * in.components + c]);
+        for (int c = 0; c < in.components; ++c) {
+          const double x = in.values[std::size_t(id) * in.components + c];
+          // Every reader refuses non-finite numbers: a file written with one could not be read back.
+          if (!std::isfinite(x))
+            throw InvalidArgument("field '" + in.name + "': " + kind + " #" + std::to_string(id) + " is " +
+                                  std::to_string(x) + "; files hold finite numbers only (readers refuse the rest)");
+          d.values.push_back(x);
+        }
       return d;
     };
     for (const Field& pd : fields->point_data) f.point_data.push_back(gather(pd, f.vertex_ids, vcap, "point"));

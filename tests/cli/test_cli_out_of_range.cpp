@@ -225,3 +225,12 @@ TEST_CASE("sizes are estimated before the work: past the ids or the memory is re
                "100000 frames of 100000 steps are 10000000000 steps, more than the 1000000000 a run may take");
   CHECK(!fs::exists(dir / "run"));
 }
+
+TEST_CASE("an empty value is an error naming its option, not the default", "[cli][options]") {
+  const fs::path dir = scratch_dir("cli_range_empty");
+  const fs::path box = dir / "box.msh";
+  REQUIRE(run_incise("generate box --cells 1 1 1 -o " + q(box), dir).code == 0);
+  check_failed(run_incise("quality " + q(box) + " --worst ''", dir), "--worst: an empty value");
+  check_failed(run_incise("quality " + q(box) + " --sliver-angle=", dir), "--sliver-angle: an empty value");
+  check_failed(run_incise("info ''", dir), "an empty value");
+}

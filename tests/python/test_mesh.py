@@ -156,3 +156,22 @@ def test_generator_arguments_get_incise_errors():
         incise.generate_box(1.0, (1, 1))
     with pytest.raises(incise.InvalidArgument, match="size: expected 3 finite numbers"):
         incise.generate_box((1, np.nan, 1), 1)
+
+
+def test_ids_past_32_bits_and_degenerate_edits_are_refused(box):
+    # 2**32 would wrap onto vertex 0, which is alive.
+    assert not box.is_alive_vertex(2**32) and not box.is_alive_tet(2**32)
+    assert not box.is_alive_vertex(-1) and box.is_alive_vertex(0)
+    with pytest.raises(incise.InvalidArgument, match="the edge's two vertices are the same"):
+        box.split_edge(0, 0, 0.5)
+
+
+def test_write_refuses_what_read_would_refuse(box, tmp_path):
+    path = str(tmp_path / "nan.vtu")
+    with pytest.raises(incise.InvalidArgument, match="field 'x': cell #0 is nan"):
+        incise.write(box, path, cell_data={"x": np.full(box.num_tets, np.nan)})
+    pos = box.points.copy()
+    pos[3, 1] = np.inf
+    with pytest.raises(incise.InvalidArgument, match="non-finite point coordinate \\(point 3\\)"):
+        incise.write(box, path, positions=pos)
+    assert not (tmp_path / "nan.vtu").exists()

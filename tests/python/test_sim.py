@@ -349,3 +349,14 @@ def test_simulate_interrupted_by_a_signal_stops_cleanly(tmp_path):
         assert p.wait(timeout=60) == 1
         assert f"interrupted by signal {int(sig)}" in err
         assert [q.name for q in tmp_path.iterdir() if q.name.startswith(".")] == []
+
+
+def test_springs_step_that_blows_up_raises_and_keeps_the_state(box):
+    # dt far past the stable step: the symplectic step overflows within a few steps; the step
+    # that does raises, and the state before it is kept (finite), not NaN.
+    s = incise.SpringSimulation(box)
+    s.set_gravity((0, 0, -9.81))
+    with pytest.raises(incise.Error, match="the state became non-finite .* times the stable time step"):
+        for _ in range(50):
+            s.step(1e6)
+    assert np.isfinite(s.positions).all() and np.isfinite(s.velocities).all()

@@ -20,7 +20,7 @@ namespace {
 const char* kGood = R"({
   "mesh": {"generate": "box", "size": [4, 1, 1], "cells": [8, 2, 2]},
   "model": "fem-linear",
-  "materials": {"*": {"young": 1e5, "poisson": 0.3, "density": 1000}, "2": {"young": 1e7}},
+  "materials": {"*": {"young": 1e5, "poisson": 0.3, "density": 1000}},
   "fixed": [{"box": [0, 0, 0, 0, 1, 1]}],
   "loads": [{"type": "probe", "box": [4, 0, 0, 4, 1, 1], "displacement": [0, 0, -0.2], "from_frame": 0, "to_frame": 4}, {"type": "gravity", "g": [0, 0, -9.81]}],
   "solver": {"method": "cg", "tolerance": 1e-9, "max_iterations": 5000, "budget_ms": 0, "warm_start": true, "preconditioner": "jacobi"},
@@ -69,6 +69,8 @@ TEST_CASE("scene errors name the key and what was expected", "[scene][errors]") 
   CHECK_THAT(error_of(with("solver", R"({"warm_start": "guess"})")), Catch::Contains("solver.warm_start: expected true, false, \"predict\" or \"last\""));
   CHECK_THAT(error_of(with("model", R"("fem")")), Catch::StartsWith("scene.json: model: expected \"fem-linear\""));
   CHECK_THAT(error_of(with("materials", R"({"*": {"poisson": 0.5}})")), Catch::Contains("materials.*.poisson: Poisson's ratio 0.5 needs \"formulation\": \"mixed\""));
+  CHECK_THAT(error_of(with("materials", R"({"*": {"poisson": 0.49995}})")), Catch::Contains("materials.*.poisson: Poisson's ratio 0.49995000000000001 needs \"formulation\": \"mixed\""));
+  CHECK_THAT(error_of(with("materials", R"({"*": {"poisson": 0.4999999999999999}})")), Catch::Contains("the other formulations take at most 0.4999"));
   CHECK_THAT(error_of(with("materials", R"({"liver": {"young": 1}})")), Catch::Contains("materials.liver: expected \"*\" or an integer"));
   CHECK_THAT(error_of(with("materials", R"({"3": {"young": 0}})")), Catch::Contains("materials.3.young: expected a positive number"));
   CHECK_THAT(error_of(with("fixed", R"([{"box": [0, 0, 0, 1, 1]}])")), Catch::Contains("fixed[0].box: expected [xmin, ymin, zmin, xmax, ymax, zmax]"));
@@ -103,6 +105,9 @@ TEST_CASE("bad scene content is refused before anything is written", "[scene][er
   // A missing mesh file is named.
   s = parse_scene(with("mesh", R"("no_such_mesh.vtu")"), "/tmp/x/scene.json");
   CHECK_THROWS_WITH(run_scene(s, ro), Catch::Contains("no_such_mesh.vtu"));
+  // A material for a label no tet has (the generated box's tets all have label 1).
+  s = parse_scene(with("materials", R"({"7": {"young": 2e4}})"), "scene.json");
+  CHECK_THROWS_WITH(run_scene(s, ro), Catch::Contains("scene.json: materials.7: no tet of the mesh has label 7 (its labels: 1)"));
   CHECK_FALSE(fs::exists(out));
 }
 

@@ -41,6 +41,10 @@ TEST_CASE("live record: a take replays to the same run", "[view]") {
   }
   const fs::path dir = fs::temp_directory_path() / "incise_live_record";
   fs::remove_all(dir);
+  // A --record path whose parent does not exist either is refused up front (not at Record).
+  CHECK_THROWS_WITH(LiveSession(scene, (dir / "no" / "such").string()),
+                    Catch::Contains("--record: neither this directory nor its parent"));
+  CHECK_FALSE(fs::exists(dir));
   LiveSession live(scene, dir.string());
   REQUIRE(live.post(msg(InputKind::Pause)).empty());
   live.start();
