@@ -8,6 +8,7 @@
 
 #include "cli/commands.h"
 #include "mesh/errors.h"
+#include "mesh/memory_limit.h"
 
 namespace {
 
@@ -85,7 +86,9 @@ int main(int argc, char** argv) {
     std::cerr << "incise: error: " << e.what() << "\n";
     return 1;
   } catch (const std::bad_alloc&) {
-    std::cerr << "incise: error: out of memory\n";
+    std::cerr << "incise: error: out of memory: the command needed more than the "
+              << incise::format_bytes(double(incise::available_memory_bytes()))
+              << " this machine has available now; use a smaller input, size or option\n";
     return 1;
   } catch (const std::exception& e) {
     std::cerr << "incise: error: " << e.what() << "\n";

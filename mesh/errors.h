@@ -8,7 +8,10 @@ namespace incise {
 
 class Error : public std::runtime_error {
 public:
-  using std::runtime_error::runtime_error;
+  // Bytes of the message that are not UTF-8 (a binary file's token quoted in a parse error)
+  // become \xNN: a terminal prints the message, Python gets it as str.
+  explicit Error(const std::string& what);
+  explicit Error(const char* what) : Error(std::string(what)) {}
 };
 
 // Malformed or unreadable file. what() is "FILE:LINE: reason" (LINE omitted when unknown).

@@ -40,8 +40,16 @@ inline std::string non_finite_point(std::size_t i) {
 // do nothing, or something odd, and report success.
 inline std::string degenerate_sweep(const Vec3& a, const Vec3& b, const Vec3& d) {
   const double scale = std::max({a.norm(), b.norm(), (a + d).norm(), 1e-300});
-  if ((b - a).norm() <= 1e-12 * scale) return "the blade's two ends are the same point";
-  if (d.norm() <= 1e-12 * scale) return "the sweep is zero: the blade does not move";
+  // Lengths below a trillionth of the coordinates are lost to rounding: say so when they are
+  // not zero (a blade 2e15 long swept by 3 does not look "zero" to its user).
+  const auto lost = [&](double length, const char* what) {
+    return std::string(what) + " (" + number_text(length) + ") is lost to rounding at the blade's coordinates (up to " +
+           number_text(scale) + "): keep the blade near the body";
+  };
+  if ((b - a).norm() <= 1e-12 * scale)
+    return (b - a).norm() == 0 ? "the blade's two ends are the same point" : lost((b - a).norm(), "the blade's length");
+  if (d.norm() <= 1e-12 * scale)
+    return d.norm() == 0 ? "the sweep is zero: the blade does not move" : lost(d.norm(), "the sweep's length");
   if ((b - a).normalized().cross(d.normalized()).norm() <= 1e-9) return "the sweep is parallel to the blade: it sweeps no area";
   return {};
 }

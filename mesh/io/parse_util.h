@@ -212,6 +212,11 @@ inline void append_real(std::string& out, double v) {
   auto r = std::to_chars(buf, buf + sizeof buf, v);
   out.append(buf, r.ptr);
 }
+inline std::string real_text(double v) {
+  std::string s;
+  append_real(s, v);
+  return s;
+}
 inline void append_int(std::string& out, long long v) {
   char buf[24];
   auto r = std::to_chars(buf, buf + sizeof buf, v);

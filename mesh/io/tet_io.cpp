@@ -54,6 +54,8 @@ std::string read_file_bytes(const std::string& path) {
     // Not seekable (a pipe): read as a stream.
     data.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
   }
+  // A UTF-8 byte order mark (editors on Windows write one) is no part of any format.
+  if (data.compare(0, 3, "\xEF\xBB\xBF") == 0) data.erase(0, 3);
   return data;
 }
 
@@ -282,7 +284,9 @@ TetFormat output_format(const std::string& path, const WriteOptions& options) {
   if (format == TetFormat::Auto) {
     std::string ext = lower_extension(path);
     if (is_surface_extension(ext))
-      io::throw_io(path, 0, "." + ext + " is a surface format; write the boundary with write_surface");
+      io::throw_io(path, 0, "." + ext + " is a surface format: a tet mesh is written as .vtu, .msh, .mesh, .vtk or "
+                            ".node/.ele (its boundary as ." + ext + ": incise convert MESH OUT." + ext +
+                            ", or Python's write_surface)");
     io::throw_io(path, 0, "unknown tet mesh format '." + ext + "' (use .msh, .mesh, .vtk, .vtu, .node or .ele)");
   }
   return format;

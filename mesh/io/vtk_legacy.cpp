@@ -203,8 +203,8 @@ private:
 
   std::uint32_t index(double v, std::size_t np, std::size_t cell) const {
     if (!(v >= 0) || v >= static_cast<double>(np) || v != std::floor(v))
-      throw_io(c_.file(), 0, "cell #" + std::to_string(cell) + " references point " + std::to_string(v) +
-                                      " out of range 0.." + std::to_string(np) + "-1");
+      throw_io(c_.file(), 0, "cell #" + std::to_string(cell) + " references point " + real_text(v) + ", not an index in 0.." +
+                                      (np > 0 ? std::to_string(np - 1) : std::string("-1 (no points)")));
     return static_cast<std::uint32_t>(v);
   }
 

@@ -234,3 +234,14 @@ TEST_CASE("an empty value is an error naming its option, not the default", "[cli
   check_failed(run_incise("quality " + q(box) + " --sliver-angle=", dir), "--sliver-angle: an empty value");
   check_failed(run_incise("info ''", dir), "an empty value");
 }
+
+TEST_CASE("a blade whose sweep is lost to rounding says so", "[cli][options][cut]") {
+  const fs::path dir = scratch_dir("cli_range_rounding");
+  const fs::path box = dir / "box.msh";
+  REQUIRE(run_incise("generate box --cells 1 1 1 -o " + q(box), dir).code == 0);
+  check_failed(run_incise("cut " + q(box) + " -o " + q(dir / "x.msh") + " --blade 0.5 -1e15 2 0.5 1e15 2 --sweep 0 0 -3", dir),
+               "the sweep's length (3) is lost to rounding at the blade's coordinates (up to 1e+15)");
+  // A tet output named as a surface: the message names the command line's way, not Python's.
+  check_failed(run_incise("cut " + q(box) + " -o " + q(dir / "x.off") + " --plane 0.5 0.5 0.5 1 0 0", dir),
+               "incise convert MESH OUT.off");
+}

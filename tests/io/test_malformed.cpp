@@ -268,3 +268,22 @@ TEST_CASE("binary garbage is rejected by every reader", "[io][malformed]") {
     }
   }
 }
+
+TEST_CASE("messages are clear: BOM, indices, non-UTF-8 bytes, surface outputs", "[io][malformed]") {
+  ScratchDir dir("messages");
+  // A UTF-8 byte order mark before a gmsh (or any) file is skipped.
+  const TetMesh box = make_box(Vec3(1, 1, 1), {1, 1, 1});
+  for (const char* name : {"bom.msh", "bom.mesh", "bom.vtk", "bom.vtu"}) {
+    write_tet_mesh(box, dir / name);
+    write_text(dir / name, "\xEF\xBB\xBF" + read_text(dir / name));
+    CHECK(read_tet_mesh(dir / name).num_tets() == box.num_tets());
+  }
+  // A VTK index names the point and the range as numbers, not "-1.000000 out of range 0..4-1".
+  write_text(dir / "neg.vtk", kVtkHead + "POINTS 4 double\n0 0 0 1 0 0 0 1 0 0 0 1\nCELLS 1 5\n4 0 1 2 -1\nCELL_TYPES 1\n10\n");
+  CHECK_THROWS_WITH(read_tet_mesh(dir / "neg.vtk"), Catch::Contains("cell #0 references point -1, not an index in 0..3"));
+  // Bytes that are not UTF-8 are shown as \xNN in every error (Python gets a str).
+  const IoError e("f\xFF.msh", 3, std::string("got '\xC3\x28' and \xE2\x82\xAC\n"));
+  CHECK(std::string(e.what()) == "f\\xFF.msh:3: got '\\xC3(' and \xE2\x82\xAC\\x0A");
+  // Writing a tet mesh to a surface extension says what to do from the command line too.
+  CHECK_THROWS_WITH(write_tet_mesh(box, dir / "x.off"), Catch::Contains("incise convert MESH OUT.off"));
+}
