@@ -15,7 +15,7 @@ BUILD="${FUZZ_BUILD_DIR:-/tmp/incise-fuzz-build}"
 WORK="${FUZZ_WORK_DIR:-$(mktemp -d /tmp/incise-fuzz-work.XXXXXX)}"
 MAX_LEN="${FUZZ_MAX_LEN:-16384}"
 mkdir -p "$WORK"
-ALL_TARGETS=(gmsh medit vtk vtu tetgen surface scene cut)
+ALL_TARGETS=(gmsh medit vtk vtu tetgen surface scene cut change frame)
 if [ $# -gt 0 ]; then TARGETS=("$@"); else TARGETS=("${ALL_TARGETS[@]}"); fi
 
 if [ ! -f "$BUILD/build.ninja" ]; then
