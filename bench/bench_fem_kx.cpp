@@ -2,7 +2,10 @@
 // matrix (our TBB CSR product and Eigen's serial SpMV), linear and corotational, on box meshes
 // from 10k to 1M tets, with 1 and 2 threads, next to a STREAM-triad bandwidth measurement in
 // the same run: ratio and percent of the memory-bandwidth bound.
-//   bench_fem_kx [--sizes 10000,100000,1000000] [--reps 7] [--linear-only] [--out DIR]
+// Then the formulations: corotational K*x of standard, nodal-averaged and edge-smoothed tets,
+// matrix-free against their assembled matrices (nodal-averaged's reaches the 2-ring), on a mesh
+// file (--organ) or a box of about 27k tets.
+//   bench_fem_kx [--sizes 10000,100000,1000000] [--reps 7] [--linear-only] [--organ MESH] [--out DIR]
 #include <cmath>
 #include <random>
 
@@ -11,6 +14,7 @@
 
 #include "bench/bench_common.h"
 #include "mesh/generate.h"
+#include "mesh/io/tet_io.h"
 #include "sim/assembled_stiffness.h"
 #include "sim/fem_model.h"
 
@@ -32,6 +36,35 @@ double stream_triad_gbs(int reps) {
     });
   });
   return 3.0 * 8.0 * double(n) / (ms * 1e6);
+}
+
+// The formulations' products on one mesh: matrix-free (the kernel's sweeps, the nodal pressure
+// fused into the second: docs/solver.md#nodal-averaged-product) and assembled, 1 and 2 threads.
+void section_formulations(const TetMesh& m, const std::string& name, int reps, Csv& csv) {
+  std::printf("\nformulations, corotational K*x on %s (%zu tets), median of %d: matrix-free and assembled (CSR)\n",
+              name.c_str(), m.num_tets(), reps);
+  std::printf("%16s %3s %10s %10s %12s %10s\n", "formulation", "thr", "mf ms", "csr ms", "mf/standard", "csr/mf");
+  std::mt19937 rng(2);
+  std::normal_distribution<double> nd;
+  double standard_mf[3] = {0, 0, 0};
+  for (Formulation f : {Formulation::Standard, Formulation::NodalAveraged, Formulation::EdgeSmoothed}) {
+    FemModel model(m, MaterialTable(Material{3000, 0.45, 1000}), FemKind::Corotational, f);
+    Eigen::VectorXd u(model.rows()), x(model.rows()), y, y2;
+    const double scale = 0.01 * m.total_volume() / std::max(1.0, double(m.num_tets()));
+    for (Eigen::Index i = 0; i < u.size(); ++i) u[i] = std::cbrt(scale) * nd(rng), x[i] = nd(rng);
+    model.update_rotations(u);
+    AssembledStiffness as(model);
+    for (int threads : {1, 2}) {
+      tbb::global_control gc(tbb::global_control::max_allowed_parallelism, std::size_t(threads));
+      const double mf = time_ms(reps, [&] { model.multiply(x, y); });
+      const double csr = time_ms(reps, [&] { as.multiply(x, y2); });
+      if (f == Formulation::Standard) standard_mf[threads] = mf;
+      std::printf("%16s %3d %10.3f %10.3f %12.2f %10.2f\n", std::string(formulation_name(f)).c_str(), threads, mf, csr,
+                  mf / standard_mf[threads], csr / mf);
+      csv.row(std::string("formulation-") + std::string(formulation_name(f)), double(m.num_tets()), double(m.num_vertices()),
+              threads, mf, csr, 0, csr / mf, 0, 0, 0, 0, 0, 0, 0, double(as.matrix().nonZeros()), 0, mf / standard_mf[threads]);
+    }
+  }
 }
 
 }  // namespace
@@ -96,6 +129,9 @@ int main(int argc, char** argv) {
     std::printf("          (model build %.0f ms, assembly %.0f ms, %.1fM nonzeros = %.0f MB)\n", build_ms, assembly_ms,
                 nnz / 1e6, nnz * 12 / 1e6);
   }
+  const std::string organ = args.get("--organ", "");
+  if (!organ.empty()) section_formulations(read_tet_mesh(organ), organ, reps, csv);
+  else section_formulations(make_box(Vec3(2, 1, 1), {33, 16, 8}), "a box", reps, csv);
   std::printf("ratio > 1: matrix-free is faster than the assembled product. CSV: %s\n", csv.path().c_str());
   return 0;
 }

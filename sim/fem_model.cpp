@@ -98,7 +98,7 @@ FemModel::FemModel(const TetMesh& mesh, const MaterialTable& materials, FemKind 
     if (alive_[t]) order.emplace_back(*std::min_element(verts_[t].begin(), verts_[t].end()), std::uint32_t(t));
   std::sort(order.begin(), order.end());
   kernel_.configure(*mesh_);
-  for (const auto& [v, t] : order) kernel_.add(*mesh_, t, verts_[t], bm_[t], vol_[t] * mu_[t], vol_[t] * lambda_[t]);
+  for (const auto& [v, t] : order) kernel_.add(*mesh_, t, verts_[t], bm_[t], vol_[t] * mu_[t], vol_[t] * lambda_[t], vol_[t]);
   parallel_range(vertex_capacity_, [&](std::size_t v) { compute_vertex(std::uint32_t(v)); });
 }
 
@@ -255,7 +255,7 @@ void FemModel::apply(const TopologyChange& change) {
   for (TetId t : change.added_tets) {
     const std::uint32_t ti = t.idx();
     compute_tet(ti);
-    if (alive_[ti]) kernel_.add(*mesh_, ti, verts_[ti], bm_[ti], vol_[ti] * mu_[ti], vol_[ti] * lambda_[ti]);
+    if (alive_[ti]) kernel_.add(*mesh_, ti, verts_[ti], bm_[ti], vol_[ti] * mu_[ti], vol_[ti] * lambda_[ti], vol_[ti]);
     if (edge_smoothed() && alive_[ti] && !registered_[ti]) {
       register_tet(ti);
       edges.insert(edges.end(), tet_edges_[ti].begin(), tet_edges_[ti].end());
@@ -576,9 +576,7 @@ void FemModel::volumetric_pass(const Eigen::VectorXd* x, bool rotation, double s
     if (corot) return Eigen::Matrix3d((sign * vol_[ti] * p) * quat_[ti].toRotationMatrix() * bm_[ti].transpose());
     return Eigen::Matrix3d((sign * vol_[ti] * p) * bm_[ti].transpose());
   };
-  auto theta = [&](std::size_t vi, double s) {  // s: sum over the corners of V_t div_t
-    ptheta_[vi] = nvol_[vi] > 0 ? nkv_[vi] * (s / 4) / (nvol_[vi] * nvol_[vi]) : 0.0;
-  };
+  auto theta = [&](std::size_t vi, double s) { ptheta_[vi] = nodal_pressure(vi, s); };
   if (serial) {
     std::fill(ptheta_.begin(), ptheta_.end(), 0.0);
     for (std::size_t ti = 0; ti < tet_capacity_; ++ti)
@@ -643,11 +641,18 @@ void FemModel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
   if (edge_smoothed()) {
     y.setZero(rows());
     deviatoric_pass(&x, false, 1.0, &y);
+    if (nodal_averaged()) volumetric_pass(&x, false, 1.0, &y);  // not in the mixed variant
+  } else if (nodal_averaged()) {
+    // Two coloured sweeps of the kernel and a vertex pass: the tets' divergences summed at
+    // their vertices, the nodal pressures, then the deviatoric and volumetric forces together
+    // (docs/solver.md#nodal-averaged-product).
+    const bool serial = tet_capacity_ < kVolumetricSerialBelow;
+    for_each_index(vertex_capacity_, serial, [&](std::size_t v) { ptheta_[v] = 0; });
+    kernel_.divergence_sums(x, ptheta_.data());
+    for_each_index(vertex_capacity_, serial, [&](std::size_t v) { ptheta_[v] = nodal_pressure(v, ptheta_[v]); });
+    kernel_.multiply(x, y, rows(), ptheta_.data());
   } else {
     kernel_.multiply(x, y, rows());
-  }
-  if (nodal_averaged()) {
-    volumetric_pass(&x, false, 1.0, &y);
   }
 }
 

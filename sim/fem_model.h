@@ -133,6 +133,10 @@ public:
     return formulation_ == Formulation::NodalAveraged || formulation_ == Formulation::EdgeSmoothed;
   }
   bool edge_smoothed() const { return smooth_; }
+  // Vertex v's pressure per unit of the divergence sum `s` = sum over its tets of V_t div_t.
+  double nodal_pressure(std::size_t v, double s) const {
+    return nvol_[v] > 0 ? nkv_[v] * (s / 4) / (nvol_[v] * nvol_[v]) : 0.0;
+  }
   // EdgeSmoothed: edges (smoothing domains) in the table; 0 otherwise.
   std::size_t num_edges() const { return edge_index_.size(); }
   const TetMesh& mesh() const { return *mesh_; }

@@ -51,7 +51,8 @@ inline void rotation_from_quaternion(double w, double x, double y, double z, dou
 // (corotational: P = R P), force on corner j+1 = P grad N_{j+1}, corner 0 the negated sum.
 template <bool Corot>
 INCISE_SIMD_CLONES void packet_forces(const StiffnessKernel::Packet& __restrict p,
-                                      const StiffnessKernel::Rotations* __restrict rot, Scratch& __restrict sc) {
+                                      const StiffnessKernel::Rotations* __restrict rot, Scratch& __restrict sc,
+                                      const double* __restrict pressure) {
   for (std::size_t k = 0; k < kLanes; ++k) {
     double r[9];
     if constexpr (Corot) rotation_from_quaternion(rot->q[0][k], rot->q[1][k], rot->q[2][k], rot->q[3][k], r);
@@ -70,9 +71,12 @@ INCISE_SIMD_CLONES void packet_forces(const StiffnessKernel::Packet& __restrict 
     double s[9];
     for (int c = 0; c < 3; ++c)
       for (int m = 0; m < 3; ++m) s[3 * c + m] = mu * (h[3 * c + m] + h[3 * m + c]);
-    s[0] += lt;
-    s[4] += lt;
-    s[8] += lt;
+    double diag = lt;
+    if (pressure)
+      diag += p.vol[k] * 0.25 * (pressure[p.v[0][k]] + pressure[p.v[1][k]] + pressure[p.v[2][k]] + pressure[p.v[3][k]]);
+    s[0] += diag;
+    s[4] += diag;
+    s[8] += diag;
     if constexpr (Corot) {
       double t[9];
       for (int c = 0; c < 3; ++c)
@@ -128,54 +132,70 @@ __attribute__((target("avx2,fma"))) inline void transpose_out(double* y, const s
   }
 }
 
+// The front half of a product over lanes base..base+3 of a packet: the edge differences of x,
+// H = D B, and (corotational) R and the rotated H = R^T H. Shared by the product and the
+// divergence sweep.
+template <bool Corot>
+__attribute__((target("avx2,fma"))) inline void packet_gradient_avx2(const StiffnessKernel::Packet& p,
+                                                                     const StiffnessKernel::Rotations* rotations,
+                                                                     std::size_t base, const double* x, __m256d* b,
+                                                                     __m256d* h, __m256d* r) {
+  __m256d c[4][3];
+  for (int j = 0; j < 4; ++j) transpose_in(x, &p.v[j][base], c[j][0], c[j][1], c[j][2]);
+  __m256d d[9];  // d[3c+j]: component c of x_{j+1} - x_0
+  for (int cc = 0; cc < 3; ++cc)
+    for (int j = 0; j < 3; ++j) d[3 * cc + j] = _mm256_sub_pd(c[j + 1][cc], c[0][cc]);
+  for (int i = 0; i < 9; ++i) b[i] = _mm256_load_pd(&p.b[i][base]);
+  for (int cc = 0; cc < 3; ++cc)
+    for (int m = 0; m < 3; ++m)
+      h[3 * cc + m] = _mm256_fmadd_pd(
+          d[3 * cc + 2], b[6 + m], _mm256_fmadd_pd(d[3 * cc + 1], b[3 + m], _mm256_mul_pd(d[3 * cc], b[m])));
+  if constexpr (Corot) {
+    const auto& q = rotations->q;
+    const __m256d w = _mm256_load_pd(&q[0][base]), qx = _mm256_load_pd(&q[1][base]);
+    const __m256d qy = _mm256_load_pd(&q[2][base]), qz = _mm256_load_pd(&q[3][base]);
+    const __m256d x2 = _mm256_add_pd(qx, qx), y2 = _mm256_add_pd(qy, qy), z2 = _mm256_add_pd(qz, qz);
+    const __m256d xx = _mm256_mul_pd(qx, x2), yy = _mm256_mul_pd(qy, y2), zz = _mm256_mul_pd(qz, z2);
+    const __m256d xy = _mm256_mul_pd(qx, y2), xz = _mm256_mul_pd(qx, z2), yz = _mm256_mul_pd(qy, z2);
+    const __m256d wx = _mm256_mul_pd(w, x2), wy = _mm256_mul_pd(w, y2), wz = _mm256_mul_pd(w, z2);
+    const __m256d one = _mm256_set1_pd(1.0);
+    r[0] = _mm256_sub_pd(one, _mm256_add_pd(yy, zz));
+    r[1] = _mm256_sub_pd(xy, wz);
+    r[2] = _mm256_add_pd(xz, wy);
+    r[3] = _mm256_add_pd(xy, wz);
+    r[4] = _mm256_sub_pd(one, _mm256_add_pd(xx, zz));
+    r[5] = _mm256_sub_pd(yz, wx);
+    r[6] = _mm256_sub_pd(xz, wy);
+    r[7] = _mm256_add_pd(yz, wx);
+    r[8] = _mm256_sub_pd(one, _mm256_add_pd(xx, yy));
+    __m256d t[9];
+    for (int cc = 0; cc < 3; ++cc)
+      for (int m = 0; m < 3; ++m)
+        t[3 * cc + m] = _mm256_fmadd_pd(r[6 + cc], h[6 + m],
+                                        _mm256_fmadd_pd(r[3 + cc], h[3 + m], _mm256_mul_pd(r[cc], h[m])));
+    for (int i = 0; i < 9; ++i) h[i] = t[i];
+  }
+}
+
 template <bool Corot>
 __attribute__((target("avx2,fma"))) void packets_avx2(const StiffnessKernel::Packet* packets,
                                                       const StiffnessKernel::Rotations* rotations, std::size_t count,
-                                                      std::size_t tets, const double* x, double* y) {
+                                                      std::size_t tets, const double* x, double* y,
+                                                      const double* pressure) {
   for (std::size_t pi = 0; pi < count; ++pi) {
     const StiffnessKernel::Packet& p = packets[pi];
     const std::size_t n = std::min(kLanes, tets - pi * kLanes);
     for (std::size_t base = 0; base < n; base += 4) {
-      __m256d c[4][3];
-      for (int j = 0; j < 4; ++j) transpose_in(x, &p.v[j][base], c[j][0], c[j][1], c[j][2]);
-      __m256d d[9];  // d[3c+j]: component c of x_{j+1} - x_0
-      for (int cc = 0; cc < 3; ++cc)
-        for (int j = 0; j < 3; ++j) d[3 * cc + j] = _mm256_sub_pd(c[j + 1][cc], c[0][cc]);
-      __m256d b[9];
-      for (int i = 0; i < 9; ++i) b[i] = _mm256_load_pd(&p.b[i][base]);
-      __m256d h[9];
-      for (int cc = 0; cc < 3; ++cc)
-        for (int m = 0; m < 3; ++m)
-          h[3 * cc + m] = _mm256_fmadd_pd(
-              d[3 * cc + 2], b[6 + m], _mm256_fmadd_pd(d[3 * cc + 1], b[3 + m], _mm256_mul_pd(d[3 * cc], b[m])));
-      __m256d r[9];
-      if constexpr (Corot) {
-        const auto& q = rotations[pi].q;
-        const __m256d w = _mm256_load_pd(&q[0][base]), qx = _mm256_load_pd(&q[1][base]);
-        const __m256d qy = _mm256_load_pd(&q[2][base]), qz = _mm256_load_pd(&q[3][base]);
-        const __m256d x2 = _mm256_add_pd(qx, qx), y2 = _mm256_add_pd(qy, qy), z2 = _mm256_add_pd(qz, qz);
-        const __m256d xx = _mm256_mul_pd(qx, x2), yy = _mm256_mul_pd(qy, y2), zz = _mm256_mul_pd(qz, z2);
-        const __m256d xy = _mm256_mul_pd(qx, y2), xz = _mm256_mul_pd(qx, z2), yz = _mm256_mul_pd(qy, z2);
-        const __m256d wx = _mm256_mul_pd(w, x2), wy = _mm256_mul_pd(w, y2), wz = _mm256_mul_pd(w, z2);
-        const __m256d one = _mm256_set1_pd(1.0);
-        r[0] = _mm256_sub_pd(one, _mm256_add_pd(yy, zz));
-        r[1] = _mm256_sub_pd(xy, wz);
-        r[2] = _mm256_add_pd(xz, wy);
-        r[3] = _mm256_add_pd(xy, wz);
-        r[4] = _mm256_sub_pd(one, _mm256_add_pd(xx, zz));
-        r[5] = _mm256_sub_pd(yz, wx);
-        r[6] = _mm256_sub_pd(xz, wy);
-        r[7] = _mm256_add_pd(yz, wx);
-        r[8] = _mm256_sub_pd(one, _mm256_add_pd(xx, yy));
-        __m256d t[9];
-        for (int cc = 0; cc < 3; ++cc)
-          for (int m = 0; m < 3; ++m)
-            t[3 * cc + m] = _mm256_fmadd_pd(r[6 + cc], h[6 + m],
-                                            _mm256_fmadd_pd(r[3 + cc], h[3 + m], _mm256_mul_pd(r[cc], h[m])));
-        for (int i = 0; i < 9; ++i) h[i] = t[i];
-      }
+      __m256d b[9], h[9], r[9];
+      packet_gradient_avx2<Corot>(p, Corot ? &rotations[pi] : nullptr, base, x, b, h, r);
       const __m256d mu = _mm256_load_pd(&p.mu[base]);
-      const __m256d lt = _mm256_mul_pd(_mm256_load_pd(&p.lam[base]), _mm256_add_pd(_mm256_add_pd(h[0], h[4]), h[8]));
+      __m256d lt = _mm256_mul_pd(_mm256_load_pd(&p.lam[base]), _mm256_add_pd(_mm256_add_pd(h[0], h[4]), h[8]));
+      if (pressure) {  // + V mean(pressure at the corners); empty lanes have V = 0 and vertex 0
+        __m256d sum = _mm256_setzero_pd();
+        for (int j = 0; j < 4; ++j)
+          sum = _mm256_add_pd(sum, _mm256_i32gather_pd(pressure, _mm_loadu_si128(reinterpret_cast<const __m128i*>(&p.v[j][base])), 8));
+        lt = _mm256_fmadd_pd(_mm256_mul_pd(_mm256_load_pd(&p.vol[base]), _mm256_set1_pd(0.25)), sum, lt);
+      }
       __m256d sg[9];
       for (int cc = 0; cc < 3; ++cc)
         for (int m = 0; m < 3; ++m) sg[3 * cc + m] = _mm256_mul_pd(mu, _mm256_add_pd(h[3 * cc + m], h[3 * m + cc]));
@@ -203,6 +223,27 @@ __attribute__((target("avx2,fma"))) void packets_avx2(const StiffnessKernel::Pac
       }
       const std::size_t lanes = std::min<std::size_t>(4, n - base);
       for (int j = 0; j < 4; ++j) transpose_out(y, &p.v[j][base], lanes, f[j][0], f[j][1], f[j][2]);
+    }
+  }
+}
+
+// sums[v] += V tr(R^T H) at the four vertices of every tet (lanes in order: they may share one).
+template <bool Corot>
+__attribute__((target("avx2,fma"))) void divergence_avx2(const StiffnessKernel::Packet* packets,
+                                                         const StiffnessKernel::Rotations* rotations, std::size_t count,
+                                                         std::size_t tets, const double* x, double* sums) {
+  for (std::size_t pi = 0; pi < count; ++pi) {
+    const StiffnessKernel::Packet& p = packets[pi];
+    const std::size_t n = std::min(kLanes, tets - pi * kLanes);
+    for (std::size_t base = 0; base < n; base += 4) {
+      __m256d b[9], h[9], r[9];
+      packet_gradient_avx2<Corot>(p, Corot ? &rotations[pi] : nullptr, base, x, b, h, r);
+      const __m256d div = _mm256_add_pd(_mm256_add_pd(h[0], h[4]), h[8]);  // h is rotated already
+      alignas(32) double vd[4];
+      _mm256_store_pd(vd, _mm256_mul_pd(_mm256_load_pd(&p.vol[base]), div));
+      const std::size_t lanes = std::min<std::size_t>(4, n - base);
+      for (std::size_t k = 0; k < lanes; ++k)
+        for (int j = 0; j < 4; ++j) sums[p.v[j][base + k]] += vd[k];
     }
   }
 }
@@ -280,7 +321,7 @@ void StiffnessKernel::configure(const TetMesh& mesh) {
 }
 
 void StiffnessKernel::add(const TetMesh& mesh, std::uint32_t t, const std::array<std::uint32_t, 4>& v,
-                          const Eigen::Matrix3d& bm, double vmu, double vlambda) {
+                          const Eigen::Matrix3d& bm, double vmu, double vlambda, double volume) {
   remove(t);
   if (blocks_.empty()) blocks_.assign(2, Block{});  // not configured: one slab
   if (t >= block_.size()) {
@@ -314,6 +355,7 @@ void StiffnessKernel::add(const TetMesh& mesh, std::uint32_t t, const std::array
     for (int m = 0; m < 3; ++m) p.b[3 * j + m][k] = bm(j, m);
   p.mu[k] = vmu;
   p.lam[k] = vlambda;
+  p.vol[k] = volume;
   if (corot_)
     blk.rotations[s / kLanes].q[0][k] = 1.0;  // identity (the other components are zero)
   blk.tet.push_back(t);
@@ -339,7 +381,8 @@ void StiffnessKernel::remove(std::uint32_t t) {
   }
   ps.mu[ks] = pl.mu[kl];
   ps.lam[ks] = pl.lam[kl];
-  pl.mu[kl] = pl.lam[kl] = 0;
+  ps.vol[ks] = pl.vol[kl];
+  pl.mu[kl] = pl.lam[kl] = pl.vol[kl] = 0;
   if (corot_) {
     Rotations &rs = blk.rotations[s / kLanes], &rl = blk.rotations[last / kLanes];
     for (int i = 0; i < 4; ++i) {
@@ -375,7 +418,7 @@ void StiffnessKernel::set_rotation(std::uint32_t t, const Eigen::Quaterniond& q)
 
 // Packets [begin, end) of a block.
 void StiffnessKernel::multiply_block(const Block& blk, std::size_t begin, std::size_t end, const double* x,
-                                     double* y) const {
+                                     double* y, const double* pressure) const {
   Scratch sc;
   for (std::size_t pi = begin; pi < end; ++pi) {
     const Packet& p = blk.packets[pi];
@@ -389,8 +432,8 @@ void StiffnessKernel::multiply_block(const Block& blk, std::size_t begin, std::s
     }
     for (std::size_t k = n; k < kLanes; ++k)  // empty lanes: finite inputs (their b is zero)
       for (int i = 0; i < 9; ++i) sc.d[i][k] = 0;
-    if (corot_) packet_forces<true>(p, &blk.rotations[pi], sc);
-    else packet_forces<false>(p, nullptr, sc);
+    if (corot_) packet_forces<true>(p, &blk.rotations[pi], sc, pressure);
+    else packet_forces<false>(p, nullptr, sc, pressure);
     // Scatter (one thread per block), corner by corner: consecutive tets share vertices, and
     // read-modify-writes of one address back to back would wait on each other.
     for (int j = 0; j < 4; ++j)
@@ -401,12 +444,12 @@ void StiffnessKernel::multiply_block(const Block& blk, std::size_t begin, std::s
   }
 }
 
-void StiffnessKernel::multiply_padded(const Block& blk, const double* x, double* y) const {
+void StiffnessKernel::multiply_padded(const Block& blk, const double* x, double* y, const double* pressure) const {
 #ifdef INCISE_KERNEL_AVX2
-  if (corot_) packets_avx2<true>(blk.packets.data(), blk.rotations.data(), blk.packets.size(), blk.size(), x, y);
-  else packets_avx2<false>(blk.packets.data(), nullptr, blk.packets.size(), blk.size(), x, y);
+  if (corot_) packets_avx2<true>(blk.packets.data(), blk.rotations.data(), blk.packets.size(), blk.size(), x, y, pressure);
+  else packets_avx2<false>(blk.packets.data(), nullptr, blk.packets.size(), blk.size(), x, y, pressure);
 #else
-  (void)blk, (void)x, (void)y;
+  (void)blk, (void)x, (void)y, (void)pressure;
 #endif
 }
 
@@ -420,7 +463,48 @@ void StiffnessKernel::for_each_packet(const PacketVisitor& fn) {
   });
 }
 
-void StiffnessKernel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y, Eigen::Index rows) const {
+void StiffnessKernel::divergence_sums(const Eigen::VectorXd& x, double* sums) const {
+  const double* xp = x.data();
+  const bool simd = simd_ && simd_available();
+  for_each_block(blocks_, parallel(), [&](const Block& blk) {
+#ifdef INCISE_KERNEL_AVX2
+    if (simd) {
+      if (corot_) divergence_avx2<true>(blk.packets.data(), blk.rotations.data(), blk.packets.size(), blk.size(), xp, sums);
+      else divergence_avx2<false>(blk.packets.data(), nullptr, blk.packets.size(), blk.size(), xp, sums);
+      return;
+    }
+#endif
+    for (std::size_t pi = 0; pi < blk.packets.size(); ++pi) {
+      const Packet& p = blk.packets[pi];
+      const std::size_t n = std::min(kLanes, blk.size() - pi * kLanes);
+      for (std::size_t k = 0; k < n; ++k) {
+        double d[9];  // d[3c+j]: component c of x_{j+1} - x_0
+        const double* x0 = xp + 3 * std::size_t(p.v[0][k]);
+        for (int j = 0; j < 3; ++j) {
+          const double* xj = xp + 3 * std::size_t(p.v[j + 1][k]);
+          for (int c = 0; c < 3; ++c) d[3 * c + j] = xj[c] - x0[c];
+        }
+        double h[9];  // H = D B
+        for (int c = 0; c < 3; ++c)
+          for (int m = 0; m < 3; ++m)
+            h[3 * c + m] = d[3 * c] * p.b[m][k] + d[3 * c + 1] * p.b[3 + m][k] + d[3 * c + 2] * p.b[6 + m][k];
+        double div = h[0] + h[4] + h[8];
+        if (corot_) {  // tr(R^T H) = sum_i R_i H_i
+          const Rotations& q = blk.rotations[pi];
+          double r[9];
+          rotation_from_quaternion(q.q[0][k], q.q[1][k], q.q[2][k], q.q[3][k], r);
+          div = 0;
+          for (int i = 0; i < 9; ++i) div += r[i] * h[i];
+        }
+        const double vd = p.vol[k] * div;
+        for (int j = 0; j < 4; ++j) sums[p.v[j][k]] += vd;
+      }
+    }
+  });
+}
+
+void StiffnessKernel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y, Eigen::Index rows,
+                               const double* pressure) const {
   const bool parallel = this->parallel();
   const bool padded = simd_ && simd_available();
   auto for_vertices = [&](std::size_t nv, auto&& f) {
@@ -446,8 +530,8 @@ void StiffnessKernel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y, Eig
     yp = y.data();
   }
   auto run = [&](const Block& blk) {
-    if (padded) multiply_padded(blk, xp, yp);
-    else multiply_block(blk, 0, blk.packets.size(), xp, yp);
+    if (padded) multiply_padded(blk, xp, yp, pressure);
+    else multiply_block(blk, 0, blk.packets.size(), xp, yp, pressure);
   };
   for_each_block(blocks_, parallel, run);
   if (padded) {

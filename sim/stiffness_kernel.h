@@ -36,15 +36,24 @@ public:
   void configure(const TetMesh& mesh);
   // Tet t with vertex ids v, inverse rest edge matrix bm, V mu, V lambda (rest positions read
   // from `mesh` to place it).
+  // `volume` (V) is needed by the nodal pressure of multiply() and by divergence() only.
   void add(const TetMesh& mesh, std::uint32_t t, const std::array<std::uint32_t, 4>& v, const Eigen::Matrix3d& bm,
-           double vmu, double vlambda);
+           double vmu, double vlambda, double volume = 0);
   void remove(std::uint32_t t);  // no-op for a tet not in the kernel
   void set_rotation(std::uint32_t t, const Eigen::Matrix3d& r);
   void set_rotation(std::uint32_t t, const Eigen::Quaterniond& q);  // unit
 
   // y = K x over `rows` unknowns (y is resized and overwritten). Not reentrant: one kernel
-  // multiplies for one caller at a time (it keeps padded copies of x and y).
-  void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y, Eigen::Index rows) const;
+  // multiplies for one caller at a time (it keeps padded copies of x and y). With
+  // `vertex_pressure` (one value per vertex), each tet's stress also gets V p I, p the mean of
+  // its four vertices' values: the nodal-averaged volumetric forces (sim/fem_model.cpp) in the
+  // same sweep as the deviatoric ones.
+  void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y, Eigen::Index rows,
+                const double* vertex_pressure = nullptr) const;
+  // sums[v] += V tr(R^T D B) (the tet's volume times its rotated-frame divergence of x) over the
+  // tets at every vertex v: the first half of the nodal-averaged volumetric product, in one
+  // coloured sweep like multiply() (no per-corner scratch).
+  void divergence_sums(const Eigen::VectorXd& x, double* sums) const;
 
   // The AVX2 path (x86-64 CPUs with AVX2 and FMA, chosen at run time): used unless switched
   // off (tests compare both paths; the portable one is what other CPUs run).
@@ -59,6 +68,7 @@ public:
   struct Packet {
     alignas(64) double b[9][kLanes];  // b[3j+m]: row j of the inverse rest edge matrix (grad N_{j+1})
     alignas(64) double mu[kLanes], lam[kLanes];  // V mu, V lambda
+    alignas(64) double vol[kLanes];              // V
     std::uint32_t v[4][kLanes];
   };
   // Corotational: the rotation as a unit quaternion (w, x, y, z), 32 bytes per tet instead of
@@ -85,8 +95,9 @@ private:
     std::size_t size() const { return tet.size(); }
   };
   bool parallel() const;  // enough tets and slabs for the coloured parallel passes
-  void multiply_block(const Block& blk, std::size_t begin, std::size_t end, const double* x, double* y) const;
-  void multiply_padded(const Block& blk, const double* x, double* y) const;
+  void multiply_block(const Block& blk, std::size_t begin, std::size_t end, const double* x, double* y,
+                      const double* pressure) const;
+  void multiply_padded(const Block& blk, const double* x, double* y, const double* pressure) const;
 
   bool corot_;
   std::vector<Block> blocks_;                 // slabs, then the overflow block
