@@ -639,9 +639,7 @@ void FemModel::gather(Eigen::VectorXd& y, bool accumulate) const {
 void FemModel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
   if (x.size() != rows()) throw InvalidArgument("fem: K*x with a vector of the wrong size (apply() the last change?)");
   if (edge_smoothed()) {
-    y.setZero(rows());
-    deviatoric_pass(&x, false, 1.0, &y);
-    if (nodal_averaged()) volumetric_pass(&x, false, 1.0, &y);  // not in the mixed variant
+    smoothed_product(x, y);
   } else if (nodal_averaged()) {
     // Two coloured sweeps of the kernel and a vertex pass: the tets' divergences summed at
     // their vertices, the nodal pressures, then the deviatoric and volumetric forces together
@@ -654,6 +652,41 @@ void FemModel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
   } else {
     kernel_.multiply(x, y, rows());
   }
+}
+
+// The edge-smoothed K x: a kernel sweep for the tets' strains (and the divergence sums of the
+// nodal pressure), a pass per edge, a pass per tet, a kernel sweep for the forces
+// (docs/solver.md#edge-smoothed-product). deviatoric_pass does the same with Eigen, for the
+// right-hand side and the stresses.
+void FemModel::smoothed_product(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
+  const bool serial = tet_capacity_ < kVolumetricSerialBelow, nodal = nodal_averaged();
+  const std::size_t ne = edge_tets_.size();
+  if (tsym_.size() < 6 * tet_capacity_) tsym_.resize(6 * tet_capacity_), tbar_.resize(6 * tet_capacity_);
+  if (esym_.size() < 6 * ne) esym_.resize(6 * ne);
+  if (nodal) for_each_index(vertex_capacity_, serial, [&](std::size_t v) { ptheta_[v] = 0; });
+  kernel_.strain_sweep(x, tsym_.data(), nodal ? ptheta_.data() : nullptr);
+  for_each_index(ne, serial, [&](std::size_t e) {
+    double* out = &esym_[6 * e];
+    if (edge_tets_[e].empty() || !(edge_vol_[e] > 0)) {
+      std::fill(out, out + 6, 0.0);
+      return;
+    }
+    double eps[6] = {0, 0, 0, 0, 0, 0};
+    for (std::uint32_t t : edge_tets_[e])
+      for (int c = 0; c < 6; ++c) eps[c] += tsym_[6 * std::size_t(t) + c];
+    const double inv = 1 / edge_vol_[e], mu2 = 2 * edge_mu_[e] * inv, lt = edge_lambda_[e] * (eps[0] + eps[1] + eps[2]) * inv;
+    for (int c = 0; c < 6; ++c) out[c] = mu2 * eps[c] + (c < 3 ? lt : 0.0);
+  });
+  if (nodal) for_each_index(vertex_capacity_, serial, [&](std::size_t v) { ptheta_[v] = nodal_pressure(v, ptheta_[v]); });
+  for_each_index(tet_capacity_, serial, [&](std::size_t ti) {
+    if (!alive_[ti]) return;
+    double* out = &tbar_[6 * ti];
+    std::fill(out, out + 6, 0.0);
+    for (std::uint32_t e : tet_edges_[ti])
+      for (int c = 0; c < 6; ++c) out[c] += esym_[6 * std::size_t(e) + c];
+    for (int c = 0; c < 6; ++c) out[c] /= 6;
+  });
+  kernel_.stress_forces(tbar_.data(), nodal ? ptheta_.data() : nullptr, y, rows());
 }
 
 void FemModel::add_rotation_rhs(Eigen::VectorXd& b) const {

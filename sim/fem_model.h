@@ -225,6 +225,7 @@ private:
   void compute_tet(std::uint32_t t);
   void compute_vertex(std::uint32_t v);  // corner slots, mass, diagonal from incident tets
   void vertex_block(std::uint32_t v);    // the diagonal block and b_R from its tets' rotations
+  void smoothed_product(const Eigen::VectorXd& x, Eigen::VectorXd& y) const;
   void update_rotations_exact(const Eigen::VectorXd& u);
   void update_rotations_warm(const Eigen::VectorXd& u);
   void relinearize(const Eigen::VectorXd& u, bool exact);  // every tet, in the kernel's order
@@ -300,6 +301,9 @@ private:
   std::vector<std::array<std::uint32_t, 6>> tet_edges_;  // per tet
   std::vector<std::uint8_t> registered_;                 // per tet: in its edges' lists
   mutable std::vector<Eigen::Matrix3d> teps_, esig_, tsig_;  // per tet, per edge, per tet
+  // The fused edge-smoothed product's symmetric tensors (xx, yy, zz, xy, xz, yz): per tet
+  // (V/6) eps_t, per edge sigma_e, per tet sigma_bar_t.
+  mutable std::vector<double> tsym_, esym_, tbar_;
   FemWork work_;
 };
 

@@ -248,6 +248,39 @@ __attribute__((target("avx2,fma"))) void divergence_avx2(const StiffnessKernel::
   }
 }
 
+// strain_sweep over a block's packets (see StiffnessKernel::strain_sweep).
+template <bool Corot>
+__attribute__((target("avx2,fma"))) void strains_avx2(const StiffnessKernel::Packet* packets,
+                                                      const StiffnessKernel::Rotations* rotations, std::size_t count,
+                                                      const std::uint32_t* tet, std::size_t tets, const double* x,
+                                                      double* out, double* sums) {
+  const __m256d half = _mm256_set1_pd(0.5), sixth = _mm256_set1_pd(1.0 / 6.0);
+  for (std::size_t pi = 0; pi < count; ++pi) {
+    const StiffnessKernel::Packet& p = packets[pi];
+    const std::size_t n = std::min(kLanes, tets - pi * kLanes);
+    for (std::size_t base = 0; base < n; base += 4) {
+      __m256d b[9], h[9], r[9];
+      packet_gradient_avx2<Corot>(p, Corot ? &rotations[pi] : nullptr, base, x, b, h, r);
+      const __m256d vol = _mm256_load_pd(&p.vol[base]), v6 = _mm256_mul_pd(vol, sixth);
+      alignas(32) double e[6][4], vd[4];
+      _mm256_store_pd(e[0], _mm256_mul_pd(v6, h[0]));
+      _mm256_store_pd(e[1], _mm256_mul_pd(v6, h[4]));
+      _mm256_store_pd(e[2], _mm256_mul_pd(v6, h[8]));
+      _mm256_store_pd(e[3], _mm256_mul_pd(v6, _mm256_mul_pd(half, _mm256_add_pd(h[1], h[3]))));
+      _mm256_store_pd(e[4], _mm256_mul_pd(v6, _mm256_mul_pd(half, _mm256_add_pd(h[2], h[6]))));
+      _mm256_store_pd(e[5], _mm256_mul_pd(v6, _mm256_mul_pd(half, _mm256_add_pd(h[5], h[7]))));
+      _mm256_store_pd(vd, _mm256_mul_pd(vol, _mm256_add_pd(_mm256_add_pd(h[0], h[4]), h[8])));
+      const std::size_t lanes = std::min<std::size_t>(4, n - base);
+      for (std::size_t k = 0; k < lanes; ++k) {
+        double* o = out + 6 * std::size_t(tet[pi * kLanes + base + k]);
+        for (int c = 0; c < 6; ++c) o[c] = e[c][k];
+        if (sums)
+          for (int j = 0; j < 4; ++j) sums[p.v[j][base + k]] += vd[k];
+      }
+    }
+  }
+}
+
 bool cpu_has_avx2() {
   static const bool yes = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
   return yes;
@@ -498,6 +531,91 @@ void StiffnessKernel::divergence_sums(const Eigen::VectorXd& x, double* sums) co
         }
         const double vd = p.vol[k] * div;
         for (int j = 0; j < 4; ++j) sums[p.v[j][k]] += vd;
+      }
+    }
+  });
+}
+
+void StiffnessKernel::strain_sweep(const Eigen::VectorXd& x, double* out, double* sums) const {
+  const double* xp = x.data();
+  const bool simd = simd_ && simd_available();
+  for_each_block(blocks_, parallel(), [&](const Block& blk) {
+#ifdef INCISE_KERNEL_AVX2
+    if (simd) {
+      if (corot_) strains_avx2<true>(blk.packets.data(), blk.rotations.data(), blk.packets.size(), blk.tet.data(), blk.size(), xp, out, sums);
+      else strains_avx2<false>(blk.packets.data(), nullptr, blk.packets.size(), blk.tet.data(), blk.size(), xp, out, sums);
+      return;
+    }
+#endif
+    for (std::size_t pi = 0; pi < blk.packets.size(); ++pi) {
+      const Packet& p = blk.packets[pi];
+      const std::size_t n = std::min(kLanes, blk.size() - pi * kLanes);
+      for (std::size_t k = 0; k < n; ++k) {
+        double d[9], h[9];
+        const double* x0 = xp + 3 * std::size_t(p.v[0][k]);
+        for (int j = 0; j < 3; ++j) {
+          const double* xj = xp + 3 * std::size_t(p.v[j + 1][k]);
+          for (int c = 0; c < 3; ++c) d[3 * c + j] = xj[c] - x0[c];
+        }
+        for (int c = 0; c < 3; ++c)
+          for (int m = 0; m < 3; ++m)
+            h[3 * c + m] = d[3 * c] * p.b[m][k] + d[3 * c + 1] * p.b[3 + m][k] + d[3 * c + 2] * p.b[6 + m][k];
+        if (corot_) {  // h = R^T h
+          const Rotations& q = blk.rotations[pi];
+          double r[9], t[9];
+          rotation_from_quaternion(q.q[0][k], q.q[1][k], q.q[2][k], q.q[3][k], r);
+          for (int c = 0; c < 3; ++c)
+            for (int m = 0; m < 3; ++m) t[3 * c + m] = r[c] * h[m] + r[3 + c] * h[3 + m] + r[6 + c] * h[6 + m];
+          for (int i = 0; i < 9; ++i) h[i] = t[i];
+        }
+        const double v6 = p.vol[k] / 6;
+        double* o = out + 6 * std::size_t(blk.tet[pi * kLanes + k]);
+        o[0] = v6 * h[0];
+        o[1] = v6 * h[4];
+        o[2] = v6 * h[8];
+        o[3] = v6 * 0.5 * (h[1] + h[3]);
+        o[4] = v6 * 0.5 * (h[2] + h[6]);
+        o[5] = v6 * 0.5 * (h[5] + h[7]);
+        if (sums)
+          for (int j = 0; j < 4; ++j) sums[p.v[j][k]] += p.vol[k] * (h[0] + h[4] + h[8]);
+      }
+    }
+  });
+}
+
+void StiffnessKernel::stress_forces(const double* stress, const double* pressure, Eigen::VectorXd& y,
+                                    Eigen::Index rows) const {
+  y.setZero(rows);
+  double* yp = y.data();
+  for_each_block(blocks_, parallel(), [&](const Block& blk) {
+    for (std::size_t pi = 0; pi < blk.packets.size(); ++pi) {
+      const Packet& p = blk.packets[pi];
+      const std::size_t n = std::min(kLanes, blk.size() - pi * kLanes);
+      for (std::size_t k = 0; k < n; ++k) {
+        const double* st = stress + 6 * std::size_t(blk.tet[pi * kLanes + k]);
+        double diag = 0;
+        if (pressure)
+          diag = 0.25 * (pressure[p.v[0][k]] + pressure[p.v[1][k]] + pressure[p.v[2][k]] + pressure[p.v[3][k]]);
+        const double v = p.vol[k];
+        double s[9] = {v * (st[0] + diag), v * st[3], v * st[4], v * st[3], v * (st[1] + diag), v * st[5],
+                       v * st[4], v * st[5], v * (st[2] + diag)};
+        if (corot_) {  // P = R s
+          const Rotations& q = blk.rotations[pi];
+          double r[9], t[9];
+          rotation_from_quaternion(q.q[0][k], q.q[1][k], q.q[2][k], q.q[3][k], r);
+          for (int c = 0; c < 3; ++c)
+            for (int m = 0; m < 3; ++m) t[3 * c + m] = r[3 * c] * s[m] + r[3 * c + 1] * s[3 + m] + r[3 * c + 2] * s[6 + m];
+          for (int i = 0; i < 9; ++i) s[i] = t[i];
+        }
+        double* y0 = yp + 3 * std::size_t(p.v[0][k]);
+        for (int j = 0; j < 3; ++j) {
+          double* yj = yp + 3 * std::size_t(p.v[j + 1][k]);
+          for (int c = 0; c < 3; ++c) {
+            const double f = s[3 * c] * p.b[3 * j][k] + s[3 * c + 1] * p.b[3 * j + 1][k] + s[3 * c + 2] * p.b[3 * j + 2][k];
+            yj[c] += f;
+            y0[c] -= f;
+          }
+        }
       }
     }
   });
