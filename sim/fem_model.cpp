@@ -476,39 +476,79 @@ Eigen::SparseMatrix<double> FemModel::smoothed_rows() const {
 }
 
 namespace {
-// The entry for vertex w in a short list of (vertex, 3-vector) pairs (a 1-ring: linear search).
-Eigen::Vector3d& entry(std::vector<std::pair<std::uint32_t, Eigen::Vector3d>>& list, std::uint32_t w) {
-  for (auto& [id, s] : list)
-    if (id == w) return s;
-  list.emplace_back(w, Eigen::Vector3d::Zero());
-  return list.back().second;
-}
+// 3-vectors summed per vertex of one vertex's 1-ring: open addressing (a list searched linearly
+// was most of the volumetric blocks' time: docs/solver.md#nodal-averaged-product), cleared by
+// the slots used.
+class RingSums {
+public:
+  Eigen::Vector3d& at(std::uint32_t w) {
+    if (2 * (used_.size() + 1) > key_.size()) grow();
+    std::size_t i = slot(w);
+    if (key_[i] == kEmpty) {
+      key_[i] = w;
+      val_[i].setZero();
+      used_.push_back(std::uint32_t(i));
+    }
+    return val_[i];
+  }
+  template <class F>
+  void for_each(F&& f) const {
+    for (std::uint32_t i : used_) f(key_[i], val_[i]);
+  }
+  void clear() {
+    for (std::uint32_t i : used_) key_[i] = kEmpty;
+    used_.clear();
+  }
+
+private:
+  static constexpr std::uint32_t kEmpty = 0xffffffffu;
+  std::size_t slot(std::uint32_t w) const {
+    const std::size_t mask = key_.size() - 1;
+    std::size_t i = (w * 2654435761u) & mask;
+    while (key_[i] != kEmpty && key_[i] != w) i = (i + 1) & mask;
+    return i;
+  }
+  void grow() {
+    std::vector<std::pair<std::uint32_t, Eigen::Vector3d>> old;
+    for (std::uint32_t i : used_) old.emplace_back(key_[i], val_[i]);
+    key_.assign(std::max<std::size_t>(64, 2 * key_.size()), kEmpty);
+    val_.resize(key_.size());
+    used_.clear();
+    for (const auto& [w, v] : old) at(w) = v;
+  }
+  std::vector<std::uint32_t> key_, used_;
+  std::vector<Eigen::Vector3d> val_;
+};
 }  // namespace
 
 // Block (v, v) of B^T B = sum_a kappa_a V_a (d theta_a / dx_v)(d theta_a / dx_v)^T over the
 // vertices a sharing a tet with v, d theta_a / dx_v = (1 / V_a) sum_{t∋a,v} (V_t / 4) R_t grad N_v.
 void FemModel::volumetric_block(std::uint32_t vi, Eigen::Matrix3d& blk) const {
-  thread_local std::vector<std::pair<std::uint32_t, Eigen::Vector3d>> ring;
+  thread_local RingSums ring;
   ring.clear();
   for (std::uint32_t slot : corner_slots_[vi]) {
     const std::uint32_t ti = slot / 4;
     Eigen::Vector3d h = (vol_[ti] / 4) * shape_gradient(bm_[ti], int(slot % 4));
-    if (kind_ == FemKind::Corotational) h = quat_[ti].toRotationMatrix() * h;
-    for (std::uint32_t a : verts_[ti]) entry(ring, a) += h;
+    if (kind_ == FemKind::Corotational) h = quat_[ti] * h;
+    for (std::uint32_t a : verts_[ti]) ring.at(a) += h;
   }
-  for (const auto& [a, s] : ring)
+  ring.for_each([&](std::uint32_t a, const Eigen::Vector3d& s) {
     if (nvol_[a] > 0) blk.noalias() += (nkv_[a] / (nvol_[a] * nvol_[a])) * s * s.transpose();
+  });
 }
 
 void FemModel::nodal_b_row(std::uint32_t a, std::vector<std::pair<std::uint32_t, Eigen::Vector3d>>& row) const {
   row.clear();
   if (!nodal_averaged() || a >= mesh_->vertex_capacity() || !mesh_->is_alive(VertexId(a)) || !(nvol_[a] > 0)) return;
   const double w = std::sqrt(nkv_[a]) / nvol_[a];  // sqrt(kappa_a V_a) / V_a
+  thread_local RingSums sums;
+  sums.clear();
   for (TetId t : mesh_->incident_tets(VertexId(a))) {
     const std::uint32_t ti = t.idx();
     const Eigen::Matrix3d r = quat_[ti].toRotationMatrix();
-    for (int j = 0; j < 4; ++j) entry(row, verts_[ti][std::size_t(j)]) += (w * vol_[ti] / 4) * (r * shape_gradient(bm_[ti], j));
+    for (int j = 0; j < 4; ++j) sums.at(verts_[ti][std::size_t(j)]) += (w * vol_[ti] / 4) * (r * shape_gradient(bm_[ti], j));
   }
+  sums.for_each([&](std::uint32_t v, const Eigen::Vector3d& g) { row.emplace_back(v, g); });
 }
 
 Eigen::SparseMatrix<double, Eigen::RowMajor> FemModel::nodal_b() const {
