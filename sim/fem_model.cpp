@@ -686,7 +686,7 @@ void FemModel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
     // (docs/solver.md#nodal-averaged-product).
     const bool serial = tet_capacity_ < kVolumetricSerialBelow;
     for_each_index(vertex_capacity_, serial, [&](std::size_t v) { ptheta_[v] = 0; });
-    kernel_.divergence_sums(x, ptheta_.data());
+    kernel_.strain_sweep(x, nullptr, ptheta_.data());
     for_each_index(vertex_capacity_, serial, [&](std::size_t v) { ptheta_[v] = nodal_pressure(v, ptheta_[v]); });
     kernel_.multiply(x, y, rows(), ptheta_.data());
   } else {

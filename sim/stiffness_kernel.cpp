@@ -227,27 +227,6 @@ __attribute__((target("avx2,fma"))) void packets_avx2(const StiffnessKernel::Pac
   }
 }
 
-// sums[v] += V tr(R^T H) at the four vertices of every tet (lanes in order: they may share one).
-template <bool Corot>
-__attribute__((target("avx2,fma"))) void divergence_avx2(const StiffnessKernel::Packet* packets,
-                                                         const StiffnessKernel::Rotations* rotations, std::size_t count,
-                                                         std::size_t tets, const double* x, double* sums) {
-  for (std::size_t pi = 0; pi < count; ++pi) {
-    const StiffnessKernel::Packet& p = packets[pi];
-    const std::size_t n = std::min(kLanes, tets - pi * kLanes);
-    for (std::size_t base = 0; base < n; base += 4) {
-      __m256d b[9], h[9], r[9];
-      packet_gradient_avx2<Corot>(p, Corot ? &rotations[pi] : nullptr, base, x, b, h, r);
-      const __m256d div = _mm256_add_pd(_mm256_add_pd(h[0], h[4]), h[8]);  // h is rotated already
-      alignas(32) double vd[4];
-      _mm256_store_pd(vd, _mm256_mul_pd(_mm256_load_pd(&p.vol[base]), div));
-      const std::size_t lanes = std::min<std::size_t>(4, n - base);
-      for (std::size_t k = 0; k < lanes; ++k)
-        for (int j = 0; j < 4; ++j) sums[p.v[j][base + k]] += vd[k];
-    }
-  }
-}
-
 // strain_sweep over a block's packets (see StiffnessKernel::strain_sweep).
 template <bool Corot>
 __attribute__((target("avx2,fma"))) void strains_avx2(const StiffnessKernel::Packet* packets,
@@ -272,8 +251,10 @@ __attribute__((target("avx2,fma"))) void strains_avx2(const StiffnessKernel::Pac
       _mm256_store_pd(vd, _mm256_mul_pd(vol, _mm256_add_pd(_mm256_add_pd(h[0], h[4]), h[8])));
       const std::size_t lanes = std::min<std::size_t>(4, n - base);
       for (std::size_t k = 0; k < lanes; ++k) {
-        double* o = out + 6 * std::size_t(tet[pi * kLanes + base + k]);
-        for (int c = 0; c < 6; ++c) o[c] = e[c][k];
+        if (out) {
+          double* o = out + 6 * std::size_t(tet[pi * kLanes + base + k]);
+          for (int c = 0; c < 6; ++c) o[c] = e[c][k];
+        }
         if (sums)
           for (int j = 0; j < 4; ++j) sums[p.v[j][base + k]] += vd[k];
       }
@@ -496,44 +477,25 @@ void StiffnessKernel::for_each_packet(const PacketVisitor& fn) {
   });
 }
 
-void StiffnessKernel::divergence_sums(const Eigen::VectorXd& x, double* sums) const {
-  const double* xp = x.data();
-  const bool simd = simd_ && simd_available();
-  for_each_block(blocks_, parallel(), [&](const Block& blk) {
-#ifdef INCISE_KERNEL_AVX2
-    if (simd) {
-      if (corot_) divergence_avx2<true>(blk.packets.data(), blk.rotations.data(), blk.packets.size(), blk.size(), xp, sums);
-      else divergence_avx2<false>(blk.packets.data(), nullptr, blk.packets.size(), blk.size(), xp, sums);
-      return;
-    }
-#endif
-    for (std::size_t pi = 0; pi < blk.packets.size(); ++pi) {
-      const Packet& p = blk.packets[pi];
-      const std::size_t n = std::min(kLanes, blk.size() - pi * kLanes);
-      for (std::size_t k = 0; k < n; ++k) {
-        double d[9];  // d[3c+j]: component c of x_{j+1} - x_0
-        const double* x0 = xp + 3 * std::size_t(p.v[0][k]);
-        for (int j = 0; j < 3; ++j) {
-          const double* xj = xp + 3 * std::size_t(p.v[j + 1][k]);
-          for (int c = 0; c < 3; ++c) d[3 * c + j] = xj[c] - x0[c];
-        }
-        double h[9];  // H = D B
-        for (int c = 0; c < 3; ++c)
-          for (int m = 0; m < 3; ++m)
-            h[3 * c + m] = d[3 * c] * p.b[m][k] + d[3 * c + 1] * p.b[3 + m][k] + d[3 * c + 2] * p.b[6 + m][k];
-        double div = h[0] + h[4] + h[8];
-        if (corot_) {  // tr(R^T H) = sum_i R_i H_i
-          const Rotations& q = blk.rotations[pi];
-          double r[9];
-          rotation_from_quaternion(q.q[0][k], q.q[1][k], q.q[2][k], q.q[3][k], r);
-          div = 0;
-          for (int i = 0; i < 9; ++i) div += r[i] * h[i];
-        }
-        const double vd = p.vol[k] * div;
-        for (int j = 0; j < 4; ++j) sums[p.v[j][k]] += vd;
-      }
-    }
-  });
+// The portable path's front half for one lane k of packet p: h = R^T D B (D B when linear).
+static inline void lane_gradient(const StiffnessKernel::Packet& p, const StiffnessKernel::Rotations* rot, std::size_t k,
+                          const double* x, double* h) {
+  double d[9];  // d[3c+j]: component c of x_{j+1} - x_0
+  const double* x0 = x + 3 * std::size_t(p.v[0][k]);
+  for (int j = 0; j < 3; ++j) {
+    const double* xj = x + 3 * std::size_t(p.v[j + 1][k]);
+    for (int c = 0; c < 3; ++c) d[3 * c + j] = xj[c] - x0[c];
+  }
+  for (int c = 0; c < 3; ++c)
+    for (int m = 0; m < 3; ++m)
+      h[3 * c + m] = d[3 * c] * p.b[m][k] + d[3 * c + 1] * p.b[3 + m][k] + d[3 * c + 2] * p.b[6 + m][k];
+  if (rot) {
+    double r[9], t[9];
+    rotation_from_quaternion(rot->q[0][k], rot->q[1][k], rot->q[2][k], rot->q[3][k], r);
+    for (int c = 0; c < 3; ++c)
+      for (int m = 0; m < 3; ++m) t[3 * c + m] = r[c] * h[m] + r[3 + c] * h[3 + m] + r[6 + c] * h[6 + m];
+    for (int i = 0; i < 9; ++i) h[i] = t[i];
+  }
 }
 
 void StiffnessKernel::strain_sweep(const Eigen::VectorXd& x, double* out, double* sums) const {
@@ -551,31 +513,18 @@ void StiffnessKernel::strain_sweep(const Eigen::VectorXd& x, double* out, double
       const Packet& p = blk.packets[pi];
       const std::size_t n = std::min(kLanes, blk.size() - pi * kLanes);
       for (std::size_t k = 0; k < n; ++k) {
-        double d[9], h[9];
-        const double* x0 = xp + 3 * std::size_t(p.v[0][k]);
-        for (int j = 0; j < 3; ++j) {
-          const double* xj = xp + 3 * std::size_t(p.v[j + 1][k]);
-          for (int c = 0; c < 3; ++c) d[3 * c + j] = xj[c] - x0[c];
+        double h[9];
+        lane_gradient(p, corot_ ? &blk.rotations[pi] : nullptr, k, xp, h);
+        if (out) {
+          const double v6 = p.vol[k] / 6;
+          double* o = out + 6 * std::size_t(blk.tet[pi * kLanes + k]);
+          o[0] = v6 * h[0];
+          o[1] = v6 * h[4];
+          o[2] = v6 * h[8];
+          o[3] = v6 * 0.5 * (h[1] + h[3]);
+          o[4] = v6 * 0.5 * (h[2] + h[6]);
+          o[5] = v6 * 0.5 * (h[5] + h[7]);
         }
-        for (int c = 0; c < 3; ++c)
-          for (int m = 0; m < 3; ++m)
-            h[3 * c + m] = d[3 * c] * p.b[m][k] + d[3 * c + 1] * p.b[3 + m][k] + d[3 * c + 2] * p.b[6 + m][k];
-        if (corot_) {  // h = R^T h
-          const Rotations& q = blk.rotations[pi];
-          double r[9], t[9];
-          rotation_from_quaternion(q.q[0][k], q.q[1][k], q.q[2][k], q.q[3][k], r);
-          for (int c = 0; c < 3; ++c)
-            for (int m = 0; m < 3; ++m) t[3 * c + m] = r[c] * h[m] + r[3 + c] * h[3 + m] + r[6 + c] * h[6 + m];
-          for (int i = 0; i < 9; ++i) h[i] = t[i];
-        }
-        const double v6 = p.vol[k] / 6;
-        double* o = out + 6 * std::size_t(blk.tet[pi * kLanes + k]);
-        o[0] = v6 * h[0];
-        o[1] = v6 * h[4];
-        o[2] = v6 * h[8];
-        o[3] = v6 * 0.5 * (h[1] + h[3]);
-        o[4] = v6 * 0.5 * (h[2] + h[6]);
-        o[5] = v6 * 0.5 * (h[5] + h[7]);
         if (sums)
           for (int j = 0; j < 4; ++j) sums[p.v[j][k]] += p.vol[k] * (h[0] + h[4] + h[8]);
       }

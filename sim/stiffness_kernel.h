@@ -50,15 +50,12 @@ public:
   // same sweep as the deviatoric ones.
   void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y, Eigen::Index rows,
                 const double* vertex_pressure = nullptr) const;
-  // sums[v] += V tr(R^T D B) (the tet's volume times its rotated-frame divergence of x) over the
-  // tets at every vertex v: the first half of the nodal-averaged volumetric product, in one
-  // coloured sweep like multiply() (no per-corner scratch).
-  void divergence_sums(const Eigen::VectorXd& x, double* sums) const;
-  // The smoothed formulations' product in two sweeps around a per-edge pass (sim/fem_model.cpp):
-  // strain_sweep writes out[6 t + c] = V/6 sym(R^T D B)_c for every tet t (c: xx, yy, zz, xy,
-  // xz, yz) and, given sums, adds V tr(R^T D B) at its vertices; stress_forces overwrites y with
-  // the corner forces of the stresses V_t (S_t + p_t I), S_t given as out is, p_t the mean of
-  // vertex_pressure at its corners (when given).
+  // The nodal-averaged and edge-smoothed products around the kernel (sim/fem_model.cpp), in
+  // coloured sweeps like multiply() (no per-corner scratch): strain_sweep writes, given out,
+  // out[6 t + c] = V/6 sym(R^T D B)_c for every tet t (c: xx, yy, zz, xy, xz, yz) and, given
+  // sums, adds V tr(R^T D B) (the tet's volume times its rotated-frame divergence of x) at its
+  // vertices; stress_forces overwrites y with the corner forces of the stresses V_t (S_t + p_t I),
+  // S_t given as out is, p_t the mean of vertex_pressure at its corners (when given).
   void strain_sweep(const Eigen::VectorXd& x, double* out, double* sums) const;
   void stress_forces(const double* stress, const double* vertex_pressure, Eigen::VectorXd& y, Eigen::Index rows) const;
 

@@ -196,24 +196,26 @@ TEST_CASE("edge-smoothed: the cantilever within 5% of Timoshenko at 80x8x8 for e
   CHECK(std::abs(e80.error()) < 0.5 * std::abs(cantilever(40, 0.4999, kEdge).error()));  // converging
 }
 
-TEST_CASE("edge-smoothed: the fused product equals the assembled matrix in parallel, both kernel paths, also mixed",
-          "[fem][edge]") {
+TEST_CASE("nodal-averaged and edge-smoothed: the fused products equal the assembled matrix in parallel, both kernel paths",
+          "[fem][edge][nodal]") {
   // Above the kernel's serial threshold (coloured sweeps on several threads), with the AVX2 and
-  // the portable strain sweep, and the mixed variant (no nodal pressure in the product).
+  // the portable sweeps; standard tets with smoothed edges are the displacement block of the
+  // mixed edge-smoothed variant (no nodal pressure in its product).
   TetMesh m = make_box(Vec3(4, 2, 2), {20, 10, 8});
   jitter(m, 0.25, 9);
   for (TetId t : m.tets())
     if (t.idx() % 5 == 0) m.set_label(t, 2);
   std::mt19937 rng(4);
-  // Standard with smoothed edges: the displacement block of the mixed edge-smoothed variant.
-  for (Formulation f : {kEdge, Formulation::Standard})
+  const std::pair<Formulation, bool> variants[] = {
+      {Formulation::NodalAveraged, false}, {kEdge, false}, {Formulation::Standard, true}};
+  for (const auto& [f, smooth] : variants)
     for (FemKind kind : {FemKind::Linear, FemKind::Corotational}) {
-      FemModel model(m, two_materials(), kind, f, true);
+      FemModel model(m, two_materials(), kind, f, smooth);
       model.update_rotations(random_vector(model.rows(), rng, 0.2));
       const Eigen::SparseMatrix<double> k = model.assemble();
       const Eigen::VectorXd x = random_vector(model.rows(), rng);
       for (bool simd : {true, false}) {
-        INFO("formulation " << formulation_name(f) << " kind " << int(kind) << " simd " << simd);
+        INFO(formulation_name(f) << (smooth ? " smoothed" : "") << " kind " << int(kind) << " simd " << simd);
         model.set_kernel_simd(simd);
         Eigen::VectorXd y;
         model.multiply(x, y);

@@ -255,27 +255,3 @@ TEST_CASE("nodal-averaged: a compressed block's volume change goes to zero as nu
   }
   CHECK(prev <= 2e-3 * std::abs(dv3));
 }
-
-TEST_CASE("nodal-averaged: the fused product equals the assembled matrix in parallel, both kernel paths",
-          "[fem][nodal]") {
-  // Above the kernel's serial threshold: the coloured sweeps (divergence sums, then forces with
-  // the nodal pressure) run on several threads, with the AVX2 and the portable arithmetic.
-  TetMesh m = make_box(Vec3(4, 2, 2), {20, 10, 8});
-  jitter(m, 0.25, 9);
-  for (TetId t : m.tets())
-    if (t.idx() % 5 == 0) m.set_label(t, 2);
-  std::mt19937 rng(4);
-  for (FemKind kind : {FemKind::Linear, FemKind::Corotational}) {
-    FemModel model(m, two_materials(), kind, kNodal);
-    model.update_rotations(random_vector(model.rows(), rng, 0.2));
-    const Eigen::SparseMatrix<double> k = model.assemble();
-    const Eigen::VectorXd x = random_vector(model.rows(), rng);
-    for (bool simd : {true, false}) {
-      INFO("kind " << int(kind) << " simd " << simd);
-      model.set_kernel_simd(simd);
-      Eigen::VectorXd y;
-      model.multiply(x, y);
-      CHECK((y - k * x).norm() <= 1e-12 * y.norm());
-    }
-  }
-}
