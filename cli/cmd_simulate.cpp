@@ -56,6 +56,7 @@ void add_simulate(CLI::App& app) {
         throw Error("simulate: interrupted by signal " + std::to_string(s) + " (" + ::strsignal(s) + ")");
     };
     const SceneRunSummary s = run_scene_into(scene, ro, o->out);
+    for (const std::string& w : s.warnings) std::cerr << "incise: warning: " << o->scene << ": " << w << "\n";
     if (o->json) {
       nlohmann::json j = {{"scene", o->scene},
                           {"output", o->out},
@@ -69,7 +70,8 @@ void add_simulate(CLI::App& app) {
                           {"max_displacement", s.max_displacement},
                           {"total_cut_ms", s.total_cut_ms},
                           {"fragments_handled", s.fragments_handled},
-                          {"files", s.files.size()}};
+                          {"files", s.files.size()},
+                          {"warnings", s.warnings}};
       std::cout << j.dump(2) << "\n";
     } else {
       std::cout << "simulate: " << s.frames << " frames on " << s.vertices << " vertices / " << s.tets << " tets, "

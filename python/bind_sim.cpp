@@ -377,6 +377,7 @@ void bind_sim(py::module_& m) {
         d["tets"] = r.tets;
         d["total_cut_ms"] = r.total_cut_ms;
         d["fragments_handled"] = r.fragments_handled;
+        d["warnings"] = r.warnings;
         d["files"] = r.files;
         return d;
       },

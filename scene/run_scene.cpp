@@ -3,6 +3,7 @@
 #include <iomanip>
 #include <optional>
 #include <ostream>
+#include <sstream>
 
 #include "scene/scene_output.h"
 #include "scene/scene_runner.h"
@@ -58,6 +59,22 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
   sum.fragments_handled = runner.fragments_handled();
   sum.vertices = runner.mesh().num_vertices();  // after the cuts
   sum.tets = runner.mesh().num_tets();
+  // A blade acts on the deformed shape: one that passed beside or above the body (it sagged,
+  // moved) cut nothing, which the frames alone do not show.
+  for (std::size_t i = 0; i < s.cuts.size(); ++i) {
+    const SceneCut& c = s.cuts[i];
+    if (c.to_frame >= sum.frames || runner.tets_cut()[i] > 0) continue;
+    Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+    for (VertexId v : runner.mesh().vertices()) {
+      lo = lo.cwiseMin(runner.position(v));
+      hi = hi.cwiseMax(runner.position(v));
+    }
+    std::ostringstream w;
+    w << "cuts[" << i << "] (frames " << c.from_frame << "-" << c.to_frame << ") cut nothing: its blade never met the body, "
+      << "whose deformed shape spans (" << lo.x() << ", " << lo.y() << ", " << lo.z() << ") to (" << hi.x() << ", " << hi.y()
+      << ", " << hi.z() << ") at the last frame";
+    sum.warnings.push_back(w.str());
+  }
   return sum;
 }
 

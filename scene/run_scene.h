@@ -41,6 +41,9 @@ struct SceneRunSummary {
   double max_displacement = 0;        // at the last frame
   std::size_t vertices = 0, tets = 0;
   std::vector<std::string> files;     // written, relative to out_dir
+  // What the user should know although nothing failed, one line each: a scene cut whose blade
+  // met no tet over all its frames ("cuts[0] (frames 10-30) cut nothing: ...").
+  std::vector<std::string> warnings;
 };
 
 // Loads the mesh, builds the model and plays the frames, the scene's cuts included. Throws

@@ -221,6 +221,7 @@ SceneRunner::SceneRunner(const Scene& scene, const TetMesh* mesh) : scene_(scene
     cutters_.back()->start({c.a, c.b});
   }
   swept_.assign(s.cuts.size(), 0.0);
+  tets_cut_.assign(s.cuts.size(), 0);
 }
 
 SceneRunner::~SceneRunner() = default;
@@ -370,15 +371,19 @@ double SceneRunner::cut_scene_blades(double& improve_ms) {
     }
   for (std::size_t i = 0; i < cutters_.size(); ++i) {
     const SceneCut& c = scene_.cuts[i];
+    const auto take_cut = [&](CutStepReport& r) {
+      tets_cut_[i] += r.tets_cut;
+      take(r, cutters_[i].get());
+    };
     if (!c.path.empty()) {
       if (swept_[i] >= 1 || frame_ < c.from_frame) continue;
       if (bound < 0) bound = max_displacement_bound();
       CutStepReport r = cutters_[i]->advance(path_blade(c, frame_), current, bound);
-      take(r, cutters_[i].get());
+      take_cut(r);
       if (frame_ >= c.to_frame) {
         swept_[i] = 1;
         CutStepReport fin = cutters_[i]->finish(current);
-        take(fin, cutters_[i].get());
+        take_cut(fin);
       }
       continue;
     }
@@ -388,10 +393,10 @@ double SceneRunner::cut_scene_blades(double& improve_ms) {
     if (bound < 0) bound = max_displacement_bound();
     CutStepReport r = cutters_[i]->advance({c.a + off, c.b + off}, current, bound);
     swept_[i] = f;
-    take(r, cutters_[i].get());
+    take_cut(r);
     if (f >= 1) {
       CutStepReport fin = cutters_[i]->finish(current);
-      take(fin, cutters_[i].get());
+      take_cut(fin);
     }
   }
   return ms;

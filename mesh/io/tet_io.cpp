@@ -122,12 +122,15 @@ TetMesh build_mesh(RawMesh&& raw, const std::string& file, ReadReport* report, c
       io::throw_io(tfile, line, where() + ": " + e.what());
     }
     // Tets sharing a face must lie on opposite sides of it (the face runs opposite ways in
-    // the two); the same four vertices twice is the extreme case. Either is no mesh.
+    // the two); the same four vertices twice is the extreme case. Either is no mesh -- except
+    // in a deformed frame, where a tet the motion inverted was flipped above and now lies on
+    // its neighbour's side: the frame is read back as it was written (docs/view.md).
     for (int f = 0; f < 4; ++f) {
       TetId n = m.neighbor(id, f);
       if (!n.is_valid()) continue;
       if (m.local_index(n, VertexId(t[f])) >= 0)
         io::throw_io(tfile, line, where() + " repeats tet #" + std::to_string(n.idx()) + " (same four vertices)");
+      if (raw.deformed) continue;
       int g = 0;
       while (g < 4 && m.neighbor(n, g) != id) ++g;
       auto fa = m.face_vertices(id, f);

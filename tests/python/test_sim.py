@@ -360,3 +360,14 @@ def test_springs_step_that_blows_up_raises_and_keeps_the_state(box):
         for _ in range(50):
             s.step(1e6)
     assert np.isfinite(s.positions).all() and np.isfinite(s.velocities).all()
+
+
+def test_run_scene_warns_of_a_cut_that_met_nothing(tmp_path):
+    scene = tmp_path / "miss.json"
+    scene.write_text('{"mesh": {"generate": "box", "size": [4, 1, 1], "cells": [8, 2, 2]}, "model": "fem-linear",'
+                     ' "materials": {"*": {"young": 1e4, "poisson": 0.3, "density": 1}},'
+                     ' "fixed": [{"box": [-0.01, -1, -1, 0.01, 2, 2]}], "loads": [{"type": "gravity", "g": [0, 0, -1]}],'
+                     ' "time": {"frames": 4}, "cuts": [{"blade": [[2.03, -0.5, 1.6], [2.03, 1.5, 1.6]],'
+                     ' "sweep": [0, 0, -0.3], "from_frame": 1, "to_frame": 2}]}')
+    summary = incise.run_scene(str(scene), str(tmp_path / "run"))
+    assert len(summary["warnings"]) == 1 and "cuts[0] (frames 1-2) cut nothing" in summary["warnings"][0]

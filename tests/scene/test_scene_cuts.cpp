@@ -55,6 +55,7 @@ TEST_CASE("a partial cut over frames: the beam stays one piece, frames mark the 
   CHECK(sum.total_cut_ms > 0);
   CHECK(sum.fragments_handled == 0);
   CHECK(sum.tets > 8 * 2 * 2 * 6);
+  CHECK(sum.warnings.empty());  // the blade met the body
   std::ifstream csv(out / "stats.csv");
   std::string header;
   std::getline(csv, header);
@@ -130,6 +131,22 @@ TEST_CASE("a through-cut over many frames detaches exactly like the same sweep i
   // The clamped half alone: it sags like a 2-long cantilever, not like a part hanging by a vertex.
   CHECK(many.max_displacement == Approx(one.max_displacement).epsilon(0.05));
   CHECK(many.max_displacement < 0.1);
+}
+
+TEST_CASE("a blade that passes above the sagging body cuts nothing, and the summary says so", "[cut][scene]") {
+  // Issue 39 item 2: the blade acts on the deformed shape; one that misses it is no error, but
+  // a run that silently cut nothing is one a user cannot tell from a cut.
+  const Scene s = parse_scene(
+      beam_scene(R"({"blade": [[2.03, -0.5, 1.6], [2.03, 1.5, 1.6]], "sweep": [0, 0, -0.3], "from_frame": 1, "to_frame": 3})"),
+      "scene.json");
+  SceneRunOptions ro;
+  const SceneRunSummary sum = run_scene(s, ro);
+  REQUIRE(sum.warnings.size() == 1);
+  CHECK_THAT(sum.warnings[0], Catch::StartsWith("cuts[0] (frames 1-3) cut nothing: its blade never met the body"));
+  CHECK(sum.tets == 8 * 2 * 2 * 6);
+  // Judged once the cut is over: a run stopped before its last frame says nothing yet.
+  ro.frames = 3;
+  CHECK(run_scene(s, ro).warnings.empty());
 }
 
 TEST_CASE("scene cut errors name the key", "[cut][scene][errors]") {
