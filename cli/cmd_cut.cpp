@@ -135,7 +135,8 @@ void add_cut(CLI::App& app) {
     nlohmann::json steps = nlohmann::json::array();
     std::size_t tets_cut = 0, tets_added = 0, vertices_added = 0, duplicated = 0, faces = 0, fragments = 0;
     double ms_total = 0, ms_max = 0, area = 0, exposed = 0;
-    auto record = [&](const CutStepReport& r, int k) {
+    // k: the step's number; the blade's withdrawal (finish()) is recorded as "finish".
+    auto record = [&](const CutStepReport& r, int k, bool finish = false) {
       tets_cut += r.tets_cut;
       tets_added += r.tets_added;
       vertices_added += r.vertices_added;
@@ -147,6 +148,7 @@ void add_cut(CLI::App& app) {
       ms_total += r.ms;
       ms_max = std::max(ms_max, r.ms);
       steps.push_back({{"step", k},
+                       {"finish", finish},
                        {"tets_cut", r.tets_cut},
                        {"tets_added", r.tets_added},
                        {"vertices_added", r.vertices_added},
@@ -156,8 +158,9 @@ void add_cut(CLI::App& app) {
                        {"ms", r.ms},
                        {"ms_improve", r.ms_improve}});
       if (!o->quiet)
-        std::cerr << "cut: step " << k << ": " << r.tets_cut << " tets cut, +" << r.tets_added << " tets, "
-                  << r.vertices_duplicated << " vertices duplicated, " << r.ms << " ms\n";
+        std::cerr << "cut: " << (finish ? std::string("finish (blade withdrawn)") : "step " + std::to_string(k)) << ": "
+                  << r.tets_cut << " tets cut, +" << r.tets_added << " tets, " << r.vertices_duplicated
+                  << " vertices duplicated, " << r.ms << " ms" << (finish ? " (the last front's improvement)" : "") << "\n";
     };
     if (!o->blade.empty()) {
       const Vec3 a(o->blade[0], o->blade[1], o->blade[2]), b(o->blade[3], o->blade[4], o->blade[5]);
@@ -169,12 +172,12 @@ void add_cut(CLI::App& app) {
       }
       // The blade is withdrawn: the last front's tets get the improvement with it free.
       CutStepReport fin = cutter.finish();
-      if (!fin.change.empty()) record(std::move(fin), o->steps + 1);
+      if (!fin.change.empty()) record(std::move(fin), o->steps + 1, true);
     } else if (!path.empty()) {
       cutter.start(path[0]);
       for (std::size_t k = 1; k < path.size(); ++k) record(cutter.advance(path[k]), int(k));
       CutStepReport fin = cutter.finish();
-      if (!fin.change.empty()) record(std::move(fin), int(path.size()));
+      if (!fin.change.empty()) record(std::move(fin), int(path.size()), true);
     } else if (!o->plane.empty()) {
       record(cutter.cut_plane(Vec3(o->plane[0], o->plane[1], o->plane[2]), Vec3(o->plane[3], o->plane[4], o->plane[5])),
              1);

@@ -62,7 +62,9 @@ void info_tet(const std::string& file, bool json) {
     j["reoriented_tets"] = report.reoriented_tets;
     j["degenerate_tets"] = report.degenerate_tets;
     j["unreferenced_vertices"] = report.unreferenced_vertices;
-    j["tagged_boundary_faces"] = report.tagged_boundary_faces;
+    // Faces whose tag the file carried (msh / medit boundary triangles, a frame's cut mask); the
+    // others got kTagSurface on reading. "boundary_tags" counts every face by its tag.
+    j["boundary_faces_tagged_by_file"] = report.tagged_boundary_faces;
     std::cout << j.dump(2) << "\n";
     return;
   }
@@ -84,7 +86,8 @@ void info_tet(const std::string& file, bool json) {
   std::cout << "\n  skipped cells          " << report.skipped_cells << "\n"
             << "  reoriented tets        " << report.reoriented_tets << "\n"
             << "  degenerate tets        " << report.degenerate_tets << "\n"
-            << "  unreferenced vertices  " << report.unreferenced_vertices << "\n";
+            << "  unreferenced vertices  " << report.unreferenced_vertices << "\n"
+            << "  tags from the file     " << report.tagged_boundary_faces << " faces (the rest: 1, surface)\n";
 }
 
 void info_surface(const std::string& file, bool json) {

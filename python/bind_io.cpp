@@ -13,9 +13,14 @@ Field to_field(const std::string& name, const py::handle& h, std::size_t capacit
   auto a = to_reals(h, std::string(what) + " '" + name + "'");
   const bool ok = a.ndim() >= 1 && a.shape(0) == static_cast<py::ssize_t>(capacity) &&
                   (a.ndim() == 1 || (a.ndim() == 2 && a.shape(1) == 3));
-  if (!ok)
-    throw InvalidArgument(std::string(what) + " '" + name + "': expected " + std::to_string(capacity) +
-                          " values or " + std::to_string(capacity) + " by 3");
+  if (!ok) {
+    const bool cells = std::string(what) == "cell_data";
+    std::string got = std::to_string(a.ndim() >= 1 ? a.shape(0) : 0);
+    for (py::ssize_t d = 1; d < a.ndim(); ++d) got += " by " + std::to_string(a.shape(d));
+    throw InvalidArgument(std::string(what) + " '" + name + "': got " + got + "; expected one row per " +
+                          (cells ? "tet id" : "vertex id") + " slot, " + std::to_string(capacity) + " rows (mesh." +
+                          (cells ? "tet_capacity" : "vertex_capacity") + ", dead ids included) of 1 or 3 values");
+  }
   Field f;
   f.name = name;
   f.components = a.ndim() == 1 ? 1 : 3;
@@ -72,7 +77,7 @@ void bind_io(py::module_& m) {
         d["reoriented_tets"] = r.reoriented_tets;
         d["unreferenced_vertices"] = r.unreferenced_vertices;
         d["degenerate_tets"] = r.degenerate_tets;
-        d["tagged_boundary_faces"] = r.tagged_boundary_faces;
+        d["boundary_faces_tagged_by_file"] = r.tagged_boundary_faces;
         return py::make_tuple(std::move(mesh), d);
       },
       py::arg("path"), py::arg("report") = false,

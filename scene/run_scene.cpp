@@ -18,6 +18,18 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
   if (!opt.out_dir.empty()) out.emplace(s, opt.out_dir);
 
   SceneRunSummary sum;
+  // Standard tets lock: at tissue's Poisson's ratios they are far too stiff (figures: README,
+  // bench_fem_locking; docs/solver.md, formulations).
+  if (s.model != SceneModel::Springs && s.formulation == Formulation::Standard) {
+    double nu = s.materials.has_default() ? s.materials.fallback().poisson : 0;
+    for (const auto& [label, m] : s.materials.by_label()) nu = std::max(nu, m.poisson);
+    if (nu >= 0.45) {
+      std::ostringstream w;
+      w << "standard tets at Poisson's ratio " << nu << " lock (they come out far too stiff, the more the closer to 0.5): "
+        << "\"formulation\": \"nodal-averaged\" does not (docs/solver.md, formulations)";
+      sum.warnings.push_back(w.str());
+    }
+  }
   sum.vertices = runner.mesh().num_vertices();
   sum.tets = runner.mesh().num_tets();
   auto finish = [&] {

@@ -1,5 +1,7 @@
 #include "scene/scene.h"
 
+#include <cerrno>
+#include <cstring>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -595,7 +597,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
 Scene load_scene(const std::string& path) {
   check_input_file(path);
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw IoError(path, 0, "cannot open scene file");
+  if (!in) throw IoError(path, 0, std::string("cannot open: ") + std::strerror(errno));
   std::stringstream ss;
   ss << in.rdbuf();
   return parse_scene(ss.str(), path);

@@ -1,5 +1,7 @@
 #include "view/look_session.h"
 
+#include <cerrno>
+#include <cstring>
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -28,7 +30,7 @@ constexpr std::uint32_t kColourVonMises = 1, kColourQuality = 2, kColourLabel = 
 std::string read_text(const std::string& path) {
   check_input_file(path);
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw IoError(path, 0, "cannot read");
+  if (!in) throw IoError(path, 0, std::string("cannot open: ") + std::strerror(errno));
   std::ostringstream s;
   s << in.rdbuf();
   return s.str();
@@ -114,7 +116,7 @@ ViewArgument classify_view_argument(const std::string& path) {
       throw IoError(path, 0, "a directory without frames.pvd: not a run directory of `incise simulate -o`");
     return ViewArgument::Run;
   }
-  if (!fs::exists(path, ec)) throw IoError(path, 0, "no such file or directory");
+  if (!fs::exists(path, ec)) throw IoError(path, 0, "no such file");
   if (fs::path(path).extension() == ".json") return is_report(parse_json(path)) ? ViewArgument::Report : ViewArgument::Scene;
   return ViewArgument::Mesh;
 }

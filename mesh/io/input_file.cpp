@@ -1,5 +1,7 @@
 #include "mesh/io/input_file.h"
 
+#include <cerrno>
+#include <cstring>
 #include <sys/stat.h>
 
 #include "mesh/errors.h"
@@ -8,7 +10,8 @@ namespace incise {
 
 std::uintmax_t check_input_file(const std::string& path) {
   struct stat st {};
-  if (::stat(path.c_str(), &st) != 0) throw IoError(path, 0, "cannot open file (does it exist?)");
+  if (::stat(path.c_str(), &st) != 0)  // one wording for a missing input everywhere
+    throw IoError(path, 0, errno == ENOENT ? std::string("no such file") : std::string("cannot open: ") + std::strerror(errno));
   if (S_ISDIR(st.st_mode)) throw IoError(path, 0, "is a directory, not a file");
   if (!S_ISREG(st.st_mode))
     throw IoError(path, 0, std::string("is not a regular file (") +

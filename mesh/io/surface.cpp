@@ -1,6 +1,7 @@
 // Triangle surfaces: assimp for reading, a few plain text formats for writing.
 #include "mesh/io/surface.h"
 
+#include <cstring>
 #include <assimp/Importer.hpp>
 #include <assimp/scene.h>
 #include <sys/stat.h>
@@ -76,7 +77,7 @@ void check_ply_header(const std::string& path) {
 // faces of fewer than 3 vertices dropped, like the other formats.
 SurfaceMesh read_off(const std::string& path, std::uintmax_t file_size) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) io::throw_io(path, 0, "cannot open file (does it exist?)");
+  if (!in) io::throw_io(path, 0, std::string("cannot open: ") + std::strerror(errno));
   std::string line;
   long n = 0;
   std::istringstream ss;

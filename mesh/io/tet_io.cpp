@@ -1,6 +1,8 @@
 // Format dispatch, the shared mesh builder and the flattening writers start from.
 #include "mesh/io/tet_io.h"
 
+#include <cerrno>
+#include <cstring>
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -41,7 +43,7 @@ int label_rank(std::string_view name) {
 std::string read_file_bytes(const std::string& path) {
   check_input_file(path);
   std::ifstream in(path, std::ios::binary);
-  if (!in) io::throw_io(path, 0, "cannot open file for reading");
+  if (!in) io::throw_io(path, 0, std::string("cannot open: ") + std::strerror(errno));
   std::string data;
   in.seekg(0, std::ios::end);
   std::streamoff size = in.tellg();

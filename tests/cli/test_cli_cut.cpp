@@ -230,3 +230,21 @@ TEST_CASE("incise cut along a plane of mesh faces opens them and does not claim 
   CHECK(miss.code == 0);
   CHECK(miss.err.find("does not reach the mesh") != std::string::npos);
 }
+
+TEST_CASE("incise cut --steps N prints N steps and labels the blade's withdrawal", "[cli][cut]") {
+  const fs::path dir = scratch_dir("cli_cut_finish");
+  const std::string box = (dir / "box.msh").string(), out = (dir / "cut.msh").string(), js = (dir / "cut.json").string();
+  REQUIRE(run_incise("generate box --size 2 1 1 --cells 8 4 4 -o '" + box + "'", dir).code == 0);
+  Run r = run_incise("cut '" + box + "' -o '" + out + "' --blade 1.03 -0.5 1.3 0.97 1.5 1.3 --sweep 0.02 0 -1.6 --steps 3 --json '" + js + "'",
+                     dir);
+  INFO(r.err);
+  REQUIRE(r.code == 0);
+  for (const char* line : {"cut: step 1:", "cut: step 2:", "cut: step 3:", "cut: finish (blade withdrawn):"})
+    CHECK(r.err.find(line) != std::string::npos);
+  CHECK(r.err.find("cut: step 4:") == std::string::npos);
+  std::ifstream in(js);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  REQUIRE(j["steps"].size() == 4);
+  CHECK(j["steps"][2]["finish"] == false);
+  CHECK(j["steps"][3]["finish"] == true);
+}

@@ -212,3 +212,23 @@ TEST_CASE("incise convert: every direction, and failures leave no trace", "[cli]
   // Usage errors exit 1 too.
   CHECK(run(d, "convert " + (d / "src.msh")).rc == 1);
 }
+
+TEST_CASE("first hour: one wording for a missing file; info says which tags came from the file", "[cli][io]") {
+  Dir d;
+  for (const std::string cmd : {"info " + (d / "missing.vtk"), "quality " + (d / "missing.msh"),
+                                "simulate " + (d / "missing.json") + " -o " + (d / "run"),
+                                "prepare " + (d / "missing.off") + " -o " + (d / "x.vtu")}) {
+    INFO(cmd);
+    const Run r = run(d, cmd);
+    CHECK(r.rc == 1);
+    CHECK(r.err.find("missing.") != std::string::npos);
+    CHECK(r.err.find(": no such file\n") != std::string::npos);
+  }
+  write_tet_mesh(make_box(Vec3(1, 1, 1), {1, 1, 1}), d / "b.vtu");
+  const Run j = run(d, "info --json " + (d / "b.vtu"));
+  REQUIRE(j.rc == 0);
+  const auto info = nlohmann::json::parse(j.out);
+  CHECK(info["boundary_tags"]["1"] == 12);
+  CHECK(info["boundary_faces_tagged_by_file"] == 0);  // a VTU carries no boundary triangles
+  CHECK(run(d, "info " + (d / "b.vtu")).out.find("tags from the file     0 faces") != std::string::npos);
+}

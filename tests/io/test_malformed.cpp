@@ -173,7 +173,7 @@ TEST_CASE("TetGen errors name the .node or .ele file", "[io][malformed]") {
     if (!e.empty()) write_text(dir / (base + ".ele"), e);
     return dir / (base + ".ele");
   };
-  require_io_error(pair("missing", node, ""), "cannot open", 0);  // no .ele
+  require_io_error(pair("missing", node, ""), "no such file", 0);  // no .ele
   std::string p = pair("seq", "4 3 0 0\n0 0 0 0\n1 1 0 0\n3 0 1 0\n4 0 0 1\n", "1 4 0\n0 0 1 2 3\n");
   try {
     read_tet_mesh(p);

@@ -371,3 +371,23 @@ def test_run_scene_warns_of_a_cut_that_met_nothing(tmp_path):
                      ' "sweep": [0, 0, -0.3], "from_frame": 1, "to_frame": 2}]}')
     summary = incise.run_scene(str(scene), str(tmp_path / "run"))
     assert len(summary["warnings"]) == 1 and "cuts[0] (frames 1-2) cut nothing" in summary["warnings"][0]
+
+
+def test_material_out_of_range_and_cell_data_by_tet_id(box, tmp_path):
+    with pytest.raises(incise.InvalidArgument, match="Material.poisson"):
+        incise.Material(poisson=0.6)
+    assert incise.Material(poisson=0.5).poisson == 0.5  # the mixed formulation takes it
+    with pytest.raises(incise.InvalidArgument, match="expected one row per tet id slot, .* rows \\(mesh.tet_capacity"):
+        incise.write(box, str(tmp_path / "c.vtu"), cell_data={"x": np.zeros(box.num_tets + 1)})
+
+
+def test_standard_tets_near_incompressible_warn(tmp_path):
+    scene = tmp_path / "lock.json"
+    scene.write_text('{"mesh": {"generate": "box", "size": [4, 1, 1], "cells": [4, 1, 1]}, "model": "fem-linear",'
+                     ' "materials": {"*": {"young": 1e4, "poisson": 0.47}},'
+                     ' "fixed": [{"box": [-0.01, -1, -1, 0.01, 2, 2]}], "loads": [{"type": "gravity", "g": [0, 0, -1]}],'
+                     ' "time": {"frames": 1}}')
+    summary = incise.run_scene(str(scene), str(tmp_path / "run"))
+    assert any("standard tets at Poisson's ratio 0.47 lock" in w for w in summary["warnings"])
+    scene.write_text(scene.read_text().replace('"model"', '"formulation": "nodal-averaged", "model"'))
+    assert incise.run_scene(str(scene), str(tmp_path / "run2"))["warnings"] == []
