@@ -1,5 +1,6 @@
 #include "scene/run_scene.h"
 
+#include <algorithm>
 #include <iomanip>
 #include <optional>
 #include <ostream>
@@ -32,6 +33,7 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
   }
   sum.vertices = runner.mesh().num_vertices();
   sum.tets = runner.mesh().num_tets();
+  std::vector<double> frame_ms;  // the solver's frames, for the warning below
   auto finish = [&] {
     if (!out) return;
     for (std::string& f : out->finish()) sum.files.push_back(std::move(f));
@@ -48,6 +50,7 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
       sum.frames_budget_exhausted += st.budget_exhausted;
       sum.frames_not_converged += !converged;
       sum.max_displacement = f.max_displacement;
+      if (frame > 0) frame_ms.push_back(st.frame_ms);  // frame 0 builds the solver
       ++sum.frames;
       if (out) {
         const std::string vtu = out->add(runner, f, frame % s.output_every == 0 || frame == frames - 1);
@@ -71,6 +74,17 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
   sum.fragments_handled = runner.fragments_handled();
   sum.vertices = runner.mesh().num_vertices();  // after the cuts
   sum.tets = runner.mesh().num_tets();
+  // Not interactive: say so, and what picks settings for a frame budget.
+  if (frame_ms.size() >= 2) {
+    std::nth_element(frame_ms.begin(), frame_ms.begin() + frame_ms.size() / 2, frame_ms.end());
+    const double median = frame_ms[frame_ms.size() / 2];
+    if (opt.slow_frame_ms > 0 && median > opt.slow_frame_ms) {
+      std::ostringstream w;
+      w << "a frame took " << std::fixed << std::setprecision(0) << median << " ms (median): not interactive; "
+        << "`incise trade " << s.path << "` measures the settings that fit a frame budget (docs/solver.md)";
+      sum.warnings.push_back(w.str());
+    }
+  }
   // A blade acts on the deformed shape: one that passed beside or above the body (it sagged,
   // moved) cut nothing, which the frames alone do not show.
   for (std::size_t i = 0; i < s.cuts.size(); ++i) {

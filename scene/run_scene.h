@@ -28,6 +28,9 @@ struct SceneRunOptions {
   // Plays the scene on this mesh instead of its own (incise trade: other resolutions of the
   // same body); the scene's boxes select on it the same way. Copied, not modified.
   const TetMesh* mesh = nullptr;
+  // A median frame above this (ms; the first frame, which builds the solver, aside) is not
+  // interactive: the summary warns and names `incise trade`. 0: never.
+  double slow_frame_ms = 100;
 };
 
 struct SceneRunSummary {
@@ -42,7 +45,8 @@ struct SceneRunSummary {
   std::size_t vertices = 0, tets = 0;
   std::vector<std::string> files;     // written, relative to out_dir
   // What the user should know although nothing failed, one line each: a scene cut whose blade
-  // met no tet over all its frames ("cuts[0] (frames 10-30) cut nothing: ...").
+  // met no tet over all its frames ("cuts[0] (frames 10-30) cut nothing: ..."), standard tets
+  // at a Poisson's ratio where they lock, frames too slow to be interactive (median > 100 ms).
   std::vector<std::string> warnings;
 };
 
