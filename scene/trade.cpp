@@ -338,6 +338,21 @@ TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
   std::vector<TradeRow>& rows = result.rows;
   const int ramp_end = last_ramp_frame(scene);
   double spent = 0;
+  // Seconds per run measured so far, per level: what is left is estimated from the runs of its
+  // own level, else from the nearest measured level at 8x per level (each splits a tet into 8).
+  std::map<int, std::pair<double, int>> pace;  // level -> (seconds, runs)
+  auto seconds_left = [&](std::size_t from) {
+    double left = 0;
+    for (std::size_t k = from; k < settings.size(); ++k) {
+      const int level = settings[k].row.resolution;
+      double best = -1;
+      int gap = 1 << 30;
+      for (const auto& [l, sr] : pace)
+        if (std::abs(l - level) < gap) gap = std::abs(l - level), best = sr.first / sr.second * std::pow(8.0, level - l);
+      left += std::max(best, 0.0);
+    }
+    return left;
+  };
   for (std::size_t i = 0; i < settings.size(); ++i) {
     Setting& st = settings[i];
     TradeRow& r = st.row;
@@ -386,7 +401,10 @@ TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
                   r.solver + " " + r.preconditioner + " tolerance " + fmt(r.tolerance) + " budget " + fmt(r.budget_ms) +
                   ": " + e.what());
     }
-    spent += seconds_since(t_run);
+    const double run_s = seconds_since(t_run);
+    spent += run_s;
+    pace[r.resolution].first += run_s;
+    ++pace[r.resolution].second;
     r.ms_per_frame = played ? ms / played : 0;
     r.iterations = played ? iterations / played : 0;
     if (st.dynamic) {
@@ -400,8 +418,8 @@ TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
     }
     if (opt.progress) {
       if (i == 0)
-        *opt.progress << "trade: " << settings.size() << " runs; at the first run's pace about "
-                      << fmt(spent * double(settings.size())) << " s in all\n";
+        *opt.progress << "trade: " << settings.size() << " runs; the estimate of the time left follows each (from "
+                      << "the runs measured so far, 8x a level up)\n";
       const int bar = int(20.0 * double(i + 1) / double(settings.size()));
       *opt.progress << "trade: [" << std::string(std::size_t(bar), '#') << std::string(std::size_t(20 - bar), '.') << "] "
                     << i + 1 << "/" << settings.size() << " level " << r.resolution << " " << r.model << " "
@@ -411,7 +429,7 @@ TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
                     << (st.dynamic ? " at rest after " + std::to_string(r.settle_frames) + " frames" +
                                          (r.settled ? "" : " (not settled)")
                                    : "")
-                    << "\n";
+                    << "; about " << fmt(seconds_left(i + 1)) << " s left\n";
     }
     rows.push_back(r);
   }

@@ -63,8 +63,9 @@ TEST_CASE("incise trade writes the grid, the errors against a converged referenc
   // The plan, the reference and its error bar, a progress bar, the answer.
   CHECK(r.err.find("trade: reference: level 2 (12288 tets), fem-corotational mixed, direct") != std::string::npos);
   CHECK(r.err.find("it differs from level 1 by") != std::string::npos);
-  CHECK(r.err.find("trade: 28 runs; at the first run's pace about") != std::string::npos);
+  CHECK(r.err.find("trade: 28 runs; the estimate of the time left follows each") != std::string::npos);
   CHECK(r.err.find("[####################] 28/28") != std::string::npos);
+  CHECK(r.err.find("; about 0 s left\n") != std::string::npos);  // after the last run
   for (const char* line : {"Pareto frontier (fastest first):", "for a 2 ms frame: ", "for a 16 ms frame: ", "for a 33 ms frame: "})
     CHECK(r.out.find(line) != std::string::npos);
   const std::string csv = slurp(dir / "out" / "trade.csv");
