@@ -20,7 +20,7 @@ void check_material(const Material& m, const std::string& what, bool incompressi
                           " is >= 0.5; displacement-only elasticity is singular at 0.5 (incompressible) and "
                           "unstable above; use at most 0.4999, or the mixed formulation for 0.5");
   // Below 0.5 but so close that lambda / mu = 2 nu / (1 - 2 nu) passes 1e8: the stiffness is
-  // singular to double precision (0.4999999999999999 gave CG a residual of 882).
+  // singular to double precision: CG cannot converge on it (docs/solver.md, formulations).
   if (m.poisson < 0.5 && !incompressible_ok && 1 - 2 * m.poisson < 2e-8) {
     char nu[32];
     std::snprintf(nu, sizeof nu, "%.17g", m.poisson);
