@@ -313,7 +313,8 @@ void bind_sim(py::module_& m) {
       .def_property_readonly("velocities", [](const Springs& s) { return to_array(per_vertex(s, s.model.velocities())); })
       .def_property_readonly("displacement", [](const Springs& s) {
         std::vector<Vec3> d = per_vertex(s, s.model.positions());
-        for (std::uint32_t v = 0; v < d.size(); ++v) d[v] -= s.mesh.rest(VertexId(v));
+        for (std::uint32_t v = 0; v < d.size(); ++v)  // a dead slot moves nowhere (its values are stale)
+          d[v] = s.mesh.is_alive(VertexId(v)) ? Vec3(d[v] - s.mesh.rest(VertexId(v))) : Vec3::Zero();
         return to_array(d);
       })
       .def_property_readonly("num_springs", [](const Springs& s) { return s.model.num_springs(); })

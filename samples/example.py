@@ -36,6 +36,9 @@ try:
     else:
         mesh, rep = incise.tetrahedralize(source, size="3%", report=True)
         print(f"prepare: {rep['summary']}")
+        if source.endswith((".inr", ".inr.gz")):  # images are in millimetres: this script is SI
+            mesh = incise.TetMesh(mesh.points * 1e-3, mesh.tets, mesh.labels)
+            print("prepare: the image's millimetres converted to metres")
 except incise.Error as e:  # same message as the command line
     sys.exit(f"example: error: {e}")
 incise.write(mesh, os.path.join(args.out, "mesh.vtu"))
@@ -54,6 +57,8 @@ lo, hi = pts.min(axis=0), pts.max(axis=0)
 height = hi[2] - lo[2]
 bottom = incise.vertices_in_box(mesh, lo, (hi[0], hi[1], lo[2] + 0.1 * height))
 top = incise.vertices_in_box(mesh, (lo[0], lo[1], hi[2] - 0.1 * height), hi)
+# incise has no units of its own (docs/scene.md#units): this script keeps to SI, so the mesh is in
+# metres, the modulus in Pa, the density in kg/m^3 and g in m/s^2.
 soft_tissue = incise.Material(young=3e3, poisson=0.45, density=1000)  # Pa, -, kg/m^3
 fem = incise.FemSimulation(mesh, soft_tissue, kind="corotational", tolerance=1e-6)
 fem.fix(bottom)
@@ -95,5 +100,5 @@ dt = 0.5 * springs.stable_time_step()
 for _ in range(200):
     springs.step(dt)
 sag = -springs.displacement[:, 2].min()
-print(f"springs: {springs.num_springs} springs, dt {dt:.2e} s, 200 steps, max sag {sag:.4g}")
+print(f"springs: {springs.num_springs} springs, dt {dt:.2e} s, 200 steps, max sag {sag:.4g} m ({1e3 * sag:.3g} mm)")
 print(f"outputs in {args.out}/ (mesh.vtu, fem.vtu, cut.vtu)")

@@ -6,10 +6,46 @@
 #include <ostream>
 #include <sstream>
 
+#include "mesh/errors.h"
 #include "scene/scene_output.h"
 #include "scene/scene_runner.h"
 
 namespace incise {
+
+namespace {
+
+// incise is unit-agnostic: the mesh, the moduli, the densities and g must be in one system.
+// A mix (SI materials on a mesh in millimetres) shows in the scale of the sag gravity implies,
+// rho g L^2 / E for the softest material on a body of size L: far past the body's size, or a
+// vanishing share of it (docs/scene.md#units).
+std::string unit_check(const Scene& s, const TetMesh& mesh) {
+  Vec3 g = Vec3::Zero();
+  for (const SceneLoad& l : s.loads)
+    if (l.kind == SceneLoad::Kind::Gravity) g += l.value;
+  if (g.norm() == 0 || mesh.num_vertices() == 0) return {};
+  Vec3 lo = Vec3::Constant(1e300), hi = -lo;
+  for (VertexId v : mesh.vertices()) {
+    lo = lo.cwiseMin(mesh.rest(v));
+    hi = hi.cwiseMax(mesh.rest(v));
+  }
+  const double size = (hi - lo).maxCoeff();
+  std::vector<Material> ms;
+  if (s.materials.has_default()) ms.push_back(s.materials.fallback());
+  for (const auto& [label, m] : s.materials.by_label()) ms.push_back(m);
+  if (ms.empty()) ms.push_back(Material{});
+  double sag = 0;
+  for (const Material& m : ms) sag = std::max(sag, m.density * g.norm() * size * size / m.young);
+  const double ratio = sag / size;
+  if (!(size > 0) || (ratio <= 10 && ratio >= 1e-9)) return {};
+  std::ostringstream w;
+  w << "gravity " << g.norm() << " on a body " << size << " across with E " << ms[0].young << " and density "
+    << ms[0].density << " implies a sag of the order of " << sag << " (rho g L^2 / E), " << ratio
+    << " times the body's size: are the mesh, the moduli, the densities and g in one unit system? (m, Pa, kg/m^3, "
+    << "m/s^2; or mm, MPa, t/mm^3, mm/s^2: docs/scene.md#units)";
+  return w.str();
+}
+
+}  // namespace
 
 SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
   // Everything the scene says is checked (boxes, constraints) before anything is written.
@@ -33,6 +69,8 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
   }
   sum.vertices = runner.mesh().num_vertices();
   sum.tets = runner.mesh().num_tets();
+  const std::string units = unit_check(s, runner.mesh());
+  if (!units.empty()) sum.warnings.push_back(units);
   std::vector<double> frame_ms;  // the solver's frames, for the warning below
   auto finish = [&] {
     if (!out) return;
@@ -65,8 +103,13 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
       }
       if (opt.stop && opt.stop(frame)) break;
     }
-  } catch (...) {
+  } catch (const Error& e) {
     finish();  // keep the series and stats of the frames that were computed
+    // A run that blew up under mixed units: the likely reason goes with the error.
+    if (!units.empty()) throw Error(std::string(e.what()) + "; " + units);
+    throw;
+  } catch (...) {
+    finish();
     throw;
   }
   finish();

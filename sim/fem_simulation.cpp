@@ -170,6 +170,9 @@ void FemSimulation::apply(const TopologyChange& change) {
   for (VertexId v : change.removed_vertices) {
     constrained_[v.idx()] = 0;
     f_ext_.segment<3>(3 * v.idx()).setZero();
+    // A dead slot moves nowhere: readers of displacement() over every slot see zero there.
+    if (3 * Eigen::Index(v.idx()) + 3 <= u_.size()) u_.segment<3>(3 * v.idx()).setZero();
+    if (3 * Eigen::Index(v.idx()) + 3 <= v_.size()) v_.segment<3>(3 * v.idx()).setZero();
     update_free(v.idx());
   }
   for (VertexId v : change.touched_vertices) update_free(v.idx());

@@ -192,3 +192,24 @@ TEST_CASE("a run whose frames are not interactive says so and names incise trade
   REQUIRE(sum.warnings.size() == 1);
   CHECK_THAT(sum.warnings[0], Catch::Contains("(median): not interactive; `incise trade scene.json` measures the settings"));
 }
+
+TEST_CASE("units: SI materials on a body in millimetres are flagged by the sag they imply", "[scene]") {
+  // Issue 39 item 4: a 200 mm body with E = 3 kPa and 1000 kg/m^3 as numbers, g = 9.81: rho g L^2
+  // / E = 1.3e5, 654 times the body. In one system (mm, MPa, t/mm^3, mm/s^2) nothing is said.
+  auto scene = [](const std::string& material, double g) {
+    return parse_scene(R"({"mesh": {"generate": "box", "size": [200, 100, 100], "cells": [4, 2, 2]}, "model": "fem-linear",
+      "materials": {"*": )" + material + R"(}, "fixed": [{"box": [-1, -1, -1, 1, 101, 101]}],
+      "loads": [{"type": "gravity", "g": [0, 0, )" + std::to_string(-g) + R"(]}], "time": {"frames": 1}})",
+                       "scene.json");
+  };
+  SceneRunOptions ro;
+  // The static solve blows up (the sag is 654 bodies): the error carries the reason.
+  CHECK_THROWS_WITH(run_scene(scene(R"({"young": 3000, "poisson": 0.3, "density": 1000})", 9.81), ro),
+                    Catch::Contains("the solution blew up") &&
+                        Catch::Contains("times the body's size: are the mesh, the moduli, the densities and g in one unit system?"));
+  // Stiff enough not to blow up (a sag of 98 bodies), the run finishes and warns.
+  const SceneRunSummary mixed = run_scene(scene(R"({"young": 2e4, "poisson": 0.3, "density": 1000})", 9.81), ro);
+  REQUIRE(mixed.warnings.size() == 1);
+  CHECK_THAT(mixed.warnings[0], Catch::Contains("implies a sag of the order of"));
+  CHECK(run_scene(scene(R"({"young": 0.003, "poisson": 0.3, "density": 1e-9})", 9810), ro).warnings.empty());
+}
