@@ -128,7 +128,7 @@ void add_trade(CLI::App& app) {
     tx.write_text((dir / "trade.csv").string(), trade_csv(result.rows));
     tx.write_text((dir / "trade.svg").string(),
                   trade_svg(result.rows, "incise trade: " + std::filesystem::path(o->scene).filename().string(),
-                            to.frame_budgets_ms));
+                            to.frame_budgets_ms, std::max(result.reference.change, 0.0)));
     if (!o->json.empty()) tx.write_text(o->json, trade_json(result, to.frame_budgets_ms));
     tx.commit();
     std::cout << trade_summary(result, to.frame_budgets_ms);

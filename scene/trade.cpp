@@ -433,26 +433,30 @@ TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
     }
     rows.push_back(r);
   }
-  mark_pareto(rows);
+  mark_pareto(rows, std::max(result.reference.change, 0.0));
   return result;
 }
 
-void mark_pareto(std::vector<TradeRow>& rows) {
+void mark_pareto(std::vector<TradeRow>& rows, double resolved) {
+  auto err = [&](const TradeRow& r) { return std::max(r.error, resolved); };
   for (TradeRow& a : rows) {
     a.pareto = true;
     for (const TradeRow& b : rows)
-      if (&a != &b && b.ms_per_frame <= a.ms_per_frame && b.error <= a.error &&
-          (b.ms_per_frame < a.ms_per_frame || b.error < a.error))
+      if (&a != &b && b.ms_per_frame <= a.ms_per_frame && err(b) <= err(a) &&
+          (b.ms_per_frame < a.ms_per_frame || err(b) < err(a)))
         a.pareto = false;
   }
 }
 
-std::vector<const TradeRow*> recommend(const std::vector<TradeRow>& rows, const std::vector<double>& budgets_ms) {
+std::vector<const TradeRow*> recommend(const std::vector<TradeRow>& rows, const std::vector<double>& budgets_ms,
+                                       double resolved) {
+  auto err = [&](const TradeRow& r) { return std::max(r.error, resolved); };
   std::vector<const TradeRow*> out;
   for (double b : budgets_ms) {
     const TradeRow* best = nullptr;
     for (const TradeRow& r : rows)
-      if (r.ms_per_frame <= b && (!best || r.error < best->error || (r.error == best->error && r.ms_per_frame < best->ms_per_frame)))
+      if (r.ms_per_frame <= b &&
+          (!best || err(r) < err(*best) || (err(r) == err(*best) && r.ms_per_frame < best->ms_per_frame)))
         best = &r;
     out.push_back(best);
   }

@@ -99,11 +99,14 @@ struct TradeResult {
 // Runs the reference and the grid. Throws what run_scene throws, naming the setting.
 TradeResult run_trade(const Scene& scene, const TradeOptions& options);
 
-// Marks the Pareto frontier of (ms_per_frame, error).
-void mark_pareto(std::vector<TradeRow>& rows);
+// Marks the Pareto frontier of (ms_per_frame, error). Errors below `resolved` (the reference's
+// own error bar) count as equal: the reference cannot tell them apart, so the faster wins.
+void mark_pareto(std::vector<TradeRow>& rows, double resolved = 0);
 
-// The most accurate row whose time per frame fits each budget (nullptr: none fits).
-std::vector<const TradeRow*> recommend(const std::vector<TradeRow>& rows, const std::vector<double>& budgets_ms);
+// The most accurate row whose time per frame fits each budget (nullptr: none fits), errors
+// below `resolved` counting as equal (then the fastest).
+std::vector<const TradeRow*> recommend(const std::vector<TradeRow>& rows, const std::vector<double>& budgets_ms,
+                                       double resolved = 0);
 
 // CSV with a header: resolution,tets,model,formulation,solver,preconditioner,tolerance,budget_ms,
 // ms_per_frame,iterations,error,max_displacement_error,compared,settle_frames,settle_ms,dt,settled,
@@ -115,6 +118,8 @@ std::string trade_json(const TradeResult& result, const std::vector<double>& bud
 std::string trade_summary(const TradeResult& result, const std::vector<double>& budgets_ms);
 // Error against time per frame (log-log): colour per model and formulation, marker per
 // resolution, the Pareto frontier drawn, the frame budgets as vertical lines.
-std::string trade_svg(const std::vector<TradeRow>& rows, const std::string& title, const std::vector<double>& budgets_ms = {});
+// Errors below `resolved` (> 0) lie in a shaded band: the reference does not resolve them.
+std::string trade_svg(const std::vector<TradeRow>& rows, const std::string& title, const std::vector<double>& budgets_ms = {},
+                      double resolved = 0);
 
 }  // namespace incise

@@ -48,7 +48,7 @@ std::string trade_json(const TradeResult& res, const std::vector<double>& budget
                     {"settle_frames", r.settle_frames}, {"settle_ms", r.settle_ms}, {"dt", r.dt}, {"settled", r.settled},
                     {"frames_not_converged", r.frames_not_converged}, {"pareto", r.pareto}});
   json recs = json::array();
-  const auto best = recommend(res.rows, budgets_ms);
+  const auto best = recommend(res.rows, budgets_ms, std::max(res.reference.change, 0.0));
   for (std::size_t i = 0; i < budgets_ms.size(); ++i)
     recs.push_back({{"frame_budget_ms", budgets_ms[i]},
                     {"row", best[i] ? json(std::size_t(best[i] - res.rows.data())) : json(nullptr)},
@@ -80,7 +80,7 @@ std::string trade_summary(const TradeResult& res, const std::vector<double>& bud
   for (const TradeRow* r : front)
     s << "  " << std::setw(10) << r->ms_per_frame << std::setw(10) << r->error << setting(*r)
       << (r->compared == "at-rest" ? " (at rest)" : "") << "\n";
-  const auto best = recommend(res.rows, budgets_ms);
+  const auto best = recommend(res.rows, budgets_ms, std::max(res.reference.change, 0.0));
   for (std::size_t i = 0; i < budgets_ms.size(); ++i) {
     s << "for a " << budgets_ms[i] << " ms frame: ";
     if (!best[i]) s << "nothing measured fits\n";

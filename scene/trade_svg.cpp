@@ -62,7 +62,8 @@ std::string escape(const std::string& s) {
 
 }  // namespace
 
-std::string trade_svg(const std::vector<TradeRow>& rows, const std::string& title, const std::vector<double>& budgets_ms) {
+std::string trade_svg(const std::vector<TradeRow>& rows, const std::string& title, const std::vector<double>& budgets_ms,
+                      double resolved) {
   const double w = 900, h = 580, l = 80, r = 280, t = 50, b = 60;
   const double floor_err = 1e-12, floor_ms = 1e-3;
   auto lx = [&](double ms) { return std::log10(std::max(ms, floor_ms)); };
@@ -71,10 +72,11 @@ std::string trade_svg(const std::vector<TradeRow>& rows, const std::string& titl
   for (const TradeRow& row : rows) {
     x0 = std::min(x0, lx(row.ms_per_frame));
     x1 = std::max(x1, lx(row.ms_per_frame));
-    for (double budget : budgets_ms) x1 = std::max(x1, lx(budget));
+    for (double budget : budgets_ms) x0 = std::min(x0, lx(budget)), x1 = std::max(x1, lx(budget));  // every line inside
     y0 = std::min(y0, ly(row.error));
     y1 = std::max(y1, ly(row.error));
   }
+  if (resolved > 0 && !rows.empty()) y0 = std::min(y0, ly(resolved) - 0.3), y1 = std::max(y1, ly(resolved) + 0.3);
   if (rows.empty()) x0 = y0 = 0, x1 = y1 = 1;
   x0 = std::floor(x0), x1 = std::max(std::ceil(x1), x0 + 1);
   y0 = std::floor(y0), y1 = std::max(std::ceil(y1), y0 + 1);
@@ -103,6 +105,13 @@ std::string trade_svg(const std::vector<TradeRow>& rows, const std::string& titl
   s << "<text x=\"" << (l + w - r) / 2 << "\" y=\"" << h - 18 << "\" text-anchor=\"middle\">time per frame [ms]</text>\n";
   s << "<text transform=\"translate(20," << (t + h - b) / 2
     << ") rotate(-90)\" text-anchor=\"middle\">error vs converged reference (relative L2)</text>\n";
+  if (resolved > 0) {  // the reference's error bar: errors below it are not resolved
+    const double y = py(resolved);
+    s << "<rect x=\"" << l << "\" y=\"" << y << "\" width=\"" << w - l - r << "\" height=\"" << h - b - y
+      << "\" fill=\"#f2f2f2\"/><line x1=\"" << l << "\" y1=\"" << y << "\" x2=\"" << w - r << "\" y2=\"" << y
+      << "\" stroke=\"#999\"/><text x=\"" << w - r - 4 << "\" y=\"" << y - 4
+      << "\" text-anchor=\"end\" fill=\"#555\">reference's error bar: below, not resolved</text>\n";
+  }
   for (double budget : budgets_ms) {
     const double x = px(budget);
     s << "<line x1=\"" << x << "\" y1=\"" << t << "\" x2=\"" << x << "\" y2=\"" << h - b
