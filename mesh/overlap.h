@@ -17,7 +17,7 @@
 namespace incise {
 
 struct OverlapOptions {
-  double relative_tolerance = 1e-7;
+  double relative_tolerance = 0.02;
 };
 
 // The first overlapping pair found (first < second by TetId), or nothing. Pairs sharing a
