@@ -17,6 +17,9 @@
 namespace incise {
 
 struct OverlapOptions {
+  // 2%: what an overlap must exceed to be one. The quality improvement can leave tets pressed
+  // a fraction of a percent into each other near a curved boundary (docs/quality-report.md), and
+  // incise must read what it wrote; a body's parts laid over each other go far deeper.
   double relative_tolerance = 0.02;
 };
 
