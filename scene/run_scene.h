@@ -46,7 +46,7 @@ struct SceneRunSummary {
   std::vector<std::string> files;     // written, relative to out_dir
   // What the user should know although nothing failed, one line each: a scene cut whose blade
   // met no tet over all its frames ("cuts[0] (frames 10-30) cut nothing: ..."), standard tets
-  // at a Poisson's ratio where they lock, frames too slow to be interactive (median > 100 ms).
+  // at a Poisson's ratio where they lock, frames too slow to be interactive (slow_frame_ms).
   std::vector<std::string> warnings;
 };
 

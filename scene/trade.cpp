@@ -339,7 +339,8 @@ TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
   const int ramp_end = last_ramp_frame(scene);
   double spent = 0;
   // Seconds per run measured so far, per level: what is left is estimated from the runs of its
-  // own level, else from the nearest measured level at 8x per level (each splits a tet into 8).
+  // own level, else from the nearest measured level scaled by the tet count (a level splits
+  // every tet into eight).
   std::map<int, std::pair<double, int>> pace;  // level -> (seconds, runs)
   auto seconds_left = [&](std::size_t from) {
     double left = 0;
