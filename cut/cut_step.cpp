@@ -172,9 +172,17 @@ VertexId CutStep::insert_point(TetId t, std::array<double, 4> w) {
       x += w[k] / sum * position(tv[k]);
       for (int j = k + 1; j < 4; ++j) longest = std::max(longest, (position(tv[k]) - position(tv[j])).norm());
     }
+    // A point in a face of the body's surface (where the blade's boundary leaves the body)
+    // stays in it: snapped onto the tet's fourth vertex, the chain of edges would end inside
+    // the body, and the sliver of tissue between it and the surface would hold the two sides
+    // of a through-cut together.
+    int off_surface = -1;
+    for (int k = 0; k < 4; ++k)
+      if (w[k] == 0 && !mesh_.neighbor(t, k).is_valid()) off_surface = k;
     int best = -1;
     double best_d = 1e300;
     for (int k = 0; k < 4; ++k) {
+      if (k == off_surface) continue;
       const double d = (x - position(tv[k])).norm();
       if (d <= vertex_radius(tv[k]) && d < best_d) {
         best = k;

@@ -322,6 +322,7 @@ void Cutter::refresh_waiting(const PositionFn& positions, std::span<const TetId>
   for (TetId t : all) {
     if (!mesh_->is_alive(t) || !seen.insert(t.idx()).second) continue;
     bool plus = false, minus = false;
+    int off = -1, on = 0;  // the one vertex off the plane, and how many are on it
     std::array<Vec3, 4> x;
     for (std::size_t j = 0; j < 4; ++j) {
       const VertexId v = mesh_->tet_vertices(t)[j];
@@ -330,8 +331,13 @@ void Cutter::refresh_waiting(const PositionFn& positions, std::span<const TetId>
       const int s = it != pr.memory.side.end() ? it->second : sp.side(x[j]);
       plus |= s > 0;
       minus |= s < 0;
+      if (s == 0) ++on;
+      else off = int(j);
     }
-    if (!(plus && minus)) continue;
+    // A tet with an interior face in the plane waits too: a blade sweeping along a layer of
+    // mesh faces crosses no tet, and its faces open only where the sheet's finish cuts them.
+    const bool face_on = !(plus && minus) && on == 3 && mesh_->neighbor(t, off).is_valid();
+    if (!(plus && minus) && !face_on) continue;
     for (const CutTriangle& tri : sp.triangles)
       if (tet_may_touch_triangle(x, tri, tol)) {
         pr.waiting.push_back(t);
@@ -364,13 +370,6 @@ void Cutter::finish_sheet(CutStepReport& rep, const PositionFn& positions) {
     if (mesh_->is_alive(t)) closed.push_back(t);
   has_front_ = false;
   front_vertices_.clear();
-  // Nothing crosses the sheet: no boundary to embed (a blade grazing a face leaves the mesh as
-  // it was).
-  if (pr.waiting.empty() && closed.empty()) {
-    pr.sheet.reset();
-    open_stale(rep, positions);
-    return;
-  }
   CutStep step(*mesh_, positions, opt_.snap, &pr.memory, false);
   step.set_fixed(opt_.frozen);
   if (pr.back_known) step.add_known_segment(pr.back.a, pr.back.b, pr.back_vertices);
@@ -378,6 +377,17 @@ void Cutter::finish_sheet(CutStepReport& rep, const PositionFn& positions) {
   std::vector<TetId> seeds = pr.waiting;
   seeds.insert(seeds.end(), front_.begin(), front_.end());
   step.collect(sp, seeds, {});
+  // Nothing crosses the sheet: no boundary to embed (a blade grazing a face leaves the mesh as
+  // it was). A blade sweeping along a layer of interior faces crosses no tet either, but the
+  // faces the blade passed last still wait to open (the walk over the sheet finds them).
+  if (pr.waiting.empty() && closed.empty()) {
+    refresh_waiting(positions, step.live_candidates());
+    if (pr.waiting.empty()) {
+      pr.sheet.reset();
+      open_stale(rep, positions);
+      return;
+    }
+  }
   step.embed_boundary(sp);
   step.split_crossings(sp);
   std::vector<CutFacePair> faces = step.cut_faces(std::span<const Piece>(&sp, 1));
