@@ -271,6 +271,25 @@ CollapseCheck check_collapse(const TetMesh& m, VertexId keep, VertexId remove, d
       common(lk.tris, lr.tris) != 0)
     return refuse(CollapseRefusal::Link);
   if (!boundary_disc_ok(m, keep, remove, star, tolerant)) return refuse(CollapseRefusal::Boundary);
+  // A cut's two sides lie on each other: a cut face that moved outwards, even by a hair, would
+  // push into the tissue across the cut (the mesh stays valid tet by tet, but the body
+  // overlaps itself and no reader takes it back). In tolerance mode `keep` may therefore not
+  // lie outside the plane of any cut face at `remove`; the face may move inwards (the cut opens
+  // by that hair) or within its plane.
+  if (tolerant)
+    for (TetId t : star) {
+      const int ir = m.local_index(t, remove);
+      for (int f = 0; f < 4; ++f) {
+        if (f == ir || m.neighbor(t, f).is_valid() || m.face_tag(t, f) != kTagCut) continue;
+        const auto& tv = m.tet_vertices(t);
+        const auto fv = m.face_vertices(t, f);
+        const Vec3 &a = m.rest(fv[0]), &b = m.rest(fv[1]), &c = m.rest(fv[2]);
+        const Vec3 n = (b - a).cross(c - a);
+        const double inside = n.dot(m.rest(tv[f]) - a), at_keep = n.dot(m.rest(keep) - a);
+        const double l = std::max({(b - a).norm(), (c - a).norm(), (c - b).norm()});
+        if (at_keep * (inside > 0 ? 1 : -1) < -1e-12 * l * l * l) return refuse(CollapseRefusal::Boundary);
+      }
+    }
   // Nothing would be left where `remove`'s star was: its volume would be lost.
   if (out.plan.rebuilt.empty()) return refuse(CollapseRefusal::Volume);
 

@@ -14,6 +14,7 @@
 #include <string>
 
 #include "cut/cutter.h"
+#include "mesh/overlap.h"
 #include "mesh/io/tet_io.h"
 #include "quality/boundary_angle.h"
 #include "quality/metrics.h"
@@ -138,8 +139,9 @@ TEST_CASE("quality floor: contracting along bent cut sheets and rims leaves fewe
   // bench_cut's 100 random steps on the liver (seed 2026), with the cutter's default
   // contraction along curved and bent surfaces (ImproveOptions::collapse_deviation 0.05) and
   // without it: the short edges finish() leaves on bent cut sheets and along rims go
-  // (406 -> 348 tets below 10 deg when this test was written), every cut invariant holds, and
-  // the label volumes move only by what the contractions report.
+  // (406 -> 348 tets below 10 deg when this test was written; fewer since contractions may no
+  // longer push a cut face into the tissue across the cut, which made the body overlap itself),
+  // every cut invariant holds, and the label volumes move only by what the contractions report.
   const TetMesh liver = read_tet_mesh(std::string(INCISE_SOURCE_DIR) + "/samples/liver.msh");
   const auto blades = random_blades(liver, 20, 2026);
   std::size_t below[2] = {0, 0};
@@ -153,10 +155,11 @@ TEST_CASE("quality floor: contracting along bent cut sheets and rims leaves fewe
     Cutter cutter(m, opt);
     const double moved = cut_with(cutter, blades, [](const CutStepReport&, bool) {});
     check_cut_invariants(m, vol0, 1e-9, moved);
+    CHECK_FALSE(find_overlapping_tets(m));  // the body does not overlap itself: it reads back
     below[with] = quality_range(m, 10.0).below;
   }
   INFO(below[0] << " tets below 10 deg without contraction along bent surfaces, " << below[1] << " with");
-  CHECK(double(below[1]) < 0.95 * double(below[0]));
+  CHECK(below[1] < below[0]);
 }
 
 TEST_CASE("quality floor: finish() refines the wedges where cuts cross", "[cut][quality][scale]") {
@@ -183,6 +186,7 @@ TEST_CASE("quality floor: finish() refines the wedges where cuts cross", "[cut][
       if (finish && with) insertions += r.improve.insertions;
     });
     check_cut_invariants(m, vol0, 1e-9, moved);
+    CHECK_FALSE(find_overlapping_tets(m));  // the body does not overlap itself: it reads back
     below[with] = quality_range(m, 10.0).below;
     tets[with] = m.num_tets();
   }
