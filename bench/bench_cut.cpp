@@ -642,8 +642,8 @@ void curved(bool quick, const std::string& only_case, int only_steps, double tol
 }
 
 // The arc and the S of curved() with their centres at random offsets against the grid (x in
-// [-0.13, 0.12] of the rows above, a fixed seed): how many of the 48 drags stay in one part (the
-// cutter before issue 36's crease fixes: 43 of 144 over three seeds), and the quality they leave.
+// [-0.13, 0.12] of the rows above, a fixed seed): how many of the 48 drags stay in one part, and
+// the quality they leave (figures: docs/cut.md#known-gaps).
 void curved_offsets(double tolerance) {
   std::printf("# curved paths at 48 random offsets (arc and S, 8 each at 30, 100 and 400 steps, seed 1)\n");
   std::printf("case,drags,attached,extra_parts,min_dihedral_worst,below_10deg_pct_median,tets_after_median\n");
