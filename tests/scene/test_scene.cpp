@@ -186,7 +186,7 @@ TEST_CASE("the bundled sample scene parses and runs", "[scene]") {
 TEST_CASE("a run whose frames are not interactive says so and names incise trade", "[scene]") {
   const Scene s = parse_scene(kGood, "scene.json");
   SceneRunOptions ro;
-  CHECK(run_scene(s, ro).warnings.empty());  // a small beam: far below 100 ms a frame
+  CHECK(run_scene(s, ro).warnings.empty());  // a small beam: well under slow_frame_ms a frame
   ro.slow_frame_ms = 1e-9;                   // any frame is "slow"
   const SceneRunSummary sum = run_scene(s, ro);
   REQUIRE(sum.warnings.size() == 1);
