@@ -68,6 +68,8 @@ void add_simulate(CLI::App& app) {
                           {"frames_budget_exhausted", s.frames_budget_exhausted},
                           {"frames_not_converged", s.frames_not_converged},
                           {"max_displacement", s.max_displacement},
+                          {"max_inverted", s.max_inverted},
+                          {"frames_with_inverted", s.frames_with_inverted},
                           {"total_cut_ms", s.total_cut_ms},
                           {"fragments_handled", s.fragments_handled},
                           {"files", s.files.size()},
@@ -77,7 +79,10 @@ void add_simulate(CLI::App& app) {
       std::cout << "simulate: " << s.frames << " frames on " << s.vertices << " vertices / " << s.tets << " tets, "
                 << s.total_iterations << " CG iterations, " << s.total_solve_ms << " ms solving, "
                 << s.frames_budget_exhausted << " frames stopped by the budget, " << s.frames_not_converged
-                << " not converged; max displacement " << s.max_displacement
+                << " not converged; max displacement " << s.max_displacement << "; "
+                << (s.frames_with_inverted == 0 ? std::string("no inverted tets")
+                                                : std::to_string(s.frames_with_inverted) + " frames with inverted tets (at most " +
+                                                      std::to_string(s.max_inverted) + ")")
                 << (scene.cuts.empty() ? "" : "; cutting " + std::to_string(s.total_cut_ms) + " ms") << "; "
                 << s.files.size() << " files in "
                 << o->out << "\n";

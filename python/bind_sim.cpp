@@ -378,6 +378,8 @@ void bind_sim(py::module_& m) {
         d["frames_budget_exhausted"] = r.frames_budget_exhausted;
         d["frames_not_converged"] = r.frames_not_converged;
         d["max_displacement"] = r.max_displacement;
+        d["max_inverted"] = r.max_inverted;
+        d["frames_with_inverted"] = r.frames_with_inverted;
         d["vertices"] = r.vertices;
         d["tets"] = r.tets;
         d["total_cut_ms"] = r.total_cut_ms;

@@ -14,35 +14,89 @@ namespace incise {
 
 namespace {
 
-// incise is unit-agnostic: the mesh, the moduli, the densities and g must be in one system.
-// A mix (SI materials on a mesh in millimetres) shows in the scale of the sag gravity implies,
-// rho g L^2 / E for the softest material on a body of size L: far past the body's size, or a
-// vanishing share of it (docs/scene.md#units).
-std::string unit_check(const Scene& s, const TetMesh& mesh) {
-  Vec3 g = Vec3::Zero();
-  for (const SceneLoad& l : s.loads)
-    if (l.kind == SceneLoad::Kind::Gravity) g += l.value;
-  if (g.norm() == 0 || mesh.num_vertices() == 0) return {};
+double body_size(const TetMesh& mesh) {
   Vec3 lo = Vec3::Constant(1e300), hi = -lo;
   for (VertexId v : mesh.vertices()) {
     lo = lo.cwiseMin(mesh.rest(v));
     hi = hi.cwiseMax(mesh.rest(v));
   }
-  const double size = (hi - lo).maxCoeff();
-  std::vector<Material> ms;
-  if (s.materials.has_default()) ms.push_back(s.materials.fallback());
-  for (const auto& [label, m] : s.materials.by_label()) ms.push_back(m);
-  if (ms.empty()) ms.push_back(Material{});
+  return mesh.num_vertices() == 0 ? 0.0 : (hi - lo).maxCoeff();
+}
+
+Vec3 gravity(const Scene& s) {
+  Vec3 g = Vec3::Zero();
+  for (const SceneLoad& l : s.loads)
+    if (l.kind == SceneLoad::Kind::Gravity) g += l.value;
+  return g;
+}
+
+// The scene's materials with the keys that name them in messages.
+std::vector<std::pair<std::string, Material>> named_materials(const Scene& s) {
+  std::vector<std::pair<std::string, Material>> ms;
+  if (s.materials.has_default()) ms.emplace_back("materials[\"*\"]", s.materials.fallback());
+  for (const auto& [label, m] : s.materials.by_label()) ms.emplace_back("materials[\"" + std::to_string(label) + "\"]", m);
+  if (ms.empty()) ms.emplace_back("the default material", Material{});
+  return ms;
+}
+
+// incise is unit-agnostic: the mesh, the moduli, the densities and g must be in one system.
+// A mix (SI materials on a mesh in millimetres) shows in the scale of the sag gravity implies,
+// rho g L^2 / E for the softest material on a body of size L: far past the body's size, or a
+// vanishing share of it (docs/scene.md#units).
+std::string unit_check(const Scene& s, const TetMesh& mesh) {
+  const Vec3 g = gravity(s);
+  const double size = body_size(mesh);
+  if (g.norm() == 0 || !(size > 0)) return {};
+  const auto ms = named_materials(s);
   double sag = 0;
-  for (const Material& m : ms) sag = std::max(sag, m.density * g.norm() * size * size / m.young);
+  for (const auto& [key, m] : ms) sag = std::max(sag, m.density * g.norm() * size * size / m.young);
   const double ratio = sag / size;
-  if (!(size > 0) || (ratio <= 10 && ratio >= 1e-9)) return {};
+  if (ratio <= 10 && ratio >= 1e-9) return {};
   std::ostringstream w;
-  w << "gravity " << g.norm() << " on a body " << size << " across with E " << ms[0].young << " and density "
-    << ms[0].density << " implies a sag of the order of " << sag << " (rho g L^2 / E), " << ratio
+  w << "gravity " << g.norm() << " on a body " << size << " across with E " << ms[0].second.young << " and density "
+    << ms[0].second.density << " implies a sag of the order of " << sag << " (rho g L^2 / E), " << ratio
     << " times the body's size: are the mesh, the moduli, the densities and g in one unit system? (m, Pa, kg/m^3, "
     << "m/s^2; or mm, MPa, t/mm^3, mm/s^2: docs/scene.md#units)";
   return w.str();
+}
+
+// A scene that states its units ("units": "mm" or "m") gets the ranges of a body, a tissue and
+// the earth's gravity in them checked: one warning per value outside, naming its key. The
+// ranges are wide (a cell to a torso; 10 Pa to 100 GPa; 100 to 25,000 kg/m^3; g within 10x
+// the earth's): they catch a number in the other system, not an unusual tissue.
+std::vector<std::string> stated_unit_checks(const Scene& s, const TetMesh& mesh) {
+  std::vector<std::string> out;
+  if (s.units.empty()) return out;
+  const bool mm = s.units == "mm";
+  struct Range {
+    const char* what;
+    double lo, hi;
+    const char* unit;
+    const char* meaning;
+  };
+  const Range size_r = mm ? Range{"the body", 1, 3000, "mm", "1 mm to 3 m"} : Range{"the body", 1e-3, 3, "m", "1 mm to 3 m"};
+  const Range young_r = mm ? Range{"young", 1e-5, 1e5, "MPa", "10 Pa to 100 GPa"} : Range{"young", 10, 1e11, "Pa", "10 Pa to 100 GPa"};
+  const Range density_r = mm ? Range{"density", 1e-10, 2.5e-8, "t/mm^3", "100 to 25,000 kg/m^3"}
+                             : Range{"density", 100, 25000, "kg/m^3", "100 to 25,000 kg/m^3"};
+  const Range g_r = mm ? Range{"g", 981, 98100, "mm/s^2", "within 10x the earth's 9810 mm/s^2"}
+                       : Range{"g", 0.981, 98.1, "m/s^2", "within 10x the earth's 9.81 m/s^2"};
+  auto check = [&](const std::string& key, double v, const Range& r) {
+    if (v >= r.lo && v <= r.hi) return;
+    std::ostringstream w;
+    w << "units \"" << s.units << "\": " << key << " is " << v << " " << r.unit << ", outside " << r.lo << ".." << r.hi << " "
+      << r.unit << " (" << r.meaning << "): is it in " << (mm ? "SI (m, Pa, kg/m^3, m/s^2)" : "mm, MPa, t/mm^3, mm/s^2")
+      << "? (docs/scene.md#units)";
+    out.push_back(w.str());
+  };
+  check("the body's size (the mesh's largest extent)", body_size(mesh), size_r);
+  const Vec3 g = gravity(s);
+  const bool dynamic = !s.integrator.empty() && s.integrator != "static";
+  for (const auto& [key, m] : named_materials(s)) {
+    check(key + ".young", m.young, young_r);
+    if (g.norm() > 0 || dynamic || s.model == SceneModel::Springs) check(key + ".density", m.density, density_r);
+  }
+  if (g.norm() > 0) check("gravity's g", g.norm(), g_r);
+  return out;
 }
 
 }  // namespace
@@ -69,6 +123,7 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
   }
   sum.vertices = runner.mesh().num_vertices();
   sum.tets = runner.mesh().num_tets();
+  for (std::string& w : stated_unit_checks(s, runner.mesh())) sum.warnings.push_back(std::move(w));
   const std::string units = unit_check(s, runner.mesh());
   if (!units.empty()) sum.warnings.push_back(units);
   std::vector<double> frame_ms;  // the solver's frames, for the warning below
@@ -88,6 +143,8 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
       sum.frames_budget_exhausted += st.budget_exhausted;
       sum.frames_not_converged += !converged;
       sum.max_displacement = f.max_displacement;
+      sum.max_inverted = std::max(sum.max_inverted, f.inverted);
+      sum.frames_with_inverted += f.inverted > 0;
       if (frame > 0) frame_ms.push_back(st.frame_ms);  // frame 0 builds the solver
       ++sum.frames;
       if (out) {

@@ -42,6 +42,10 @@ struct SceneRunSummary {
   double total_cut_ms = 0;
   std::size_t fragments_handled = 0;  // detached parts the policy fixed or removed (kept ones are not counted)
   double max_displacement = 0;        // at the last frame
+  // Tets inverted or flat in the deformed shape (stats.csv's `inverted`): the most in one frame,
+  // and how many frames had any.
+  std::size_t max_inverted = 0;
+  int frames_with_inverted = 0;
   std::size_t vertices = 0, tets = 0;
   std::vector<std::string> files;     // written, relative to out_dir
   // What the user should know although nothing failed, one line each: a scene cut whose blade

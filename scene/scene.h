@@ -102,6 +102,9 @@ struct Scene {
   std::array<int, 3> gen_cells{4, 4, 4};  // box; tube (across the wall, around, along); cook (n, n, 1)
   double gen_angle = 90;            // tube: sector angle [deg]
   int gen_resolution = 4;
+  // "" (none stated), "mm" or "m": the unit system the scene says it is in, whose ranges for
+  // the body's size, the moduli, the densities and g are checked (docs/scene.md#units).
+  std::string units;
   SceneModel model = SceneModel::FemLinear;
   Formulation formulation = Formulation::Standard;  // FEM: how the volumetric strain is treated
   MaterialTable materials;

@@ -28,7 +28,7 @@ SceneOutput::SceneOutput(const Scene& scene, std::string dir)
   fs::create_directories(dir_, ec);
   if (ec) throw IoError(dir_, 0, "cannot create output directory: " + ec.message());
   csv_ << "frame,time,iterations,relative_residual,solve_ms,budget_exhausted,converged,max_displacement,frame_ms,"
-          "setup_ms,cheaper_preconditioner,relinearized,outside_ms"
+          "setup_ms,cheaper_preconditioner,relinearized,outside_ms,inverted"
        << (cuts_ ? ",cut_ms,tets" : "") << "\n";
   csv_ << std::setprecision(9);
   pvd_ << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
@@ -41,7 +41,8 @@ std::string SceneOutput::add(SceneRunner& runner, const SceneFrame& f, bool vtu)
   const bool converged = st.info == SolveInfo::Success;
   csv_ << f.frame << "," << f.time << "," << st.iterations << "," << st.relative_residual << "," << st.solve_ms << ","
        << (st.budget_exhausted ? 1 : 0) << "," << (converged ? 1 : 0) << "," << f.max_displacement << "," << st.frame_ms
-       << "," << st.setup_ms << "," << (st.cheaper_preconditioner ? 1 : 0) << "," << st.relinearized << "," << st.outside_ms;
+       << "," << st.setup_ms << "," << (st.cheaper_preconditioner ? 1 : 0) << "," << st.relinearized << "," << st.outside_ms
+       << "," << f.inverted;
   if (cuts_) csv_ << "," << f.cut_ms << "," << mesh.num_tets();
   csv_ << "\n";
   if (!vtu) return "";

@@ -260,10 +260,15 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   }
   const Reader rd(path);
   rd.keys(j, "", {"mesh", "model", "formulation", "materials", "fixed", "loads", "solver", "time", "output", "cuts",
-                  "inputs", "fragments"});
+                  "inputs", "fragments", "units"});
   Scene s;
   s.path = path;
   s.source = text;
+  if (j.contains("units")) {
+    s.units = rd.string(j["units"], "units");
+    if (s.units != "mm" && s.units != "m")
+      rd.fail("units", "expected \"mm\" (mm, MPa, t/mm^3, mm/s^2) or \"m\" (m, Pa, kg/m^3, m/s^2), got \"" + s.units + "\"");
+  }
 
   if (!j.contains("mesh")) rd.fail("mesh", "missing; expected a mesh file name or {\"generate\": \"box\", ...}");
   const json& jm = j["mesh"];

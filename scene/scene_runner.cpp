@@ -37,6 +37,23 @@ double max_displacement(const Eigen::VectorXd& disp) {
   return d;
 }
 
+// Tets whose deformed shape (rest + disp) has a volume <= 0: inverted or flat. One pass over
+// the tets, like the frame's solve (docs/scene.md, stats.csv's `inverted`).
+std::size_t count_inverted(const TetMesh& mesh, const Eigen::VectorXd& disp) {
+  std::size_t n = 0;
+  for (TetId t : mesh.tets()) {
+    const auto& v = mesh.tet_vertices(t);
+    auto x = [&](int k) { return Vec3(mesh.rest(v[k]) + disp.segment<3>(3 * v[k].idx())); };
+    const Vec3 p0 = x(0);
+    Eigen::Matrix3d m;
+    m.col(0) = x(1) - p0;
+    m.col(1) = x(2) - p0;
+    m.col(2) = x(3) - p0;
+    n += m.determinant() <= 0;
+  }
+  return n;
+}
+
 // Throws when a frame's solution blew up: a non-finite displacement or residual, or a vertex
 // moved by more than kBlowUpFactor times the body's size. Such a frame is never "converged".
 void check_solution(const Scene& s, int frame, double max_disp, double residual, double size) {
@@ -616,6 +633,7 @@ SceneFrame SceneRunner::step() {
   }
   out.max_displacement = max_displacement(disp);
   check_solution(s, frame_, out.max_displacement, st.relative_residual, size_);
+  out.inverted = count_inverted(mesh_, disp);
   out.time = dynamic_ ? (frame_ + 1) * s.dt * (s.model == SceneModel::Springs ? s.substeps : 1) : frame_;
   ++frame_;
   return out;

@@ -46,6 +46,7 @@ struct SceneFrame {
   double max_displacement = 0;      // largest vertex displacement
   double cut_ms = 0;                // the scene's blades before the solve (cut + local improvement)
   double cut_improve_ms = 0;        // of cut_ms: the local improvement
+  std::size_t inverted = 0;         // tets inverted or flat in the deformed shape
 };
 
 class SceneRunner {

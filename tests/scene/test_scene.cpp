@@ -193,6 +193,38 @@ TEST_CASE("a run whose frames are not interactive says so and names incise trade
   CHECK_THAT(sum.warnings[0], Catch::Contains("(median): not interactive; `incise trade scene.json` measures the settings"));
 }
 
+TEST_CASE("units: a scene that states its units gets their ranges checked, each value by its key", "[scene]") {
+  auto scene = [](const std::string& units, double size, const std::string& material, double g) {
+    const std::string sz = std::to_string(size);
+    return parse_scene(R"({"units": ")" + units + R"(", "mesh": {"generate": "box", "size": [)" + sz + "," + sz + "," + sz +
+                           R"(], "cells": [2, 2, 2]}, "model": "fem-linear", "materials": {"*": )" + material +
+                           R"(}, "fixed": [{"box": [-1, -1, -1, )" +
+                           std::to_string(size + 1) + R"(, 1e-3, )" + std::to_string(size + 1) +
+                           R"(]}], "loads": [{"type": "gravity", "g": [0, 0, )" + std::to_string(-g) +
+                           R"(]}], "time": {"frames": 1}})",
+                       "scene.json");
+  };
+  SceneRunOptions ro;
+  // Millimetres, stated, with SI numbers for the default material and g: each is named.
+  const SceneRunSummary mixed = run_scene(scene("mm", 200, R"({"young": 3e6, "poisson": 0.3, "density": 1000})", 9.81), ro);
+  std::string all;
+  for (const std::string& w : mixed.warnings) all += w + "\n";
+  INFO(all);
+  CHECK_THAT(all, Catch::Contains("units \"mm\": materials[\"*\"].young is 3e+06 MPa, outside 1e-05..100000 MPa"));
+  CHECK_THAT(all, Catch::Contains("units \"mm\": materials[\"*\"].density is 1000 t/mm^3"));
+  CHECK_THAT(all, Catch::Contains("units \"mm\": gravity's g is 9.81 mm/s^2"));
+  CHECK_THAT(all, Catch::Contains("is it in SI (m, Pa, kg/m^3, m/s^2)?"));
+  CHECK(all.find("the body's size") == std::string::npos);
+  // The same in one system: nothing said. Metres stated on a 200-unit mesh: the body is named.
+  CHECK(run_scene(scene("mm", 200, R"({"young": 0.003, "poisson": 0.3, "density": 1e-9})", 9810), ro).warnings.empty());
+  const SceneRunSummary metres = run_scene(scene("m", 200, R"({"young": 3000, "poisson": 0.3, "density": 1000})", 9.81), ro);
+  REQUIRE_FALSE(metres.warnings.empty());
+  CHECK_THAT(metres.warnings[0], Catch::Contains("units \"m\": the body's size (the mesh's largest extent) is 200 m"));
+  CHECK(run_scene(scene("m", 0.2, R"({"young": 3000, "poisson": 0.3, "density": 1000})", 9.81), ro).warnings.empty());
+  CHECK_THROWS_WITH(scene("cm", 1, R"({"young": 1})", 9.81),
+                    Catch::Contains("units: expected \"mm\" (mm, MPa, t/mm^3, mm/s^2) or \"m\""));
+}
+
 TEST_CASE("units: SI materials on a body in millimetres are flagged by the sag they imply", "[scene]") {
   // Issue 39 item 4: a 200 mm body with E = 3 kPa and 1000 kg/m^3 as numbers, g = 9.81: rho g L^2
   // / E = 1.3e5, 654 times the body. In one system (mm, MPa, t/mm^3, mm/s^2) nothing is said.
