@@ -138,8 +138,10 @@ std::unique_ptr<Fem> make_fem(const py::object& mesh_obj, const py::object& mate
                               const std::string& method, const std::string& backend, double tolerance,
                               int max_iterations, double budget_ms, const std::string& preconditioner,
                               bool warm_start, bool dynamic, double dt, double damping, int nonlinear_iterations,
-                              const py::object& gravity, bool check_rigid_modes, const std::string& formulation) {
+                              const py::object& gravity, bool check_rigid_modes, const std::string& formulation,
+                              double inversion_barrier, double barrier_stiffness) {
   FemSimulationOptions o;
+  o.inversion_barrier = {.j_min = inversion_barrier, .stiffness = barrier_stiffness};
   const auto f = parse_formulation(formulation);
   if (!f) throw InvalidArgument("formulation: expected " + std::string(kFormulationNames) + ", got \"" + formulation + "\"");
   o.formulation = *f;
@@ -213,7 +215,10 @@ void bind_sim(py::module_& m) {
            py::arg("preconditioner") = "cholesky", py::arg("warm_start") = true, py::arg("dynamic") = false,
            py::arg("dt") = 0.01, py::arg("damping") = 0.0, py::arg("nonlinear_iterations") = 1,
            py::arg("gravity") = py::make_tuple(0.0, 0.0, 0.0), py::arg("check_rigid_modes") = true,
-           py::arg("formulation") = "standard")
+           py::arg("formulation") = "standard", py::arg("inversion_barrier") = 0.0,
+           py::arg("barrier_stiffness") = InversionBarrierOptions{}.stiffness)
+      .def_property_readonly("barrier_tets",
+                             [](const Fem& f) { return f.sim.model().inversion_barrier().held(); })
       .def("fix", [](Fem& f, const py::object& v) { for (VertexId x : to_vertices(f.mesh, v)) f.sim.fix(x); })
       .def("constrain", [](Fem& f, const py::object& v, const std::string& components, const py::object& d) {
         unsigned axes = 0;

@@ -106,6 +106,8 @@ struct Scene {
   // the body's size, the moduli, the densities and g are checked (docs/scene.md#units).
   std::string units;
   SceneModel model = SceneModel::FemLinear;
+  // fem-corotational: hold tets near inversion (docs/solver.md#inversion-barrier); off by default.
+  InversionBarrierOptions inversion_barrier;
   Formulation formulation = Formulation::Standard;  // FEM: how the volumetric strain is treated
   MaterialTable materials;
   std::vector<SceneFixed> fixed;

@@ -260,7 +260,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   }
   const Reader rd(path);
   rd.keys(j, "", {"mesh", "model", "formulation", "materials", "fixed", "loads", "solver", "time", "output", "cuts",
-                  "inputs", "fragments", "units"});
+                  "inputs", "fragments", "units", "inversion_barrier"});
   Scene s;
   s.path = path;
   s.source = text;
@@ -385,6 +385,27 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     const json& jl = j["loads"];
     if (!jl.is_array()) rd.fail("loads", "expected an array of loads");
     for (std::size_t i = 0; i < jl.size(); ++i) s.loads.push_back(read_load(rd, jl[i], "loads[" + std::to_string(i) + "]"));
+  }
+
+  if (j.contains("inversion_barrier")) {
+    // true: the defaults; an object: {"j_min": J, "stiffness": K}, either optional.
+    const json& jb = j["inversion_barrier"];
+    const InversionBarrierOptions on{.j_min = kDefaultBarrierJMin};
+    if (jb.is_boolean()) {
+      if (jb.get<bool>()) s.inversion_barrier = on;
+    } else if (jb.is_object()) {
+      rd.keys(jb, "inversion_barrier", {"j_min", "stiffness"});
+      s.inversion_barrier = on;
+      if (jb.contains("j_min")) {
+        s.inversion_barrier.j_min = rd.positive(jb["j_min"], "inversion_barrier.j_min");
+        if (!(s.inversion_barrier.j_min < 1)) rd.fail("inversion_barrier.j_min", "expected a volume ratio in (0, 1)");
+      }
+      if (jb.contains("stiffness")) s.inversion_barrier.stiffness = rd.positive(jb["stiffness"], "inversion_barrier.stiffness");
+    } else {
+      rd.fail("inversion_barrier", "expected true, false or {\"j_min\": J, \"stiffness\": K}");
+    }
+    if (s.inversion_barrier.j_min > 0 && s.model != SceneModel::FemCorotational)
+      rd.fail("inversion_barrier", "goes with \"model\": \"fem-corotational\" only");
   }
 
   if (j.contains("solver")) {

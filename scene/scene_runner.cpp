@@ -204,6 +204,7 @@ SceneRunner::SceneRunner(const Scene& scene, const TetMesh* mesh) : scene_(scene
     fo.dt = s.dt;
     fo.damping = s.damping;
     fo.nonlinear_iterations = s.nonlinear_iterations;
+    fo.inversion_barrier = s.inversion_barrier;
     fo.cholesky = s.cholesky;
     fo.amg = s.amg;
     fo.gravity = gravity;

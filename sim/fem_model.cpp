@@ -241,6 +241,7 @@ void FemModel::vertex_block(std::uint32_t vi) {
 void FemModel::apply(const TopologyChange& change) {
   grow();
   ++work_.updates;
+  barrier_.apply(change);
   std::vector<std::uint32_t> edges;  // EdgeSmoothed: edges whose tets changed
   for (TetId t : change.removed_tets) {
     if (t.idx() < tet_capacity_) {
@@ -692,6 +693,7 @@ void FemModel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
   } else {
     kernel_.multiply(x, y, rows());
   }
+  barrier_.add_product(x, y);
 }
 
 // The edge-smoothed K x: a kernel sweep for the tets' strains (and the divergence sums of the
@@ -741,6 +743,7 @@ void FemModel::add_rotation_rhs(Eigen::VectorXd& b) const {
     // here rather than kept per vertex, so that apply() stays local.
     volumetric_pass(nullptr, true, -1.0, &b);
   }
+  barrier_.add_rhs(b);
 }
 
 void FemModel::internal_forces(const Eigen::VectorXd& u, Eigen::VectorXd& f) const {
@@ -763,6 +766,7 @@ void FemModel::internal_forces(const Eigen::VectorXd& u, Eigen::VectorXd& f) con
   if (nodal_averaged()) {
     volumetric_pass(&u, true, -1.0, &f);
   }
+  barrier_.add_internal_forces(u, f);
 }
 
 void FemModel::update_rotations(const Eigen::VectorXd& u) {
@@ -770,6 +774,7 @@ void FemModel::update_rotations(const Eigen::VectorXd& u) {
   if (u.size() != rows()) throw InvalidArgument("fem: rotations from a vector of the wrong size");
   if (warm_rotations_) update_rotations_warm(u);
   else update_rotations_exact(u);
+  barrier_.update(*this, u);
 }
 
 namespace {
@@ -996,6 +1001,7 @@ void FemModel::update_rotations_partial(const Eigen::VectorXd& u, std::size_t fi
   }
   rotation_stats_ = stats;
   rotation_stats_.tets = std::min(count * kLanes, mesh_->num_tets());
+  barrier_.update(*this, u);
 }
 
 // Packets [begin, end), in parallel: the rotations only (the caller refreshes the blocks of their
@@ -1155,6 +1161,7 @@ Eigen::SparseMatrix<double> FemModel::assemble() const {
     const Eigen::SparseMatrix<double> bc = b, bt = b.transpose();
     k += Eigen::SparseMatrix<double>(bt * bc);
   }
+  if (barrier_.held() > 0 && kind_ == FemKind::Corotational) barrier_.add_to(k);
   k.makeCompressed();  // the assembled backend reads the CSR arrays directly
   return k;
 }

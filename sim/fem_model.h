@@ -65,6 +65,7 @@
 #include "mesh/tet_mesh.h"
 #include "sim/linear_operator.h"
 #include "sim/formulation.h"
+#include "sim/inversion_barrier.h"
 #include "sim/material.h"
 #include "sim/rotation_extraction.h"
 #include "sim/stiffness_kernel.h"
@@ -161,6 +162,11 @@ public:
 
   // Lumped mass per unknown (density * V / 4 per tet corner, repeated on x,y,z).
   const Eigen::VectorXd& lumped_mass() const { return mass_; }
+
+  // Corotational: the inversion barrier (sim/inversion_barrier.h; j_min 0: off, the default).
+  // Its held tets are chosen at each update_rotations(); apply() drops them until the next.
+  void set_inversion_barrier(const InversionBarrierOptions& o) { barrier_.set_options(o); }
+  const InversionBarrier& inversion_barrier() const { return barrier_; }
 
   // Corotational: per-tet rotations from displacement u (O(mesh), parallel); also refreshes
   // the diagonal. No-op for Linear.
@@ -304,6 +310,7 @@ private:
   // The fused edge-smoothed product's symmetric tensors (xx, yy, zz, xy, xz, yz): per tet
   // (V/6) eps_t, per edge sigma_e, per tet sigma_bar_t.
   mutable std::vector<double> tsym_, esym_, tbar_;
+  InversionBarrier barrier_;
   FemWork work_;
 };
 

@@ -63,6 +63,12 @@ FemSimulation::FemSimulation(const TetMesh& mesh, const MaterialTable& materials
   if (!(opt_.dt > 0) || !std::isfinite(opt_.dt)) throw InvalidArgument("fem: dt: expected a positive number");
   if (!(opt_.damping >= 0)) throw InvalidArgument("fem: damping: expected a number >= 0");
   if (opt_.nonlinear_iterations < 1) throw InvalidArgument("fem: nonlinear_iterations: expected an integer >= 1");
+  const InversionBarrierOptions& ib = opt_.inversion_barrier;
+  if (!(ib.j_min >= 0 && ib.j_min < 1) || !(ib.stiffness > 0) || !std::isfinite(ib.stiffness))
+    throw InvalidArgument("fem: inversion_barrier: expected j_min in [0, 1) and a positive finite stiffness");
+  if (ib.j_min > 0 && opt_.kind != FemKind::Corotational)
+    throw InvalidArgument("fem: inversion_barrier: for corotational elements only (linear ones have no relinearization)");
+  model_.set_inversion_barrier(ib);
   // A relative residual of 1 or more is met by the zero vector: every frame would "converge" at
   // no displacement.
   if (!(opt_.cg.tolerance > 0 && opt_.cg.tolerance < 1))

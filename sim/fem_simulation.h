@@ -77,6 +77,9 @@ struct FemSimulationOptions {
   // (measured per packet of tets); the tets that do not fit are refreshed in the next frames,
   // in turn (FemModel::update_rotations_partial). At 97k tets a full refresh took 23 ms.
   double relinearize_share = 0.5;
+  // Corotational: hold tets whose volume ratio falls below inversion_barrier.j_min (0: off;
+  // sim/inversion_barrier.h, docs/solver.md#inversion-barrier).
+  InversionBarrierOptions inversion_barrier;
   Vec3 gravity = Vec3::Zero();                          // body acceleration [m/s^2]
   bool check_rigid_modes = true;                        // refuse under-constrained static solves
 };

@@ -391,3 +391,29 @@ def test_standard_tets_near_incompressible_warn(tmp_path):
     assert any("standard tets at Poisson's ratio 0.47 lock" in w for w in summary["warnings"])
     scene.write_text(scene.read_text().replace('"model"', '"formulation": "nodal-averaged", "model"'))
     assert incise.run_scene(str(scene), str(tmp_path / "run2"))["warnings"] == []
+
+
+def test_fem_inversion_barrier_holds_a_pushed_box():
+    # The C++ test's box (tests/sim/test_inversion_barrier.cpp): the top's middle vertex pushed
+    # down by a point force inverts tets at the plain corotational equilibrium; held, none.
+    mesh = incise.generate_box((2, 2, 2), (2, 2, 2))
+
+    def inverted(**kw):
+        sim = incise.FemSimulation(mesh, incise.Material(1000, 0.3), kind="corotational", tolerance=1e-10,
+                                   nonlinear_iterations=2, **kw)
+        p = mesh.points
+        sim.fix(np.nonzero(p[:, 2] == 0)[0])
+        top = int(np.nonzero(np.all(np.isclose(p, (1, 1, 2)), axis=1))[0][0])
+        sim.set_force(top, (0, 0, -2000))
+        for _ in range(6):
+            sim.step()
+        x = sim.positions
+        t = mesh.tets
+        d = np.einsum("ij,ij->i", x[t[:, 1]] - x[t[:, 0]], np.cross(x[t[:, 2]] - x[t[:, 0]], x[t[:, 3]] - x[t[:, 0]]))
+        return int((d <= 0).sum()), sim
+
+    assert inverted()[0] > 0
+    n, sim = inverted(inversion_barrier=0.2)
+    assert n == 0 and sim.barrier_tets > 0
+    with pytest.raises(incise.InvalidArgument):
+        incise.FemSimulation(mesh, incise.Material(1000, 0.3), inversion_barrier=0.2)  # linear: refused
