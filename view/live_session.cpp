@@ -75,6 +75,11 @@ public:
   double frame_cut_ms = 0, frame_improve_ms = 0, frame_ms = 0;
   std::size_t budget_hits = 0;  // frames the solver budget stopped
   std::size_t frames = 0, blade_steps = 0;
+  // The mouse's drags: how many have ended, and the tets the current (or last) one cut. The page
+  // compares them across a drag to say "no cut" (the scene's own blade may cut meanwhile, so
+  // the mesh's counts cannot tell).
+  std::size_t blade_drags = 0, drag_tets_cut = 0;
+  bool drag_open = false;  // a BladeStart taken since the last BladeEnd (a refused start leaves it false)
   double total_frame_ms = 0, max_frame_ms = 0, total_blade_ms = 0, max_blade_ms = 0;
   std::vector<float> scalars;
   float scalar_lo = 0, scalar_hi = 0;
@@ -227,7 +232,8 @@ void LiveSession::loop() {
               s->frame_cut_ms += r.ms;
               s->frame_improve_ms += r.ms_improve;
             }
-            s->runner.advance_blade({a, b});  // places it
+            s->drag_tets_cut = s->runner.advance_blade({a, b}).tets_cut;  // places it
+            s->drag_open = true;
             s->blade = true;
             s->blade_at = a;
             s->blade_b = b;
@@ -242,7 +248,9 @@ void LiveSession::loop() {
             s->blade_at = at;
             s->blade_b = bt;
             const auto t0 = Clock::now();
-            s->frame_improve_ms += s->runner.advance_blade({at, bt}).ms_improve;
+            const CutStepReport r = s->runner.advance_blade({at, bt});
+            s->frame_improve_ms += r.ms_improve;
+            s->drag_tets_cut += r.tets_cut;
             const double ms = ms_since(t0);
             s->frame_cut_ms += ms;
             ++s->blade_steps;
@@ -256,8 +264,12 @@ void LiveSession::loop() {
               const CutStepReport r = s->runner.finish_blade();
               s->frame_cut_ms += r.ms;
               s->frame_improve_ms += r.ms_improve;
+              s->drag_tets_cut += r.tets_cut;
             }
+            if (!s->drag_open) s->drag_tets_cut = 0;  // its start was refused: this drag cut nothing
+            s->drag_open = false;
             s->blade = false;
+            ++s->blade_drags;  // also a drag an error cut short: the page waits for this count
             break;
           case InputKind::ProbeGrab:
             s->probe = s->runner.grab_probe(a, m.v[3]) > 0;  // O(mesh), once per grab
@@ -423,6 +435,8 @@ void LiveSession::publish() {
                       {"generation", generation_},
                       {"paused", s.paused},
                       {"blade", s.blade},
+                      {"blade_drags", s.blade_drags},
+                      {"drag_tets_cut", s.drag_tets_cut},
                       {"probe", s.probe},
                       {"recording", s.take_name},
                       {"can_record", !record_dir_.empty()},

@@ -278,6 +278,36 @@ void LookSession::show(std::size_t frame) {
       ++triangles;
     }
   }
+  // Colouring by label, the faces between two labels too (the boundary alone shows only the
+  // labels that reach it: a lesion inside an organ would never be seen; the page's section
+  // plane uncovers these). Each face once, from the side of the label with fewer tets (the
+  // inner structure, as a rule), outward from it and coloured by it. O(mesh), once per show.
+  std::size_t interfaces = 0;
+  if (colour_ == kColourLabel && report.labels.size() > 1) {
+    std::unordered_map<int, std::size_t> label_tets;
+    for (const LabelStats& l : report.labels) label_tets[l.label] = l.tets;
+    auto inner = [&](TetId a, TetId b) {  // a's side is drawn
+      const std::size_t na = label_tets[mesh.label(a)], nb = label_tets[mesh.label(b)];
+      return na != nb ? na < nb : mesh.label(a) < mesh.label(b);
+    };
+    for (TetId t : mesh.tets())
+      for (int f = 0; f < 4; ++f) {
+        const TetId n = mesh.neighbor(t, f);
+        if (!n.is_valid() || mesh.label(n) == mesh.label(t) || !inner(t, n)) continue;
+        const auto& tv = mesh.tet_vertices(t);
+        std::array<std::uint32_t, 3> c{};
+        for (int k = 0; k < 3; ++k) {
+          const VertexId v = tv[kFaceLocal[f][k]];
+          auto [it, fresh] = slot_of.try_emplace(v.idx(), std::uint32_t(snap->positions.size() / 3));
+          if (fresh)
+            for (int d = 0; d < 3; ++d) snap->positions.push_back(float(mesh.rest(v)[d]));
+          c[k] = it->second;
+        }
+        snap->tris.insert(snap->tris.end(), {c[0], c[1], c[2], kTriangleInterface});
+        faces.push_back({t, f});
+        ++triangles, ++interfaces;
+      }
+  }
   // Colours: per triangle, of its tet (quality, label) or its face (tag).
   if (colour_ != 0) {
     snap->scalars.assign(faces.size(), 0.f);
@@ -311,7 +341,8 @@ void LookSession::show(std::size_t frame) {
   snap->tets = mesh.num_tets();
   snap->vertices = mesh.num_vertices();
   std::vector<int> labels;
-  for (const LabelStats& l : report.labels) labels.push_back(l.label);
+  std::vector<std::size_t> label_tets;
+  for (const LabelStats& l : report.labels) labels.push_back(l.label), label_tets.push_back(l.tets);
   std::vector<std::uint32_t> worst_ids;
   for (TetId t : worst) worst_ids.push_back(t.idx());
   const auto& md = report.metrics[std::size_t(Metric::MinDihedral)];
@@ -327,6 +358,8 @@ void LookSession::show(std::size_t frame) {
                       {"triangles", snap->triangles},
                       {"cut_triangles", snap->cut_triangles},
                       {"labels", labels},
+                      {"label_tets", label_tets},
+                      {"interfaces", interfaces},
                       {"worst", worst_ids},
                       {"worst_from", report_worst_ ? "report " + report_file_ : std::string("computed: mean ratio")},
                       {"min_dihedral", md.min},

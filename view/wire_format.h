@@ -23,6 +23,7 @@ inline constexpr std::uint32_t kTriangleCut = 1;    // a face a cut opened (kTag
 inline constexpr std::uint32_t kTriangleFixed = 2;  // its three corners are held by the scene
 inline constexpr std::uint32_t kTriangleWorst = 4;  // a face of one of the worst elements (look mode; live: the clip view)
 inline constexpr std::uint32_t kTriangleLoaded = 8; // its three corners carry a scene load (force, probe, pressure, traction)
+inline constexpr std::uint32_t kTriangleInterface = 16;  // between two labels (look mode, colouring by label)
 
 struct FrameMessage {
   bool reset = false;                // the page drops every slot first (a new run or a reset)

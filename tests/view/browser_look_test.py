@@ -1,9 +1,12 @@
 #!/usr/bin/python3
 """Look mode in a real browser: `incise view MESH` and `incise view RUN_DIR` (docs/view.md).
 Opens the mesh, checks the page draws the server's triangles (boundary plus the worst elements'
-faces, in red) and switches to label colours; then simulates a small run (a few frames of the
-beam scene), opens its directory, checks the drawn count, moves the time slider and checks that
-the frame and the drawn positions change and the stats.csv curve is plotted. Bad arguments get a
+faces, in magenta) and switches to label colours (with the faces between labels, and a legend of
+the labels' colours); the section plane uncovers the labels the first view hides (on the canvas's
+pixels); the colour bar of element quality and the legend of boundary tags; a refused input's
+error in its banner, clear of the help text, dismissed. Then simulates a small run (a few frames of the beam
+scene), opens its directory, checks the drawn count, moves the time slider and checks that the
+frame and the drawn positions change and the stats.csv curve is plotted. Bad arguments get a
 one-line error and exit 1. Screenshots go to OUT_DIR.
 
 usage: browser_look_test.py INCISE MESH SCENE.json OUT_DIR
@@ -21,7 +24,7 @@ import urllib.request
 from selenium.webdriver.common.by import By
 from selenium.webdriver.support.ui import Select
 
-from browser_util import fail, start_chromium, wait_for
+from browser_util import fail, measure_canvas, overlap, rect_of, start_chromium, wait_for
 
 
 class Viewer:
@@ -53,6 +56,25 @@ class Viewer:
             self.proc.kill()
 
 
+def faces_between_labels(msh):
+    """A gmsh 2.2 ASCII mesh's faces shared by two tets of different labels (their first tag):
+    the count the server's look mode draws while colouring by label, found independently."""
+    with open(msh) as f:
+        lines = f.read().split("\n")
+    at = lines.index("$Elements")
+    owners = {}
+    for line in lines[at + 2:at + 2 + int(lines[at + 1])]:
+        e = line.split()
+        if e[1] != "4":
+            continue
+        ntags = int(e[2])
+        label, v = int(e[3]), e[3 + ntags:]
+        for skip in range(4):
+            face = tuple(sorted(v[k] for k in range(4) if k != skip))
+            owners.setdefault(face, []).append(label)
+    return sum(1 for o in owners.values() if len(o) == 2 and o[0] != o[1])
+
+
 def main():
     incise, mesh, scene, out_dir = sys.argv[1:5]
     os.makedirs(out_dir, exist_ok=True)
@@ -79,22 +101,87 @@ def main():
     try:
         # A mesh: boundary and worst elements drawn, as many as the server says.
         viewer = Viewer(incise, mesh)
-        s = viewer.status()
         driver.get(viewer.url)
-        wait_for("the page to draw the mesh", lambda: (page() or {}).get("triangles") == s["triangles"])
-        p = page()
-        if p["mode"] != "look" or p["worstTriangles"] != 4 * len(s["worst"]) or not s["worst"]:
-            fail(f"look mode: page {p}, server worst {s['worst']}")
-        if len(s["labels"]) > 1:
+        labelled = len(viewer.status()["labels"]) > 1
+        # Several labels: the page asks for label colours at once, and the server adds the faces
+        # between labels to what it draws.
+        if labelled:
             wait_for("label colours", lambda: viewer.status()["colour"] == 3)
-        else:
-            Select(driver.find_element(By.ID, "colour")).select_by_value("4")
-            wait_for("boundary-tag colours", lambda: viewer.status()["colour"] == 4)
+        wait_for("the page to draw the mesh", lambda: (page() or {}).get("triangles") == viewer.status()["triangles"]
+                 and (page() or {}).get("legend") is not None or not labelled)
+        s, p = viewer.status(), page()
+        if p["mode"] != "look" or p["worstTriangles"] != 4 * len(s["worst"]) or not s["worst"] or \
+                p["triangles"] != s["triangles"] or p["interfaceTriangles"] != s["interfaces"]:
+            fail(f"look mode: page {p}, server {s['triangles']} triangles, {s['interfaces']} between labels, "
+                 f"worst {s['worst']}")
         print(f"look {os.path.basename(mesh)}: {s['triangles']} triangles drawn (server {s['triangles']}), "
-              f"{p['worstTriangles']} of them the {len(s['worst'])} worst elements' faces ({s['worst_from']}); "
-              f"labels {s['labels']}; min dihedral {s['min_dihedral']:.2f} deg", flush=True)
+              f"{p['worstTriangles']} of them the {len(s['worst'])} worst elements' faces ({s['worst_from']}), "
+              f"{p['interfaceTriangles']} between labels (the file: {faces_between_labels(mesh) if mesh.endswith('.msh') else '-'}); "
+              f"labels {s['labels']}; min dihedral "
+              f"{s['min_dihedral']:.2f} deg", flush=True)
         time.sleep(0.5)
         driver.save_screenshot(os.path.join(out_dir, "look_mesh.png"))
+        if labelled:
+            # The legend: each label's colour, all distinct and none the worst elements' (magenta)
+            # or the old worst red; the worst elements listed last.
+            legend = p["legend"]
+            colours = [i["colour"] for i in legend["items"]]
+            if legend["kind"] != "category" or len(colours) != len(s["labels"]) + 1 or \
+                    len(set(colours)) != len(colours) or colours[-1] != 0xff00ff or 0xff3030 in colours:
+                fail(f"label legend: {legend}")
+            expected = faces_between_labels(mesh) if mesh.endswith(".msh") else None
+            if s["interfaces"] <= 0 or (expected is not None and s["interfaces"] != expected):
+                fail(f"faces between labels: the server draws {s['interfaces']}, the mesh has {expected}")
+            # The section plane uncovers what the first view hides: the smaller labels' colours
+            # (yellow and blue, the second and third largest; on the liver they meet the boundary
+            # only on the far side, and 255 in the faces between labels) appear only with it.
+            whole = [0, 0, 10000, 10000]
+            hidden = measure_canvas(driver, rects=[whole])["rects"][0]
+            driver.execute_script("const e = document.getElementById('section'); e.value = '0.5'; "
+                                  "e.dispatchEvent(new Event('input'));")
+            wait_for("the section", lambda: page()["section"] == 0.5)
+            time.sleep(0.5)
+            shown = measure_canvas(driver, rects=[whole])["rects"][0]
+            driver.save_screenshot(os.path.join(out_dir, "look_section.png"))
+            print(f"section 0.5: the smaller labels' pixels (yellow, blue) {hidden['yellow']}, {hidden['blue']} -> "
+                  f"{shown['yellow']}, {shown['blue']}; legend {[i['name'] for i in legend['items']]}", flush=True)
+            if hidden["yellow"] + hidden["blue"] > 30 or shown["yellow"] + shown["blue"] < 300:
+                fail(f"the section does not uncover the hidden labels: {hidden} -> {shown}")
+            driver.execute_script("const e = document.getElementById('section'); e.value = '0'; "
+                                  "e.dispatchEvent(new Event('input'));")
+
+        # Element quality: the colour bar with the server's smallest and largest angle.
+        Select(driver.find_element(By.ID, "colour")).select_by_value("2")
+        wait_for("quality colours", lambda: viewer.status()["colour"] == 2)
+        legend = wait_for("the colour bar", lambda: (page()["legend"] or {}).get("kind") == "scale" and page()["legend"])
+        st, text = viewer.status(), driver.find_element(By.ID, "legend").text
+        if not legend["title"].startswith("min dihedral") or legend["lo"] not in text or legend["hi"] not in text or \
+                abs(float(legend["lo"]) - st["scalar_lo"]) > 0.006 * st["scalar_lo"] or \
+                abs(float(legend["hi"]) - st["scalar_hi"]) > 0.006 * st["scalar_hi"]:
+            fail(f"quality colour bar: {legend}, shown {text!r}, server {st['scalar_lo']} .. {st['scalar_hi']}")
+        time.sleep(0.3)
+        driver.save_screenshot(os.path.join(out_dir, "look_quality.png"))
+        # Boundary tags: a legend of the tags.
+        Select(driver.find_element(By.ID, "colour")).select_by_value("4")
+        legend = wait_for("the tag legend", lambda: (page()["legend"] or {}).get("title") == "boundary tag" and
+                          page()["legend"])
+        print(f"colour bar (quality): {text!r}; tag legend {[i['name'] for i in legend['items']]}".replace("\n", " / "),
+              flush=True)
+
+        # A refused input (von Mises: this mesh has no stresses) gets its error in the banner,
+        # which covers neither the help text nor the legend, and is dismissed by its button.
+        driver.execute_script("const c = document.getElementById('colour'); c.add(new Option('x', '1')); c.value = '1'; "
+                              "c.dispatchEvent(new Event('change'));")
+        wait_for("the error banner", lambda: rect_of(driver, "error") is not None)
+        banner = driver.find_element(By.ID, "error-text").text
+        boxes = {k: rect_of(driver, k) for k in ("error", "help", "legend", "overlay")}
+        driver.save_screenshot(os.path.join(out_dir, "look_error.png"))
+        if "von Mises" not in banner or page()["errors"] != [banner] or any(
+                overlap(boxes["error"], boxes[k]) for k in ("help", "legend", "overlay")):
+            fail(f"the error banner: {banner!r}, page errors {page()['errors']}, boxes {boxes}")
+        driver.find_element(By.ID, "error-close").click()
+        wait_for("the banner dismissed", lambda: rect_of(driver, "error") is None)
+        print(f"error banner: {banner!r}, clear of the help text, dismissed", flush=True)
         viewer.stop()
 
         # A run directory: the slider changes the frame and the drawn positions; the curve is there.

@@ -1,9 +1,12 @@
 #!/usr/bin/python3
 """The viewer in a real browser: starts `incise view` on a scene (paused, on a free port), loads
-the page in headless Chromium, checks that it draws the server's boundary, drags a blade across
-the body with real mouse events, checks that the server's mesh gained cut faces and that the page
-draws them, then lets the scene play and prints what was delivered (frames per second to the
-page, bytes per frame, the server's frame and cut-step times; printed, not asserted).
+the page in headless Chromium, checks that it draws the server's boundary smooth-shaded (on the
+canvas's pixels, against the same view in facets), that a drag entirely beside the body cuts
+nothing and says "no cut", drags a blade from beside the body across it with real mouse events
+(the blade and its path drawn while it moves), checks that the server's mesh gained cut faces and
+that the page draws them, then lets the scene play and prints what was delivered (frames per
+second to the page, bytes per frame, the server's frame and cut-step times; printed, not
+asserted); the colour bar of the stress and quality colourings; the probe drawn while it drags.
 Screenshots go to OUT_DIR.
 
 usage: browser_test.py INCISE SCENE.json OUT_DIR [incise view options...]
@@ -24,7 +27,7 @@ from selenium.webdriver.common.by import By
 from selenium.webdriver.common.keys import Keys
 from selenium.webdriver.support.ui import Select
 
-from browser_util import fail, start_chromium, wait_for
+from browser_util import fail, measure_canvas, overlap, rect_of, start_chromium, wait_for
 
 
 def main():
@@ -74,8 +77,31 @@ def main():
         time.sleep(0.5)  # a rendered frame for the screenshot
         driver.save_screenshot(os.path.join(out_dir, "view_before.png"))
 
+        # Smooth shading: per-vertex normals (split at creases and cut rims), and on the pixels,
+        # brightness changing in gradients across the organ, not in steps at the facets' edges
+        # as the same view drawn in facets (flat shading) does.
+        p = page()
+        smooth = measure_canvas(driver)
+        driver.find_element(By.ID, "facets").click()
+        wait_for("facets", lambda: page()["normals"] == "face")
+        time.sleep(0.4)
+        flat = measure_canvas(driver)
+        driver.save_screenshot(os.path.join(out_dir, "view_facets.png"))
+        driver.find_element(By.ID, "facets").click()
+        wait_for("smooth again", lambda: page()["normals"] == "vertex")
+        print(f"shading: per-vertex normals, {p['splitVertices']} vertices split at creases; brightness in steps "
+              f"of 3+ levels: {smooth['smooth']:.2f} of the change smooth, {flat['smooth']:.2f} in facets", flush=True)
+        if p["normals"] != "vertex" or p["splitVertices"] <= 0 or not smooth["smooth"] or \
+                smooth["smooth"] > 0.6 or smooth["smooth"] > 0.7 * flat["smooth"]:
+            fail(f"not smooth-shaded: page {p['normals']} normals, steps {smooth['smooth']} (facets {flat['smooth']})")
+        box = smooth["box"]  # the body on the page: [left, top, right, bottom]
+
         canvas = driver.find_element(By.TAG_NAME, "canvas")
         pause = driver.find_element(By.ID, "pause")
+        size = driver.execute_script("const c = document.querySelector('#view canvas'); return [c.clientWidth, c.clientHeight];")
+
+        def at(x, y):  # page pixels -> offsets from the canvas's centre (Selenium's origin)
+            return round(x - size[0] / 2), round(y - size[1] / 2)
 
         def drag(x0, y0, dx, dy, steps):
             chain = ActionChains(driver, duration=20)
@@ -115,17 +141,63 @@ def main():
         wait_for("the first frames (the first solve factors K)", lambda: status()["frames_played"] >= 3, timeout=30)
         measure("playing, uncut", 2.0)
 
-        # Paused, a blade dragged across the middle of the body with real mouse events: the
-        # server's mesh gains cut faces and the page draws them.
+        # Paused, a drag entirely beside the body (left of it, moving away): the blade meets
+        # nothing, the page flashes "no cut" and the server's mesh is unchanged.
         set_paused(True)
         wait_for("the page to catch up", synced)
+        sn, pn = status(), page()
+        x, y = max(20, box[0] - 150), box[3] - 30
+        drag(*at(x, y), -8, 4, 10)
+        wait_for("the no-cut flash", lambda: page()["noCut"] == pn["noCut"] + 1)
+        flash = driver.execute_script("const f = document.getElementById('flash'); "
+                                      "return [f.textContent, f.classList.contains('on')];")
+        time.sleep(0.3)
+        sa = status()
+        if page()["lastPress"]["hit"] or sa["tets"] != sn["tets"] or sa["cut_triangles"] != sn["cut_triangles"] or \
+                sa["blade_drags"] != sn["blade_drags"] + 1 or sa["drag_tets_cut"] != 0 or \
+                flash != ["no cut: the blade did not meet the body", True]:
+            fail(f"a drag beside the body: flash {flash}, press {page()['lastPress']}, server {sn['tets']} -> "
+                 f"{sa['tets']} tets, drag_tets_cut {sa['drag_tets_cut']}")
+        driver.save_screenshot(os.path.join(out_dir, "view_no_cut.png"))
+        print(f"a drag beside the body, away from it: \"{flash[0]}\" flashed, {sa['tets']} tets unchanged", flush=True)
+
+        # Paused, a blade dragged across the middle of the body with real mouse events: drawn
+        # while it moves (its path in silver, its ends on the pointer's ray), the server's mesh
+        # gains cut faces and the page draws them.
         c0 = status()["cut_triangles"]
+        x0, ym = size[0] / 2 - 150, size[1] / 2 + 10
+        path = [x0 + 20, ym - 8, x0 + 200, ym + 8]  # the stretch the path covers by mid-drag
+        before = measure_canvas(driver, rects=[path])["rects"][0]["tool"]
         t0 = time.time()
-        drag(-150, 10, 10, 0, 30)
+        chain = ActionChains(driver, duration=20)
+        chain.move_to_element_with_offset(canvas, *at(x0, ym)).click_and_hold()
+        for _ in range(22):
+            chain.move_by_offset(10, 0).pause(0.03)
+        chain.perform()
+        time.sleep(0.3)  # a rendered frame
+        mid, blade = measure_canvas(driver, rects=[path])["rects"][0]["tool"], page()["blade"]
+        driver.save_screenshot(os.path.join(out_dir, "view_blade.png"))
+        chain = ActionChains(driver, duration=20)
+        for _ in range(8):
+            chain.move_by_offset(10, 0).pause(0.03)
+        chain.release().perform()
         drag_s = time.time() - t0
+        press = page()["lastPress"]
+        print(f"blade drawn mid-drag: {mid} silver pixels along its path ({before} before), ends on screen at "
+              f"{[[round(c) for c in e] for e in (blade or {}).get('screen', [])]}, pointer at "
+              f"({x0 + 220:.0f}, {ym:.0f})", flush=True)
+        if not blade or mid < 300 or before > 20 or page()["blade"] is not None or not press["hit"] or \
+                any(math.hypot(e[0] - (x0 + 220), e[1] - ym) > 3 for e in blade["screen"]):
+            fail(f"the blade while dragging: {blade}, silver pixels {before} -> {mid}, press {press}, "
+                 f"after release {page()['blade']}")
         wait_for("cut faces on the server", lambda: status()["cut_triangles"] > c0)
         wait_for("the page to draw the cut faces", synced)
+        wait_for("the drag's figures", lambda: page()["lastDragTetsCut"] is not None)
         s1, p1 = status(), page()
+        # A cut's rim splits its vertices' normals (the cut faces are not smoothed into the skin).
+        if p1["lastDragTetsCut"] <= 0 or p1["noCut"] != pn["noCut"] + 1 or p1["splitVertices"] <= p["splitVertices"]:
+            fail(f"the drag: {p1['lastDragTetsCut']} tets cut, no-cut flashes {pn['noCut']} -> {p1['noCut']}, "
+                 f"split vertices {p['splitVertices']} -> {p1['splitVertices']}")
         print(f"cut (paused): {s1['cut_triangles'] - c0} new cut triangles on the server, the page draws "
               f"{p1['cutTriangles']} of {s1['cut_triangles']}; {s1['tets']} tets; {s1['blade_steps']} blade steps "
               f"in a {drag_s:.1f} s drag, mean {s1['mean_blade_step_ms']:.2f} ms, max "
@@ -158,16 +230,48 @@ def main():
         measure("playing, cutting", 4.0, during=lambda: drag(10, -120, 0, 10, 24))
         time.sleep(0.5)
         driver.save_screenshot(os.path.join(out_dir, "view_playing.png"))
-        # Probe (Shift+drag), colour by stress, then a reset: no error frames, the page follows.
+        # Probe (Shift+drag; drawn at the grabbed point as it moves), colour by stress, then a
+        # reset: no error frames, the page follows.
         chain = ActionChains(driver, duration=20)
         chain.move_to_element_with_offset(canvas, 60, 40).key_down(Keys.SHIFT).click_and_hold()
         for _ in range(8):
             chain.move_by_offset(0, -6).pause(0.03)
-        chain.release().key_up(Keys.SHIFT).perform()
-        Select(driver.find_element(By.ID, "colour")).select_by_value("1")
-        wait_for("von Mises colours", lambda: status()["colour"] == 1)
-        time.sleep(0.8)
+        chain.perform()
+        time.sleep(0.2)  # the last move is sent (and drawn) on the next animation frame
+        probe = page()["probe"]
+        ActionChains(driver, duration=20).release().key_up(Keys.SHIFT).perform()
+        px, py = size[0] / 2 + 60, size[1] / 2 + 40 - 48
+        if not probe or math.hypot(probe["screen"][0] - px, probe["screen"][1] - py) > 3 or page()["probe"] is not None:
+            fail(f"the probe while dragging: {probe} (pointer at {px}, {py}), after release {page()['probe']}")
+
+        # The colour bar: shown for the scalar colourings with the scale's ends (the server's),
+        # beside the help and the overlay, not over them; none for plain colours.
+        def colour_bar(value, title):
+            Select(driver.find_element(By.ID, "colour")).select_by_value(value)
+            wait_for(title + " colours", lambda: status()["colour"] == int(value) and status()["frame"] == page()["frame"])
+            st = status()
+            legend = wait_for("the colour bar", lambda: (page()["legend"] or {}).get("title", "").startswith(title)
+                              and page()["legend"])
+            text = driver.find_element(By.ID, "legend").text
+            lo, hi = float(legend["lo"]), float(legend["hi"])
+            close = lambda a, b: abs(a - b) <= 0.006 * max(abs(a), abs(b)) + 1e-12
+            if legend["kind"] != "scale" or legend["lo"] not in text or legend["hi"] not in text or \
+                    not close(lo, st["scalar_lo"]) or not close(hi, st["scalar_hi"]) or \
+                    overlap(rect_of(driver, "legend"), rect_of(driver, "help")) or \
+                    overlap(rect_of(driver, "legend"), rect_of(driver, "overlay")):
+                fail(f"colour bar of {title}: {legend}, shown {text!r}, server {st['scalar_lo']} .. {st['scalar_hi']}")
+            print(f"colour bar: {text!r} (server {st['scalar_lo']:.4g} .. {st['scalar_hi']:.4g})".replace("\n", " / "),
+                  flush=True)
+
+        set_paused(True)
+        colour_bar("1", "von Mises")
+        time.sleep(0.3)
         driver.save_screenshot(os.path.join(out_dir, "view_stress.png"))
+        colour_bar("2", "min dihedral")
+        driver.save_screenshot(os.path.join(out_dir, "view_quality.png"))
+        Select(driver.find_element(By.ID, "colour")).select_by_value("0")
+        wait_for("plain colours, no colour bar", lambda: status()["colour"] == 0 and page()["legend"] is None and
+                 rect_of(driver, "legend") is None)
         if page()["errors"]:
             fail("the page got error frames: " + str(page()["errors"]))
         # A blade through the whole depth, dragged across the body from edge to edge, detaches
@@ -249,6 +353,31 @@ def main():
         if replay_tets != st["tets"]:
             fail(f"the replay of the take has {replay_tets} tets, the live session had {st['tets']}: "
                  + r.stdout[-500:])
+
+        # A drag started beside the body (left of its outline, on a row the cuts so far have not
+        # touched), moved across it, shallow: the press's ray misses the body, so the blade goes
+        # to the depth where the ray passes nearest to it, and the drag cuts. (Before, such a
+        # blade reached half the body's size in front of its centre plus the depth: at 0.15 it
+        # stopped in front of the liver and the drag cut nothing.)
+        set_paused(True)
+        wait_for("the page to catch up", synced)
+        driver.execute_script("document.getElementById('depth').value = '0.15'")
+        sb, pb = status(), page()
+        box = measure_canvas(driver)["box"]
+        yb = box[1] + 0.75 * (box[3] - box[1])
+        left = measure_canvas(driver, rows=[yb])["rows"][0][0]
+        drag(*at(left - 30, yb), 10, 0, 22)
+        wait_for("the drag's figures", lambda: page()["lastDragTetsCut"] is not None)
+        wait_for("the page to catch up", synced)
+        sa, pa = status(), page()
+        print(f"a drag from beside the body (pressed {30} px left of its outline, the ray "
+              f"{'hit' if pa['lastPress']['hit'] else 'missed'} it): {pa['lastDragTetsCut']} tets cut, cut triangles "
+              f"{sb['cut_triangles']} -> {sa['cut_triangles']}", flush=True)
+        if pa["lastPress"]["hit"] or pa["lastPress"]["nearest"] is None or pa["lastDragTetsCut"] <= 0 or \
+                sa["cut_triangles"] <= sb["cut_triangles"] or pa["noCut"] != pb["noCut"]:
+            fail(f"a drag from beside the body: press {pa['lastPress']}, {pa['lastDragTetsCut']} tets cut, cut "
+                 f"triangles {sb['cut_triangles']} -> {sa['cut_triangles']}, no-cut flashes {pa['noCut']}")
+        driver.save_screenshot(os.path.join(out_dir, "view_beside_cut.png"))
 
         # Security: bad inputs get an error frame and change nothing; other origins are refused.
         set_paused(True)  # so that the scene's own blade changes nothing either
