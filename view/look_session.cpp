@@ -312,6 +312,7 @@ void LookSession::show(std::size_t frame) {
   if (colour_ != 0) {
     snap->scalars.assign(faces.size(), 0.f);
     float lo = INFINITY, hi = -INFINITY;
+    std::vector<float> seen;
     for (std::size_t i = 0; i < faces.size(); ++i) {
       if (snap->tris[4 * i] == kNoSlot) continue;
       const Face& fc = faces[i];
@@ -324,6 +325,18 @@ void LookSession::show(std::size_t frame) {
       else if (colour_ == kColourTag) x = mesh.neighbor(fc.tet, fc.local).is_valid() ? 0.f : float(mesh.face_tag(fc.tet, fc.local));
       snap->scalars[i] = x;
       lo = std::min(lo, x), hi = std::max(hi, x);
+      if (colour_ == kColourVonMises) seen.push_back(x);
+    }
+    // Von Mises spans the 2nd to 98th percentile, as live: a few slivers' stresses (a cut's
+    // small tets) would otherwise squeeze every other triangle into one colour.
+    if (!seen.empty()) {
+      auto at = [&](double q) {
+        auto it = seen.begin() + std::ptrdiff_t(q * double(seen.size() - 1));
+        std::nth_element(seen.begin(), it, seen.end());
+        return *it;
+      };
+      lo = at(0.02);
+      hi = at(0.98);
     }
     snap->scalar_lo = std::isfinite(lo) ? lo : 0.f;
     snap->scalar_hi = std::isfinite(hi) ? std::max(hi, snap->scalar_lo) : 1.f;

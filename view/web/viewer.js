@@ -423,7 +423,7 @@ function showLegend() {
     const num = (x) => Number(x).toPrecision(3);
     legend = { kind: 'scale', title: c === 1 ? 'von Mises stress' : 'min dihedral angle (deg)', lo: num(scalarLo),
                mid: num((scalarLo + scalarHi) / 2), hi: num(scalarHi),
-               note: view.mode === 'live' ? 'ends: 2nd and 98th percentile; beyond: clamped' : 'ends: smallest and largest' };
+               note: view.mode === 'live' || stats.colour === 1 ? 'ends: 2nd and 98th percentile; beyond: clamped' : 'ends: smallest and largest' };
   } else if (c === 3 && scalars) {
     const tets = Object.fromEntries((stats.labels || []).map((l, i) => [l, (stats.label_tets || [])[i]]));
     legend = { kind: 'category', title: 'label', items: labelOrder.map((l) => ({
@@ -749,6 +749,14 @@ function plot() {
     (at >= 0 ? `<line x1="${x(at)}" x2="${x(at)}" y1="2" y2="${H - 10}" stroke="#ffd54f"/>` : '') +
     `<text x="4" y="${H - 1}" fill="#9aa3b2" font-size="10">${lo.toPrecision(3)} .. ${hi.toPrecision(3)}</text>`;
 }
+// A run's frame is read with its inverted tets flipped (docs/scene.md#inverted-tets), so the
+// reader counts none; stats.csv's `inverted` column has the count in the deformed shape.
+function invertedText(s) {
+  const col = runStats && s.mode === 'run' ? runStats.columns.indexOf('inverted') : -1;
+  const timeCol = col >= 0 ? runStats.columns.indexOf('time') : -1;
+  const row = timeCol >= 0 ? runStats.rows.find((r) => Math.abs(r[timeCol] - s.time) <= 1e-9 * Math.max(1, Math.abs(s.time))) : null;
+  return row ? `${row[col]} inverted in the deformed shape (stats.csv)` : `${s.inverted} inverted`;
+}
 function showLookStats(s) {
   const colourName = { 2: 'min dihedral', 3: 'label', 4: 'boundary tag' }[s.colour];
   overlay.textContent =
@@ -757,7 +765,7 @@ function showLookStats(s) {
     `${view.worstTriangles} of the worst elements)\n` +
     `labels ${(s.labels || []).map((l) => (s.colour === 3 ? `${l} (${PALETTE_NAMES[labelIndex(l)]})` : l)).join(', ')}` +
     `${s.interfaces ? `; ${s.interfaces} faces between labels` : ''}\n` +
-    `min dihedral ${f(s.min_dihedral, 1)} deg, ${s.slivers} slivers, ${s.inverted} inverted\n` +
+    `min dihedral ${f(s.min_dihedral, 1)} deg, ${s.slivers} slivers, ${invertedText(s)}\n` +
     `worst ${(s.worst || []).length} (magenta; ${s.worst_from}): tets ${(s.worst || []).slice(0, 10).join(' ')}` +
     (colourName ? `\ncolour ${colourName}: ${Number(s.scalar_lo).toPrecision(3)} .. ${Number(s.scalar_hi).toPrecision(3)}` : '');
   if (s.mode === 'run') {
