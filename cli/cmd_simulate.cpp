@@ -57,6 +57,9 @@ void add_simulate(CLI::App& app) {
     };
     const SceneRunSummary s = run_scene_into(scene, ro, o->out);
     for (const std::string& w : s.warnings) std::cerr << "incise: warning: " << o->scene << ": " << w << "\n";
+    nlohmann::json cuts = nlohmann::json::array();
+    for (const auto& c : s.cuts)
+      cuts.push_back({{"tets_cut", c.tets_cut}, {"faces_opened", c.faces_opened}, {"parts", c.parts}});
     if (o->json) {
       nlohmann::json j = {{"scene", o->scene},
                           {"output", o->out},
@@ -72,6 +75,7 @@ void add_simulate(CLI::App& app) {
                           {"frames_with_inverted", s.frames_with_inverted},
                           {"total_cut_ms", s.total_cut_ms},
                           {"fragments_handled", s.fragments_handled},
+                          {"cuts", cuts},
                           {"files", s.files.size()},
                           {"warnings", s.warnings}};
       std::cout << j.dump(2) << "\n";
@@ -86,6 +90,10 @@ void add_simulate(CLI::App& app) {
                 << (scene.cuts.empty() ? "" : "; cutting " + std::to_string(s.total_cut_ms) + " ms") << "; "
                 << s.files.size() << " files in "
                 << o->out << "\n";
+      // What each scene cut did (a cut that met nothing is also a warning above).
+      for (std::size_t i = 0; i < s.cuts.size(); ++i)
+        std::cout << "simulate: cuts[" << i << "]: " << s.cuts[i].tets_cut << " tets cut, " << s.cuts[i].faces_opened
+                  << " faces opened, " << s.cuts[i].parts << " parts detached\n";
     }
   });
 }

@@ -389,6 +389,15 @@ void bind_sim(py::module_& m) {
         d["tets"] = r.tets;
         d["total_cut_ms"] = r.total_cut_ms;
         d["fragments_handled"] = r.fragments_handled;
+        py::list cuts;
+        for (const auto& c : r.cuts) {
+          py::dict x;
+          x["tets_cut"] = c.tets_cut;
+          x["faces_opened"] = c.faces_opened;
+          x["parts"] = c.parts;
+          cuts.append(x);
+        }
+        d["cuts"] = cuts;
         d["warnings"] = r.warnings;
         d["files"] = r.files;
         return d;

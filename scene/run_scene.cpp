@@ -172,6 +172,7 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
   finish();
   sum.total_cut_ms = runner.total_cut_ms();
   sum.fragments_handled = runner.fragments_handled();
+  for (const SceneRunner::CutTally& c : runner.cut_tallies()) sum.cuts.push_back({c.tets_cut, c.faces_opened, c.parts});
   sum.vertices = runner.mesh().num_vertices();  // after the cuts
   sum.tets = runner.mesh().num_tets();
   // Not interactive: say so, and what picks settings for a frame budget.
@@ -189,7 +190,7 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
   // moved) cut nothing, which the frames alone do not show.
   for (std::size_t i = 0; i < s.cuts.size(); ++i) {
     const SceneCut& c = s.cuts[i];
-    if (c.to_frame >= sum.frames || runner.tets_cut()[i] > 0) continue;
+    if (c.to_frame >= sum.frames || runner.cut_tallies()[i].tets_cut > 0) continue;
     Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
     for (VertexId v : runner.mesh().vertices()) {
       lo = lo.cwiseMin(runner.position(v));

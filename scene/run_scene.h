@@ -40,7 +40,12 @@ struct SceneRunSummary {
   int frames_budget_exhausted = 0;
   int frames_not_converged = 0;
   double total_cut_ms = 0;
-  std::size_t fragments_handled = 0;  // detached parts the policy fixed or removed (kept ones are not counted)
+  std::size_t fragments_handled = 0;
+  // Per scene cut: tets it split or removed, faces it opened (pairs), parts it detached.
+  struct Cut {
+    std::size_t tets_cut = 0, faces_opened = 0, parts = 0;
+  };
+  std::vector<Cut> cuts;  // detached parts the policy fixed or removed (kept ones are not counted)
   double max_displacement = 0;        // at the last frame
   // Tets inverted or flat in the deformed shape (stats.csv's `inverted`): the most in one frame,
   // and how many frames had any.

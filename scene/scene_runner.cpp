@@ -239,7 +239,7 @@ SceneRunner::SceneRunner(const Scene& scene, const TetMesh* mesh) : scene_(scene
     cutters_.back()->start({c.a, c.b});
   }
   swept_.assign(s.cuts.size(), 0.0);
-  tets_cut_.assign(s.cuts.size(), 0);
+  cut_tallies_.assign(s.cuts.size(), {});
 }
 
 SceneRunner::~SceneRunner() = default;
@@ -390,7 +390,9 @@ double SceneRunner::cut_scene_blades(double& improve_ms) {
   for (std::size_t i = 0; i < cutters_.size(); ++i) {
     const SceneCut& c = scene_.cuts[i];
     const auto take_cut = [&](CutStepReport& r) {
-      tets_cut_[i] += r.tets_cut;
+      cut_tallies_[i].tets_cut += r.tets_cut;
+      cut_tallies_[i].faces_opened += r.cut_faces;
+      cut_tallies_[i].parts += r.fragments.size();
       take(r, cutters_[i].get());
     };
     if (!c.path.empty()) {

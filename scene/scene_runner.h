@@ -133,8 +133,12 @@ public:
   std::vector<VertexId> loaded_vertices() const;
   double total_cut_ms() const { return total_cut_ms_; }
   std::size_t fragments_handled() const { return fragments_handled_; }  // fixed or removed parts
-  // Per scene cut: the tets it split or removed so far (0 after its last frame: it missed).
-  const std::vector<std::size_t>& tets_cut() const { return tets_cut_; }
+  // Per scene cut, so far: the tets it split or removed (0 after its last frame: it missed), the
+  // faces it opened (pairs) and the parts it detached.
+  struct CutTally {
+    std::size_t tets_cut = 0, faces_opened = 0, parts = 0;
+  };
+  const std::vector<CutTally>& cut_tallies() const { return cut_tallies_; }
 
 private:
   void apply_change(const TopologyChange& change, const Cutter* from);
@@ -163,7 +167,7 @@ private:
   std::vector<std::vector<FaceShare>> face_shares_;  // per pressure or traction load
   std::vector<std::unique_ptr<Cutter>> cutters_;  // per scene cut
   std::vector<double> swept_;                     // per scene cut: fraction of its sweep done
-  std::vector<std::size_t> tets_cut_;             // per scene cut: tets it split or removed
+  std::vector<CutTally> cut_tallies_;             // per scene cut
   std::unique_ptr<Cutter> blade_;                 // the outside blade
   std::vector<VertexId> probe_;                   // the outside probe's vertices
   Vec3 probe_displacement_ = Vec3::Zero();

@@ -309,4 +309,11 @@ TEST_CASE("first hour: a user's cut scene runs to the end, every frame reads bac
   const auto summary = nlohmann::json::parse(h.out);
   CHECK(summary["frames_with_inverted"].get<int>() <= 2);
   CHECK(summary["frames_with_inverted"].get<int>() < with);
+  // Each scene cut says what it did, in the summary and its JSON.
+  REQUIRE(summary["cuts"].size() == 1);
+  CHECK(summary["cuts"][0]["tets_cut"].get<int>() > 100);
+  CHECK(summary["cuts"][0]["faces_opened"].get<int>() > 100);
+  CHECK(summary["cuts"][0]["parts"] == 0);  // the blade stops 120 mm down: nothing detached
+  CHECK(r.out.find("simulate: cuts[0]: ") != std::string::npos);
+  CHECK(r.out.find(" faces opened, 0 parts detached\n") != std::string::npos);
 }
