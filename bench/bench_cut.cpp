@@ -673,6 +673,9 @@ void curved_offsets(double tolerance) {
         worst = std::min(worst, q.min_dihedral);
         below.push_back(100.0 * double(q.below) / double(m.num_tets()));
         tets.push_back(double(m.num_tets()));
+        if (std::getenv("INCISE_BENCH_DRAGS"))  // each drag on stderr, to trace one
+          std::fprintf(stderr, "%s steps %d dx %.17g: parts %zu, min dihedral %.4f, %zu below 10 deg\n",
+                       paths[std::size_t(shape)].name.c_str(), steps, dx.x(), parts, q.min_dihedral, q.below);
       }
     std::printf("%s,%zu,%d,%d,%.3f,%.3f,%.0f\n", paths[std::size_t(shape)].name.c_str(), below.size(), attached, extra,
                 worst, percentile(below, 0.5), percentile(tets, 0.5));
