@@ -206,3 +206,25 @@ TEST_CASE("curved paths: arcs and S-curves at any offset against the mesh detach
   // fifteen attached (docs/cut.md#known-gaps; bench_cut --only curved, the offsets rows).
   CHECK(attached <= 1);
 }
+
+TEST_CASE("curved paths: no split within rounding of a vertex pinned to its side", "[cut][curved]") {
+  // An S at an offset where a tet that snapping would flatten had its farthest vertex pinned
+  // back on its side, 1e-6 of an edge from the next sheet's plane: its edges were split there,
+  // a vertex 1.25e-7 from it, and 24 tets of no volume (0.0001 degrees) and a third part came out.
+  const double dx = 0.086255061379423653;
+  TetMesh m = make_box(Vec3(4, 2, 1), {32, 16, 8});
+  Cutter cutter(m);
+  auto blade = [](const Vec3& p) { return BladeSegment{Vec3(p.x(), p.y(), -0.5), Vec3(p.x(), p.y(), 1.5)}; };
+  const auto path = sample(
+      [&](double t) {
+        const double y = -0.2 + 2.4 * t;
+        return Vec3(2.03 + dx + 0.5 * std::sin(kPi * y), y, 0);
+      },
+      30);
+  cutter.start(blade(path[0]));
+  for (std::size_t i = 1; i < path.size(); ++i) cutter.advance(blade(path[i]));
+  cutter.finish();
+  REQUIRE_NOTHROW(m.validate({true, true}));
+  CHECK(part_volumes(m).size() == 2);
+  CHECK(quality_range(m, 10.0).min_dihedral > 0.1);
+}
