@@ -216,6 +216,18 @@ double slowest_omega(const TetMesh& mesh, const Scene& s, const Eigen::VectorXd&
   return um > 0 ? std::sqrt(std::max(0.0, x.dot(ku)) / um) : 0;
 }
 
+// Dynamic runs are compared at rest with the reference's last frame: its loads are held from
+// that frame on (a ramp that goes on past it stops there, at the value it has there; before
+// it, the same ramp). Without this, `--frames 2` on a scene whose probe ramps over 30 frames
+// compared springs pressed the whole way with a reference pressed a thirtieth of it.
+void hold_loads_at(Scene& s, int frame) {
+  for (SceneLoad& l : s.loads) {
+    if (l.to_frame <= frame) continue;
+    l.value *= l.factor(frame);
+    l.to_frame = std::max(frame, l.from_frame);
+  }
+}
+
 // The last frame any load ramps in: dynamic runs hold the loads after it and settle.
 int last_ramp_frame(const Scene& s) {
   int f = 0;
@@ -336,7 +348,9 @@ TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
   // ---- the grid ---------------------------------------------------------------------------
   std::vector<Setting> settings = grid(scene, opt, levels);
   std::vector<TradeRow>& rows = result.rows;
-  const int ramp_end = last_ramp_frame(scene);
+  for (Setting& st : settings)
+    if (st.dynamic) hold_loads_at(st.scene, frames - 1);
+  const int ramp_end = std::min(last_ramp_frame(scene), frames - 1);
   double spent = 0;
   // Seconds per run measured so far, per level: what is left is estimated from the runs of its
   // own level, else from the nearest measured level scaled by the tet count (a level splits
