@@ -33,6 +33,7 @@ void add_trade(CLI::App& app) {
     int frames = -1;
     std::vector<std::string> models{"fem-linear", "fem-corotational", "springs"};
     std::vector<std::string> formulations{"standard", "nodal-averaged", "mixed"};
+    std::vector<std::string> spring_volumes{"tet", "nodal"};
     std::vector<int> resolutions;
     int reference_level = -1;
     std::vector<double> frame_budgets{2, 16, 33};
@@ -49,6 +50,9 @@ void add_trade(CLI::App& app) {
   cmd->add_option("--frames", o->frames, "Override the scene's number of frames (at least 1)")
       ->check(CLI::Range(1, 1000000000));
   cmd->add_option("--models", o->models, "Models to run")->capture_default_str();
+  cmd->add_option("--spring-volumes", o->spring_volumes,
+                  "Springs' volume terms, a row each: tet (per tet), nodal (averaged at the vertices), none")
+      ->capture_default_str();
   cmd->add_option("--formulations", o->formulations, "FEM formulations to run (standard, nodal-averaged, edge-smoothed, mixed, mixed-edge-smoothed)")
       ->capture_default_str();
   cmd->add_option("--resolutions", o->resolutions,
@@ -79,6 +83,11 @@ void add_trade(CLI::App& app) {
         throw InvalidArgument("trade: --formulations: expected " + std::string(kFormulationNames) + ", got \"" + f + "\"");
       to.formulations.push_back(*parsed);
     }
+    for (const auto& v : o->spring_volumes)
+      if (v != "tet" && v != "nodal" && v != "none")
+        throw InvalidArgument("trade: --spring-volumes: expected tet, nodal or none, got \"" + v + "\"");
+    if (o->spring_volumes.empty()) throw InvalidArgument("trade: --spring-volumes: expected at least one");
+    to.spring_volumes = o->spring_volumes;
     to.resolutions = o->resolutions;
     to.reference_level = o->reference_level;
     for (double b : o->frame_budgets)

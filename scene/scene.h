@@ -106,6 +106,9 @@ struct Scene {
   // the body's size, the moduli, the densities and g are checked (docs/scene.md#units).
   std::string units;
   SceneModel model = SceneModel::FemLinear;
+  // springs: the volume term per tet ("tet", default), averaged at the vertices ("nodal") or
+  // none (SpringOptions::volume_term, ::nodal_volume; docs/solver.md#spring-volume-terms).
+  std::string springs_volume = "tet";
   // fem-corotational: hold tets near inversion (docs/solver.md#inversion-barrier); off by default.
   InversionBarrierOptions inversion_barrier;
   Formulation formulation = Formulation::Standard;  // FEM: how the volumetric strain is treated

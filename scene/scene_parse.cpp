@@ -260,7 +260,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   }
   const Reader rd(path);
   rd.keys(j, "", {"mesh", "model", "formulation", "materials", "fixed", "loads", "solver", "time", "output", "cuts",
-                  "inputs", "fragments", "units", "inversion_barrier"});
+                  "inputs", "fragments", "units", "inversion_barrier", "springs"});
   Scene s;
   s.path = path;
   s.source = text;
@@ -387,6 +387,16 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     for (std::size_t i = 0; i < jl.size(); ++i) s.loads.push_back(read_load(rd, jl[i], "loads[" + std::to_string(i) + "]"));
   }
 
+  if (j.contains("springs")) {
+    const json& jsp = j["springs"];
+    if (!jsp.is_object()) rd.fail("springs", "expected {\"volume\": \"tet\" | \"nodal\" | \"none\"}");
+    rd.keys(jsp, "springs", {"volume"});
+    if (jsp.contains("volume")) {
+      s.springs_volume = rd.string(jsp["volume"], "springs.volume");
+      if (s.springs_volume != "tet" && s.springs_volume != "nodal" && s.springs_volume != "none")
+        rd.fail("springs.volume", "expected \"tet\", \"nodal\" or \"none\", got \"" + s.springs_volume + "\"");
+    }
+  }
   if (j.contains("inversion_barrier")) {
     // true: the defaults; an object: {"j_min": J, "stiffness": K}, either optional.
     const json& jb = j["inversion_barrier"];

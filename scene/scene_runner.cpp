@@ -187,6 +187,8 @@ SceneRunner::SceneRunner(const Scene& scene, const TetMesh* mesh) : scene_(scene
     so.cg_tolerance = s.cg.tolerance;
     so.cg_max_iterations = s.cg.max_iterations;
     so.compute_energy = false;
+    so.volume_term = s.springs_volume != "none";
+    so.nodal_volume = s.springs_volume == "nodal";
     springs_ = std::make_unique<SpringModel>(mesh_, s.materials, so);
     integrator_ = parse_integrator(s.integrator);
     for (const auto& [v, axes] : fixed) springs_->set_fixed(v, true);  // axes == 7: the parser refuses rollers

@@ -141,9 +141,13 @@ std::vector<Setting> grid(const Scene& base, const TradeOptions& opt, const std:
         st.scene.method = SolverMethod::Cg;
         st.scene.formulation = Formulation::Standard;
         st.row.solver = "implicit-euler";
-        st.row.formulation = "-";
         st.row.tolerance = st.scene.cg.tolerance;
-        out.push_back(st);
+        for (const std::string& v : opt.spring_volumes) {
+          Setting vs = st;
+          vs.scene.springs_volume = v;
+          vs.row.formulation = "volume " + v;
+          out.push_back(vs);
+        }
         continue;
       }
       for (Formulation f : opt.formulations) {

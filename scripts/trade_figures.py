@@ -39,8 +39,10 @@ def main():
     print()
     springs = [r for r in rows if r["model"] == "springs"]
     if springs:
-        print("Springs at rest: " + ", ".join(f"level {r['resolution']} {r['error']:.3f} ({r['ms_per_frame']:.1f} ms)"
-                                             for r in sorted(springs, key=lambda r: r["resolution"])) + ".")
+        print("Springs at rest: " + ", ".join(f"{r['formulation']} level {r['resolution']} {r['error']:.3f} "
+                                             f"({r['ms_per_frame']:.1f} ms)"
+                                             for r in sorted(springs, key=lambda r: (r["formulation"], r["resolution"])))
+              + ".")
     for rec in j["recommendations"]:
         if rec.get("row", -1) < 0:
             print(f"For a {rec['frame_budget_ms']:g} ms frame: nothing fits.")

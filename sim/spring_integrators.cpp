@@ -164,6 +164,27 @@ int SpringModel::implicit_step(double dt, double& relative_residual) {
       y[sp.a] += ye;
       y[sp.b] -= ye;
     }
+    if (opt_.nodal_volume) {
+      // Gauss-Newton on sum_a W_a(J_a): beta_a g_a g_a^T with g_a = sum_{t at a} grad V_t / 4,
+      // in three passes (per tet g_t . p, per vertex its quarter sums, per tet the forces).
+      nodal_dot_.assign(n, 0.0);
+      for (std::size_t t = 0; t < volumes_.size(); ++t) {
+        const Volume& vol = volumes_[t];
+        const auto& g = volume_grad_[t];
+        double s = 0;
+        for (int k = 0; k < 4; ++k) s += g[k].dot(p[vol.v[k]]);
+        for (int k = 0; k < 4; ++k) nodal_dot_[vol.v[k]] += 0.25 * s;
+      }
+      for (std::size_t a = 0; a < n; ++a) nodal_dot_[a] *= b * nodal_[a].beta;
+      for (std::size_t t = 0; t < volumes_.size(); ++t) {
+        const Volume& vol = volumes_[t];
+        const auto& g = volume_grad_[t];
+        double s = 0;
+        for (int k = 0; k < 4; ++k) s += 0.25 * nodal_dot_[vol.v[k]];
+        for (int k = 0; k < 4; ++k) y[vol.v[k]] += s * g[k];
+      }
+      return;
+    }
     for (std::size_t t = 0; t < volumes_.size(); ++t) {
       const Volume& vol = volumes_[t];
       const auto& g = volume_grad_[t];
@@ -202,8 +223,15 @@ int SpringModel::implicit_step(double dt, double& relative_residual) {
     diag_[sp.a] += dd;
     diag_[sp.b] += dd;
   }
-  for (std::size_t t = 0; t < volumes_.size(); ++t)
-    for (int k = 0; k < 4; ++k) diag_[volumes_[t].v[k]] += (dt2 * volume_beta_[t]) * volume_grad_[t][k].cwiseAbs2();
+  for (std::size_t t = 0; t < volumes_.size(); ++t) {
+    // Nodal: the cross terms between a vertex's tets left out, a Jacobi estimate.
+    double beta = volume_beta_[t];
+    if (opt_.nodal_volume) {
+      beta = 0;
+      for (int k = 0; k < 4; ++k) beta += nodal_[volumes_[t].v[k]].beta / 16;
+    }
+    for (int k = 0; k < 4; ++k) diag_[volumes_[t].v[k]] += (dt2 * beta) * volume_grad_[t][k].cwiseAbs2();
+  }
 
   const double bnorm = std::sqrt(bnorm2);
   int it = 0;

@@ -460,12 +460,41 @@ void SpringModel::compute_forces(const std::vector<Vec3>& x, const std::vector<V
     f[s.a] += fs;
     f[s.b] -= fs;
   }
+  if (opt_.nodal_volume) {
+    nodal_volumes(x);
+    for (const Volume& vol : volumes_) {
+      const auto g = volume_gradient(x[vol.v[0]], x[vol.v[1]], x[vol.v[2]], x[vol.v[3]]);
+      double s = 0;  // dW/dV_t: a quarter of each corner's slope
+      for (int k = 0; k < 4; ++k) s += 0.25 * nodal_[vol.v[k]].slope;
+      for (int k = 0; k < 4; ++k) f[vol.v[k]] -= s * g[k];
+    }
+    return;
+  }
   for (const Volume& vol : volumes_) {
     const Vec3 &x0 = x[vol.v[0]], &x1 = x[vol.v[1]], &x2 = x[vol.v[2]], &x3 = x[vol.v[3]];
     const auto g = volume_gradient(x0, x1, x2, x3);
     const double J = (x1 - x0).dot(g[1]) / vol.rest_volume;
     const double s = barrier_slope(J, vol.kappa, vol.rest_volume) / vol.rest_volume;
     for (int k = 0; k < 4; ++k) f[vol.v[k]] -= s * g[k];
+  }
+}
+
+void SpringModel::nodal_volumes(const std::vector<Vec3>& x) const {
+  nodal_.assign(x.size(), {});
+  for (const Volume& vol : volumes_) {
+    const double v = signed_volume(x[vol.v[0]], x[vol.v[1]], x[vol.v[2]], x[vol.v[3]]);
+    for (std::uint32_t a : vol.v) {
+      NodalVolume& n = nodal_[a];
+      n.rest += 0.25 * vol.rest_volume;
+      n.kappa_rest += 0.25 * vol.kappa * vol.rest_volume;
+      n.current += 0.25 * v;
+    }
+  }
+  for (NodalVolume& n : nodal_) {
+    if (!(n.rest > 0)) continue;
+    const double kappa = n.kappa_rest / n.rest, J = n.current / n.rest;
+    n.slope = barrier_slope(J, kappa, n.rest) / n.rest;
+    n.beta = barrier_curvature(J, kappa, n.rest) / (n.rest * n.rest);
   }
 }
 
@@ -482,9 +511,15 @@ double SpringModel::potential_energy() const {
     const double d = (x_[s.a] - x_[s.b]).norm() - s.rest;
     e += 0.5 * s.k * d * d;
   }
-  for (const Volume& vol : volumes_) {
-    const double V = signed_volume(x_[vol.v[0]], x_[vol.v[1]], x_[vol.v[2]], x_[vol.v[3]]);
-    e += barrier_energy(V / vol.rest_volume, vol.kappa, vol.rest_volume);
+  if (opt_.nodal_volume) {
+    nodal_volumes(x_);
+    for (const NodalVolume& n : nodal_)
+      if (n.rest > 0) e += barrier_energy(n.current / n.rest, n.kappa_rest / n.rest, n.rest);
+  } else {
+    for (const Volume& vol : volumes_) {
+      const double V = signed_volume(x_[vol.v[0]], x_[vol.v[1]], x_[vol.v[2]], x_[vol.v[3]]);
+      e += barrier_energy(V / vol.rest_volume, vol.kappa, vol.rest_volume);
+    }
   }
   for (std::size_t i = 0; i < x_.size(); ++i)
     if (active(static_cast<std::uint32_t>(i))) e -= (mass_[i] * gravity_ + f_ext_[i]).dot(x_[i]);

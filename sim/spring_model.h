@@ -43,6 +43,13 @@ struct SpringOptions {
   // J -> 0, whereas any quadratic penalty (altitude or volume) resists with a finite force
   // that a large enough load overcomes.
   bool volume_term = true;
+  // The volume term averaged at the vertices instead of per tet (as nodal-averaged FEM does
+  // with its volumetric strain, sim/fem_model.h): vertex a's volume ratio J_a = V_a / V0_a with
+  // V_a = sum over its tets of V_t / 4, energy sum_a kappa_a V0_a (J_a - 1 - ln J_a), kappa_a
+  // the volume-weighted kappa of its tets. Per tet, a near-incompressible body locks as
+  // standard tets do (docs/solver.md#spring-volume-terms). Computed from the per-tet volumes
+  // each step (one more pass), so edits stay local.
+  bool nodal_volume = false;
   // Floor of kappa / mu_s when nu < 1/4 (where the exact value lambda - mu would be negative):
   // keeps some barrier; the network then has Poisson's ratio (1 + r) / (2 (2 + r)).
   double min_volume_ratio = 0.1;
@@ -219,6 +226,15 @@ private:
   std::vector<Vec3> force_, dv_, r_, z_, p_, ap_, diag_;
   std::vector<Vec3> spring_n_;
   std::vector<double> spring_alpha_, volume_beta_;
+  // nodal_volume: per vertex, summed from the per-tet volumes (scratch of the passes).
+  struct NodalVolume {
+    double rest = 0, kappa_rest = 0, current = 0;  // V0_a, kappa_a V0_a, V_a
+    double slope = 0;                              // dW_a/dJ_a / V0_a (forces)
+    double beta = 0;                               // d2W_a/dJ_a2 / V0_a^2 (implicit Gauss-Newton)
+  };
+  mutable std::vector<NodalVolume> nodal_;
+  std::vector<double> nodal_dot_;  // implicit product: per vertex beta_a g_a . p
+  void nodal_volumes(const std::vector<Vec3>& x) const;  // fills nodal_ at x
   std::vector<std::array<Vec3, 4>> volume_grad_;
   std::vector<std::uint32_t> touched_, scratch_;
   std::vector<std::uint64_t> edge_scratch_;

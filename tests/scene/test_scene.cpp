@@ -245,3 +245,31 @@ TEST_CASE("units: SI materials on a body in millimetres are flagged by the sag t
   CHECK_THAT(mixed.warnings[0], Catch::Contains("implies a sag of the order of"));
   CHECK(run_scene(scene(R"({"young": 0.003, "poisson": 0.3, "density": 1e-9})", 9810), ro).warnings.empty());
 }
+
+TEST_CASE("springs.volume: per tet, averaged at the vertices, or none; bad values named", "[scene]") {
+  std::string text = kGood;
+  text.replace(text.find("\"fem-linear\""), 12, "\"springs\"");
+  text.replace(text.find("\"time\": {\"frames\": 6}"), 21,
+               R"("time": {"frames": 6, "dt": 0.01, "integrator": "implicit-euler", "damping": 5})");
+  auto volume = [&](const std::string& v) {
+    std::string t = text;
+    t.insert(t.rfind('}'), ", \"springs\": {\"volume\": \"" + v + "\"}");
+    return t;
+  };
+  CHECK(parse_scene(text, "scene.json").springs_volume == "tet");
+  double last = -1;
+  for (const char* v : {"tet", "nodal", "none"}) {
+    const Scene s = parse_scene(volume(v), "scene.json");
+    CHECK(s.springs_volume == v);
+    SceneRunOptions ro;
+    double norm = 0;
+    ro.on_frame = [&](int, const Eigen::VectorXd& d, const FrameStats&) { norm = d.norm(); };
+    run_scene(s, ro);
+    INFO(v << ": |u| " << norm);
+    CHECK(std::isfinite(norm));
+    CHECK(norm > 0);
+    CHECK(norm != last);  // each is its own model
+    last = norm;
+  }
+  CHECK(error_of(volume("edge")) == "scene.json: springs.volume: expected \"tet\", \"nodal\" or \"none\", got \"edge\"");
+}
