@@ -104,6 +104,11 @@ Cutter::Cutter(TetMesh& mesh, CutOptions options)
     : mesh_(&mesh), opt_(std::move(options)), progress_(std::make_unique<Progress>()),
       fragment_scratch_(std::make_unique<FragmentScratch>()) {
   if (const std::string e = snap_error(opt_.snap); !e.empty()) throw InvalidArgument("cut: snap: " + e);
+  if (opt_.exact_volumes) {
+    opt_.improve_options.collapse_tolerance = 0;
+    opt_.improve_options.collapse_deviation = 0;
+    opt_.improve_options.slide_curved = false;
+  }
   // Room for the cuts' new vertices and tets: the first steps then do not copy the mesh's
   // arrays (an O(mesh) spike); later growth is geometric, so amortized.
   mesh.reserve(mesh.vertex_capacity() + mesh.vertex_capacity() / 8 + 1024,

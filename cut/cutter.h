@@ -82,6 +82,13 @@ struct CutOptions {
   // bends under the blade the mapped path curves, and the sheets it takes cost quality
   // (docs/cut.md#moving-tissue).
   bool material_frame = false;
+  // true: the cut and its improvement keep every label's volume, and the body's, to rounding:
+  // the improvement's contractions may not move the body's surface, a cut or a label
+  // interface (improve_options' collapse_tolerance and collapse_deviation set to 0). The cut
+  // itself never moves those (snapping moves only interior vertices of one label). Off by
+  // default: those contractions are what removes the slivers along curved rims and bent
+  // sheets (docs/cut.md#label-volumes).
+  bool exact_volumes = false;
   // Used when improve (rings, budget, ...); frozen is set per step. Contraction tolerance 0.01:
   // where the rim passes within a hair of a surface vertex, the edge between them may go even
   // on the curved surface (moving it by at most that hair, well inside the snap threshold).

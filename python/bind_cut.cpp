@@ -23,7 +23,7 @@ struct PyCutter {
 std::unique_ptr<PyCutter> make_cutter(const py::object& mesh_obj, const std::string& mode, double snap, bool improve,
                                       double improve_budget_ms, int improve_work, const py::object& frozen,
                                       std::size_t fragment_search_limit, double finish_insert, int finish_work,
-                                      int finish_slice, double path_tolerance) {
+                                      int finish_slice, double path_tolerance, bool exact_volumes) {
   if (!py::isinstance<TetMesh>(mesh_obj))
     throw InvalidArgument("Cutter: mesh: expected an incise.TetMesh, got " +
                           py::str(py::type::of(mesh_obj).attr("__name__")).cast<std::string>());
@@ -51,6 +51,7 @@ std::unique_ptr<PyCutter> make_cutter(const py::object& mesh_obj, const std::str
   o.finish_improve_slice = finish_slice;
   check_finite_range("cut", "path_tolerance", path_tolerance, 0, 10, PythonNames{});
   o.path_tolerance = path_tolerance;
+  o.exact_volumes = exact_volumes;
   if (!frozen.is_none()) o.frozen = to_vertices(mesh, frozen);
   o.fragment_search_limit = fragment_search_limit;
   return std::unique_ptr<PyCutter>(new PyCutter{mesh_obj, mesh, Cutter(mesh, std::move(o))});
@@ -114,7 +115,7 @@ void bind_cut(py::module_& m) {
            py::arg("frozen") = py::none(), py::arg("fragment_search_limit") = std::size_t(20000),
            py::arg("finish_insert") = CutOptions{}.finish_insertion_below_deg,
            py::arg("finish_work") = CutOptions{}.finish_improve_work, py::arg("finish_slice") = 0,
-           py::arg("path_tolerance") = CutOptions{}.path_tolerance)
+           py::arg("path_tolerance") = CutOptions{}.path_tolerance, py::arg("exact_volumes") = false)
       .def(
           "start", [](PyCutter& c, const py::object& a, const py::object& b) {
             c.cutter.start({to_vec3(a, "blade a"), to_vec3(b, "blade b")});

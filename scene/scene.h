@@ -71,6 +71,7 @@ struct SceneCut {
   std::string mode = "subdivide";  // or "remove"
   double snap = 0.05;
   bool improve = true;
+  bool exact_volumes = false;  // CutOptions::exact_volumes
 };
 
 // Input from outside the scene, as a viewer's blade and probe give it between frames (scene

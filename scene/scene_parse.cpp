@@ -506,7 +506,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     for (std::size_t i = 0; i < jc.size(); ++i) {
       const std::string key = "cuts[" + std::to_string(i) + "]";
       const json& c = jc[i];
-      rd.keys(c, key, {"blade", "sweep", "from_frame", "to_frame", "path", "mode", "snap", "improve"});
+      rd.keys(c, key, {"blade", "sweep", "from_frame", "to_frame", "path", "mode", "snap", "improve", "exact_volumes"});
       SceneCut cut;
       cut.key = key;
       if (c.contains("path")) {
@@ -514,6 +514,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
           if (c.contains(k)) rd.fail(key + "." + k, "not with \"path\" (a path gives the blade's ends at frames)");
         read_cut_path(rd, c["path"], key + ".path", s.frames, cut);
         read_blade_options(rd, c, key, cut.mode, cut.snap, cut.improve);
+        if (c.contains("exact_volumes")) cut.exact_volumes = rd.boolean(c["exact_volumes"], key + ".exact_volumes");
         s.cuts.push_back(cut);
         continue;
       }
@@ -533,6 +534,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
                 "frame " + std::to_string(cut.to_frame) + " is after the run's last frame (" +
                     std::to_string(s.frames - 1) + ", time.frames " + std::to_string(s.frames) + ")");
       read_blade_options(rd, c, key, cut.mode, cut.snap, cut.improve);
+      if (c.contains("exact_volumes")) cut.exact_volumes = rd.boolean(c["exact_volumes"], key + ".exact_volumes");
       s.cuts.push_back(cut);
     }
   }
