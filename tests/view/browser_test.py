@@ -27,7 +27,7 @@ from selenium.webdriver.common.by import By
 from selenium.webdriver.common.keys import Keys
 from selenium.webdriver.support.ui import Select
 
-from browser_util import fail, measure_canvas, overlap, rect_of, start_chromium, wait_for
+from browser_util import fail, incision_bend, measure_canvas, overlap, rect_of, start_chromium, wait_for
 
 
 def main():
@@ -340,6 +340,12 @@ def main():
                 bent += 1
         if len(near) < 10 or bent < (len(near) - 2) // 2:
             fail(f"the take's blade path is straightened: {bent} of {len(near) - 2} positions off their neighbours' line")
+        # ... and so is the incision: its cut faces bend away from any one plane (a straight
+        # sweep's stay within about 0.01 of their extent, the liver_cut sample's; this arc ~0.12).
+        bend = incision_bend(os.path.join(take, "frame_0001.vtu"))
+        if bend < 0.05:
+            fail(f"the curved drag's incision is flat: its cut faces within {bend:.3f} of one plane")
+        print(f"curved drag: the incision bends {bend:.3f} off one plane (a straight sweep: about 0.01)", flush=True)
         replay = os.path.join(out_dir, "replay")
         shutil.rmtree(replay, ignore_errors=True)
         r = subprocess.run([incise, "simulate", os.path.join(take, "scene.json"), "-o", replay], capture_output=True,

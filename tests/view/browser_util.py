@@ -100,3 +100,29 @@ def rect_of(driver, element_id):
 
 def overlap(a, b):
     return a is not None and b is not None and a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+
+
+def incision_bend(vtu):
+    """How far a frame's cut faces are from one plane: the area-weighted RMS of their centroids'
+    distance to the best-fitting plane over their RMS spread along the plane (the smallest over
+    the largest singular value), on the rest shape, from the frame's `cut_face_mask`. A straight
+    blade sweep gives about 0.01 (the liver_cut sample), the browser test's arc drag about 0.12."""
+    import meshio
+    import numpy as np
+    m = meshio.read(vtu)
+    p = m.points - m.point_data["displacement"]
+    tets = m.cells_dict["tetra"]
+    mask = np.asarray(m.cell_data["cut_face_mask"][0]).astype(int)
+    cs, ws = [], []
+    for ti in np.nonzero(mask)[0]:
+        for k in range(4):
+            if mask[ti] >> k & 1:
+                a, b, c = (p[tets[ti][j]] for j in range(4) if j != k)
+                cs.append((a + b + c) / 3)
+                ws.append(0.5 * np.linalg.norm(np.cross(b - a, c - a)))
+    if len(cs) < 3:
+        return 0.0
+    cs, ws = np.array(cs), np.array(ws)
+    d = (cs - (cs * ws[:, None]).sum(0) / ws.sum()) * np.sqrt(ws)[:, None]
+    s = np.linalg.svd(d, compute_uv=False)
+    return float(s[2] / s[0])
