@@ -3,8 +3,12 @@
 //  1. step cost per integrator relative to symplectic Euler (same mesh, same state);
 //  2. estimated stable time step against mesh resolution (expected ~ h);
 //  3. local update (apply one TopologyChange) vs a full rebuild after k edited tets in an
-//     N-tet mesh.
-// Usage: bench_springs [--quick]
+//     N-tet mesh;
+//  4. what each volume term makes of the material (docs/solver.md#spring-volume-terms): the
+//     effective Young's modulus and Poisson's ratio of a bar in tension, and a cantilever's tip
+//     deflection against Timoshenko's, per mesh pattern and resolution, with corotational
+//     nodal-averaged FEM on the same meshes as the baseline.
+// Usage: bench_springs [--quick] [--only moduli]
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -13,8 +17,10 @@
 
 #include "mesh/generate.h"
 #include "mesh/tet_mesh.h"
+#include "sim/fem_simulation.h"
 #include "sim/spring_model.h"
 #include "tests/support/draws.h"
+#include "tests/support/mesh_edits.h"
 
 using namespace incise;
 using incise::testing::draw_vec3;
@@ -57,10 +63,111 @@ int edit_tets(TetMesh& m, std::mt19937& rng, int k) {
   return done;
 }
 
+// Static equilibrium of a model under per-vertex forces with the vertices at x = 0 held:
+// springs by implicit Euler with a huge step (each step a Newton step), FEM by its static solve.
+// Returns the displacement per vertex slot. volume: "tet", "nodal", "none" or "fem".
+std::vector<Vec3> equilibrium(const TetMesh& m, const Material& mat, const std::string& volume,
+                              const std::vector<std::pair<VertexId, Vec3>>& forces) {
+  std::vector<Vec3> u(m.vertex_capacity(), Vec3::Zero());
+  if (volume == "fem") {
+    FemSimulationOptions o;
+    o.kind = FemKind::Corotational;
+    o.formulation = Formulation::NodalAveraged;
+    o.nonlinear_iterations = 3;
+    o.cg.tolerance = 1e-10;
+    FemSimulation fem(m, MaterialTable(mat), o);
+    for (VertexId v : m.vertices())
+      if (m.rest(v).x() < 1e-9) fem.fix(v);
+    for (const auto& [v, f] : forces) fem.set_force(v, f);
+    for (int k = 0; k < 3; ++k) fem.step();
+    for (VertexId v : m.vertices()) u[v.idx()] = fem.displacement().segment<3>(3 * v.idx());
+    return u;
+  }
+  SpringOptions o;
+  o.volume_term = volume != "none";
+  o.nodal_volume = volume == "nodal";
+  o.cg_tolerance = 1e-12;
+  o.cg_max_iterations = 50000;
+  o.compute_energy = false;
+  SpringModel s(m, MaterialTable(mat), o);
+  for (VertexId v : m.vertices())
+    if (m.rest(v).x() < 1e-9) s.set_fixed(v, true);
+  for (const auto& [v, f] : forces) s.set_external_force(v, f);
+  for (int k = 0; k < 8; ++k) s.step(1e6, Integrator::ImplicitEuler);
+  for (VertexId v : m.vertices()) u[v.idx()] = s.positions()[v.idx()] - m.rest(v);
+  return u;
+}
+
+// Mean of f(u, rest) over the vertices whose rest position passes `in`.
+template <class In, class F>
+double mean_over(const TetMesh& m, const std::vector<Vec3>& u, In in, F f) {
+  double sum = 0;
+  int n = 0;
+  for (VertexId v : m.vertices())
+    if (in(m.rest(v))) sum += f(u[v.idx()]), ++n;
+  return n ? sum / n : 0.0;
+}
+
+void effective_moduli(bool quick) {
+  const Material mat{1e4, 0.45, 1000};
+  std::printf("== what each volume term makes of E = 1e4, nu = 0.45: a 4x1x1 bar pulled (strain 1e-4), and\n"
+              "   an 8x1x1 cantilever's tip under a load (deflection over Timoshenko's, which FEM's converges to)\n");
+  std::printf("%-10s %5s %8s %-6s %10s %10s %14s\n", "pattern", "cells", "tets", "model", "E_eff/E", "nu_eff",
+              "tip/Timoshenko");
+  for (const char* pattern : {"kuhn", "mirrored", "jittered"}) {
+    for (int n : {1, 2, 4}) {
+      if (quick && n > 2) break;
+      auto mesh = [&](const Vec3& size, std::array<int, 3> cells) {
+        TetMesh m = make_box(size, cells, 1, std::string(pattern) == "mirrored" ? BoxSplit::Mirrored : BoxSplit::Kuhn);
+        if (std::string(pattern) == "jittered") incise::testing::jitter(m, 0.3, 11);
+        return m;
+      };
+      const TetMesh bar = mesh(Vec3(4, 1, 1), {4 * n, n, n}), beam = mesh(Vec3(8, 1, 1), {8 * n, n, n});
+      for (const char* model : {"tet", "nodal", "none", "fem"}) {
+        // Tension: force E * 1e-4 over the end face's vertices.
+        std::vector<std::pair<VertexId, Vec3>> pull, load;
+        std::vector<VertexId> end;
+        for (VertexId v : bar.vertices())
+          if (bar.rest(v).x() > 4 - 1e-9) end.push_back(v);
+        for (VertexId v : end) pull.push_back({v, Vec3(mat.young * 1e-4 / double(end.size()), 0, 0)});
+        const auto ub = equilibrium(bar, mat, model, pull);
+        auto mid = [](double x0, double x1) { return [=](const Vec3& p) { return p.x() > x0 - 1e-9 && p.x() < x1 + 1e-9; }; };
+        // Strains over the middle half, x in [1, 3] (planes of vertices at every resolution).
+        const double ex = (mean_over(bar, ub, [](const Vec3& p) { return std::abs(p.x() - 3) < 1e-9; },
+                                     [](const Vec3& d) { return d.x(); }) -
+                           mean_over(bar, ub, [](const Vec3& p) { return std::abs(p.x() - 1) < 1e-9; },
+                                     [](const Vec3& d) { return d.x(); })) / 2;
+        const double ey =
+            mean_over(bar, ub, [&](const Vec3& p) { return mid(1, 3)(p) && p.y() > 1 - 1e-9; }, [](const Vec3& d) { return d.y(); }) -
+            mean_over(bar, ub, [&](const Vec3& p) { return mid(1, 3)(p) && p.y() < 1e-9; }, [](const Vec3& d) { return d.y(); });
+        // Bending: a small total load at the tip (the deflection a few thousandths of the length).
+        const double F = 1e-3 * mat.young / 8;
+        end.clear();
+        for (VertexId v : beam.vertices())
+          if (beam.rest(v).x() > 8 - 1e-9) end.push_back(v);
+        for (VertexId v : end) load.push_back({v, Vec3(0, 0, -F / double(end.size()))});
+        const auto uc = equilibrium(beam, mat, model, load);
+        const double tip = -mean_over(beam, uc, [](const Vec3& p) { return p.x() > 8 - 1e-9; }, [](const Vec3& d) { return d.z(); });
+        const double G = mat.young / (2 * (1 + mat.poisson));
+        const double timoshenko = F * 512 / (3 * mat.young / 12) + F * 8 / (5.0 / 6 * G);
+        std::printf("%-10s %5d %8zu %-6s %10.3f %10.3f %14.3f\n", pattern, n, bar.num_tets(), model,
+                    1e-4 / ex, -ey / ex, tip / timoshenko);
+        std::fflush(stdout);
+      }
+    }
+  }
+  std::printf("(cells: across the section; tets: the bar's. jittered: Kuhn tets, interior vertices moved up to\n"
+              " 0.3 of their shortest edge)\n\n");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
+  if (argc > 2 && std::strcmp(argv[1], "--only") == 0 && std::strcmp(argv[2], "moduli") == 0) {
+    effective_moduli(false);
+    return 0;
+  }
 
   // ---- 1. step cost per integrator ---------------------------------------------------------
   {
