@@ -261,23 +261,24 @@ void LookSession::show(std::size_t frame) {
     faces.push_back({t.tet, t.local});
     if (t.v[0] != kNoSlot) ++triangles, cut += (t.flags & kTriangleCut) ? 1 : 0;
   }
-  for (TetId t : worst) {
+  // Face f of tet t drawn with `flags`, its corners given slots (new ones take their positions).
+  auto add_face = [&](TetId t, int f, std::uint32_t flags) {
     const auto& tv = mesh.tet_vertices(t);
-    for (int f = 0; f < 4; ++f) {
-      if (!mesh.neighbor(t, f).is_valid()) continue;  // on the boundary: flagged above
-      std::array<std::uint32_t, 3> c{};
-      for (int k = 0; k < 3; ++k) {
-        const VertexId v = tv[kFaceLocal[f][k]];
-        auto [it, fresh] = slot_of.try_emplace(v.idx(), std::uint32_t(snap->positions.size() / 3));
-        if (fresh)
-          for (int d = 0; d < 3; ++d) snap->positions.push_back(float(mesh.rest(v)[d]));
-        c[k] = it->second;
-      }
-      snap->tris.insert(snap->tris.end(), {c[0], c[1], c[2], kTriangleWorst});
-      faces.push_back({t, f});
-      ++triangles;
+    std::array<std::uint32_t, 3> c{};
+    for (int k = 0; k < 3; ++k) {
+      const VertexId v = tv[kFaceLocal[f][k]];
+      auto [it, fresh] = slot_of.try_emplace(v.idx(), std::uint32_t(snap->positions.size() / 3));
+      if (fresh)
+        for (int d = 0; d < 3; ++d) snap->positions.push_back(float(mesh.rest(v)[d]));
+      c[k] = it->second;
     }
-  }
+    snap->tris.insert(snap->tris.end(), {c[0], c[1], c[2], flags});
+    faces.push_back({t, f});
+    ++triangles;
+  };
+  for (TetId t : worst)
+    for (int f = 0; f < 4; ++f)
+      if (mesh.neighbor(t, f).is_valid()) add_face(t, f, kTriangleWorst);  // on the boundary: flagged above
   // Colouring by label, the faces between two labels too (the boundary alone shows only the
   // labels that reach it: a lesion inside an organ would never be seen; the page's section
   // plane uncovers these). Each face once, from the side of the label with fewer tets (the
@@ -294,18 +295,8 @@ void LookSession::show(std::size_t frame) {
       for (int f = 0; f < 4; ++f) {
         const TetId n = mesh.neighbor(t, f);
         if (!n.is_valid() || mesh.label(n) == mesh.label(t) || !inner(t, n)) continue;
-        const auto& tv = mesh.tet_vertices(t);
-        std::array<std::uint32_t, 3> c{};
-        for (int k = 0; k < 3; ++k) {
-          const VertexId v = tv[kFaceLocal[f][k]];
-          auto [it, fresh] = slot_of.try_emplace(v.idx(), std::uint32_t(snap->positions.size() / 3));
-          if (fresh)
-            for (int d = 0; d < 3; ++d) snap->positions.push_back(float(mesh.rest(v)[d]));
-          c[k] = it->second;
-        }
-        snap->tris.insert(snap->tris.end(), {c[0], c[1], c[2], kTriangleInterface});
-        faces.push_back({t, f});
-        ++triangles, ++interfaces;
+        add_face(t, f, kTriangleInterface);
+        ++interfaces;
       }
   }
   // Colours: per triangle, of its tet (quality, label) or its face (tag).
