@@ -222,8 +222,8 @@ double slowest_omega(const TetMesh& mesh, const Scene& s, const Eigen::VectorXd&
 
 // Dynamic runs are compared at rest with the reference's last frame: its loads are held from
 // that frame on (a ramp that goes on past it stops there, at the value it has there; before
-// it, the same ramp). Without this, `--frames 2` on a scene whose probe ramps over 30 frames
-// compared springs pressed the whole way with a reference pressed a thirtieth of it.
+// it, the same ramp). Without this, a `--frames` shorter than a ramp compared springs loaded
+// the whole way with a reference loaded part of it (docs/solver.md, *Like with like*).
 void hold_loads_at(Scene& s, int frame) {
   for (SceneLoad& l : s.loads) {
     if (l.to_frame <= frame) continue;

@@ -297,7 +297,7 @@ TEST_CASE("first hour: a user's cut scene runs to the end, every frame reads bac
   CHECK(r.out.find(expect) != std::string::npos);
 
   // The inversion barrier with two relinearizations a frame (docs/solver.md#inversion-barrier):
-  // at most the frame a cut step inverts a tet first (10 frames without; 1 measured).
+  // at most the frame a cut step inverts a tet first (docs/solver.md#inversion-barrier).
   {
     std::string text = slurp(d / "scene.json");
     text.insert(text.rfind('}'), R"(, "inversion_barrier": true, "solver": {"nonlinear_iterations": 2})");

@@ -244,7 +244,7 @@ TEST_CASE("incise trade: dynamic runs are compared at rest under the loads of th
           "[cli][trade][long]") {
   // The probe ramps over 30 frames and trade compares 2 (`--frames 2`): the reference's last
   // frame has a thirtieth of it. Springs (dynamic, settled at rest) once played on past the
-  // ramp, and were compared pressed the whole way: 1.45 off on the README's beam, 0.16 now.
+  // ramp, and were compared pressed the whole way (docs/solver.md, *Like with like*).
   const fs::path dir = scratch_dir("cli_trade_at_rest");
   {
     std::string scene = kScene;

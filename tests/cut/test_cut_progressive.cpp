@@ -333,7 +333,7 @@ TEST_CASE("progressive: exact_volumes keeps every label's volume to rounding thr
           "[cut][progressive]") {
   // The sample liver (labels 85, 127, 255), four random straight cuts swept down in 10 steps
   // each: by default the improvement's tolerance contractions move the surface and the label
-  // interfaces (1.5e-5 and 4.4e-5 of the body on two seeds); with exact_volumes they may not.
+  // interfaces (docs/cut.md#label-volumes); with exact_volumes they may not.
   const TetMesh liver = read_tet_mesh(std::string(INCISE_SOURCE_DIR) + "/samples/liver.msh");
   Vec3 lo = Vec3::Constant(1e300), hi = -lo;
   for (VertexId v : liver.vertices()) lo = lo.cwiseMin(liver.rest(v)), hi = hi.cwiseMax(liver.rest(v));

@@ -90,10 +90,10 @@ TEST_CASE("inversion barrier: terms, product and assembly agree with its energy"
 
 TEST_CASE("inversion barrier: a pressed tet stays the right way out", "[sim][barrier]") {
   // A box fixed at its base, its top's middle vertex pushed down by a point force: the tets
-  // under it invert at the plain corotational equilibrium (16 of 48); held, none does, and the
-  // smallest volume ratio is near j_min.
+  // under it invert at the plain corotational equilibrium (docs/solver.md#inversion-barrier);
+  // held, none does, and the smallest volume ratio is near j_min.
   TetMesh mesh = make_box(Vec3(2, 2, 2), {2, 2, 2});
-  const double force = 2000;  // E = 1000 on cells of 1: the plain equilibrium has J down to -1.6
+  const double force = 2000;  // twice E on cells of 1: far past what the plain tets resist
   double smallest = 1;
   auto run = [&](double j_min) {
     FemSimulationOptions o;
