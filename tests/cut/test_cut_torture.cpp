@@ -132,7 +132,7 @@ TEST_CASE("torture: random progressive cuts keep every invariant after every ste
       Vec3 walk = start;  // a curved path's blade centre
       // A curved walk on a fresh box: the area it swept inside the box, step by step (the blade
       // keeps its direction; each step sweeps a parallelogram).
-      const bool check_curved = seq == 0 && curved && base.name.rfind("box", 0) == 0;
+      const bool check_curved = seq == 0 && curved && opt.snap <= 0.02 && base.name.rfind("box", 0) == 0;
       double curved_swept = 0;
       const double area_before = check_area || check_curved ? tagged_area(m, kTagCut) : 0;
       for (int s = 1; s <= nsteps && steps < total; ++s, ++steps) {
