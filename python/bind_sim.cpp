@@ -388,6 +388,8 @@ void bind_sim(py::module_& m) {
         d["max_displacement"] = r.max_displacement;
         d["max_inverted"] = r.max_inverted;
         d["frames_with_inverted"] = r.frames_with_inverted;
+        d["first_stable_dt"] = r.first_stable_dt;
+        d["min_stable_dt"] = r.min_stable_dt;
         d["vertices"] = r.vertices;
         d["tets"] = r.tets;
         d["total_cut_ms"] = r.total_cut_ms;

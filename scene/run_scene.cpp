@@ -145,6 +145,10 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
       sum.max_displacement = f.max_displacement;
       sum.max_inverted = std::max(sum.max_inverted, f.inverted);
       sum.frames_with_inverted += f.inverted > 0;
+      if (f.stable_dt > 0) {
+        if (sum.frames == 0) sum.first_stable_dt = f.stable_dt;
+        sum.min_stable_dt = sum.min_stable_dt > 0 ? std::min(sum.min_stable_dt, f.stable_dt) : f.stable_dt;
+      }
       if (frame > 0) frame_ms.push_back(st.frame_ms);  // frame 0 builds the solver
       ++sum.frames;
       if (out) {

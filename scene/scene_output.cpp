@@ -23,13 +23,14 @@ void write_text_atomic(const std::string& path, const std::string& text) {
 }  // namespace
 
 SceneOutput::SceneOutput(const Scene& scene, std::string dir)
-    : dir_(std::move(dir)), cuts_(!scene.cuts.empty()), binary_(scene.output_binary) {
+    : dir_(std::move(dir)), cuts_(!scene.cuts.empty()), springs_(scene.model == SceneModel::Springs),
+      binary_(scene.output_binary) {
   std::error_code ec;
   fs::create_directories(dir_, ec);
   if (ec) throw IoError(dir_, 0, "cannot create output directory: " + ec.message());
   csv_ << "frame,time,iterations,relative_residual,solve_ms,budget_exhausted,converged,max_displacement,frame_ms,"
           "setup_ms,cheaper_preconditioner,relinearized,outside_ms,inverted"
-       << (cuts_ ? ",cut_ms,tets" : "") << "\n";
+       << (cuts_ ? ",cut_ms,tets" : "") << (springs_ ? ",stable_dt" : "") << "\n";
   csv_ << std::setprecision(9);
   pvd_ << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
           "  <Collection>\n";
@@ -44,6 +45,7 @@ std::string SceneOutput::add(SceneRunner& runner, const SceneFrame& f, bool vtu)
        << "," << st.setup_ms << "," << (st.cheaper_preconditioner ? 1 : 0) << "," << st.relinearized << "," << st.outside_ms
        << "," << f.inverted;
   if (cuts_) csv_ << "," << f.cut_ms << "," << mesh.num_tets();
+  if (springs_) csv_ << "," << f.stable_dt;
   csv_ << "\n";
   if (!vtu) return "";
 

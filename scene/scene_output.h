@@ -25,6 +25,7 @@ public:
 private:
   std::string dir_;
   bool cuts_;     // the scene has cuts: cut_ms and tets columns, the cut_faces field
+  bool springs_;  // the spring model: the stable_dt column
   bool binary_;
   std::ostringstream csv_, pvd_;
 };

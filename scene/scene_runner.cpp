@@ -633,6 +633,7 @@ SceneFrame SceneRunner::step() {
       st.relative_residual = ss.cg_relative_residual;
     }
     st.solve_ms = st.frame_ms = ms_since(t0);
+    out.stable_dt = springs_->stable_time_step();  // cuts make smaller tets, and the bound with them
     disp = Eigen::VectorXd::Zero(Eigen::Index(3 * mesh_.vertex_capacity()));
     const auto& x = springs_->positions();
     for (VertexId v : mesh_.vertices()) disp.segment<3>(3 * v.idx()) = x[v.idx()] - mesh_.rest(v);

@@ -47,6 +47,7 @@ struct SceneFrame {
   double cut_ms = 0;                // the scene's blades before the solve (cut + local improvement)
   double cut_improve_ms = 0;        // of cut_ms: the local improvement
   std::size_t inverted = 0;         // tets inverted or flat in the deformed shape
+  double stable_dt = 0;             // springs: the explicit step's stable bound after the frame's cuts
 };
 
 class SceneRunner {

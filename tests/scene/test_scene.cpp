@@ -273,3 +273,24 @@ TEST_CASE("springs.volume: per tet, averaged at the vertices, or none; bad value
   }
   CHECK(error_of(volume("edge")) == "scene.json: springs.volume: expected \"tet\", \"nodal\" or \"none\", got \"edge\"");
 }
+
+TEST_CASE("springs: the stable explicit step is reported every frame, and a cut lowers it", "[scene]") {
+  // A spring bar cut through the middle over frames 2-4: stats.csv's stable_dt and the
+  // summary's first and smallest bound; the cut's small tets make the bound smaller.
+  std::string text = kGood;
+  text.replace(text.find("\"fem-linear\""), 12, "\"springs\"");
+  text.replace(text.find("\"time\": {\"frames\": 6}"), 21,
+               R"("time": {"frames": 6, "dt": 0.001, "integrator": "implicit-euler", "damping": 5})");
+  text.insert(text.rfind('}'), R"(, "cuts": [{"blade": [[2.03, -0.5, 1.1], [2.03, 1.5, 1.1]], "sweep": [0, 0, -0.6], "from_frame": 2, "to_frame": 4}])");
+  const fs::path dir = temp_dir("stable_dt");
+  SceneRunOptions ro;
+  ro.out_dir = dir.string();
+  const SceneRunSummary r = run_scene(parse_scene(text, "scene.json"), ro);
+  CHECK(r.first_stable_dt > 0);
+  CHECK(r.min_stable_dt < r.first_stable_dt);
+  std::ifstream csv(dir / "stats.csv");
+  std::string header;
+  std::getline(csv, header);
+  CHECK(header.find(",stable_dt") != std::string::npos);
+  fs::remove_all(dir);
+}
