@@ -110,6 +110,7 @@ struct Scene {
   // springs: the volume term per tet ("tet", default), averaged at the vertices ("nodal") or
   // none (SpringOptions::volume_term, ::nodal_volume; docs/solver.md#spring-volume-terms).
   std::string springs_volume = "tet";
+  double springs_viscosity = 0, springs_stiffening = 0;  // SpringOptions::viscosity, ::stiffening
   // fem-corotational: hold tets near inversion (docs/solver.md#inversion-barrier); off by default.
   InversionBarrierOptions inversion_barrier;
   Formulation formulation = Formulation::Standard;  // FEM: how the volumetric strain is treated

@@ -389,8 +389,14 @@ Scene parse_scene(const std::string& text, const std::string& path) {
 
   if (j.contains("springs")) {
     const json& jsp = j["springs"];
-    if (!jsp.is_object()) rd.fail("springs", "expected {\"volume\": \"tet\" | \"nodal\" | \"none\"}");
-    rd.keys(jsp, "springs", {"volume"});
+    if (!jsp.is_object())
+      rd.fail("springs", "expected {\"volume\": \"tet\" | \"nodal\" | \"none\", \"viscosity\": T, \"stiffening\": B}");
+    rd.keys(jsp, "springs", {"volume", "viscosity", "stiffening"});
+    if (jsp.contains("viscosity")) s.springs_viscosity = rd.non_negative(jsp["viscosity"], "springs.viscosity");
+    if (jsp.contains("stiffening")) {
+      s.springs_stiffening = rd.non_negative(jsp["stiffening"], "springs.stiffening");
+      if (s.springs_stiffening > 100) rd.fail("springs.stiffening", "expected a value in [0, 100]");
+    }
     if (jsp.contains("volume")) {
       s.springs_volume = rd.string(jsp["volume"], "springs.volume");
       if (s.springs_volume != "tet" && s.springs_volume != "nodal" && s.springs_volume != "none")

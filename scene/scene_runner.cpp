@@ -189,6 +189,8 @@ SceneRunner::SceneRunner(const Scene& scene, const TetMesh* mesh) : scene_(scene
     so.compute_energy = false;
     so.volume_term = s.springs_volume != "none";
     so.nodal_volume = s.springs_volume == "nodal";
+    so.viscosity = s.springs_viscosity;
+    so.stiffening = s.springs_stiffening;
     springs_ = std::make_unique<SpringModel>(mesh_, s.materials, so);
     integrator_ = parse_integrator(s.integrator);
     for (const auto& [v, axes] : fixed) springs_->set_fixed(v, true);  // axes == 7: the parser refuses rollers

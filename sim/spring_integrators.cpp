@@ -136,13 +136,17 @@ int SpringModel::implicit_step(double dt, double& relative_residual) {
 
   spring_n_.resize(springs_.size());
   spring_alpha_.resize(springs_.size());
+  spring_axial_.resize(springs_.size());
   for (std::size_t s = 0; s < springs_.size(); ++s) {
     const Spring& sp = springs_[s];
     const Vec3 d = x_[sp.a] - x_[sp.b];
     const double l = d.norm();
     spring_n_[s] = l > 0 ? Vec3(d / l) : Vec3::Zero();
-    spring_alpha_[s] = l > 0 ? std::max(0.0, 1 - sp.rest / l) : 0.0;
+    // Transverse: tension / l (over k), kept >= 0 so the operator stays positive definite.
+    spring_alpha_[s] = l > 0 ? std::max(0.0, spring_tension(sp, l) / (sp.k * l)) : 0.0;
+    spring_axial_[s] = l > 0 ? spring_axial(sp, l) : 1.0;
   }
+  const double tau = opt_.viscosity;
   volume_grad_.resize(volumes_.size());
   volume_beta_.resize(volumes_.size());
   for (std::size_t t = 0; t < volumes_.size(); ++t) {
@@ -151,8 +155,8 @@ int SpringModel::implicit_step(double dt, double& relative_residual) {
     const double J = (x_[vol.v[1]] - x_[vol.v[0]]).dot(volume_grad_[t][1]) / vol.rest_volume;
     volume_beta_[t] = barrier_curvature(J, vol.kappa, vol.rest_volume) / (vol.rest_volume * vol.rest_volume);
   }
-  // y = a M p + b K p
-  auto apply_op = [&](const std::vector<Vec3>& p, std::vector<Vec3>& y, double a, double b) {
+  // y = a M p + b K p + c C p (C: the springs' Kelvin-Voigt damping, viscosity x k along each)
+  auto apply_op = [&](const std::vector<Vec3>& p, std::vector<Vec3>& y, double a, double b, double c) {
     y.resize(n);
     for (std::size_t i = 0; i < n; ++i) y[i] = (a * mass_[i]) * p[i];
     for (std::size_t s = 0; s < springs_.size(); ++s) {
@@ -160,7 +164,8 @@ int SpringModel::implicit_step(double dt, double& relative_residual) {
       const Vec3& nn = spring_n_[s];
       const Vec3 d = p[sp.a] - p[sp.b];
       const double nd = nn.dot(d);
-      const Vec3 ye = (b * sp.k) * (nd * nn + spring_alpha_[s] * (d - nd * nn));
+      const Vec3 ye = (b * sp.k) * (spring_axial_[s] * nd * nn + spring_alpha_[s] * (d - nd * nn)) +
+                      (c * tau * sp.k * nd) * nn;
       y[sp.a] += ye;
       y[sp.b] -= ye;
     }
@@ -197,7 +202,7 @@ int SpringModel::implicit_step(double dt, double& relative_residual) {
 
   // Right-hand side and the known dv of constrained vertices.
   std::vector<Vec3>& rhs = z_;
-  apply_op(v_, rhs, 0.0, 1.0);  // K v
+  apply_op(v_, rhs, 0.0, 1.0, 0.0);  // K v
   dv_.assign(n, Vec3::Zero());
   for (std::size_t i = 0; i < n; ++i) {
     const auto u = static_cast<std::uint32_t>(i);
@@ -210,7 +215,7 @@ int SpringModel::implicit_step(double dt, double& relative_residual) {
   for (std::size_t i = 0; i < n; ++i)
     if (free_dof(static_cast<std::uint32_t>(i))) bnorm2 += rhs[i].squaredNorm();
   // r = b - A dv0 on the free dofs
-  apply_op(dv_, r_, mc, dt2);
+  apply_op(dv_, r_, mc, dt2, dt);
   for (std::size_t i = 0; i < n; ++i) r_[i] = free_dof(static_cast<std::uint32_t>(i)) ? Vec3(rhs[i] - r_[i]) : Vec3::Zero();
 
   // Jacobi preconditioner: the diagonal of A.
@@ -219,7 +224,8 @@ int SpringModel::implicit_step(double dt, double& relative_residual) {
   for (std::size_t s = 0; s < springs_.size(); ++s) {
     const Spring& sp = springs_[s];
     const Vec3 n2 = spring_n_[s].cwiseAbs2();
-    const Vec3 dd = (dt2 * sp.k) * (n2 + spring_alpha_[s] * (Vec3::Ones() - n2));
+    const Vec3 dd = (dt2 * sp.k) * (spring_axial_[s] * n2 + spring_alpha_[s] * (Vec3::Ones() - n2)) +
+                    (dt * tau * sp.k) * n2;
     diag_[sp.a] += dd;
     diag_[sp.b] += dd;
   }
@@ -247,7 +253,7 @@ int SpringModel::implicit_step(double dt, double& relative_residual) {
     }
     const double tol = opt_.cg_tolerance * bnorm;
     while (std::sqrt(rr) > tol && it < opt_.cg_max_iterations) {
-      apply_op(p_, ap_, mc, dt2);
+      apply_op(p_, ap_, mc, dt2, dt);
       double pap = 0;
       for (std::size_t i = 0; i < n; ++i)
         if (free_dof(static_cast<std::uint32_t>(i))) pap += p_[i].dot(ap_[i]);

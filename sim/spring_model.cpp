@@ -56,6 +56,10 @@ SpringModel::SpringModel(const TetMesh& mesh, const MaterialTable& materials, co
     throw InvalidArgument("springs.damping: expected a finite value >= 0 [1/s]");
   if (!(opt_.min_volume_ratio >= 0) || !std::isfinite(opt_.min_volume_ratio))
     throw InvalidArgument("springs.min_volume_ratio: expected a finite value >= 0");
+  if (!(opt_.viscosity >= 0) || !std::isfinite(opt_.viscosity))
+    throw InvalidArgument("springs.viscosity: expected a finite time constant >= 0 [s]");
+  if (!(opt_.stiffening >= 0) || !(opt_.stiffening <= 100))
+    throw InvalidArgument("springs.stiffening: expected a value in [0, 100]");
   if (!(opt_.barrier_limit > 0 && opt_.barrier_limit < 1))
     throw InvalidArgument("springs.barrier_limit: expected a value in (0, 1)");
   if (!(opt_.cg_tolerance > 0) || opt_.cg_max_iterations < 1)
@@ -437,6 +441,20 @@ double SpringModel::barrier_slope(double J, double kappa, double V0) const {
   return kappa * V0 * ((1 - 1 / jm) + (J - jm) / (jm * jm));
 }
 
+double SpringModel::spring_tension(const Spring& s, double l) const {
+  const double e = (l - s.rest) / s.rest, b = opt_.stiffening;
+  return b > 0 ? s.k * s.rest * std::expm1(b * e) / b : s.k * (l - s.rest);
+}
+
+double SpringModel::spring_energy(const Spring& s, double l) const {
+  const double e = (l - s.rest) / s.rest, b = opt_.stiffening;
+  return b > 0 ? s.k * s.rest * s.rest * (std::expm1(b * e) - b * e) / (b * b) : 0.5 * s.k * (l - s.rest) * (l - s.rest);
+}
+
+double SpringModel::spring_axial(const Spring& s, double l) const {
+  return opt_.stiffening > 0 ? std::exp(opt_.stiffening * (l - s.rest) / s.rest) : 1.0;
+}
+
 double SpringModel::barrier_curvature(double J, double kappa, double V0) const {
   const double j = std::max(J, opt_.barrier_limit);
   return kappa * V0 / (j * j);
@@ -452,11 +470,14 @@ void SpringModel::compute_forces(const std::vector<Vec3>& x, const std::vector<V
   const double c = opt_.damping;
   for (std::size_t i = 0; i < n; ++i)
     f[i] = active(static_cast<std::uint32_t>(i)) ? Vec3(mass_[i] * (gravity_ - c * v[i]) + f_ext_[i]) : Vec3::Zero();
+  const double tau = opt_.viscosity;
   for (const Spring& s : springs_) {
     const Vec3 d = x[s.a] - x[s.b];
     const double l = d.norm();
     if (!(l > 0)) continue;  // coincident ends: no direction, no force
-    const Vec3 fs = (s.k * (s.rest - l) / l) * d;
+    double t = -spring_tension(s, l);  // along d, on a
+    if (tau > 0) t -= tau * s.k * d.dot(v[s.a] - v[s.b]) / l;
+    const Vec3 fs = (t / l) * d;
     f[s.a] += fs;
     f[s.b] -= fs;
   }
@@ -507,10 +528,7 @@ double SpringModel::kinetic_energy() const {
 
 double SpringModel::potential_energy() const {
   double e = 0;
-  for (const Spring& s : springs_) {
-    const double d = (x_[s.a] - x_[s.b]).norm() - s.rest;
-    e += 0.5 * s.k * d * d;
-  }
+  for (const Spring& s : springs_) e += spring_energy(s, (x_[s.a] - x_[s.b]).norm());
   if (opt_.nodal_volume) {
     nodal_volumes(x_);
     for (const NodalVolume& n : nodal_)
@@ -532,7 +550,8 @@ double SpringModel::max_angular_frequency() const {
 
 double SpringModel::stable_time_step() const {
   const double w2 = bound_leaves_ ? bound_tree_[1] : 0.0;
-  const double c = opt_.damping;
+  // Kelvin-Voigt damps a mode of frequency w at viscosity x w^2: the fastest mode's rate.
+  const double c = opt_.damping + opt_.viscosity * w2;
   if (!(w2 > 0)) return c > 0 ? 2 / c : std::numeric_limits<double>::infinity();
   // Symplectic Euler on x'' = -w^2 x - c x' is stable iff w^2 dt^2 + 2 c dt < 4.
   return (-c + std::sqrt(c * c + 4 * w2)) / w2;
@@ -545,7 +564,7 @@ double SpringModel::stable_time_step(Integrator integrator) const {
       // Step matrix [[1, dt], [-w^2 dt, 1 - c dt]]: det = 1 - c dt + w^2 dt^2 < 1 needs
       // dt < c / w^2 (worst at w_max), trace >= -(1 + det) needs c dt < 2.
       const double w2 = bound_leaves_ ? bound_tree_[1] : 0.0;
-      const double c = opt_.damping;
+      const double c = opt_.damping + opt_.viscosity * w2;
       if (!(c > 0)) return 0.0;
       return w2 > 0 ? std::min(c / w2, 2 / c) : 2 / c;
     }

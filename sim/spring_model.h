@@ -50,6 +50,13 @@ struct SpringOptions {
   // standard tets do (docs/solver.md#spring-volume-terms). Computed from the per-tet volumes
   // each step (one more pass), so edits stay local.
   bool nodal_volume = false;
+  // Kelvin-Voigt damping in every spring: a force c (v_rel . n) along it against its rate of
+  // extension, c = viscosity x k (viscosity: a time constant [s]); 0: none. Unlike `damping`
+  // it leaves a rigid motion alone and damps the fast modes most (docs/solver.md#spring-options).
+  double viscosity = 0;
+  // Strain-stiffening springs (Fung's exponential law): tension k l0 (exp(b e) - 1) / b at the
+  // strain e = (l - l0) / l0, tangent stiffness k exp(b e), b = stiffening; 0: Hookean.
+  double stiffening = 0;
   // Floor of kappa / mu_s when nu < 1/4 (where the exact value lambda - mu would be negative):
   // keeps some barrier; the network then has Poisson's ratio (1 + r) / (2 (2 + r)).
   double min_volume_ratio = 0.1;
@@ -194,6 +201,11 @@ private:
   double barrier_energy(double J, double kappa, double V0) const;
   double barrier_slope(double J, double kappa, double V0) const;  // dW/dJ
   double barrier_curvature(double J, double kappa, double V0) const;  // d2W/dJ2
+  // A spring's tension (k l0 e Hookean, k l0 (exp(b e) - 1) / b stiffening), its energy and its
+  // axial tangent over k, at length l.
+  double spring_tension(const Spring& s, double l) const;
+  double spring_energy(const Spring& s, double l) const;
+  double spring_axial(const Spring& s, double l) const;
   int implicit_step(double dt, double& relative_residual);
   void warn_once(Integrator integrator, double dt, double limit);
 
@@ -226,6 +238,7 @@ private:
   std::vector<Vec3> force_, dv_, r_, z_, p_, ap_, diag_;
   std::vector<Vec3> spring_n_;
   std::vector<double> spring_alpha_, volume_beta_;
+  std::vector<double> spring_axial_;  // implicit: axial tangent over k (exp(b e); 1 Hookean)
   // nodal_volume: per vertex, summed from the per-tet volumes (scratch of the passes).
   struct NodalVolume {
     double rest = 0, kappa_rest = 0, current = 0;  // V0_a, kappa_a V0_a, V_a

@@ -435,3 +435,22 @@ def test_springs_nodal_volume_term_sags_its_own_way(box):
     assert nodal != per_tet
     with pytest.raises(incise.InvalidArgument, match="nodal_volume: expected True or False"):
         incise.SpringSimulation(box, nodal_volume=1)
+
+
+def test_springs_viscosity_and_stiffening(box):
+    # Stiffening springs sag less than Hookean ones under the same load, and viscous ones settle
+    # where the others do (docs/solver.md#spring-options).
+
+    def sag(**kw):
+        s = incise.SpringSimulation(box, incise.Material(1e4, 0.3, 1000), damping=20.0, **kw)
+        s.fix(np.nonzero(box.points[:, 0] == 0)[0])
+        s.set_gravity((0, 0, -9.81 * 5))
+        for _ in range(60):
+            s.step(0.01, "implicit-euler")
+        return -s.displacement[:, 2].min()
+
+    hooke, fung, viscous = sag(), sag(stiffening=5.0), sag(viscosity=1e-3)
+    assert 0 < fung < hooke
+    assert viscous == pytest.approx(hooke, rel=1e-3)
+    with pytest.raises(incise.InvalidArgument, match="stiffening"):
+        incise.SpringSimulation(box, stiffening=-1.0)

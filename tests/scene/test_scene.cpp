@@ -272,6 +272,17 @@ TEST_CASE("springs.volume: per tet, averaged at the vertices, or none; bad value
     last = norm;
   }
   CHECK(error_of(volume("edge")) == "scene.json: springs.volume: expected \"tet\", \"nodal\" or \"none\", got \"edge\"");
+  // Kelvin-Voigt viscosity and strain-stiffening ride in the same key.
+  std::string viscous = text;
+  viscous.insert(viscous.rfind('}'), R"(, "springs": {"viscosity": 0.002, "stiffening": 5})");
+  const Scene vs = parse_scene(viscous, "scene.json");
+  CHECK(vs.springs_viscosity == 0.002);
+  CHECK(vs.springs_stiffening == 5);
+  SceneRunOptions ro;
+  CHECK(std::isfinite(run_scene(vs, ro).max_displacement));
+  std::string bad = text;
+  bad.insert(bad.rfind('}'), R"(, "springs": {"stiffening": 500})");
+  CHECK(error_of(bad) == "scene.json: springs.stiffening: expected a value in [0, 100]");
 }
 
 TEST_CASE("springs: the stable explicit step is reported every frame, and a cut lowers it", "[scene]") {

@@ -620,3 +620,88 @@ TEST_CASE("the nodal volume term: forces are minus its energy's gradient, volume
   CHECK(nodal > 0.95);
   CHECK(per_tet > 0.95);
 }
+
+TEST_CASE("stiffening springs: forces are minus the energy's gradient, and a bar stiffens as it stretches",
+          "[springs]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {2, 2, 2});
+  SpringOptions o;
+  o.stiffening = 8;
+  SpringModel s(m, table(1e4, 0.3), o);
+  perturb(s, m, 0.08, 9);
+  const std::vector<Vec3> x0 = s.positions();
+  const double dt = 1e-7;
+  SpringModel stepped = s;
+  stepped.step(dt, Integrator::SymplecticEuler);
+  double worst = 0, scale = 0;
+  for (VertexId v : m.vertices()) {
+    const Vec3 f = stepped.velocities()[v.idx()] * (s.mass(v) / dt);
+    for (int a = 0; a < 3; ++a) {
+      const double h = 1e-6;
+      Vec3 p = x0[v.idx()];
+      p[a] += h;
+      s.set_position(v, p);
+      const double ep = s.potential_energy();
+      p[a] -= 2 * h;
+      s.set_position(v, p);
+      const double em = s.potential_energy();
+      s.set_position(v, x0[v.idx()]);
+      worst = std::max(worst, std::abs(f[a] + (ep - em) / (2 * h)));
+      scale = std::max(scale, std::abs(f[a]));
+    }
+  }
+  REQUIRE(scale > 0);
+  CHECK(worst < 1e-5 * scale);
+
+  // A bar pulled by F and by 4F: Hookean springs stretch 4x as far, stiffening ones less.
+  TetMesh bar = make_box(Vec3(4, 1, 1), {8, 2, 2});
+  auto stretch = [&](double b, double force) {
+    SpringOptions q;
+    q.stiffening = b;
+    q.cg_tolerance = 1e-12;
+    q.cg_max_iterations = 20000;
+    SpringModel sp(bar, table(1e4, 0.3), q);
+    std::vector<VertexId> end;
+    for (VertexId v : bar.vertices()) {
+      if (bar.rest(v).x() < 1e-9) sp.set_fixed(v, true);
+      if (bar.rest(v).x() > 4 - 1e-9) end.push_back(v);
+    }
+    for (VertexId v : end) sp.set_external_force(v, Vec3(force / double(end.size()), 0, 0));
+    for (int k = 0; k < 12; ++k) sp.step(1e6, Integrator::ImplicitEuler);
+    double u = 0;
+    for (VertexId v : end) u += sp.positions()[v.idx()].x() - 4;
+    return u / double(end.size());
+  };
+  const double hooke = stretch(0, 4e3) / stretch(0, 1e3), fung = stretch(8, 4e3) / stretch(8, 1e3);
+  INFO("stretch at 4F over at F: Hookean " << hooke << ", stiffening " << fung);
+  CHECK(hooke == Approx(4).epsilon(0.05));
+  CHECK(fung < 0.8 * hooke);
+}
+
+TEST_CASE("Kelvin-Voigt springs damp a vibration but not a rigid motion", "[springs]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {2, 2, 2});
+  auto run = [&](double viscosity, bool rigid) {
+    SpringOptions o;
+    o.viscosity = viscosity;
+    SpringModel s(m, table(1e4, 0.3), o);
+    if (rigid) {
+      for (VertexId v : m.vertices()) s.set_velocity(v, Vec3(1, 0, 0));
+    } else {
+      perturb(s, m, 0.02, 4);
+    }
+    const double e0 = total_energy(s);
+    const double dt = 0.5 * s.stable_time_step(Integrator::SymplecticEuler);
+    for (int k = 0; k < 400; ++k) s.step(dt, Integrator::SymplecticEuler);
+    return total_energy(s) / e0;
+  };
+  CHECK(run(1e-3, true) == Approx(1).epsilon(1e-9));  // a rigid translation keeps its energy
+  const double free = run(0, false), damped = run(1e-3, false);
+  INFO("vibration energy after 400 steps: undamped " << free << ", Kelvin-Voigt " << damped);
+  CHECK(damped < 0.5 * free);
+  // Implicit Euler takes it too (its operator gains dt C).
+  SpringOptions o;
+  o.viscosity = 1e-3;
+  SpringModel s(m, table(1e4, 0.3), o);
+  perturb(s, m, 0.02, 4);
+  for (int k = 0; k < 20; ++k) s.step(1e-3, Integrator::ImplicitEuler);
+  for (const Vec3& x : s.positions()) CHECK(x.allFinite());
+}
