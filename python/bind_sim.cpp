@@ -187,12 +187,15 @@ std::vector<Vec3> per_vertex(const Springs& s, const std::vector<Vec3>& values) 
 
 void bind_sim(py::module_& m) {
   py::class_<Material>(m, "Material", "Young's modulus [Pa], Poisson's ratio, density [kg/m^3]")
-      .def(py::init([](double young, double poisson, double density) {
-             const Material m{young, poisson, density};
+      .def(py::init([](double young, double poisson, double density, double viscosity, double stiffening) {
+             const Material m{young, poisson, density, viscosity, stiffening};
              check_material(m, "Material", true);  // 0.5 passes: the mixed formulation takes it
              return m;
            }),
-           py::arg("young") = 1e6, py::arg("poisson") = 0.3, py::arg("density") = 1000)
+           py::arg("young") = 1e6, py::arg("poisson") = 0.3, py::arg("density") = 1000, py::kw_only(),
+           py::arg("viscosity") = 0.0, py::arg("stiffening") = 0.0)
+      .def_readwrite("viscosity", &Material::viscosity)
+      .def_readwrite("stiffening", &Material::stiffening)
       .def_readwrite("young", &Material::young)
       .def_readwrite("poisson", &Material::poisson)
       .def_readwrite("density", &Material::density)

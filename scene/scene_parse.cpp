@@ -104,7 +104,7 @@ private:
 };
 
 Material read_material(const Reader& rd, const json& j, const std::string& key, const Material& base) {
-  rd.keys(j, key, {"young", "poisson", "density"});
+  rd.keys(j, key, {"young", "poisson", "density", "viscosity", "stiffening"});
   Material m = base;
   if (j.contains("young")) m.young = rd.positive(j["young"], key + ".young");
   if (j.contains("poisson")) {
@@ -113,6 +113,12 @@ Material read_material(const Reader& rd, const json& j, const std::string& key, 
     if (m.poisson < 0 || m.poisson > 0.5) rd.fail(key + ".poisson", "expected a Poisson's ratio in [0, 0.5]");
   }
   if (j.contains("density")) m.density = rd.positive(j["density"], key + ".density");
+  // Springs only: per label, over the scene-wide "springs" values (docs/solver.md#spring-options).
+  if (j.contains("viscosity")) m.viscosity = rd.non_negative(j["viscosity"], key + ".viscosity");
+  if (j.contains("stiffening")) {
+    m.stiffening = rd.non_negative(j["stiffening"], key + ".stiffening");
+    if (m.stiffening > 100) rd.fail(key + ".stiffening", "expected a value in [0, 100]");
+  }
   return m;
 }
 

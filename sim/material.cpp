@@ -13,6 +13,10 @@ void check_material(const Material& m, const std::string& what, bool incompressi
     throw InvalidArgument(what + ".young: expected a finite Young's modulus > 0");
   if (!(m.density > 0) || !std::isfinite(m.density))
     throw InvalidArgument(what + ".density: expected a finite density > 0");
+  if (!(m.viscosity >= 0) || !std::isfinite(m.viscosity))
+    throw InvalidArgument(what + ".viscosity: expected a finite time constant >= 0 [s]");
+  if (!(m.stiffening >= 0) || !(m.stiffening <= 100))
+    throw InvalidArgument(what + ".stiffening: expected a value in [0, 100]");
   if (!(m.poisson >= 0) || !std::isfinite(m.poisson))
     throw InvalidArgument(what + ".poisson: expected a Poisson's ratio in [0, 0.5)");
   if (m.poisson > 0.5 || (m.poisson == 0.5 && !incompressible_ok))

@@ -146,7 +146,6 @@ int SpringModel::implicit_step(double dt, double& relative_residual) {
     spring_alpha_[s] = l > 0 ? std::max(0.0, spring_tension(sp, l) / (sp.k * l)) : 0.0;
     spring_axial_[s] = l > 0 ? spring_axial(sp, l) : 1.0;
   }
-  const double tau = opt_.viscosity;
   volume_grad_.resize(volumes_.size());
   volume_beta_.resize(volumes_.size());
   for (std::size_t t = 0; t < volumes_.size(); ++t) {
@@ -165,7 +164,7 @@ int SpringModel::implicit_step(double dt, double& relative_residual) {
       const Vec3 d = p[sp.a] - p[sp.b];
       const double nd = nn.dot(d);
       const Vec3 ye = (b * sp.k) * (spring_axial_[s] * nd * nn + spring_alpha_[s] * (d - nd * nn)) +
-                      (c * tau * sp.k * nd) * nn;
+                      (c * sp.tau * sp.k * nd) * nn;
       y[sp.a] += ye;
       y[sp.b] -= ye;
     }
@@ -225,7 +224,7 @@ int SpringModel::implicit_step(double dt, double& relative_residual) {
     const Spring& sp = springs_[s];
     const Vec3 n2 = spring_n_[s].cwiseAbs2();
     const Vec3 dd = (dt2 * sp.k) * (spring_axial_[s] * n2 + spring_alpha_[s] * (Vec3::Ones() - n2)) +
-                    (dt * tau * sp.k) * n2;
+                    (dt * sp.tau * sp.k) * n2;
     diag_[sp.a] += dd;
     diag_[sp.b] += dd;
   }

@@ -155,7 +155,7 @@ void SpringModel::set_bound(std::uint32_t v, double b) {
 void SpringModel::update_edge(const TetMesh& mesh, std::uint32_t a, std::uint32_t b) {
   if (a > b) std::swap(a, b);
   const std::uint64_t key = edge_key(a, b);
-  double sum = 0;
+  double sum = 0, vol = 0, tau = 0, stiff = 0;
   bool any = false;
   if (mesh.is_alive(VertexId(a)) && mesh.is_alive(VertexId(b))) {
     // Scan the shorter incidence list (a deterministic choice, so still bit-reproducible).
@@ -166,7 +166,12 @@ void SpringModel::update_edge(const TetMesh& mesh, std::uint32_t a, std::uint32_
       ++counters_.visits;
       const auto& tv = mesh.tet_vertices(t);
       if (tv[0].idx() != other && tv[1].idx() != other && tv[2].idx() != other && tv[3].idx() != other) continue;
-      sum += calibration(mesh.label(t)).spring_modulus * mesh.volume(t);
+      const double v = mesh.volume(t);
+      sum += calibration(mesh.label(t)).spring_modulus * v;
+      const Material& m = materials_.get(mesh.label(t));
+      vol += v;
+      tau += v * (m.viscosity > 0 ? m.viscosity : opt_.viscosity);
+      stiff += v * (m.stiffening > 0 ? m.stiffening : opt_.stiffening);
       any = true;
     }
   }
@@ -177,10 +182,12 @@ void SpringModel::update_edge(const TetMesh& mesh, std::uint32_t a, std::uint32_
   const double rest = (mesh.rest(VertexId(a)) - mesh.rest(VertexId(b))).norm();
   const double k = sum / (rest * rest);
   auto [it, inserted] = spring_index_.try_emplace(key, static_cast<std::uint32_t>(springs_.size()));
+  const Spring sp{a, b, rest, k, tau / vol, stiff / vol};
+  max_tau_ = std::max(max_tau_, sp.tau);
   if (inserted)
-    springs_.push_back({a, b, rest, k});
+    springs_.push_back(sp);
   else
-    springs_[it->second] = {a, b, rest, k};
+    springs_[it->second] = sp;
   ++counters_.visits;
 }
 
@@ -407,13 +414,13 @@ std::optional<SpringModel::SpringInfo> SpringModel::spring(VertexId a, VertexId 
   auto it = spring_index_.find(edge_key(a.idx(), b.idx()));
   if (it == spring_index_.end()) return std::nullopt;
   const Spring& s = springs_[it->second];
-  return SpringInfo{VertexId(s.a), VertexId(s.b), s.rest, s.k};
+  return SpringInfo{VertexId(s.a), VertexId(s.b), s.rest, s.k, s.tau, s.stiffening};
 }
 
 std::vector<SpringModel::SpringInfo> SpringModel::springs() const {
   std::vector<SpringInfo> out;
   out.reserve(springs_.size());
-  for (const Spring& s : springs_) out.push_back({VertexId(s.a), VertexId(s.b), s.rest, s.k});
+  for (const Spring& s : springs_) out.push_back({VertexId(s.a), VertexId(s.b), s.rest, s.k, s.tau, s.stiffening});
   std::sort(out.begin(), out.end(), [](const SpringInfo& p, const SpringInfo& q) {
     return p.a != q.a ? p.a < q.a : p.b < q.b;
   });
@@ -442,17 +449,17 @@ double SpringModel::barrier_slope(double J, double kappa, double V0) const {
 }
 
 double SpringModel::spring_tension(const Spring& s, double l) const {
-  const double e = (l - s.rest) / s.rest, b = opt_.stiffening;
+  const double e = (l - s.rest) / s.rest, b = s.stiffening;
   return b > 0 ? s.k * s.rest * std::expm1(b * e) / b : s.k * (l - s.rest);
 }
 
 double SpringModel::spring_energy(const Spring& s, double l) const {
-  const double e = (l - s.rest) / s.rest, b = opt_.stiffening;
+  const double e = (l - s.rest) / s.rest, b = s.stiffening;
   return b > 0 ? s.k * s.rest * s.rest * (std::expm1(b * e) - b * e) / (b * b) : 0.5 * s.k * (l - s.rest) * (l - s.rest);
 }
 
 double SpringModel::spring_axial(const Spring& s, double l) const {
-  return opt_.stiffening > 0 ? std::exp(opt_.stiffening * (l - s.rest) / s.rest) : 1.0;
+  return s.stiffening > 0 ? std::exp(s.stiffening * (l - s.rest) / s.rest) : 1.0;
 }
 
 double SpringModel::barrier_curvature(double J, double kappa, double V0) const {
@@ -470,13 +477,12 @@ void SpringModel::compute_forces(const std::vector<Vec3>& x, const std::vector<V
   const double c = opt_.damping;
   for (std::size_t i = 0; i < n; ++i)
     f[i] = active(static_cast<std::uint32_t>(i)) ? Vec3(mass_[i] * (gravity_ - c * v[i]) + f_ext_[i]) : Vec3::Zero();
-  const double tau = opt_.viscosity;
   for (const Spring& s : springs_) {
     const Vec3 d = x[s.a] - x[s.b];
     const double l = d.norm();
     if (!(l > 0)) continue;  // coincident ends: no direction, no force
     double t = -spring_tension(s, l);  // along d, on a
-    if (tau > 0) t -= tau * s.k * d.dot(v[s.a] - v[s.b]) / l;
+    if (s.tau > 0) t -= s.tau * s.k * d.dot(v[s.a] - v[s.b]) / l;
     const Vec3 fs = (t / l) * d;
     f[s.a] += fs;
     f[s.b] -= fs;
@@ -551,7 +557,7 @@ double SpringModel::max_angular_frequency() const {
 double SpringModel::stable_time_step() const {
   const double w2 = bound_leaves_ ? bound_tree_[1] : 0.0;
   // Kelvin-Voigt damps a mode of frequency w at viscosity x w^2: the fastest mode's rate.
-  const double c = opt_.damping + opt_.viscosity * w2;
+  const double c = opt_.damping + max_tau_ * w2;
   if (!(w2 > 0)) return c > 0 ? 2 / c : std::numeric_limits<double>::infinity();
   // Symplectic Euler on x'' = -w^2 x - c x' is stable iff w^2 dt^2 + 2 c dt < 4.
   return (-c + std::sqrt(c * c + 4 * w2)) / w2;
@@ -564,7 +570,7 @@ double SpringModel::stable_time_step(Integrator integrator) const {
       // Step matrix [[1, dt], [-w^2 dt, 1 - c dt]]: det = 1 - c dt + w^2 dt^2 < 1 needs
       // dt < c / w^2 (worst at w_max), trace >= -(1 + det) needs c dt < 2.
       const double w2 = bound_leaves_ ? bound_tree_[1] : 0.0;
-      const double c = opt_.damping + opt_.viscosity * w2;
+      const double c = opt_.damping + max_tau_ * w2;
       if (!(c > 0)) return 0.0;
       return w2 > 0 ? std::min(c / w2, 2 / c) : 2 / c;
     }

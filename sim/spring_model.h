@@ -51,7 +51,9 @@ struct SpringOptions {
   // each step (one more pass), so edits stay local.
   bool nodal_volume = false;
   // Kelvin-Voigt damping in every spring: a force c (v_rel . n) along it against its rate of
-  // extension, c = viscosity x k (viscosity: a time constant [s]); 0: none. Unlike `damping`
+  // extension, c = viscosity x k (viscosity: a time constant [s]); 0: none. A material's own
+  // `viscosity` (> 0) replaces it in its tets, and a spring takes its tets' mean; likewise
+  // `stiffening`. Unlike `damping`
   // it leaves a rigid motion alone and damps the fast modes most (docs/solver.md#spring-options).
   double viscosity = 0;
   // Strain-stiffening springs (Fung's exponential law): tension k l0 (exp(b e) - 1) / b at the
@@ -149,6 +151,7 @@ public:
     VertexId a, b;  // a < b
     double rest_length = 0;
     double stiffness = 0;  // [N/m]
+    double viscosity = 0, stiffening = 0;  // Kelvin-Voigt time constant [s], stiffening exponent
   };
   std::optional<SpringInfo> spring(VertexId a, VertexId b) const;  // O(1)
   std::vector<SpringInfo> springs() const;                          // O(springs), sorted by (a, b)
@@ -169,6 +172,7 @@ private:
   struct Spring {
     std::uint32_t a, b;
     double rest, k;
+    double tau = 0, stiffening = 0;  // per spring: the volume-weighted mean of its tets' materials
   };
   struct Volume {
     std::array<std::uint32_t, 4> v;
@@ -239,6 +243,7 @@ private:
   std::vector<Vec3> spring_n_;
   std::vector<double> spring_alpha_, volume_beta_;
   std::vector<double> spring_axial_;  // implicit: axial tangent over k (exp(b e); 1 Hookean)
+  double max_tau_ = 0;  // the largest spring viscosity so far (the stable step's bound)
   // nodal_volume: per vertex, summed from the per-tet volumes (scratch of the passes).
   struct NodalVolume {
     double rest = 0, kappa_rest = 0, current = 0;  // V0_a, kappa_a V0_a, V_a

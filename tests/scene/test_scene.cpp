@@ -283,6 +283,16 @@ TEST_CASE("springs.volume: per tet, averaged at the vertices, or none; bad value
   std::string bad = text;
   bad.insert(bad.rfind('}'), R"(, "springs": {"stiffening": 500})");
   CHECK(error_of(bad) == "scene.json: springs.stiffening: expected a value in [0, 100]");
+  // Per material too (docs/solver.md#spring-options).
+  std::string per_label = text;
+  per_label.replace(per_label.find("\"density\": 1000}"), 16, "\"density\": 1000, \"viscosity\": 0.002, \"stiffening\": 3}");
+  const Scene pl = parse_scene(per_label, "scene.json");
+  CHECK(pl.materials.fallback().viscosity == 0.002);
+  CHECK(pl.materials.fallback().stiffening == 3);
+  CHECK(std::isfinite(run_scene(pl, ro).max_displacement));
+  std::string bad_label = text;
+  bad_label.replace(bad_label.find("\"density\": 1000}"), 16, "\"density\": 1000, \"viscosity\": -1}");
+  CHECK(error_of(bad_label) == "scene.json: materials.*.viscosity: expected a number >= 0");
 }
 
 TEST_CASE("springs: the stable explicit step is reported every frame, and a cut lowers it", "[scene]") {

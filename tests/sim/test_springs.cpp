@@ -705,3 +705,53 @@ TEST_CASE("Kelvin-Voigt springs damp a vibration but not a rigid motion", "[spri
   for (int k = 0; k < 20; ++k) s.step(1e-3, Integrator::ImplicitEuler);
   for (const Vec3& x : s.positions()) CHECK(x.allFinite());
 }
+
+TEST_CASE("viscosity and stiffening per material: a label's own values replace the options there",
+          "[springs]") {
+  // One label: the material's values and the options' give the same motion.
+  TetMesh m = make_box(Vec3(1, 1, 1), {2, 2, 2});
+  auto energy = [&](const MaterialTable& mat, const SpringOptions& o) {
+    SpringModel s(m, mat, o);
+    perturb(s, m, 0.02, 4);
+    for (int k = 0; k < 50; ++k) s.step(1e-4, Integrator::SymplecticEuler);
+    return total_energy(s);
+  };
+  SpringOptions by_option;
+  by_option.viscosity = 1e-3;
+  by_option.stiffening = 4;
+  Material own{1e4, 0.3, 1000};
+  own.viscosity = 1e-3;
+  own.stiffening = 4;
+  CHECK(energy(MaterialTable(own), {}) == Approx(energy(table(1e4, 0.3), by_option)).epsilon(1e-12));
+  CHECK(energy(MaterialTable(own), {}) != energy(table(1e4, 0.3), {}));
+  // Two labels: only the springs inside the viscous one damp (a spring on the interface takes
+  // the volume-weighted mean of its tets).
+  TetMesh two = make_box(Vec3(2, 1, 1), {4, 2, 2});
+  for (TetId t : two.tets()) {
+    Vec3 c = Vec3::Zero();
+    for (VertexId v : two.tet_vertices(t)) c += two.rest(v) / 4;
+    two.set_label(t, c.x() < 1 ? 1 : 2);
+  }
+  MaterialTable mixed(Material{1e4, 0.3, 1000});
+  Material viscous{1e4, 0.3, 1000};
+  viscous.viscosity = 1e-3;
+  mixed.set(2, viscous);
+  SpringModel s(two, mixed);
+  int in1 = 0, in2 = 0, across = 0;
+  for (const auto& sp : s.springs()) {
+    const double xa = two.rest(sp.a).x(), xb = two.rest(sp.b).x();
+    if (xa > 1 + 1e-9 && xb > 1 + 1e-9) {
+      CHECK(sp.viscosity == Approx(1e-3));
+      ++in2;
+    } else if (xa < 1 - 1e-9 && xb < 1 - 1e-9) {
+      CHECK(sp.viscosity == 0);
+      ++in1;
+    } else if (std::abs(xa - 1) < 1e-9 && std::abs(xb - 1) < 1e-9) {
+      CHECK(sp.viscosity > 0);  // on the interface: both labels' tets
+      CHECK(sp.viscosity < 1e-3);
+      ++across;
+    }
+  }
+  CHECK((in1 > 0 && in2 > 0 && across > 0));
+  CHECK(s.stable_time_step() < SpringModel(two, MaterialTable(Material{1e4, 0.3, 1000})).stable_time_step());
+}
