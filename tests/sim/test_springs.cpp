@@ -64,6 +64,34 @@ std::vector<VertexId> select_plane(const TetMesh& m, int axis, double value, dou
   return out;
 }
 
+// The largest difference between the model's forces and minus the central differences of its
+// potential energy, relative to the largest force. One symplectic step from rest gives
+// v = dt F / m exactly, so the forces come from a step of a copy.
+double force_gradient_error(SpringModel& s, const TetMesh& m) {
+  const std::vector<Vec3> x0 = s.positions();
+  const double dt = 1e-7, h = 1e-6;
+  SpringModel stepped = s;
+  stepped.step(dt, Integrator::SymplecticEuler);
+  double worst = 0, scale = 0;
+  for (VertexId v : m.vertices()) {
+    const Vec3 f = stepped.velocities()[v.idx()] * (s.mass(v) / dt);
+    for (int a = 0; a < 3; ++a) {
+      Vec3 p = x0[v.idx()];
+      p[a] += h;
+      s.set_position(v, p);
+      const double ep = s.potential_energy();
+      p[a] -= 2 * h;
+      s.set_position(v, p);
+      const double em = s.potential_energy();
+      s.set_position(v, x0[v.idx()]);
+      worst = std::max(worst, std::abs(f[a] + (ep - em) / (2 * h)));
+      scale = std::max(scale, std::abs(f[a]));
+    }
+  }
+  REQUIRE(scale > 0);
+  return worst / scale;
+}
+
 }  // namespace
 
 TEST_CASE("integrator names parse and bad names are refused", "[springs]") {
@@ -565,36 +593,13 @@ TEST_CASE("extremes: E from 1e1 to 1e9 and scale x1e-3..x1e3 give finite, self-s
 
 TEST_CASE("the nodal volume term: forces are minus its energy's gradient, volume kept like per tet",
           "[springs]") {
-  // One symplectic step from rest gives v = dt F / m exactly; F against central differences of
-  // the potential energy at a perturbed configuration.
+  // The forces against central differences of the potential energy, at a perturbed configuration.
   TetMesh m = make_box(Vec3(1, 1, 1), {2, 2, 2});
   SpringOptions o;
   o.nodal_volume = true;
   SpringModel s(m, table(1e4, 0.45), o);
   perturb(s, m, 0.08, 5);
-  const std::vector<Vec3> x0 = s.positions();
-  const double dt = 1e-7;
-  SpringModel stepped = s;
-  stepped.step(dt, Integrator::SymplecticEuler);
-  double worst = 0, scale = 0;
-  for (VertexId v : m.vertices()) {
-    const Vec3 f = stepped.velocities()[v.idx()] * (s.mass(v) / dt);
-    for (int a = 0; a < 3; ++a) {
-      const double h = 1e-6;
-      Vec3 p = x0[v.idx()];
-      p[a] += h;
-      s.set_position(v, p);
-      const double ep = s.potential_energy();
-      p[a] -= 2 * h;
-      s.set_position(v, p);
-      const double em = s.potential_energy();
-      s.set_position(v, x0[v.idx()]);
-      worst = std::max(worst, std::abs(f[a] + (ep - em) / (2 * h)));
-      scale = std::max(scale, std::abs(f[a]));
-    }
-  }
-  REQUIRE(scale > 0);
-  CHECK(worst < 1e-5 * scale);
+  CHECK(force_gradient_error(s, m) < 1e-5);
 
   // Squeezed uniaxially and held, the nodal term keeps the volume like the per-tet one.
   auto squeezed = [&](bool nodal) {
@@ -628,29 +633,7 @@ TEST_CASE("stiffening springs: forces are minus the energy's gradient, and a bar
   o.stiffening = 8;
   SpringModel s(m, table(1e4, 0.3), o);
   perturb(s, m, 0.08, 9);
-  const std::vector<Vec3> x0 = s.positions();
-  const double dt = 1e-7;
-  SpringModel stepped = s;
-  stepped.step(dt, Integrator::SymplecticEuler);
-  double worst = 0, scale = 0;
-  for (VertexId v : m.vertices()) {
-    const Vec3 f = stepped.velocities()[v.idx()] * (s.mass(v) / dt);
-    for (int a = 0; a < 3; ++a) {
-      const double h = 1e-6;
-      Vec3 p = x0[v.idx()];
-      p[a] += h;
-      s.set_position(v, p);
-      const double ep = s.potential_energy();
-      p[a] -= 2 * h;
-      s.set_position(v, p);
-      const double em = s.potential_energy();
-      s.set_position(v, x0[v.idx()]);
-      worst = std::max(worst, std::abs(f[a] + (ep - em) / (2 * h)));
-      scale = std::max(scale, std::abs(f[a]));
-    }
-  }
-  REQUIRE(scale > 0);
-  CHECK(worst < 1e-5 * scale);
+  CHECK(force_gradient_error(s, m) < 1e-5);
 
   // A bar pulled by F and by 4F: Hookean springs stretch 4x as far, stiffening ones less.
   TetMesh bar = make_box(Vec3(4, 1, 1), {8, 2, 2});
