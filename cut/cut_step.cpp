@@ -470,6 +470,7 @@ int CutStep::side(const Piece& piece, std::size_t k, VertexId v) {
 }
 
 bool CutStep::move_snapped(const Piece& piece, std::size_t k, VertexId v) {
+  if (no_moves_) return false;
   const auto p = move_onto_plane(mesh_, v, piece, [this](VertexId w) { return position(w); }, fixed_);
   if (!p) return false;
   created_pos_[v.idx()] = *p;

@@ -57,6 +57,9 @@ public:
 
   // Current position of a vertex (created this step, or given by the caller, or rest).
   Vec3 position(VertexId v) const;
+  // Snapped vertices stay where they are (the cut bends through them): a provisional cut's
+  // edits are taken back, and a rest-position move cannot be (TetMesh::undo).
+  void set_no_moves() { no_moves_ = true; }
 
   // Tets that may touch the piece, found by a walk from `seeds` through face neighbours;
   // when no seed touches it, `fallback` is called for seeds (the first contact).
@@ -106,6 +109,7 @@ private:
   double snap_;
   CutMemory* memory_;
   bool provisional_;
+  bool no_moves_ = false;
   void decide(std::size_t k, VertexId v, int s);
   std::unordered_set<std::uint32_t> fixed_;
   std::vector<TetId> cand_;

@@ -361,6 +361,96 @@ void Cutter::open_stale(CutStepReport& rep, const PositionFn& positions) {
   if (mesh_->has_pending_change()) progress_->edited = true;
 }
 
+void Cutter::cut_provisional(CutStepReport& rep, const PositionFn& positions) {
+  Progress& pr = *progress_;
+  if (!opt_.provisional || !pr.sheet) return;
+  std::vector<TetId> waiting, closed;
+  for (TetId t : pr.waiting)
+    if (mesh_->is_alive(t)) waiting.push_back(t);
+  for (TetId t : pr.closed)
+    if (mesh_->is_alive(t)) closed.push_back(t);
+  if (waiting.empty() && closed.empty()) return;  // the opening is at the blade already
+  const Piece sp = pr.sheet->piece();
+  const BladeSegment front = pr.sheet->front();
+  // What finish_sheet() would cut if the blade were withdrawn here, on a copy of the sheet's
+  // decisions (the provisional ones are dropped with the pieces) and without moving a vertex
+  // (a move could not be taken back).
+  CutMemory memory = pr.memory;
+  mesh_->begin_undo_log();
+  struct EndLog {  // the log ends however this returns
+    TetMesh* mesh;
+    std::optional<TetMesh::UndoLog> log;
+    ~EndLog() {
+      if (!log) mesh->end_undo_log();
+    }
+  } end{mesh_, std::nullopt};
+  CutStep step(*mesh_, positions, opt_.snap, &memory, false);
+  step.set_fixed(opt_.frozen);
+  step.set_no_moves();
+  if (pr.back_known) step.add_known_segment(pr.back.a, pr.back.b, pr.back_vertices);
+  step.add_candidates(closed);
+  waiting.insert(waiting.end(), front_.begin(), front_.end());
+  std::erase_if(waiting, [&](TetId t) { return !mesh_->is_alive(t); });
+  step.collect(sp, waiting, {});
+  step.embed_boundary(sp);
+  step.split_crossings(sp);
+  const SeparationResult sep = separate(*mesh_, step.cut_faces(std::span<const Piece>(&sp, 1)), false);
+  remember_fresh(step, sep, positions);
+  rep.provisional_faces += sep.faces_opened;
+  end.log = mesh_->end_undo_log();
+  if (end.log->empty()) return;
+  provisional_ = ProvisionalCut{std::move(*end.log), front, step.segment_vertices(front.a, front.b),
+                                step.live_candidates()};
+}
+
+void Cutter::take_back_provisional(CutStepReport& rep, const PositionFn& positions) {
+  if (!provisional_) return;
+  ProvisionalCut prov = std::move(*provisional_);
+  provisional_.reset();
+  Progress& pr = *progress_;
+  if (mesh_->counters().edits != prov.log.edits) {
+    // The mesh was edited elsewhere since (a caller's improvement, a part removed): the pieces
+    // stay, as if the blade had been withdrawn there, and the next step starts a new sheet
+    // from that front.
+    pr.sheet.reset();
+    pr.waiting.clear();
+    pr.closed.clear();
+    pr.memory = CutMemory{};
+    front_.clear();
+    for (TetId t : prov.tets)
+      if (mesh_->is_alive(t)) front_.push_back(t);
+    front_vertices_.clear();
+    for (VertexId v : prov.front_vertices)
+      if (mesh_->is_alive(v)) front_vertices_.push_back(v);
+    front_segment_ = prov.front;
+    has_front_ = true;
+    return;
+  }
+  const bool grid_synced = grid_edits_ == mesh_->counters().edits;
+  const auto ids = mesh_->undo(prov.log);
+  for (VertexId v : prov.log.vertices) rep.vertices_taken_back += !mesh_->is_alive(v);
+  rep.tets_taken_back = ids.size();
+  // The undo's edits go into this call's record, and the grid takes them from it.
+  if (grid_synced) grid_edits_ = mesh_->counters().edits;
+  std::unordered_map<std::uint32_t, TetId> renamed;
+  std::vector<TetId> restored;
+  for (const auto& [old_id, new_id] : ids) {
+    renamed[old_id.idx()] = new_id;
+    restored.push_back(new_id);
+  }
+  auto rename = [&](TetId t) {
+    auto it = renamed.find(t.idx());
+    return it != renamed.end() ? it->second : t;
+  };
+  // Ids the pieces had are dead or (reused) restored tets: lists keep what they held before.
+  for (std::vector<TetId>* list : {&pr.waiting, &pr.closed, &front_}) {
+    for (TetId& t : *list) t = rename(t);
+    std::erase_if(*list, [&](TetId t) { return !mesh_->is_alive(t); });
+  }
+  for (auto& e : pr.improve_queue) e.first = rename(e.first);
+  std::erase_if(pr.improve_queue, [&](const auto& e) { return !mesh_->is_alive(e.first); });
+}
+
 void Cutter::finish_sheet(CutStepReport& rep, const PositionFn& positions) {
   Progress& pr = *progress_;
   if (!pr.sheet) {
@@ -414,6 +504,7 @@ CutStepReport Cutter::finish(const PositionFn& caller_positions) {
   if (mesh_->has_pending_change())
     throw InvalidArgument("cut: the mesh has edits not yet taken (call take_change() before finishing a cut)");
   const bool grid_stale = mesh_->counters().edits != grid_edits_;
+  take_back_provisional(rep, positions);
   std::vector<TetId> live;
   for (const auto& e : progress_->improve_queue) live.push_back(e.first);
   resume_to_blade(positions, blade_);
@@ -625,6 +716,7 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
   if (tris.empty()) return rep;
   if (mesh_->has_pending_change())
     throw InvalidArgument("cut: the mesh has edits not yet taken (call take_change() before cutting)");
+  take_back_provisional(rep, positions);
   complete_previous(rep, positions);
   Progress& pr = *progress_;
   bool grid_stale = mesh_->counters().edits != grid_edits_;
@@ -736,37 +828,43 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
   if (mesh_->has_pending_change()) pr.edited = true;
   improve_after(rep, seeds, frozen);
   if (pr.sheet && opt_.improve && !seeds.empty() && !rep.improve.budget_exhausted) pr.improve_queue.clear();
-  rep.change = mesh_->take_change();
-  find_detached(rep);
+  // The sheet's bookkeeping, on this step's edits so far (the provisional pieces come after it
+  // and are taken back before the next step: the sheet's lists keep the tets they came from).
   // Decisions about vertices the improvement moved off the cut surface or removed are void.
-  for (VertexId v : rep.change.removed_vertices) pr.memory.forget(v);
-  for (const VertexOrigin& o : rep.change.moved_vertices) {
+  for (VertexId v : mesh_->pending_removed_vertices()) pr.memory.forget(v);
+  for (const VertexOrigin& o : mesh_->pending_moved_vertices()) {
     auto it = pr.memory.side.find(o.vertex.idx());
     if (it != pr.memory.side.end() && it->second != 0) pr.memory.forget(o.vertex);
   }
   if (pr.sheet) {
-    refresh_waiting(positions, rep.change.added_tets);
+    const std::vector<TetId> added = mesh_->pending_added_tets();
+    refresh_waiting(positions, added);
     if (!pr.improve_queue.empty())
-      for (TetId t : rep.change.added_tets)
-        if (mesh_->is_alive(t) && needs_improving(t)) pr.improve_queue.emplace_back(t, pr.step);
+      for (TetId t : added)
+        if (needs_improving(t)) pr.improve_queue.emplace_back(t, pr.step);
     // A flip of closed cut faces (a 4-4 flip about an edge in the plane) makes new closed faces
     // in the plane: they wait with the others.
-    pr.closed.insert(pr.closed.end(), rep.change.added_tets.begin(), rep.change.added_tets.end());
+    pr.closed.insert(pr.closed.end(), added.begin(), added.end());
     keep_shut(pr.closed);
   }
+  {
+    std::unordered_set<std::uint32_t> in(front_.size());
+    std::vector<TetId> live;
+    for (TetId t : front_)
+      if (mesh_->is_alive(t) && in.insert(t.idx()).second) live.push_back(t);
+    for (TetId t : mesh_->pending_added_tets())
+      if (in.insert(t.idx()).second) live.push_back(t);
+    front_ = std::move(live);
+  }
+  cut_provisional(rep, positions);
+  rep.change = mesh_->take_change();
+  find_detached(rep);
   if (!grid_stale) {
     grid_.update(*mesh_, rep.change);
     grid_edits_ = mesh_->counters().edits;
   }
   rep.tets_added = rep.change.added_tets.size();
   rep.vertices_added = rep.change.added_vertices.size();
-  std::unordered_set<std::uint32_t> in(front_.size());
-  std::vector<TetId> live;
-  for (TetId t : front_)
-    if (mesh_->is_alive(t) && in.insert(t.idx()).second) live.push_back(t);
-  for (TetId t : rep.change.added_tets)
-    if (mesh_->is_alive(t) && in.insert(t.idx()).second) live.push_back(t);
-  front_ = std::move(live);
   rep.ms = ms_since(t0);
   return rep;
 }
@@ -806,6 +904,7 @@ CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const Position
   if (triangles.empty()) return rep;
   if (mesh_->has_pending_change())
     throw InvalidArgument("cut: the mesh has edits not yet taken (call take_change() before cutting)");
+  take_back_provisional(rep, positions);
   complete_previous(rep, positions);
   std::vector<Piece> pieces = make_pieces(triangles);
   // The previous step's front is where this step's cut continues, not a rim.

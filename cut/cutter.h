@@ -82,6 +82,12 @@ struct CutOptions {
   // bends under the blade the mapped path curves, and the sheets it takes cost quality
   // (docs/cut.md#moving-tissue).
   bool material_frame = false;
+  // true: after each progressive step the tets the blade is in are cut provisionally against
+  // the swept polygon, its front (the blade) embedded, so the cut is open up to the blade; the
+  // next step (or finish()) takes those pieces back (TetMesh::undo) before it cuts, so the
+  // committed cut is the same as without them. A step's TopologyChange then replaces the last
+  // step's provisional pieces by the tets they came from and adds its own (docs/cut.md#the-opening).
+  bool provisional = true;
   // true: the cut and its improvement keep every label's volume, and the body's, to rounding:
   // the improvement's contractions may not move the body's surface, a cut or a label
   // interface (improve_options' collapse_tolerance and collapse_deviation set to 0). The cut
@@ -151,6 +157,10 @@ struct CutStepReport {
   std::size_t vertices_added = 0;     // new vertices (split points and duplicates)
   std::size_t vertices_duplicated = 0;
   std::size_t cut_faces = 0;          // faces opened (each side counted once: pairs)
+  std::size_t provisional_faces = 0;  // faces opened provisionally, taken back by the next step (not in cut_faces)
+  // The last step's provisional pieces this one took back: the tets they came from, put back
+  // (in change.added_tets), and the vertices they had made (in change.removed_vertices).
+  std::size_t tets_taken_back = 0, vertices_taken_back = 0;
   double cut_area = 0;                // area of the cut, one side: subdivision's opened faces; removal's
                                       // half of what it exposed (the channel has two walls)
   double exposed_area = 0;            // area of all new boundary faces (subdivision: twice cut_area)
@@ -277,6 +287,17 @@ private:
   std::vector<VertexId> front_vertices_;  // ... and the mesh vertices along it
   bool has_front_ = false;
   std::unique_ptr<Progress> progress_;
+  // The provisional pieces of the last step (CutOptions::provisional): how to take them back,
+  // and, should the mesh be edited elsewhere before that (no undo then), the front they embedded.
+  struct ProvisionalCut {
+    TetMesh::UndoLog log;
+    BladeSegment front;
+    std::vector<VertexId> front_vertices;
+    std::vector<TetId> tets;
+  };
+  std::optional<ProvisionalCut> provisional_;
+  void cut_provisional(CutStepReport& rep, const PositionFn& positions);
+  void take_back_provisional(CutStepReport& rep, const PositionFn& positions);
   TetGrid grid_;
   std::uint64_t grid_edits_ = 0;
   std::unique_ptr<cut_detail::FragmentScratch> fragment_scratch_;

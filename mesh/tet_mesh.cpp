@@ -190,6 +190,7 @@ VertexId TetMesh::add_vertex(const Vec3& p) {
     touched_mark_.push_back(0);
   }
   ++vertex_alive_count_;
+  if (logging_) log_.vertices.push_back(v);
   return v;
 }
 
@@ -225,6 +226,7 @@ void TetMesh::move_vertex(VertexId v, std::span<const VertexId> parents, std::sp
     o.weights[k] = weights[k];
   }
   batch_origin_.try_emplace(v.idx(), rest_[v.idx()]);
+  if (logging_) log_.moved = true;
   rest_[v.idx()] = p;
   pending_moved_.push_back(o);
   // The tets' rest shapes changed: consumers must rebuild their per-tet data.
@@ -343,6 +345,7 @@ TetId TetMesh::add_tet(VertexId a, VertexId b, VertexId c, VertexId d, int label
   }
   tet_alive_[t.idx()] = 1;
   ++tet_alive_count_;
+  if (logging_ && log_added_.insert(t.idx()).second) log_.added.push_back(t);
   events_.push_back({Event::AddTet, t});
   for (VertexId x : v) touch(x);
   return t;
@@ -351,6 +354,7 @@ TetId TetMesh::add_tet(VertexId a, VertexId b, VertexId c, VertexId d, int label
 void TetMesh::remove_tet(TetId t) {
   if (!is_alive(t)) throw InvalidArgument("remove_tet: " + tid(t) + " is not alive");
   ++counters_.edits;
+  if (logging_) log_before_rewrite(t);
   unlink_tet(t);
   tet_alive_[t.idx()] = 0;
   --tet_alive_count_;
@@ -365,6 +369,10 @@ void TetMesh::replace_vertex(TetId t, VertexId old_v, VertexId new_v) {
   if (!is_alive(new_v) || local_index(t, new_v) >= 0)
     throw InvalidArgument("replace_vertex: " + vid(new_v) + " is dead or already in " + tid(t));
   ++counters_.edits;
+  if (logging_) {
+    log_before_rewrite(t);
+    if (log_added_.insert(t.idx()).second) log_.added.push_back(t);
+  }
   auto tags = face_tag_[t.idx()];
   unlink_tet(t);
   events_.push_back({Event::RemoveTet, t});
@@ -376,6 +384,60 @@ void TetMesh::replace_vertex(TetId t, VertexId old_v, VertexId new_v) {
     if (!tet_n_[t.idx()][f].is_valid()) face_tag_[t.idx()][f] = tags[f];
   events_.push_back({Event::AddTet, t});
   for (VertexId x : tet_v_[t.idx()]) touch(x);
+}
+
+void TetMesh::log_before_rewrite(TetId t) {
+  if (log_added_.count(t.idx()) || !log_saved_.insert(t.idx()).second) return;
+  log_.saved.push_back({t, tet_v_[t.idx()], face_tag_[t.idx()], label_[t.idx()]});
+}
+
+void TetMesh::begin_undo_log() {
+  logging_ = true;
+  log_ = UndoLog{};
+  log_added_.clear();
+  log_saved_.clear();
+}
+
+TetMesh::UndoLog TetMesh::end_undo_log() {
+  logging_ = false;
+  log_.edits = counters_.edits;
+  log_added_.clear();
+  log_saved_.clear();
+  return std::move(log_);
+}
+
+std::vector<std::pair<TetId, TetId>> TetMesh::undo(const UndoLog& log) {
+  if (log.moved) throw InvalidArgument("undo: the logged edits moved a vertex");
+  if (log.edits != counters_.edits) throw InvalidArgument("undo: the mesh was edited after the logged edits");
+  for (TetId t : log.added)
+    if (is_alive(t)) remove_tet(t);
+  std::vector<std::pair<TetId, TetId>> ids;
+  ids.reserve(log.saved.size());
+  for (const UndoLog::SavedTet& s : log.saved) {
+    const auto& v = s.vertices;
+    const TetId t = add_tet(v[0], v[1], v[2], v[3], s.label);
+    for (int f = 0; f < 4; ++f)
+      if (!tet_n_[t.idx()][f].is_valid()) face_tag_[t.idx()][f] = s.tags[f];
+    ids.emplace_back(s.id, t);
+  }
+  for (VertexId v : log.vertices)
+    if (is_alive(v)) remove_vertex(v);
+  return ids;
+}
+
+std::vector<TetId> TetMesh::pending_added_tets() const {
+  // In take_change()'s order: by each id's first event.
+  std::vector<TetId> out;
+  std::unordered_map<std::uint32_t, bool> added;  // id -> any add event
+  std::vector<std::uint32_t> order;
+  for (const Event& e : events_) {
+    auto [it, inserted] = added.try_emplace(e.tet.idx(), false);
+    if (inserted) order.push_back(e.tet.idx());
+    it->second = it->second || e.kind == Event::AddTet;
+  }
+  for (std::uint32_t id : order)
+    if (added[id] && tet_alive_[id]) out.emplace_back(id);
+  return out;
 }
 
 TopologyChange TetMesh::take_change() {

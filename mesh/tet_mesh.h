@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <span>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include <Eigen/Core>
@@ -189,11 +190,42 @@ public:
   // when p sees the face from inside. Empty when `cavity` is not a set of live tets of one label.
   std::vector<std::array<VertexId, 3>> cavity_boundary(std::span<const TetId> cavity) const;
 
+  // ---- taking edits back (a progressive cut's provisional pieces, cut/provisional.h) -------
+  // Between begin_undo_log() and end_undo_log() the mesh keeps, for every tet an edit removes
+  // or rewrites, the tet as it was, and lists the tets and vertices the edits add. undo(), in a
+  // later batch, removes what the logged edits added and puts the kept tets back (under new
+  // ids): the mesh is then the one before the log, up to tet ids. Rest-position moves are not
+  // logged: a log with one cannot be undone.
+  struct UndoLog {
+    struct SavedTet {
+      TetId id;
+      std::array<VertexId, 4> vertices;
+      std::array<std::uint16_t, 4> tags;
+      int label = 0;
+    };
+    std::vector<SavedTet> saved;
+    std::vector<TetId> added;         // ids given a tet (it may be dead again by the end)
+    std::vector<VertexId> vertices;   // vertices added
+    std::uint64_t edits = 0;          // counters().edits when the log ended
+    bool moved = false;               // a rest position moved: not undoable
+    bool empty() const { return saved.empty() && added.empty() && vertices.empty(); }
+  };
+  void begin_undo_log();
+  UndoLog end_undo_log();
+  // Takes the logged edits back; returns the kept tets' (old id, new id). Throws InvalidArgument
+  // when the log moved a vertex or the mesh was edited after the log ended (counters().edits).
+  std::vector<std::pair<TetId, TetId>> undo(const UndoLog& log);
+
   // ---- batches ------------------------------------------------------------------------
   // Returns everything edited since the last call, normalized (see TopologyChange), and
   // starts a new batch. O(size of the batch).
   TopologyChange take_change();
   bool has_pending_change() const { return !pending_.empty(); }
+  // Of the pending batch (what take_change() would hand out): the tets it added that are alive,
+  // in take_change()'s order (O(batch)); the vertices it removed and moved so far.
+  std::vector<TetId> pending_added_tets() const;
+  const std::vector<VertexId>& pending_removed_vertices() const { return pending_removed_vertices_; }
+  const std::vector<VertexOrigin>& pending_moved_vertices() const { return pending_moved_; }
   // Drops the pending record (readers and generators call it: a fresh mesh starts clean).
   void discard_change();
   // This mesh's identity (a copy gets a new one) and how many changes take_change() has
@@ -297,6 +329,11 @@ private:
   };
   Identity identity_;
   std::uint64_t changes_taken_ = 0;
+  // The undo log being recorded (begin_undo_log), with the tets it added or saved.
+  bool logging_ = false;
+  UndoLog log_;
+  std::unordered_set<std::uint32_t> log_added_, log_saved_;
+  void log_before_rewrite(TetId t);  // keeps t as it is, once, unless the log added it
   EditCounters counters_;
 };
 

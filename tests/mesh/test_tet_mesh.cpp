@@ -463,3 +463,109 @@ TEST_CASE("move_vertex records the move and its tets; backends can interpolate f
   CHECK(ch.removed_tets.size() == m.incident_tets(v).size());
   CHECK(ch.added_tets.size() == m.incident_tets(v).size());
 }
+
+namespace {
+// The mesh up to tet ids: each tet's sorted corners and label, each boundary face's corners
+// and tag, every live vertex's rest position.
+struct Shape {
+  std::vector<std::array<std::uint32_t, 5>> tets;
+  std::vector<std::array<std::uint32_t, 4>> faces;
+  std::vector<std::pair<std::uint32_t, Vec3>> points;
+  bool operator==(const Shape& o) const {
+    if (points.size() != o.points.size()) return false;
+    for (std::size_t i = 0; i < points.size(); ++i)
+      if (points[i].first != o.points[i].first || points[i].second != o.points[i].second) return false;
+    return tets == o.tets && faces == o.faces;
+  }
+};
+Shape shape(const TetMesh& m) {
+  Shape s;
+  for (TetId t : m.tets()) {
+    const auto& v = m.tet_vertices(t);
+    std::array<std::uint32_t, 5> k{v[0].idx(), v[1].idx(), v[2].idx(), v[3].idx(), std::uint32_t(m.label(t))};
+    std::sort(k.begin(), k.begin() + 4);
+    s.tets.push_back(k);
+  }
+  for (const auto& f : m.boundary_faces()) {
+    std::array<std::uint32_t, 4> k{f.vertices[0].idx(), f.vertices[1].idx(), f.vertices[2].idx(), f.tag};
+    std::sort(k.begin(), k.begin() + 3);
+    s.faces.push_back(k);
+  }
+  for (VertexId v : m.vertices()) s.points.emplace_back(v.idx(), m.rest(v));
+  std::sort(s.tets.begin(), s.tets.end());
+  std::sort(s.faces.begin(), s.faces.end());
+  return s;
+}
+}  // namespace
+
+TEST_CASE("undo takes logged splits, flips and rewrites back in a later batch", "[mesh][undo]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {3, 3, 3});
+  m.discard_change();
+  // A cut face on the boundary, so tags have something to keep.
+  const TetId t0 = m.tets().front();
+  for (int f = 0; f < 4; ++f)
+    if (!m.neighbor(t0, f).is_valid()) m.set_face_tag(t0, f, kTagCut);
+  const Shape before = shape(m);
+  const std::size_t tets_before = m.num_tets(), vertices_before = m.num_vertices();
+
+  m.begin_undo_log();
+  const auto& tv = m.tet_vertices(t0);
+  const VertexId e = m.split_edge(tv[0], tv[1], 0.3);
+  const TetId t1 = m.incident_tets(e).front();
+  m.split_tet(t1);
+  // A rewrite in place (what a cut's duplication does), on a tet the log has not touched.
+  TetId far;
+  for (TetId t : m.tets())
+    if (m.tet_vertices(t)[0] != e && std::none_of(m.tet_vertices(t).begin(), m.tet_vertices(t).end(),
+                                                   [&](VertexId v) { return v == e; }))
+      far = t;
+  const std::array<VertexId, 4> fv = m.tet_vertices(far);
+  const VertexId copy = m.add_vertex_interpolated(std::array{fv[0]}, std::array{1.0});
+  m.replace_vertex(far, fv[0], copy);  // the tet leaves its neighbours on that side
+  m.replace_vertex(far, copy, fv[0]);  // and comes back
+  const TetMesh::UndoLog log = m.end_undo_log();
+  CHECK_FALSE(log.empty());
+  CHECK_FALSE(log.moved);
+  m.validate({true, true});
+  CHECK(m.num_tets() > tets_before);
+  const TopologyChange first = m.take_change();  // the logged edits are one record
+
+  const auto ids = m.undo(log);
+  m.validate({true, true});
+  CHECK(shape(m) == before);
+  CHECK(m.num_tets() == tets_before);
+  CHECK(m.num_vertices() == vertices_before);
+  CHECK(ids.size() == log.saved.size());
+  for (const auto& [old_id, new_id] : ids) CHECK(m.is_alive(new_id));
+  // The record of the undo: the pieces removed, the tets put back added, the new vertices gone.
+  const TopologyChange second = m.take_change();
+  CHECK(second.added_tets.size() == ids.size());
+  CHECK(second.removed_vertices.size() == first.added_vertices.size());
+}
+
+TEST_CASE("undo refuses a log that moved a vertex or a mesh edited since", "[mesh][undo]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {2, 2, 2});
+  m.discard_change();
+  m.begin_undo_log();
+  const auto tv = m.tet_vertices(m.tets().front());
+  m.split_edge(tv[0], tv[1]);
+  TetMesh::UndoLog log = m.end_undo_log();
+  m.take_change();
+  TetMesh edited = m;
+  edited.split_edge(tv[2], tv[3]);
+  CHECK_THROWS_AS(edited.undo(log), InvalidArgument);
+  // A move inside the log.
+  TetMesh moved = make_box(Vec3(1, 1, 1), {2, 2, 2});
+  moved.discard_change();
+  moved.begin_undo_log();
+  VertexId inner;
+  for (VertexId v : moved.vertices())
+    if ((moved.rest(v) - Vec3(0.5, 0.5, 0.5)).norm() < 1e-12) inner = v;
+  REQUIRE(inner.is_valid());
+  const TetId t = moved.incident_tets(inner).front();
+  std::array<VertexId, 4> p = moved.tet_vertices(t);
+  moved.move_vertex(inner, p, std::array{0.7, 0.1, 0.1, 0.1});
+  const TetMesh::UndoLog mlog = moved.end_undo_log();
+  CHECK(mlog.moved);
+  CHECK_THROWS_AS(moved.undo(mlog), InvalidArgument);
+}
