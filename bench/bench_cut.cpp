@@ -828,7 +828,7 @@ void progressive(const TetMesh& organ, const std::string& name, bool quick, cons
               "quality and step times against the single step; default options)\n");
   std::printf("case,steps,step_over_edge,tets_before,crossed,tets_after,added_per_crossed,cut_area,area_over_1step,"
               "parts,min_dihedral,below_10deg,ms_median,ms_p95,ms_max,ms_finish,ms_improve_median,ms_improve_p95,"
-              "mesh_fingerprint,ms_finish_improve\n");
+              "mesh_fingerprint,ms_finish_improve,open_share_min\n");
   std::vector<Sweep> cases;
   cases.push_back({"box4x1x1 partial", make_box(Vec3(4, 1, 1), {16, 4, 4}), Vec3(2.03, -0.5, 1.1), Vec3(2.03, 1.5, 1.1),
                    Vec3(0, 0, -0.6)});
@@ -861,24 +861,33 @@ void progressive(const TetMesh& organ, const std::string& name, bool quick, cons
     double area1 = 0;
     struct Variant {
       int steps;
-      bool improve;
+      bool improve, provisional;
     };
     std::vector<Variant> variants;
-    for (int n : counts) variants.push_back({n, true});
-    variants.push_back({tenth, false});  // the cut's own share, without the improvement
-    for (const auto& [n, improve] : variants) {
+    for (int n : counts) variants.push_back({n, true, true});
+    variants.push_back({tenth, false, true});  // the cut's own share, without the improvement
+    variants.push_back({tenth, true, false});  // without the provisional pieces (the opening trails the blade)
+    // The box4 cases: a blade across the whole width going straight down from 0.1 above the
+    // top, so the area it has swept inside the box is its depth: open_share_min is the least
+    // share of that open after a step once the blade is an edge deep (docs/cut.md#the-opening).
+    const bool box4 = s.name.rfind("box4", 0) == 0;
+    for (const auto& [n, improve, provisional] : variants) {
       if (only_steps > 0 && n != only_steps) continue;
       TetMesh m = s.mesh;
       CutOptions opt;
       opt.improve = improve;
+      opt.provisional = provisional;
       Cutter cutter(m, opt);
       cutter.start({s.a, s.b});
       std::vector<double> ms, ms_imp;
+      double open_min = 1e300;
       for (int k = 1; k <= n; ++k) {
         const Vec3 off = s.d * (double(k) / n);
         const CutStepReport r = cutter.advance({s.a + off, s.b + off});
         ms.push_back(r.ms);
         ms_imp.push_back(r.ms_improve);
+        const double depth = std::min(1.0, 1.0 - (s.a + off).z());
+        if (box4 && depth >= h) open_min = std::min(open_min, tagged_area(m) / depth);
       }
       const CutStepReport fin_rep = cutter.finish();
       const double fin = fin_rep.ms;
@@ -886,13 +895,14 @@ void progressive(const TetMesh& organ, const std::string& name, bool quick, cons
       const std::size_t below10 = q.below;
       const double area = tagged_area(m);
       if (n == 1) area1 = area;
-      std::printf("%s%s,%d,%.3f,%zu,%zu,%zu,%.2f,%.4g,%.4f,%zu,%.3f,%zu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%016llx,%.3f\n", s.name.c_str(),
-                  improve ? "" : " (no improve)", n,
+      std::printf("%s%s,%d,%.3f,%zu,%zu,%zu,%.2f,%.4g,%.4f,%zu,%.3f,%zu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%016llx,%.3f,%s\n", s.name.c_str(),
+                  !improve ? " (no improve)" : !provisional ? " (no provisional)" : "", n,
                   s.d.norm() / n / h, s.mesh.num_tets(), crossed, m.num_tets(),
                   double(m.num_tets() - s.mesh.num_tets()) / double(std::max<std::size_t>(crossed, 1)), area,
                   area / area1, vertex_parts(m), q.min_dihedral, below10, percentile(ms, 0.5), percentile(ms, 0.95),
                   percentile(ms, 1.0), fin, percentile(ms_imp, 0.5), percentile(ms_imp, 0.95),
-                  (unsigned long long)fingerprint(m), fin_rep.ms_improve);
+                  (unsigned long long)fingerprint(m), fin_rep.ms_improve,
+                  open_min < 1e300 ? std::to_string(open_min).c_str() : "-");
       std::fflush(stdout);
     }
   }

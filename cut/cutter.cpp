@@ -408,8 +408,8 @@ void Cutter::take_back_provisional(CutStepReport& rep, const PositionFn& positio
   ProvisionalCut prov = std::move(*provisional_);
   provisional_.reset();
   Progress& pr = *progress_;
-  if (mesh_->counters().edits != prov.log.edits) {
-    // The mesh was edited elsewhere since (a caller's improvement, a part removed): the pieces
+  if (!mesh_->can_undo(prov.log)) {
+    // The pieces were edited elsewhere since (a caller's improvement, a part removed): they
     // stay, as if the blade had been withdrawn there, and the next step starts a new sheet
     // from that front.
     pr.sheet.reset();

@@ -400,15 +400,25 @@ void TetMesh::begin_undo_log() {
 
 TetMesh::UndoLog TetMesh::end_undo_log() {
   logging_ = false;
-  log_.edits = counters_.edits;
+  for (TetId t : log_.added)
+    if (tet_alive_[t.idx()]) log_.pieces.emplace_back(t, tet_v_[t.idx()]);
   log_added_.clear();
   log_saved_.clear();
   return std::move(log_);
 }
 
+bool TetMesh::can_undo(const UndoLog& log) const {
+  if (log.moved) return false;
+  for (const auto& [t, v] : log.pieces)
+    if (!is_alive(t) || tet_v_[t.idx()] != v) return false;
+  for (VertexId v : log.vertices)
+    if (!is_alive(v)) return false;
+  return true;
+}
+
 std::vector<std::pair<TetId, TetId>> TetMesh::undo(const UndoLog& log) {
   if (log.moved) throw InvalidArgument("undo: the logged edits moved a vertex");
-  if (log.edits != counters_.edits) throw InvalidArgument("undo: the mesh was edited after the logged edits");
+  if (!can_undo(log)) throw InvalidArgument("undo: the logged edits' tets were edited since");
   for (TetId t : log.added)
     if (is_alive(t)) remove_tet(t);
   std::vector<std::pair<TetId, TetId>> ids;

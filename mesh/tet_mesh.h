@@ -195,7 +195,8 @@ public:
   // or rewrites, the tet as it was, and lists the tets and vertices the edits add. undo(), in a
   // later batch, removes what the logged edits added and puts the kept tets back (under new
   // ids): the mesh is then the one before the log, up to tet ids. Rest-position moves are not
-  // logged: a log with one cannot be undone.
+  // logged: a log with one cannot be undone. Edits made after the log are allowed as long as
+  // they left the logged edits' tets as they were (another blade cutting elsewhere).
   struct UndoLog {
     struct SavedTet {
       TetId id;
@@ -206,14 +207,18 @@ public:
     std::vector<SavedTet> saved;
     std::vector<TetId> added;         // ids given a tet (it may be dead again by the end)
     std::vector<VertexId> vertices;   // vertices added
-    std::uint64_t edits = 0;          // counters().edits when the log ended
+    // The logged edits' tets when the log ended: undo() needs them as they were.
+    std::vector<std::pair<TetId, std::array<VertexId, 4>>> pieces;
     bool moved = false;               // a rest position moved: not undoable
     bool empty() const { return saved.empty() && added.empty() && vertices.empty(); }
   };
   void begin_undo_log();
   UndoLog end_undo_log();
+  // Whether undo() can take the log back: no move in it, and its pieces and vertices as they
+  // were when it ended (O(log)).
+  bool can_undo(const UndoLog& log) const;
   // Takes the logged edits back; returns the kept tets' (old id, new id). Throws InvalidArgument
-  // when the log moved a vertex or the mesh was edited after the log ended (counters().edits).
+  // unless can_undo(log).
   std::vector<std::pair<TetId, TetId>> undo(const UndoLog& log);
 
   // ---- batches ------------------------------------------------------------------------

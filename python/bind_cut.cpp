@@ -23,7 +23,8 @@ struct PyCutter {
 std::unique_ptr<PyCutter> make_cutter(const py::object& mesh_obj, const std::string& mode, double snap, bool improve,
                                       double improve_budget_ms, int improve_work, const py::object& frozen,
                                       std::size_t fragment_search_limit, double finish_insert, int finish_work,
-                                      int finish_slice, double path_tolerance, bool exact_volumes) {
+                                      int finish_slice, double path_tolerance, bool exact_volumes,
+                                      bool provisional) {
   if (!py::isinstance<TetMesh>(mesh_obj))
     throw InvalidArgument("Cutter: mesh: expected an incise.TetMesh, got " +
                           py::str(py::type::of(mesh_obj).attr("__name__")).cast<std::string>());
@@ -52,6 +53,7 @@ std::unique_ptr<PyCutter> make_cutter(const py::object& mesh_obj, const std::str
   check_finite_range("cut", "path_tolerance", path_tolerance, 0, 10, PythonNames{});
   o.path_tolerance = path_tolerance;
   o.exact_volumes = exact_volumes;
+  o.provisional = provisional;
   if (!frozen.is_none()) o.frozen = to_vertices(mesh, frozen);
   o.fragment_search_limit = fragment_search_limit;
   return std::unique_ptr<PyCutter>(new PyCutter{mesh_obj, mesh, Cutter(mesh, std::move(o))});
@@ -71,6 +73,9 @@ py::dict report(CutStepReport&& r) {
   d["vertices_added"] = r.vertices_added;
   d["vertices_duplicated"] = r.vertices_duplicated;
   d["cut_faces"] = r.cut_faces;
+  d["provisional_faces"] = r.provisional_faces;
+  d["tets_taken_back"] = r.tets_taken_back;
+  d["vertices_taken_back"] = r.vertices_taken_back;
   d["cut_area"] = r.cut_area;
   d["exposed_area"] = r.exposed_area;
   d["ms"] = r.ms;
@@ -115,7 +120,8 @@ void bind_cut(py::module_& m) {
            py::arg("frozen") = py::none(), py::arg("fragment_search_limit") = std::size_t(20000),
            py::arg("finish_insert") = CutOptions{}.finish_insertion_below_deg,
            py::arg("finish_work") = CutOptions{}.finish_improve_work, py::arg("finish_slice") = 0,
-           py::arg("path_tolerance") = CutOptions{}.path_tolerance, py::arg("exact_volumes") = false)
+           py::arg("path_tolerance") = CutOptions{}.path_tolerance, py::arg("exact_volumes") = false,
+           py::arg("provisional") = CutOptions{}.provisional)
       .def(
           "start", [](PyCutter& c, const py::object& a, const py::object& b) {
             c.cutter.start({to_vec3(a, "blade a"), to_vec3(b, "blade b")});

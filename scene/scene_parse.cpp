@@ -518,7 +518,8 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     for (std::size_t i = 0; i < jc.size(); ++i) {
       const std::string key = "cuts[" + std::to_string(i) + "]";
       const json& c = jc[i];
-      rd.keys(c, key, {"blade", "sweep", "from_frame", "to_frame", "path", "mode", "snap", "improve", "exact_volumes"});
+      rd.keys(c, key, {"blade", "sweep", "from_frame", "to_frame", "path", "mode", "snap", "improve", "exact_volumes",
+                       "provisional"});
       SceneCut cut;
       cut.key = key;
       if (c.contains("path")) {
@@ -527,6 +528,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
         read_cut_path(rd, c["path"], key + ".path", s.frames, cut);
         read_blade_options(rd, c, key, cut.mode, cut.snap, cut.improve);
         if (c.contains("exact_volumes")) cut.exact_volumes = rd.boolean(c["exact_volumes"], key + ".exact_volumes");
+        if (c.contains("provisional")) cut.provisional = rd.boolean(c["provisional"], key + ".provisional");
         s.cuts.push_back(cut);
         continue;
       }
@@ -547,6 +549,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
                     std::to_string(s.frames - 1) + ", time.frames " + std::to_string(s.frames) + ")");
       read_blade_options(rd, c, key, cut.mode, cut.snap, cut.improve);
       if (c.contains("exact_volumes")) cut.exact_volumes = rd.boolean(c["exact_volumes"], key + ".exact_volumes");
+      if (c.contains("provisional")) cut.provisional = rd.boolean(c["provisional"], key + ".provisional");
       s.cuts.push_back(cut);
     }
   }

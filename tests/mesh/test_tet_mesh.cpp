@@ -543,8 +543,8 @@ TEST_CASE("undo takes logged splits, flips and rewrites back in a later batch", 
   CHECK(second.removed_vertices.size() == first.added_vertices.size());
 }
 
-TEST_CASE("undo refuses a log that moved a vertex or a mesh edited since", "[mesh][undo]") {
-  TetMesh m = make_box(Vec3(1, 1, 1), {2, 2, 2});
+TEST_CASE("undo refuses a log that moved a vertex or whose pieces were edited since", "[mesh][undo]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {4, 4, 4});
   m.discard_change();
   m.begin_undo_log();
   const auto tv = m.tet_vertices(m.tets().front());
@@ -552,8 +552,32 @@ TEST_CASE("undo refuses a log that moved a vertex or a mesh edited since", "[mes
   TetMesh::UndoLog log = m.end_undo_log();
   m.take_change();
   TetMesh edited = m;
-  edited.split_edge(tv[2], tv[3]);
+  edited.split_edge(tv[2], tv[3]);  // an edge of the split tet's pieces
+  CHECK_FALSE(edited.can_undo(log));
   CHECK_THROWS_AS(edited.undo(log), InvalidArgument);
+  // Edits that leave the pieces alone (another blade elsewhere) do not stop it.
+  TetMesh elsewhere = m;
+  // The tet farthest from the logged split.
+  const Vec3 at = 0.5 * (m.rest(tv[0]) + m.rest(tv[1]));
+  TetId last;
+  double far = -1;
+  for (TetId t : elsewhere.tets()) {
+    Vec3 c = Vec3::Zero();
+    for (VertexId v : elsewhere.tet_vertices(t)) c += 0.25 * elsewhere.rest(v);
+    if ((c - at).norm() > far) {
+      far = (c - at).norm();
+      last = t;
+    }
+  }
+  const auto lv = elsewhere.tet_vertices(last);
+  bool shared = false;
+  for (const auto& [t, v] : log.pieces)
+    for (VertexId x : v) shared = shared || x == lv[0] || x == lv[1] || x == lv[2] || x == lv[3];
+  REQUIRE_FALSE(shared);
+  elsewhere.split_tet(last);
+  CHECK(elsewhere.can_undo(log));
+  CHECK_NOTHROW(elsewhere.undo(log));
+  elsewhere.validate({true, true});
   // A move inside the log.
   TetMesh moved = make_box(Vec3(1, 1, 1), {2, 2, 2});
   moved.discard_change();
@@ -567,5 +591,6 @@ TEST_CASE("undo refuses a log that moved a vertex or a mesh edited since", "[mes
   moved.move_vertex(inner, p, std::array{0.7, 0.1, 0.1, 0.1});
   const TetMesh::UndoLog mlog = moved.end_undo_log();
   CHECK(mlog.moved);
+  CHECK_FALSE(moved.can_undo(mlog));
   CHECK_THROWS_AS(moved.undo(mlog), InvalidArgument);
 }

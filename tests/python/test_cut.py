@@ -236,3 +236,38 @@ def test_exact_volumes_keeps_each_label_volume():
     after = volumes(mesh)
     body = sum(before.values())
     assert max(abs(after[l] - before[l]) for l in before) < 1e-12 * body
+
+
+def _cut_area(mesh):
+    # One side of the cut-tagged boundary faces (rest shape).
+    faces, tags = mesh.boundary_faces()
+    p = mesh.points[faces[tags == incise.TAG_CUT]]
+    return 0.5 * 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1).sum()
+
+
+@pytest.mark.parametrize("provisional", [True, False])
+def test_the_opening_reaches_the_blade_with_provisional_pieces(provisional):
+    # docs/cut.md#the-opening: the partial cut of the 4x1x1 box in 40 steps of 0.015, a springs
+    # model following every step's change (the last step's pieces taken back, new ones added).
+    mesh = incise.generate_box((4.0, 1.0, 1.0), (16, 4, 4))
+    mesh.take_change()
+    springs = incise.SpringSimulation(mesh, incise.Material(young=1e3, poisson=0.3, density=1.0))
+    cutter = incise.Cutter(mesh, provisional=provisional)
+    a, b = np.array([2.03, -0.5, 1.1]), np.array([2.03, 1.5, 1.1])
+    cutter.start(a, b)
+    worst = 1.0
+    for k in range(1, 41):
+        down = np.array([0.0, 0.0, -0.015 * k])
+        r = cutter.advance(a + down, b + down)
+        springs.apply(r["change"])
+        depth = 1.0 - (1.1 - 0.015 * k)
+        if depth >= 0.25:
+            worst = min(worst, _cut_area(mesh) / depth)
+            assert (r["provisional_faces"] > 0) == provisional
+        if k > 1 and provisional and depth > 0.0:
+            assert r["tets_taken_back"] > 0 and r["vertices_taken_back"] > 0
+    r = cutter.finish()
+    springs.apply(r["change"])
+    mesh.validate(check_manifold_boundary=True)
+    assert _cut_area(mesh) == pytest.approx(0.5, rel=0.01)
+    assert (worst >= 0.9) == provisional

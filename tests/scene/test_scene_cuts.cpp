@@ -92,6 +92,26 @@ TEST_CASE("a partial cut over frames: the beam stays one piece, frames mark the 
   fs::remove_all(out);
 }
 
+TEST_CASE("mid-cut, the provisional pieces open the cut up to the blade: the beam sags more", "[cut][scene]") {
+  // The partial cut above stopped after frame 2, the blade halfway down: with the tets the
+  // blade is in cut provisionally (the default), the beam is open to the blade and weaker.
+  auto run = [](const char* provisional) {
+    const Scene s = parse_scene(beam_scene(std::string(R"({"blade": [[2.03, -0.5, 1.2], [2.03, 1.5, 1.2]], )") +
+                                           R"("sweep": [0, 0, -0.7], "from_frame": 1, "to_frame": 3, "provisional": )" +
+                                           provisional + "}"),
+                                "scene.json");
+    SceneRunOptions ro;
+    ro.frames = 3;
+    return run_scene(s, ro);
+  };
+  const SceneRunSummary with = run("true"), without = run("false");
+  CHECK(with.frames_not_converged == 0);
+  CHECK(with.max_displacement > without.max_displacement * 1.005);
+  CHECK_THROWS_WITH(parse_scene(beam_scene(R"({"blade": [[0, 0, 0], [1, 0, 0]], "sweep": [0, 0, 1], "provisional": 1})"),
+                                "s.json"),
+                    Catch::Contains("cuts[0].provisional"));
+}
+
 TEST_CASE("a through-cut frees the beam's end: the fragments policy decides", "[cut][scene]") {
   const std::string cut = R"({"blade": [[2.03, -0.5, 1.3], [2.03, 1.5, 1.3]], "sweep": [0, 0, -1.6], "from_frame": 2, "to_frame": 2})";
   SceneRunOptions ro;
