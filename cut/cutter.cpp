@@ -155,12 +155,14 @@ SeparationResult Cutter::open_faces(const CutStep& step, std::span<const CutFace
   return sep;
 }
 
-void Cutter::find_detached(CutStepReport& rep) {
+void Cutter::find_detached(CutStepReport& rep) { find_detached(rep, rep.change.added_tets); }
+
+void Cutter::find_detached(CutStepReport& rep, std::span<const TetId> added) {
   if (fragment_starts_.empty()) return;
   std::vector<TetId> starts;
   for (TetId t : fragment_starts_)
     if (mesh_->is_alive(t)) starts.push_back(t);
-  for (TetId t : rep.change.added_tets)
+  for (TetId t : added)
     if (mesh_->is_alive(t)) starts.push_back(t);
   fragment_starts_.clear();
   rep.fragments = find_fragments(*mesh_, starts, opt_.fragment_search_limit, *fragment_scratch_);
@@ -856,9 +858,12 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
       if (in.insert(t.idx()).second) live.push_back(t);
     front_ = std::move(live);
   }
-  cut_provisional(rep, positions);
+  // Parts the committed cut detached are found before the provisional pieces are made (those
+  // are taken back: a part they alone cut off is not detached). A step that detached one makes
+  // none: the scene may remove the part.
+  find_detached(rep, mesh_->pending_added_tets());
+  if (rep.fragments.empty()) cut_provisional(rep, positions);
   rep.change = mesh_->take_change();
-  find_detached(rep);
   if (!grid_stale) {
     grid_.update(*mesh_, rep.change);
     grid_edits_ = mesh_->counters().edits;

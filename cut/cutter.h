@@ -308,6 +308,7 @@ private:
   // too: its tets are collected after it, from the live starts and every tet the call added
   // (so a caller removing or fixing the part gets its current tets). After take_change().
   void find_detached(CutStepReport& rep);
+  void find_detached(CutStepReport& rep, std::span<const TetId> added);  // before take_change()
   // finish()'s improvement still to come (finish_more): its region and operations left.
   std::vector<TetId> finish_seeds_;
   int finish_left_ = 0;

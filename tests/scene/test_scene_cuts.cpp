@@ -147,7 +147,10 @@ TEST_CASE("a through-cut over many frames detaches exactly like the same sweep i
   CHECK(one.fragments_handled == 1);
   CHECK(many.fragments_handled == 1);
   CHECK(many.frames_not_converged == 0);
-  CHECK(many.tets == one.tets);
+  // Over many frames the blade cuts the beam as it sags between them, opened up to the blade
+  // by the provisional pieces (docs/cut.md#the-opening): about the same mesh, not the same to
+  // the tet.
+  CHECK(double(many.tets) == Approx(double(one.tets)).epsilon(0.05));
   // The clamped half alone: it sags like a 2-long cantilever, not like a part hanging by a vertex.
   CHECK(many.max_displacement == Approx(one.max_displacement).epsilon(0.05));
   CHECK(many.max_displacement < 0.1);
