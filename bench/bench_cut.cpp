@@ -50,6 +50,9 @@ using namespace incise;
 using incise::testing::draw_vec3;
 
 namespace {
+// --no-provisional: every row without CutOptions::provisional (a paired run against the default).
+bool g_provisional = true;
+
 
 double now_ms() {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -98,6 +101,7 @@ void step_to_solver_ready(bool quick, bool with_1m) {
     FemSimulation fem(mesh, mat);
     SpringModel springs(mesh, mat);
     CutOptions opt;  // the defaults: the improvement's budget counts operations
+    opt.provisional = g_provisional;
     const double tg = now_ms();
     Cutter cutter(mesh, opt);
     const double grid_ms = now_ms() - tg;
@@ -271,6 +275,7 @@ void quality_after_cuts(const TetMesh& organ, const std::string& name, bool quic
                            Variant{"subdivide", CutMode::Subdivide, false, 0}, Variant{"remove", CutMode::Remove, false, 0}}) {
     TetMesh m = organ;
     CutOptions opt;
+    opt.provisional = g_provisional;
     opt.mode = v.mode;
     opt.improve = v.improve;
     opt.improve_options.max_work = v.work;
@@ -338,6 +343,7 @@ void snap_trade(const TetMesh& organ) {
     for (const auto& [p, n] : planes) {
       TetMesh m = organ;
       CutOptions opt;
+      opt.provisional = g_provisional;
       opt.snap = snap;
       opt.improve = false;  // the trade of snapping alone
       Cutter cutter(m, opt);
@@ -399,7 +405,9 @@ void beam_ratio(bool quick) {
       if (mesh.rest(v).x() == 0 || mesh.rest(v).x() == L) fem.fix(v);
     fem.step();
     const double before = sag_at(mesh, fem, 0.5 * L, h);
-    Cutter cutter(mesh, CutOptions{});
+    CutOptions opt;
+    opt.provisional = g_provisional;
+    Cutter cutter(mesh, opt);
     const CutStepReport r = cutter.cut_plane(Vec3(0.5 * L + 0.03 * h, 0, 0), Vec3(1, 0, 0));
     fem.apply(r.change);
     fem.step();
@@ -564,6 +572,7 @@ void curved(bool quick, const std::string& only_case, int only_steps, double tol
     m.discard_change();
     const std::size_t crossed = crossed_by_path(m, pts);
     CutOptions opt;
+    opt.provisional = g_provisional;
     opt.path_tolerance = tolerance;
     Cutter cutter(m, opt);
     auto blade = [](const Vec3& p) { return BladeSegment{Vec3(p.x(), p.y(), -0.5), Vec3(p.x(), p.y(), 1.5)}; };
@@ -660,6 +669,7 @@ void curved_offsets(double tolerance) {
         const Vec3 dx(offset(rng), 0, 0);
         TetMesh m = box;
         CutOptions opt;
+        opt.provisional = g_provisional;
         opt.path_tolerance = tolerance;
         Cutter cutter(m, opt);
         auto blade = [](const Vec3& p) { return BladeSegment{Vec3(p.x(), p.y(), -0.5), Vec3(p.x(), p.y(), 1.5)}; };
@@ -722,6 +732,7 @@ void curved_organ(const TetMesh& organ, const std::string& name, double toleranc
     TetMesh m = organ;
     m.discard_change();
     CutOptions opt;
+    opt.provisional = g_provisional;
     opt.path_tolerance = tolerance;
     Cutter cutter(m, opt);
     const int n = int(std::ceil(p.length / (0.1 * h)));
@@ -789,6 +800,7 @@ void deformed(const TetMesh& organ_in, const std::string& name, bool quick, doub
         else if (p.x() >= hi.x() - 0.15 * size.x() && p.z() >= hi.z() - 0.25 * size.z()) probe.push_back(v);
       }
       CutOptions opt;
+      opt.provisional = g_provisional;
       opt.material_frame = material;
       opt.path_tolerance = path_tolerance;
       Cutter cutter(m, opt);
@@ -875,8 +887,9 @@ void progressive(const TetMesh& organ, const std::string& name, bool quick, cons
       if (only_steps > 0 && n != only_steps) continue;
       TetMesh m = s.mesh;
       CutOptions opt;
+      opt.provisional = g_provisional;
       opt.improve = improve;
-      opt.provisional = provisional;
+      opt.provisional = provisional && g_provisional;
       Cutter cutter(m, opt);
       cutter.start({s.a, s.b});
       std::vector<double> ms, ms_imp;
@@ -918,12 +931,13 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
     else if (!std::strcmp(argv[i], "--no-1m")) with_1m = false;
+    else if (!std::strcmp(argv[i], "--no-provisional")) g_provisional = false;
     else if (!std::strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
     else if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only_case = argv[++i];
     else if (!std::strcmp(argv[i], "--steps") && i + 1 < argc) only_steps = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--path-tolerance") && i + 1 < argc) path_tolerance = std::atof(argv[++i]);
     else if (argv[i][0] == '-') {
-      std::fprintf(stderr, "usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive|curved|curved-organ|deformed] "
+      std::fprintf(stderr, "usage: bench_cut [--quick] [--no-1m] [--no-provisional] [--only step|quality|snap|beam|progressive|curved|curved-organ|deformed] "
                            "[--case NAME_PART] [--steps N] [--path-tolerance X] [ORGAN]\n");
       return 1;
     } else organ_path = argv[i];
