@@ -50,8 +50,8 @@ using namespace incise;
 using incise::testing::draw_vec3;
 
 namespace {
-// --no-provisional: every row without CutOptions::provisional (a paired run against the default).
-bool g_provisional = true;
+// --provisional: every row with CutOptions::provisional (a paired run against the default).
+bool g_provisional = false;
 
 
 double now_ms() {
@@ -876,9 +876,9 @@ void progressive(const TetMesh& organ, const std::string& name, bool quick, cons
       bool improve, provisional;
     };
     std::vector<Variant> variants;
-    for (int n : counts) variants.push_back({n, true, true});
-    variants.push_back({tenth, false, true});  // the cut's own share, without the improvement
-    variants.push_back({tenth, true, false});  // without the provisional pieces (the opening trails the blade)
+    for (int n : counts) variants.push_back({n, true, false});
+    variants.push_back({tenth, false, false});  // the cut's own share, without the improvement
+    variants.push_back({tenth, true, true});    // with the provisional pieces (open up to the blade)
     // The box4 cases: a blade across the whole width going straight down from 0.1 above the
     // top, so the area it has swept inside the box is its depth: open_share_min is the least
     // share of that open after a step once the blade is an edge deep (docs/cut.md#the-opening).
@@ -889,7 +889,7 @@ void progressive(const TetMesh& organ, const std::string& name, bool quick, cons
       CutOptions opt;
       opt.provisional = g_provisional;
       opt.improve = improve;
-      opt.provisional = provisional && g_provisional;
+      opt.provisional = provisional || g_provisional;
       Cutter cutter(m, opt);
       cutter.start({s.a, s.b});
       std::vector<double> ms, ms_imp;
@@ -909,7 +909,7 @@ void progressive(const TetMesh& organ, const std::string& name, bool quick, cons
       const double area = tagged_area(m);
       if (n == 1) area1 = area;
       std::printf("%s%s,%d,%.3f,%zu,%zu,%zu,%.2f,%.4g,%.4f,%zu,%.3f,%zu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%016llx,%.3f,%s\n", s.name.c_str(),
-                  !improve ? " (no improve)" : !provisional ? " (no provisional)" : "", n,
+                  !improve ? " (no improve)" : provisional ? " (provisional)" : "", n,
                   s.d.norm() / n / h, s.mesh.num_tets(), crossed, m.num_tets(),
                   double(m.num_tets() - s.mesh.num_tets()) / double(std::max<std::size_t>(crossed, 1)), area,
                   area / area1, vertex_parts(m), q.min_dihedral, below10, percentile(ms, 0.5), percentile(ms, 0.95),
@@ -931,13 +931,13 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
     else if (!std::strcmp(argv[i], "--no-1m")) with_1m = false;
-    else if (!std::strcmp(argv[i], "--no-provisional")) g_provisional = false;
+    else if (!std::strcmp(argv[i], "--provisional")) g_provisional = true;
     else if (!std::strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
     else if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only_case = argv[++i];
     else if (!std::strcmp(argv[i], "--steps") && i + 1 < argc) only_steps = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--path-tolerance") && i + 1 < argc) path_tolerance = std::atof(argv[++i]);
     else if (argv[i][0] == '-') {
-      std::fprintf(stderr, "usage: bench_cut [--quick] [--no-1m] [--no-provisional] [--only step|quality|snap|beam|progressive|curved|curved-organ|deformed] "
+      std::fprintf(stderr, "usage: bench_cut [--quick] [--no-1m] [--provisional] [--only step|quality|snap|beam|progressive|curved|curved-organ|deformed] "
                            "[--case NAME_PART] [--steps N] [--path-tolerance X] [ORGAN]\n");
       return 1;
     } else organ_path = argv[i];

@@ -86,8 +86,10 @@ struct CutOptions {
   // the swept polygon, its front (the blade) embedded, so the cut is open up to the blade; the
   // next step (or finish()) takes those pieces back (TetMesh::undo) before it cuts, so the
   // committed cut is the same as without them. A step's TopologyChange then replaces the last
-  // step's provisional pieces by the tets they came from and adds its own (docs/cut.md#the-opening).
-  bool provisional = true;
+  // step's provisional pieces by the tets they came from and adds its own. Off by default: in a
+  // simulation the pieces' flaps close and open again every frame, and the frame through a cut
+  // costs more (docs/cut.md#the-opening).
+  bool provisional = false;
   // true: the cut and its improvement keep every label's volume, and the body's, to rounding:
   // the improvement's contractions may not move the body's surface, a cut or a label
   // interface (improve_options' collapse_tolerance and collapse_deviation set to 0). The cut

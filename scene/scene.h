@@ -72,7 +72,7 @@ struct SceneCut {
   double snap = 0.05;
   bool improve = true;
   bool exact_volumes = false;  // CutOptions::exact_volumes
-  bool provisional = true;     // CutOptions::provisional
+  bool provisional = false;    // CutOptions::provisional
 };
 
 // Input from outside the scene, as a viewer's blade and probe give it between frames (scene

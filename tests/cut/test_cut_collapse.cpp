@@ -50,7 +50,6 @@ TEST_CASE("contractions after a cut leave a better worst tet than flips and smoo
   CutOptions opt;
   opt.snap = 0.01;
   opt.improve = false;
-  opt.provisional = false;  // the figures below are of this cut, made without the provisional pieces
   Cutter cutter(cut, opt);
   // The tets the cut made that are still there (ids of taken-back provisional pieces may be
   // reused: each record removes before it adds).

@@ -151,10 +151,6 @@ TEST_CASE("quality floor: contracting along bent cut sheets and rims leaves fewe
     const auto vol0 = label_volumes(m);
     CutOptions opt;
     if (!with) opt.improve_options.collapse_deviation = 0;
-    // The cut these figures are of: with the provisional pieces (taken back, but their ids
-    // move ties in later steps, docs/cut.md#the-opening) this run gives 239 and 239, and other
-    // improvement settings move either way (bench_cut --only quality against --no-provisional).
-    opt.provisional = false;
     REQUIRE(CutOptions{}.improve_options.collapse_deviation > 0);
     Cutter cutter(m, opt);
     const double moved = cut_with(cutter, blades, [](const CutStepReport&, bool) {});
