@@ -154,6 +154,12 @@ std::vector<Setting> grid(const Scene& base, const TradeOptions& opt, const std:
         Setting fs = st;
         fs.scene.formulation = f;
         fs.row.formulation = std::string(formulation_name(f));
+        if (is_quadratic(f)) {
+          // Quadratic tets are a reference discretization: solved directly, to tolerance, no barrier.
+          fs.scene.method = SolverMethod::Direct;
+          fs.scene.cg.budget_ms = 0;
+          fs.scene.inversion_barrier = {};
+        }
         fs.row.solver = fs.scene.method == SolverMethod::Direct ? "direct" : "cg";
         if (fs.row.solver == "cg") {
           fs.row.preconditioner = std::string(to_string(fs.scene.cg.preconditioner));
@@ -179,6 +185,8 @@ std::vector<Setting> grid(const Scene& base, const TradeOptions& opt, const std:
     for (Preconditioner pc : opt.preconditioners)
       for (double tol : opt.tolerances)
         for (double budget : opt.budgets_ms) {
+          // Quadratic tets take no budget and have no multigrid (scene_parse refuses both).
+          if (is_quadratic(base.formulation) && (budget > 0 || pc == Preconditioner::Amg)) continue;
           Setting c = st;
           c.scene.method = SolverMethod::Cg;
           c.scene.cg.preconditioner = pc;
@@ -239,29 +247,56 @@ int last_ramp_frame(const Scene& s) {
   return f;
 }
 
-}  // namespace
 
-TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
-  // Meshes of different resolutions cut by one blade give different bodies, so there is no
-  // shared reference through a cut: settings are compared on the uncut body, and it is said.
-  Scene scene = cut_scene;
-  if (!scene.cuts.empty()) {
-    if (opt.progress)
-      *opt.progress << "trade: the scene's " << scene.cuts.size()
-                    << " cut(s) are left out: settings are compared on the uncut body\n";
-    scene.cuts.clear();
-  }
-  TradeResult result;
+// The reference's formulation: quadratic tets, Taylor-Hood when a material is nearly
+// incompressible (P2 alone locks mildly there; docs/solver.md#quadratic-tets).
+Formulation reference_formulation(const Scene& s) {
+  double nu = s.materials.has_default() ? s.materials.fallback().poisson : 0.0;
+  for (const auto& [label, m] : s.materials.by_label()) nu = std::max(nu, m.poisson);
+  return nu > 0.45 ? Formulation::MixedQuadratic : Formulation::Quadratic;
+}
+
+// The bodies per level and the reference solved on one of them, with its error bar: what the
+// grid (run_trade) and the convergence study (run_convergence) measure against.
+struct Basis {
+  Scene scene;  // uncut
+  int frames = 0;
+  std::vector<int> levels;
   std::map<int, std::unique_ptr<TetMesh>> meshes;
-  auto mesh = [&](int level) -> const TetMesh& {
+  std::string coarser;
+  TradeReference reference;
+  std::vector<Eigen::VectorXd> ref;  // per frame, at the reference mesh's vertex slots
+  std::unique_ptr<PointLocator> locator;
+  std::map<int, Probe> probes;
+  const TetMesh& mesh(int level, std::ostream* progress) {
     auto& m = meshes[level];
     if (!m) {
-      m = std::make_unique<TetMesh>(body_at(scene, level, level < 0 ? &result.coarser : nullptr));
-      if (level < 0 && opt.progress) *opt.progress << "trade: level -1: " << result.coarser << "\n";
+      m = std::make_unique<TetMesh>(body_at(scene, level, level < 0 ? &coarser : nullptr));
+      if (level < 0 && progress) *progress << "trade: level -1: " << coarser << "\n";
     }
     return *m;
-  };
-  std::vector<int> levels = opt.resolutions;
+  }
+  const TetMesh& ref_mesh() const { return *meshes.at(reference.level); }
+  const Probe& probe(int level) {
+    auto it = probes.find(level);
+    if (it == probes.end()) it = probes.emplace(level, locate(*meshes.at(level), *locator)).first;
+    return it->second;
+  }
+};
+
+// `levels`: the resolutions that will be run (empty: the default, see TradeOptions).
+void prepare(Basis& b, const Scene& cut_scene, const TradeOptions& opt, std::vector<int> levels) {
+  // Meshes of different resolutions cut by one blade give different bodies, so there is no
+  // shared reference through a cut: settings are compared on the uncut body, and it is said.
+  b.scene = cut_scene;
+  if (!b.scene.cuts.empty()) {
+    if (opt.progress)
+      *opt.progress << "trade: the scene's " << b.scene.cuts.size()
+                    << " cut(s) are left out: settings are compared on the uncut body\n";
+    b.scene.cuts.clear();
+  }
+  const Scene& scene = b.scene;
+  auto mesh = [&](int level) -> const TetMesh& { return b.mesh(level, opt.progress); };
   if (levels.empty()) {
     // A coarser level (generated with half the cells, or the file's mesh coarsened), the
     // scene's, and a refined one when its reference (64x the scene's tets) stays within what a
@@ -272,6 +307,7 @@ TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
   }
   std::sort(levels.begin(), levels.end());
   levels.erase(std::unique(levels.begin(), levels.end()), levels.end());
+  b.levels = levels;
   const int ref_level = opt.reference_level >= 0 ? opt.reference_level : levels.back() + 1;
   if (ref_level <= levels.back())
     throw InvalidArgument("trade: the reference level (" + std::to_string(ref_level) +
@@ -282,27 +318,25 @@ TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
     refuse_past_memory("trade: the reference at level " + std::to_string(ref_level), tets * reference_bytes_per_tet(tets),
                        std::to_string(static_cast<long long>(tets)) + " tets", "use a lower --reference-level");
   }
-  const int frames = opt.frames >= 0 ? opt.frames : scene.frames;
-
+  b.frames = opt.frames >= 0 ? opt.frames : scene.frames;
+  const int frames = b.frames;
 
   // ---- the reference, and the same one level coarser for its error bar ------------------
-  const Formulation best = Formulation::Mixed;
+  const Formulation best = reference_formulation(scene);
   auto solve_reference = [&](int level) {
     Scene rs = scene;
     rs.model = SceneModel::FemCorotational;
     rs.formulation = best;
-    // Direct (SparseLU on the saddle point) up to direct_reference_tets; above, its fill makes
-    // a frame take tens of seconds, and MINRES with the exact Cholesky factor of the
-    // displacement block to a relative residual of 1e-10 gives the same answer to that digit.
-    if (mesh(level).num_tets() <= opt.direct_reference_tets) {
-      rs.method = SolverMethod::Direct;
-    } else {
-      rs.method = SolverMethod::Cg;
-      rs.cg.preconditioner = Preconditioner::Cholesky;
-      rs.cg.tolerance = 1e-10;
-      rs.cg.budget_ms = 0;
-      rs.cg.max_iterations = 100000;
-    }
+    // Quadratic tets, assembled, solved directly (LDL^T / CHOLMOD; SparseLU for Taylor-Hood) up
+    // to direct_reference_tets; above, SparseLU's fill makes a frame take minutes, and the
+    // iterative solver preconditioned by the exact factor of the displacement block (MINRES for
+    // Taylor-Hood) to 1e-10 gives the same answer to that digit.
+    rs.method = mesh(level).num_tets() <= opt.direct_reference_tets ? SolverMethod::Direct : SolverMethod::Cg;
+    rs.cg.preconditioner = Preconditioner::Cholesky;
+    rs.cg.tolerance = 1e-10;
+    rs.cg.max_iterations = 100000;
+    rs.cg.budget_ms = 0;
+    rs.inversion_barrier = {};
     rs.integrator = "static";
     std::vector<Eigen::VectorXd> u;
     SceneRunOptions ro;
@@ -313,41 +347,58 @@ TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
     return u;
   };
   const TetMesh& ref_mesh = mesh(ref_level);
+  const std::string method = ref_mesh.num_tets() <= opt.direct_reference_tets ? "direct"
+                             : best == Formulation::MixedQuadratic       ? "minres 1e-10"
+                                                                         : "cg 1e-10";
   if (opt.progress)
     *opt.progress << "trade: reference: level " << ref_level << " (" << ref_mesh.num_tets() << " tets), fem-corotational "
-                  << formulation_name(best) << ", "
-                  << (ref_mesh.num_tets() <= opt.direct_reference_tets ? "direct" : "MINRES to 1e-10 with the exact factor")
-                  << ", " << frames << " frames\n";
+                  << formulation_name(best) << ", " << method << ", " << frames << " frames\n";
   auto t0 = std::chrono::steady_clock::now();
-  const std::vector<Eigen::VectorXd> ref = solve_reference(ref_level);
-  result.reference = {ref_level, ref_mesh.num_tets(), std::string(formulation_name(best)),
-                      ref_mesh.num_tets() <= opt.direct_reference_tets ? "direct" : "minres 1e-10", seconds_since(t0), -1};
-  const PointLocator locator(ref_mesh);
-  std::map<int, Probe> probes;
-  auto probe = [&](int level) -> const Probe& {
-    auto it = probes.find(level);
-    if (it == probes.end()) it = probes.emplace(level, locate(mesh(level), locator)).first;
-    return it->second;
-  };
+  b.ref = solve_reference(ref_level);
+  b.reference = {ref_level, ref_mesh.num_tets(), std::string(formulation_name(best)), method, seconds_since(t0), -1};
+  b.locator = std::make_unique<PointLocator>(ref_mesh);
   if (ref_level >= 1) {
     const std::vector<Eigen::VectorXd> coarser = solve_reference(ref_level - 1);
     const TetMesh& cm = mesh(ref_level - 1);
-    const Probe& at_scene = probe(0);
+    const Probe& at_scene = b.probe(0);
     // Both read at the scene mesh's vertices: the coarser one through its own locator.
     const PointLocator cl(cm);
     const Probe at_scene_coarse = locate(mesh(0), cl);
     double change = 0;
-    for (std::size_t f = 0; f < ref.size() && f < coarser.size(); ++f)
-      change = std::max(change, compare(sample(cm, at_scene_coarse, coarser[f]), sample(ref_mesh, at_scene, ref[f])).l2);
-    result.reference.change = change;
+    for (std::size_t f = 0; f < b.ref.size() && f < coarser.size(); ++f)
+      change = std::max(change, compare(sample(cm, at_scene_coarse, coarser[f]), sample(ref_mesh, at_scene, b.ref[f])).l2);
+    b.reference.change = change;
+    // Richardson over the two levels: with error ~ C h^p, the finer one's is change / (2^p - 1).
+    b.reference.error_bar = change / (std::pow(2.0, b.reference.order) - 1);
   }
   if (opt.progress) {
-    *opt.progress << "trade: reference took " << fmt(result.reference.seconds) << " s";
-    if (result.reference.change >= 0)
-      *opt.progress << "; it differs from level " << ref_level - 1 << " by " << fmt(result.reference.change)
-                    << " (relative L2): errors below that are not resolved";
+    *opt.progress << "trade: reference took " << fmt(b.reference.seconds) << " s";
+    if (b.reference.change >= 0)
+      *opt.progress << "; it differs from level " << ref_level - 1 << " by " << fmt(b.reference.change)
+                    << " (relative L2), so its error bar (Richardson, order " << fmt(b.reference.order)
+                    << ") is " << fmt(b.reference.error_bar) << ": errors below that are not resolved";
     *opt.progress << "\n";
   }
+}
+
+}  // namespace
+
+TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
+  Basis basis;
+  prepare(basis, cut_scene, opt, opt.resolutions);
+  const Scene& scene = basis.scene;
+  TradeResult result;
+  result.reference = basis.reference;
+  result.coarser = basis.coarser;
+  const std::vector<int>& levels = basis.levels;
+  const int frames = basis.frames;
+  const TetMesh& ref_mesh = basis.ref_mesh();
+  const std::vector<Eigen::VectorXd>& ref = basis.ref;
+  auto mesh = [&](int level) -> const TetMesh& { return basis.mesh(level, opt.progress); };
+  auto probe = [&](int level) -> const Probe& {
+    mesh(level);
+    return basis.probe(level);
+  };
 
   // ---- the grid ---------------------------------------------------------------------------
   std::vector<Setting> settings = grid(scene, opt, levels);
@@ -452,17 +503,90 @@ TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
     }
     rows.push_back(r);
   }
-  mark_pareto(rows, std::max(result.reference.change, 0.0));
+  mark_pareto(rows, std::max(result.reference.error_bar, 0.0));
   return result;
 }
 
+ConvergenceResult run_convergence(const Scene& cut_scene, const TradeOptions& opt) {
+  std::vector<int> levels = opt.resolutions;
+  if (levels.empty()) {
+    // 0, 1, 2 while the reference one level above the finest stays within max_reference_tets.
+    Scene uncut = cut_scene;
+    uncut.cuts.clear();
+    const double tets = double(body_at(uncut, 0, nullptr).num_tets());
+    levels = {0};
+    for (int l = 1; l <= 2; ++l)
+      if (tets * std::pow(8.0, l + 1) <= double(opt.max_reference_tets)) levels.push_back(l);
+    if (levels.size() < 2) levels.insert(levels.begin(), -1);  // an order needs two levels
+  }
+  Basis b;
+  prepare(b, cut_scene, opt, levels);
+  ConvergenceResult out;
+  out.reference = b.reference;
+  out.coarser = b.coarser;
+  for (SceneModel model : opt.models) {
+    if (model == SceneModel::Springs) continue;
+    for (Formulation f : opt.formulations) {
+      ConvergenceRow row;
+      row.model = model_name(model);
+      row.formulation = std::string(formulation_name(f));
+      for (int level : b.levels) {
+        Scene rs = b.scene;
+        rs.model = model;
+        rs.formulation = f;
+        rs.method = SolverMethod::Direct;
+        rs.integrator = "static";
+        rs.cg.budget_ms = 0;
+        if (is_quadratic(f)) rs.inversion_barrier = {};
+        const TetMesh& m = b.mesh(level, opt.progress);
+        const Probe& p = b.probe(level);
+        double err = 0, overshoot = 0;
+        SceneRunOptions ro;
+        ro.frames = b.frames;
+        ro.mesh = &m;
+        ro.on_frame = [&](int fr, const Eigen::VectorXd& d, const FrameStats&) {
+          const Eigen::VectorXd r = sample(b.ref_mesh(), p, b.ref.at(std::size_t(fr)));
+          const Errors e = compare(d, r);
+          err = std::max(err, e.l2);
+          double mu = 0, mr = 0;
+          for (Eigen::Index i = 0; i + 2 < std::min(d.size(), r.size()); i += 3)
+            mu = std::max(mu, d.segment<3>(i).norm()), mr = std::max(mr, r.segment<3>(i).norm());
+          overshoot = mr > 0 ? mu / mr - 1 : 0;
+        };
+        try {
+          run_scene(rs, ro);
+        } catch (const Error& e) {
+          throw Error("trade --convergence: level " + std::to_string(level) + " " + row.model + " " + row.formulation + ": " +
+                      e.what());
+        }
+        row.levels.push_back(level);
+        row.tets.push_back(m.num_tets());
+        row.errors.push_back(err);
+        row.max_displacement_errors.push_back(overshoot);
+        if (opt.progress)
+          *opt.progress << "trade: convergence: level " << level << " (" << m.num_tets() << " tets) " << row.model << " "
+                        << row.formulation << ": error " << fmt(err) << "\n";
+      }
+      // The mesh size h as (tets)^(-1/3): a uniform refinement halves it (log2 of the error
+      // ratio), a coarsened level -1 is measured by what it really has.
+      for (std::size_t k = 0; k + 1 < row.errors.size(); ++k)
+        row.orders.push_back(row.errors[k + 1] > 0 && row.tets[k + 1] > row.tets[k]
+                                 ? std::log(row.errors[k] / row.errors[k + 1]) /
+                                       std::log(std::cbrt(double(row.tets[k + 1]) / double(row.tets[k])))
+                                 : std::nan(""));
+      out.rows.push_back(std::move(row));
+    }
+  }
+  return out;
+}
+
 void mark_pareto(std::vector<TradeRow>& rows, double resolved) {
-  auto err = [&](const TradeRow& r) { return std::max(r.error, resolved); };
+  for (TradeRow& a : rows) a.resolved = !(a.error < resolved);
   for (TradeRow& a : rows) {
-    a.pareto = true;
+    a.pareto = a.resolved;
     for (const TradeRow& b : rows)
-      if (&a != &b && b.ms_per_frame <= a.ms_per_frame && err(b) <= err(a) &&
-          (b.ms_per_frame < a.ms_per_frame || err(b) < err(a)))
+      if (a.pareto && &a != &b && b.resolved && b.ms_per_frame <= a.ms_per_frame && b.error <= a.error &&
+          (b.ms_per_frame < a.ms_per_frame || b.error < a.error))
         a.pareto = false;
   }
 }

@@ -61,8 +61,9 @@ TEST_CASE("incise trade writes the grid, the errors against a converged referenc
   INFO("stderr: " << r.err);
   REQUIRE(r.code == 0);
   // The plan, the reference and its error bar, a progress bar, the answer.
-  CHECK(r.err.find("trade: reference: level 2 (12288 tets), fem-corotational mixed, direct") != std::string::npos);
+  CHECK(r.err.find("trade: reference: level 2 (12288 tets), fem-corotational quadratic, direct") != std::string::npos);
   CHECK(r.err.find("it differs from level 1 by") != std::string::npos);
+  CHECK(r.err.find("so its error bar (Richardson, order 2) is ") != std::string::npos);
   CHECK(r.err.find("trade: 30 runs; the estimate of the time left follows each") != std::string::npos);
   CHECK(r.err.find("[####################] 30/30") != std::string::npos);
   CHECK(r.err.find("; about 0 s left\n") != std::string::npos);  // after the last run
@@ -70,7 +71,7 @@ TEST_CASE("incise trade writes the grid, the errors against a converged referenc
     CHECK(r.out.find(line) != std::string::npos);
   const std::string csv = slurp(dir / "out" / "trade.csv");
   REQUIRE(csv.rfind("resolution,tets,model,formulation,solver,preconditioner,tolerance,budget_ms,ms_per_frame,iterations,"
-                    "error,max_displacement_error,compared,settle_frames,settle_ms,dt,settled,frames_not_converged,pareto\n",
+                    "error,max_displacement_error,compared,settle_frames,settle_ms,dt,settled,frames_not_converged,pareto,resolved\n",
                     0) == 0);
   const auto rows = read_csv(csv);
   // Discretization: 2 levels x (2 FEM models x 2 formulations + springs with a volume term per
@@ -123,6 +124,7 @@ TEST_CASE("incise trade writes the grid, the errors against a converged referenc
   const std::string json = slurp(dir / "out" / "trade.json");
   CHECK(json.find("\"recommendations\"") != std::string::npos);
   CHECK(json.find("\"change_from_coarser\"") != std::string::npos);
+  CHECK(json.find("\"error_bar\"") != std::string::npos);
 }
 
 TEST_CASE("incise trade: a finer resolution never reports a larger error on the cantilever", "[cli][trade][long]") {
@@ -230,8 +232,8 @@ TEST_CASE("incise trade: bad input is one line, nothing written", "[cli][trade][
   CHECK(!fs::exists(dir / "out" / "trade.csv"));
   r = run_incise("trade '" + (dir / "scene.json").string() + "' -o '" + (dir / "out").string() + "' --formulations bar", dir);
   CHECK(r.code == 1);
-  CHECK(r.err.find("--formulations: expected \"standard\", \"nodal-averaged\", \"edge-smoothed\", \"mixed\" or "
-                   "\"mixed-edge-smoothed\", got \"bar\"") != std::string::npos);
+  CHECK(r.err.find("--formulations: expected \"standard\", \"nodal-averaged\", \"edge-smoothed\", \"mixed\", "
+                   "\"mixed-edge-smoothed\", \"quadratic\" or \"mixed-quadratic\", got \"bar\"") != std::string::npos);
   r = run_incise("trade '" + (dir / "scene.json").string() + "' -o '" + (dir / "out").string() +
                      "' --resolutions 0 1 --reference-level 1",
                  dir);
