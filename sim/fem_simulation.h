@@ -60,6 +60,8 @@ struct FemSimulationOptions {
   // or Mixed: displacement and pressure (sim/mixed_solver.h), solved by MINRES (CG's tolerance,
   // cap and budget; its displacement block preconditioned by the Cholesky factor, the multigrid,
   // or block-Jacobi for the others) or by SparseLU (method Direct); Poisson's ratio 0.5 allowed.
+  // Quadratic / MixedQuadratic: 10-node tets (sim/quadratic_solver.h), assembled and solved to
+  // tolerance each frame (no budget, no warm-start prediction; a change rebuilds them).
   Formulation formulation = Formulation::Standard;
   SolverMethod method = SolverMethod::Cg;               // Direct: SimplicialLDLT reference
   StiffnessBackend backend = StiffnessBackend::MatrixFree;  // operator CG multiplies with

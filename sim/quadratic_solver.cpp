@@ -44,13 +44,11 @@ private:
   std::vector<Eigen::Matrix3d> blocks_;
 };
 
-// The assembled matrix's own factor as a preconditioner (Preconditioner::Cholesky): exact on the
-// free unknowns, so CG converges in an iteration or two; MINRES uses it on the displacement block.
+// A factor of the assembled matrix (or of one near it: an earlier frame's) as a preconditioner
+// (Preconditioner::Cholesky): exact when it is current, so CG converges in an iteration or two.
 class FactorPreconditioner : public CgPreconditioner {
 public:
-  FactorPreconditioner(const Eigen::SparseMatrix<double>& a, const std::vector<std::uint8_t>& free) : free_(free) {
-    solver_.compute(a, free);
-  }
+  explicit FactorPreconditioner(const DirectSolver& solver) : solver_(solver) {}
   void setup(const LinearOperator&, const std::vector<std::uint8_t>*) override {}
   void apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const override {
     z = Eigen::VectorXd::Zero(r.size());  // kept unknowns: 0
@@ -58,8 +56,7 @@ public:
   }
 
 private:
-  DirectSolver solver_{true};
-  std::vector<std::uint8_t> free_;
+  const DirectSolver& solver_;
 };
 
 // Block-rotation of a 30-vector / 30x30 matrix by R per node.
@@ -115,7 +112,36 @@ QuadraticSolver::QuadraticSolver(const TetMesh& mesh, const MixedMaterials& mate
   pressure_ = Eigen::VectorXd::Zero(Eigen::Index(p2_.corner_slots));
 }
 
+struct QuadraticSolver::CachedFactor {
+  DirectSolver solver{true};
+  std::vector<std::uint8_t> free;
+  double a = -1, c = -1;
+  int fresh_iterations = -1;  // of the first solve with it (-1: none yet)
+};
+
 QuadraticSolver::~QuadraticSolver() = default;
+
+bool QuadraticSolver::reusable(const std::vector<std::uint8_t>& key, double a, double c) const {
+  return factor_ && factor_->fresh_iterations >= 0 && factor_->free == key && factor_->a == a && factor_->c == c;
+}
+
+int QuadraticSolver::stale_limit() const {
+  return std::max(20, 2 * (factor_ ? factor_->fresh_iterations : 0));
+}
+
+const QuadraticSolver::CachedFactor& QuadraticSolver::factor(const Eigen::SparseMatrix<double>& k,
+                                                             const std::vector<std::uint8_t>& free,
+                                                             const std::vector<std::uint8_t>& key, double a, double c) {
+  const bool stale = !factor_ || factor_->free != key || factor_->a != a || factor_->c != c;
+  if (stale) {
+    factor_ = std::make_unique<CachedFactor>();
+    factor_->solver.compute(k, free);
+    factor_->free = key;
+    factor_->a = a;
+    factor_->c = c;
+  }
+  return *factor_;
+}
 
 std::size_t QuadraticSolver::mid_node(VertexId a, VertexId b) const {
   const auto it = mid_.find(edge_key(a.idx(), b.idx()));
@@ -219,48 +245,56 @@ namespace {
 template <class Apply, class Precondition>
 int minres(const Apply& apply, const Precondition& precondition, const Eigen::VectorXd& b, Eigen::VectorXd& x,
            double tolerance, int max_iterations, double& estimate) {
-  Eigen::VectorXd r = b, z, az, v_old = Eigen::VectorXd::Zero(b.size()), w_old = v_old, w_older = v_old;
-  apply(x, az);
-  r -= az;
-  precondition(r, z);
-  const double beta1 = std::sqrt(std::max(0.0, r.dot(z)));
   Eigen::VectorXd zb;
   precondition(b, zb);
   const double bnorm = std::sqrt(std::max(0.0, b.dot(zb)));
-  estimate = bnorm > 0 ? beta1 / bnorm : 0;
-  if (beta1 == 0 || estimate <= tolerance) return 0;
-  Eigen::VectorXd v = r / beta1;
-  z /= beta1;
-  double beta = 0, eta = beta1, c_old = 1, s_old = 0, c = 1, s = 0;
   int k = 0;
-  for (; k < max_iterations; ++k) {
-    apply(z, az);
-    const double alpha = z.dot(az);
-    Eigen::VectorXd v_new = az - alpha * v - beta * v_old, z_new;
-    precondition(v_new, z_new);
-    const double beta_new = std::sqrt(std::max(0.0, v_new.dot(z_new)));
-    // The previous two rotations on column k of the tridiagonal matrix, then a new one.
-    const double eps = s_old * beta, tmp = c_old * beta;
-    const double delta = c * tmp + s * alpha, gamma_bar = -s * tmp + c * alpha;
-    const double gamma = std::hypot(gamma_bar, beta_new);
-    if (!(gamma > 0)) break;
-    c_old = c, s_old = s;
-    c = gamma_bar / gamma, s = beta_new / gamma;
-    Eigen::VectorXd w = (z - delta * w_old - eps * w_older) / gamma;
-    x += c * eta * w;
-    eta = -s * eta;
-    w_older = std::move(w_old);
-    w_old = std::move(w);
-    estimate = std::abs(eta) / bnorm;
-    if (estimate <= tolerance || !(beta_new > 0)) {
-      ++k;
-      break;
+  // The recurrence's residual drifts from the true one over long runs (a stale preconditioner):
+  // convergence is confirmed on the true residual, and the iteration restarts from x otherwise.
+  for (int restart = 0; restart < 10 && k < max_iterations; ++restart) {
+    Eigen::VectorXd r = b, z, az, v_old = Eigen::VectorXd::Zero(b.size()), w_old = v_old, w_older = v_old;
+    apply(x, az);
+    r -= az;
+    precondition(r, z);
+    const double beta1 = std::sqrt(std::max(0.0, r.dot(z)));
+    estimate = bnorm > 0 ? beta1 / bnorm : 0;
+    if (beta1 == 0 || estimate <= tolerance) return k;
+    Eigen::VectorXd v = r / beta1;
+    z /= beta1;
+    double beta = 0, eta = beta1, c_old = 1, s_old = 0, c = 1, s = 0;
+    for (; k < max_iterations; ++k) {
+      apply(z, az);
+      const double alpha = z.dot(az);
+      Eigen::VectorXd v_new = az - alpha * v - beta * v_old, z_new;
+      precondition(v_new, z_new);
+      const double beta_new = std::sqrt(std::max(0.0, v_new.dot(z_new)));
+      // The previous two rotations on column k of the tridiagonal matrix, then a new one.
+      const double eps = s_old * beta, tmp = c_old * beta;
+      const double delta = c * tmp + s * alpha, gamma_bar = -s * tmp + c * alpha;
+      const double gamma = std::hypot(gamma_bar, beta_new);
+      if (!(gamma > 0)) break;
+      c_old = c, s_old = s;
+      c = gamma_bar / gamma, s = beta_new / gamma;
+      Eigen::VectorXd w = (z - delta * w_old - eps * w_older) / gamma;
+      x += c * eta * w;
+      eta = -s * eta;
+      w_older = std::move(w_old);
+      w_old = std::move(w);
+      if (std::abs(eta) / bnorm <= tolerance || !(beta_new > 0)) {
+        ++k;
+        break;
+      }
+      v_old = std::move(v);
+      v = v_new / beta_new;
+      z = z_new / beta_new;
+      beta = beta_new;
     }
-    v_old = std::move(v);
-    v = v_new / beta_new;
-    z = z_new / beta_new;
-    beta = beta_new;
   }
+  Eigen::VectorXd r = b, z, az;
+  apply(x, az);
+  r -= az;
+  precondition(r, z);
+  estimate = bnorm > 0 ? std::sqrt(std::max(0.0, r.dot(z))) / bnorm : 0;
   return k;
 }
 
@@ -294,13 +328,22 @@ QuadraticStats QuadraticSolver::solve(double a, double c, const Eigen::VectorXd&
       co.preconditioner = opt_.preconditioner == Preconditioner::Cholesky ? Preconditioner::None : opt_.preconditioner;
       ConjugateGradient cg(co);
       std::unique_ptr<FactorPreconditioner> pc;
-      if (opt_.preconditioner == Preconditioner::Cholesky) {
-        pc = std::make_unique<FactorPreconditioner>(k, free);
-        cg.set_preconditioner(pc.get());
+      // An earlier frame's factor gets stale_limit() iterations; past them it is refreshed and
+      // the solve goes on from where it stopped.
+      for (int attempt = 0; attempt < 2; ++attempt) {
+        const bool reused = attempt == 0 && opt_.preconditioner == Preconditioner::Cholesky && reusable(free, a, c);
+        if (opt_.preconditioner == Preconditioner::Cholesky) {
+          if (!reused) factor_.reset();
+          pc = std::make_unique<FactorPreconditioner>(factor(k, free, free, a, c).solver);
+          cg.set_preconditioner(pc.get());
+        }
+        cg.set_max_iterations(reused ? stale_limit() : opt_.max_iterations);
+        cg.compute(op, &free);
+        cg.solve_with_guess(rhs, x);
+        st.iterations += cg.iterations();
+        if (opt_.preconditioner == Preconditioner::Cholesky && !reused) factor_->fresh_iterations = cg.iterations();
+        if (cg.stats().converged() || !reused) break;
       }
-      cg.compute(op, &free);
-      cg.solve_with_guess(rhs, x);
-      st.iterations = cg.iterations();
       if (!cg.stats().converged()) st.message = "quadratic tets: cg: " + cg.stats().message;
     }
     Eigen::VectorXd res = rhs - k * x, beff = rhs - k * xk;
@@ -373,20 +416,16 @@ QuadraticStats QuadraticSolver::solve(double a, double c, const Eigen::VectorXd&
         if (map[std::size_t(dofs + i)] >= 0) y[map[std::size_t(dofs + i)]] = c * pressure_[i];
       // Displacement block preconditioner on the reduced unknowns.
       const Eigen::SparseMatrix<double> kuu = s.topLeftCorner(nu, nu);
-      std::unique_ptr<DirectSolver> factor;
+      const DirectSolver* ku_factor = nullptr;
       Eigen::VectorXd dinv = kuu.diagonal().cwiseInverse();
-      if (opt_.preconditioner == Preconditioner::Cholesky) {
-        factor = std::make_unique<DirectSolver>(true);
-        factor->compute(kuu, std::vector<std::uint8_t>(std::size_t(nu), 1));
-      }
       Eigen::VectorXd pinv(n - nu);
       for (Eigen::Index i = 0; i < np; ++i)
         if (map[std::size_t(dofs + i)] >= 0) pinv[map[std::size_t(dofs + i)] - nu] = 1 / pdiag[i];
       const auto precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd& z) {
         z.resize(r.size());
-        if (factor) {
+        if (ku_factor) {
           Eigen::VectorXd zu = Eigen::VectorXd::Zero(nu);
-          factor->solve(r.head(nu), zu);
+          ku_factor->solve(r.head(nu), zu);
           z.head(nu) = zu;
         } else if (opt_.preconditioner == Preconditioner::None) {
           z.head(nu) = r.head(nu);
@@ -397,7 +436,20 @@ QuadraticStats QuadraticSolver::solve(double a, double c, const Eigen::VectorXd&
       };
       const auto apply = [&](const Eigen::VectorXd& v, Eigen::VectorXd& out) { out = s * v; };
       double estimate = 0;
-      st.iterations = minres(apply, precondition, rb, y, opt_.tolerance, opt_.max_iterations, estimate);
+      // As CG: an earlier frame's factor gets stale_limit() iterations, then a fresh one.
+      for (int attempt = 0; attempt < 2; ++attempt) {
+        const bool reused = attempt == 0 && opt_.preconditioner == Preconditioner::Cholesky && reusable(free, a, c);
+        if (opt_.preconditioner == Preconditioner::Cholesky) {
+          if (!reused) factor_.reset();
+          // Keyed by the full mask: the reduced block's numbering follows it.
+          ku_factor = &factor(kuu, std::vector<std::uint8_t>(std::size_t(nu), 1), free, a, c).solver;
+        }
+        const int its =
+            minres(apply, precondition, rb, y, opt_.tolerance, reused ? stale_limit() : opt_.max_iterations, estimate);
+        st.iterations += its;
+        if (opt_.preconditioner == Preconditioner::Cholesky && !reused) factor_->fresh_iterations = its;
+        if (estimate <= opt_.tolerance || !reused) break;
+      }
       if (!(estimate <= opt_.tolerance)) st.message = "quadratic tets: minres: not converged within the iteration cap";
     }
     const Eigen::VectorXd res = rb - s * y;

@@ -19,6 +19,8 @@
 // indefinite Taylor-Hood system), or CG (Jacobi, block-Jacobi per node, or the factor of the
 // assembled matrix as preconditioner) and preconditioned MINRES for Taylor-Hood (its displacement
 // block preconditioned the same way, the pressure by the lumped P1 mass times (1/mu + 1/lambda)/c).
+// The factor preconditioner is kept between solves (see factor()): the frames of a corotational
+// run then cost an assembly and a few iterations each, not a factorization.
 // Constraints per displacement unknown: `free` (1 solved for, 0 kept at the value x holds).
 // The mesh must not change while the solver lives (FemSimulation rebuilds it after a change).
 #include <cstdint>
@@ -91,6 +93,16 @@ public:
   std::vector<double> von_mises(const Eigen::VectorXd& u) const;
 
 private:
+  struct CachedFactor;
+  // The factor of the displacement block for Preconditioner::Cholesky, kept while the
+  // constraints and coefficients stay; a solve with an earlier frame's factor (a corotational
+  // frame's rotations move little) gets stale_limit() iterations, max(20, twice what the first
+  // solve with it took), then a fresh factor.
+  // `free`: the mask k is factored on; `key`: the constraints it stands for (the full mask).
+  const CachedFactor& factor(const Eigen::SparseMatrix<double>& k, const std::vector<std::uint8_t>& free,
+                             const std::vector<std::uint8_t>& key, double a, double c);
+  bool reusable(const std::vector<std::uint8_t>& key, double a, double c) const;
+  int stale_limit() const;
   void assemble(double a, double c, Eigen::SparseMatrix<double>& k, Eigen::SparseMatrix<double>& d,
                 Eigen::VectorXd& b_r, Eigen::VectorXd& c_r) const;
   Eigen::Matrix<double, 30, 1> rest_nodes(std::size_t t) const;
@@ -105,6 +117,7 @@ private:
   std::vector<Eigen::Matrix3d> rot_;                       // per TetId (identity for Linear)
   Eigen::SparseMatrix<double> mass_;
   Eigen::VectorXd pressure_;
+  std::unique_ptr<CachedFactor> factor_;
 };
 
 }  // namespace incise
