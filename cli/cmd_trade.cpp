@@ -60,7 +60,7 @@ void add_trade(CLI::App& app) {
   cmd->add_option("--resolutions", o->resolutions,
                   "Mesh levels: 0 the scene's, k refined k times (1:8), -1 one coarser (a generated mesh with half the "
                   "cells, a mesh file coarsened as by incise coarsen); default: -1, 0, and 1 when the reference (64x "
-                  "the scene's tets) has at most 200k")
+                  "the scene's tets) has at most 50k")
       ->check(CLI::Range(-1, 3));
   cmd->add_option("--reference-level", o->reference_level,
                   "Mesh level of the reference (default: one above the finest resolution)")

@@ -24,10 +24,10 @@ namespace incise {
 
 namespace {
 
-// Memory of the reference solve per tet (the mesh, the mixed model and the exact Cholesky
-// factor of its displacement block, whose fill grows about as the cube root of the size):
+// Memory of the reference solve per tet (the mesh, the assembled quadratic system and its
+// Cholesky factor, whose fill grows about as the cube root of the size):
 // docs/solver.md#picking-settings-for-a-scene-incise-trade.
-double reference_bytes_per_tet(double tets) { return 1500 * std::max(1.0, std::cbrt(tets / 3.3e5)); }
+double reference_bytes_per_tet(double tets) { return 65000 * std::max(1.0, std::cbrt(tets / 4.2e4)); }
 
 const char* model_name(SceneModel m) {
   switch (m) {
@@ -504,6 +504,7 @@ TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
     rows.push_back(r);
   }
   mark_pareto(rows, std::max(result.reference.error_bar, 0.0));
+  result.coarser = basis.coarser;  // level -1 is made when its first run needs it
   return result;
 }
 
@@ -577,6 +578,7 @@ ConvergenceResult run_convergence(const Scene& cut_scene, const TradeOptions& op
       out.rows.push_back(std::move(row));
     }
   }
+  out.coarser = b.coarser;
   return out;
 }
 
