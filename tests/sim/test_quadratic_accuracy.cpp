@@ -31,9 +31,10 @@ FemSimulationOptions direct(Formulation f, FemKind kind = FemKind::Linear) {
   return o;
 }
 
-// The cantilever L x h x h (8 n x n x n cells) clamped at x = 0, a shear traction on the tip face;
-// returns the mean u_z of the tip face's vertices.
-double cantilever_tip(int n, double nu, const FemSimulationOptions& opt, FrameStats* stats = nullptr) {
+// The cantilever L x h x h (8 n x n x n cells) clamped at x = 0, a shear traction (kLoad times
+// `scale` in all) on the tip face; returns the mean displacement of the tip face's vertices.
+Vec3 cantilever_tip_vector(int n, double nu, const FemSimulationOptions& opt, double scale = 1,
+                           FrameStats* stats = nullptr) {
   const TetMesh m = make_box(Vec3(kLen, kH, kH), {int(kLen) * n, n, n});
   FemSimulation sim(m, MaterialTable(Material{kE, nu, 1000}), opt);
   for (VertexId v : m.vertices())
@@ -41,16 +42,21 @@ double cantilever_tip(int n, double nu, const FemSimulationOptions& opt, FrameSt
   for (const BoundaryFace& f : m.boundary_faces()) {
     bool tip = true;
     for (VertexId v : f.vertices) tip = tip && m.rest(v).x() > kLen - 1e-9;
-    if (tip) sim.add_face_traction(f.vertices[0], f.vertices[1], f.vertices[2], Vec3(0, 0, kLoad / (kH * kH)));
+    if (tip) sim.add_face_traction(f.vertices[0], f.vertices[1], f.vertices[2], Vec3(0, 0, scale * kLoad / (kH * kH)));
   }
   const FrameStats st = sim.step();
   if (stats) *stats = st;
   REQUIRE(st.info == SolveInfo::Success);
-  double tip = 0;
+  Vec3 tip = Vec3::Zero();
   int count = 0;
   for (VertexId v : m.vertices())
-    if (m.rest(v).x() > kLen - 1e-9) tip += sim.displacement()[3 * Eigen::Index(v.idx()) + 2], ++count;
+    if (m.rest(v).x() > kLen - 1e-9) tip += sim.displacement().segment<3>(3 * Eigen::Index(v.idx())), ++count;
   return tip / count;
+}
+
+// Its mean u_z.
+double cantilever_tip(int n, double nu, const FemSimulationOptions& opt, FrameStats* stats = nullptr) {
+  return cantilever_tip_vector(n, nu, opt, 1, stats).z();
 }
 
 }  // namespace
@@ -125,6 +131,16 @@ TEST_CASE("quadratic corotational equals linear under small loads and stays boun
     INFO(formulation_name(f) << ": linear " << lin << ", corotational " << rot);
     // A tip deflection of 0.26 % of the length: the two differ by far less than that.
     CHECK(rot == Approx(lin).epsilon(2e-3));
+    // 100 times the load: a linear tip moves straight down, off the circle a bending beam's tip
+    // follows; corotational tets keep the beam's length, so the tip also comes back along x.
+    co.nonlinear_iterations = 30;
+    const Vec3 big_lin = cantilever_tip_vector(1, 0.45, direct(f), 100);
+    const Vec3 big_rot = cantilever_tip_vector(1, 0.45, co, 100);
+    INFO("100x: linear " << big_lin.transpose() << ", corotational " << big_rot.transpose());
+    CHECK(std::abs(big_lin.x()) < 1e-3 * std::abs(big_lin.z()));
+    CHECK(big_rot.allFinite());
+    CHECK(big_rot.x() < -0.05 * std::abs(big_rot.z()));
+    CHECK(std::abs(big_rot.z()) == Approx(std::abs(big_lin.z())).epsilon(0.1));  // a quarter of the length down
   }
 }
 
