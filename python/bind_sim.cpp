@@ -13,6 +13,7 @@
 #include "scene/run_directory.h"
 #include "scene/run_scene.h"
 #include "sim/fem_simulation.h"
+#include "sim/quadratic_solver.h"
 #include "sim/preconditioner.h"
 #include "sim/mixed_solver.h"
 #include "sim/spring_model.h"
@@ -237,12 +238,29 @@ void bind_sim(py::module_& m) {
       }, py::arg("vertices"), py::arg("components"), py::arg("displacement") = py::make_tuple(0.0, 0.0, 0.0),
          "Holds only the given components (\"z\", \"xy\"): rollers on symmetry planes")
       .def_property_readonly("pressure", [](const Fem& f) -> py::object {
-        if (!f.sim.mixed()) return py::none();
-        const Eigen::VectorXd& p = f.sim.mixed()->pressure();
+        const bool taylor_hood = f.sim.quadratic() && f.sim.quadratic()->options().taylor_hood;
+        if (!f.sim.mixed() && !taylor_hood) return py::none();
+        const Eigen::VectorXd& p = taylor_hood ? f.sim.quadratic()->pressure() : f.sim.mixed()->pressure();
         py::array_t<double> a(static_cast<py::ssize_t>(f.mesh.vertex_capacity()));
         for (std::size_t v = 0; v < f.mesh.vertex_capacity(); ++v) a.mutable_data()[v] = Eigen::Index(v) < p.size() ? p[Eigen::Index(v)] : 0.0;
         return a;
-      }, "Mixed formulation: the pressure per vertex (row = vertex id); None for the others")
+      }, "Mixed formulations (mixed, mixed-edge-smoothed, mixed-quadratic): the pressure per vertex (row = vertex id); "
+         "None for the others")
+      .def_property_readonly("mid_edge_nodes", [](const Fem& f) -> py::object {
+        const QuadraticSolver* q = f.sim.quadratic();
+        if (!q) return py::none();
+        const P2Mesh& p2 = q->p2();
+        const auto ne = static_cast<py::ssize_t>(p2.edges.size());
+        py::array_t<std::int64_t> edges({ne, py::ssize_t(2)});
+        py::array_t<double> disp({ne, py::ssize_t(3)});
+        const Eigen::VectorXd& u = f.sim.quadratic_displacement();
+        for (py::ssize_t e = 0; e < ne; ++e) {
+          for (int k = 0; k < 2; ++k) edges.mutable_at(e, k) = p2.edges[std::size_t(e)][std::size_t(k)];
+          for (int k = 0; k < 3; ++k) disp.mutable_at(e, k) = u[3 * Eigen::Index(p2.corner_slots + std::size_t(e)) + k];
+        }
+        return py::make_tuple(edges, disp);
+      }, "Quadratic formulations: (edges, displacement), the mid-edge nodes' edge (E by 2 vertex ids) and "
+         "displacement (E by 3); None for the others")
       .def("prescribe", [](Fem& f, const py::object& v, const py::object& d) {
         const Vec3 u = to_vec3(d, "displacement");
         for (VertexId x : to_vertices(f.mesh, v)) f.sim.prescribe(x, u);
@@ -340,7 +358,8 @@ void bind_sim(py::module_& m) {
         return s.model == SceneModel::Springs ? "springs" : s.model == SceneModel::FemCorotational ? "fem-corotational" : "fem-linear";
       })
       .def_property_readonly("formulation", [](const Scene& s) { return std::string(formulation_name(s.formulation)); },
-                             "\"standard\", \"nodal-averaged\", \"edge-smoothed\", \"mixed\" or \"mixed-edge-smoothed\"")
+                             "\"standard\", \"nodal-averaged\", \"edge-smoothed\", \"mixed\", \"mixed-edge-smoothed\", \"quadratic\" or "
+                             "\"mixed-quadratic\"")
       .def_readonly("materials", &Scene::materials)
       .def_property_readonly("fixed", [](const Scene& s) {
         py::list l;

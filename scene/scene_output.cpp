@@ -7,6 +7,7 @@
 #include "mesh/errors.h"
 #include "mesh/io/atomic_file.h"
 #include "mesh/io/tet_io.h"
+#include "sim/quadratic_solver.h"
 
 namespace incise {
 
@@ -56,7 +57,28 @@ std::string SceneOutput::add(SceneRunner& runner, const SceneFrame& f, bool vtu)
   for (VertexId v : mesh.vertices()) pts[v.idx()] = mesh.rest(v) + disp.segment<3>(3 * v.idx());
   MeshFields fields;
   fields.points = &pts;
-  fields.point_data.push_back(Field{"displacement", 3, std::vector<double>(disp.data(), disp.data() + disp.size())});
+  std::vector<double> point_disp(disp.data(), disp.data() + disp.size());
+  // Quadratic tets: the mid-edge nodes (displaced) and their displacement follow the vertices,
+  // the cells are VTK_QUADRATIC_TETRA.
+  std::vector<Vec3> mid_points;
+  std::vector<std::array<std::uint32_t, 6>> mid_nodes;
+  if (const QuadraticSolver* q = runner.fem() ? runner.fem()->quadratic() : nullptr) {
+    const P2Mesh& p2 = q->p2();
+    const Eigen::VectorXd& qu = runner.fem()->quadratic_displacement();
+    point_disp.resize(3 * mesh.vertex_capacity());  // mid-edge data follows every vertex slot
+    for (std::size_t e = 0; e < p2.edges.size(); ++e) {
+      const std::size_t n = p2.corner_slots + e;
+      const Vec3 d = qu.segment<3>(3 * Eigen::Index(n));
+      mid_points.push_back(p2.rest(mesh, n) + d);
+      point_disp.insert(point_disp.end(), d.data(), d.data() + 3);
+    }
+    mid_nodes.assign(mesh.tet_capacity(), {});
+    for (TetId t : mesh.tets())
+      for (std::size_t k = 0; k < 6; ++k) mid_nodes[t.idx()][k] = std::uint32_t(p2.tets[t.idx()][4 + k] - p2.corner_slots);
+    fields.mid_points = &mid_points;
+    fields.mid_nodes = &mid_nodes;
+  }
+  fields.point_data.push_back(Field{"displacement", 3, std::move(point_disp)});
   if (runner.fem()) fields.cell_data.push_back(Field{"von_mises", 1, runner.fem()->von_mises()});
   if (cuts_) {
     // Cut faces per tet (0..4): ParaView's threshold on it shows the cut surfaces. The mask

@@ -621,15 +621,29 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     else if (f == "error") s.fragments = FragmentPolicy::Error;
     else rd.fail("fragments", "expected \"auto\", \"keep\", \"fix\", \"remove\" or \"error\", got \"" + f + "\"");
   }
+  // Quadratic tets are a reference, solved to tolerance on a fixed mesh (docs/solver.md#quadratic-tets).
+  if (is_quadratic(s.formulation)) {
+    const std::string f = "\"" + std::string(formulation_name(s.formulation)) + "\"";
+    if (!s.cuts.empty()) rd.fail("cuts", "quadratic tets (" + f + ") do not follow cuts; use a linear formulation");
+    for (const SceneInput& in : s.inputs)
+      if (in.kind == SceneInput::Kind::Blade)
+        rd.fail("inputs", "quadratic tets (" + f + ") do not follow cuts; use a linear formulation");
+    if (s.cg.budget_ms > 0)
+      rd.fail("solver.budget_ms", "quadratic tets (" + f + ") are solved to tolerance; a frame budget cannot be honoured");
+    if (s.cg.preconditioner == Preconditioner::Amg)
+      rd.fail("solver.preconditioner", "\"amg\" has no hierarchy for quadratic tets; use \"cholesky\", \"block-jacobi\", "
+                                       "\"jacobi\" or \"none\"");
+    if (s.inversion_barrier.j_min > 0) rd.fail("inversion_barrier", "is for linear tets; quadratic tets have none");
+  }
   // Poisson's ratio 0.5 (incompressible) has no displacement-only stiffness: only the mixed
-  // formulation, with pressure as an unknown, solves it.
-  if (!is_mixed(s.formulation)) {
+  // formulations, with pressure as an unknown, solve it.
+  if (!allows_incompressible(s.formulation)) {
     auto check = [&](const Material& m, const std::string& key) {
       if (m.poisson > 0.4999) {
         char nu[32];
         std::snprintf(nu, sizeof nu, "%.17g", m.poisson);
-        rd.fail(key, std::string("Poisson's ratio ") + nu + " needs \"formulation\": \"mixed\" (pressure as an "
-                     "unknown); the other formulations take at most 0.4999 (above, they lock and their solves fail)");
+        rd.fail(key, std::string("Poisson's ratio ") + nu + " needs \"formulation\": \"mixed\" or \"mixed-quadratic\" "
+                     "(pressure as an unknown); the other formulations take at most 0.4999 (above, they lock and their solves fail)");
       }
     };
     if (s.materials.has_default()) check(s.materials.fallback(), "materials.*.poisson");

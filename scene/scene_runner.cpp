@@ -86,29 +86,35 @@ std::string detached_part(const Scene& s, int frame, std::size_t tets, const Vec
   return m.str();
 }
 
-// The boundary faces a pressure or traction load selects (by tag, or all three corners in its
-// box) and, per corner vertex, a third of each face's rest area: as a vector (outward), whose
-// negative is the force of a unit pressure, and as a number, the force of a unit traction.
-std::vector<FaceShare> face_shares(const TetMesh& mesh, const SceneLoad& l, double tol, const Scene& s) {
-  std::unordered_map<std::uint32_t, FaceShare> w;
-  std::size_t faces = 0;
+// The boundary faces a pressure or traction load selects: by tag, or all three corners in its box.
+std::vector<std::array<VertexId, 3>> selected_faces(const TetMesh& mesh, const SceneLoad& l, double tol, const Scene& s) {
+  std::vector<std::array<VertexId, 3>> out;
   for (const BoundaryFace& f : mesh.boundary_faces()) {
     bool in = l.tag >= 0 ? f.tag == l.tag : true;
     if (l.tag < 0)
       for (VertexId v : f.vertices) in = in && l.box.contains(mesh.rest(v), tol);
-    if (!in) continue;
-    ++faces;
-    const Vec3 a = mesh.rest(f.vertices[0]), b = mesh.rest(f.vertices[1]), c = mesh.rest(f.vertices[2]);
+    if (in) out.push_back({f.vertices[0], f.vertices[1], f.vertices[2]});
+  }
+  if (out.empty())
+    fail(s, l.key + (l.tag >= 0 ? ".tag" : ".box"),
+         l.tag >= 0 ? "no boundary face has tag " + std::to_string(l.tag) : std::string("selects no boundary face"));
+  return out;
+}
+
+// Per corner vertex of the selected faces, a third of each face's rest area: as a vector
+// (outward), whose negative is the force of a unit pressure, and as a number, the force of a
+// unit traction.
+std::vector<FaceShare> face_shares(const TetMesh& mesh, const std::vector<std::array<VertexId, 3>>& faces) {
+  std::unordered_map<std::uint32_t, FaceShare> w;
+  for (const auto& f : faces) {
+    const Vec3 a = mesh.rest(f[0]), b = mesh.rest(f[1]), c = mesh.rest(f[2]);
     const Vec3 area = 0.5 * (b - a).cross(c - a);
-    for (VertexId v : f.vertices) {
+    for (VertexId v : f) {
       FaceShare& share = w.try_emplace(v.idx(), FaceShare{v, Vec3::Zero(), 0.0}).first->second;  // Eigen leaves a default Vec3 unset
       share.area_vector += area / 3;
       share.area += area.norm() / 3;
     }
   }
-  if (faces == 0)
-    fail(s, l.key + (l.tag >= 0 ? ".tag" : ".box"),
-         l.tag >= 0 ? "no boundary face has tag " + std::to_string(l.tag) : std::string("selects no boundary face"));
   std::vector<FaceShare> out;
   for (const auto& [v, share] : w) out.push_back(share);
   std::sort(out.begin(), out.end(), [](const FaceShare& x, const FaceShare& y) { return x.vertex.idx() < y.vertex.idx(); });
@@ -175,8 +181,15 @@ SceneRunner::SceneRunner(const Scene& scene, const TetMesh* mesh) : scene_(scene
   for (std::size_t i = 0; i < s.loads.size(); ++i) {
     const SceneLoad& l = s.loads[i];
     if (l.kind == SceneLoad::Kind::Gravity) gravity += l.value;
-    else if (l.kind == SceneLoad::Kind::Pressure || l.kind == SceneLoad::Kind::Traction)
-      face_shares_[i] = face_shares(mesh_, l, tol, s);
+    else if (l.kind == SceneLoad::Kind::Pressure || l.kind == SceneLoad::Kind::Traction) {
+      // Quadratic tets take the faces themselves (consistent loads on their mid-edge nodes).
+      auto faces = selected_faces(mesh_, l, tol, s);
+      face_shares_[i] = face_shares(mesh_, faces);
+      if (is_quadratic(s.formulation) && s.model != SceneModel::Springs) {
+        face_lists_.resize(s.loads.size());
+        face_lists_[i] = std::move(faces);
+      }
+    }
     else load_vertices_[i] = select(l.box, l.key + ".box");
   }
 
@@ -593,6 +606,8 @@ SceneFrame SceneRunner::step() {
     const double f = l.factor(frame_);
     if (l.kind == SceneLoad::Kind::Force) {
       for (VertexId v : load_vertices_[i]) force_[v.idx()] += f * l.value / double(load_vertices_[i].size());
+    } else if (!face_lists_.empty() && !face_lists_[i].empty()) {
+      continue;  // quadratic tets: added per face below
     } else if (l.kind == SceneLoad::Kind::Pressure) {
       for (const FaceShare& w : face_shares_[i]) force_[w.vertex.idx()] -= f * l.value.x() * w.area_vector;
     } else if (l.kind == SceneLoad::Kind::Traction) {
@@ -615,6 +630,14 @@ SceneFrame SceneRunner::step() {
     fem_->clear_forces();
     for (std::size_t v = 0; v < force_.size(); ++v)
       if (force_[v].squaredNorm() > 0) fem_->set_force(VertexId(std::uint32_t(v)), force_[v]);
+    for (std::size_t i = 0; i < face_lists_.size(); ++i) {
+      const SceneLoad& l = s.loads[i];
+      const double f = l.factor(frame_);
+      for (const auto& fc : face_lists_[i]) {
+        const Vec3 n = (mesh_.rest(fc[1]) - mesh_.rest(fc[0])).cross(mesh_.rest(fc[2]) - mesh_.rest(fc[0])).normalized();
+        fem_->add_face_traction(fc[0], fc[1], fc[2], l.kind == SceneLoad::Kind::Pressure ? Vec3(-f * l.value.x() * n) : Vec3(f * l.value));
+      }
+    }
     // The frame's cutting so far (an outside blade since the last frame, the scene's blades, the
     // backends' updates, the loads) comes off solver.budget_ms: the budget bounds the frame.
     const double spent = outside + ms_since(frame_start);

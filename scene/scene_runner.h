@@ -166,6 +166,8 @@ private:
   FragmentPolicy policy_ = FragmentPolicy::Keep;
   std::vector<std::vector<VertexId>> load_vertices_;                      // per load (force, probe)
   std::vector<std::vector<FaceShare>> face_shares_;  // per pressure or traction load
+  // Quadratic tets: per pressure or traction load its faces (empty otherwise).
+  std::vector<std::vector<std::array<VertexId, 3>>> face_lists_;
   std::vector<std::unique_ptr<Cutter>> cutters_;  // per scene cut
   std::vector<double> swept_;                     // per scene cut: fraction of its sweep done
   std::vector<CutTally> cut_tallies_;             // per scene cut

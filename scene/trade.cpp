@@ -11,114 +11,15 @@
 #include <sstream>
 
 #include "mesh/errors.h"
-#include "mesh/generate.h"
-#include "mesh/io/tet_io.h"
-#include "mesh/memory_limit.h"
-#include "mesh/point_locator.h"
-#include "mesh/refine.h"
-#include "quality/coarsen.h"
+#include "scene/trade_reference.h"
 #include "sim/fem_model.h"
 #include "sim/mixed_solver.h"
 
 namespace incise {
 
+using namespace trade_detail;
+
 namespace {
-
-// Memory of the reference solve per tet (the mesh, the mixed model and the exact Cholesky
-// factor of its displacement block, whose fill grows about as the cube root of the size):
-// docs/solver.md#picking-settings-for-a-scene-incise-trade.
-double reference_bytes_per_tet(double tets) { return 1500 * std::max(1.0, std::cbrt(tets / 3.3e5)); }
-
-const char* model_name(SceneModel m) {
-  switch (m) {
-    case SceneModel::FemLinear: return "fem-linear";
-    case SceneModel::FemCorotational: return "fem-corotational";
-    case SceneModel::Springs: return "springs";
-  }
-  return "?";
-}
-
-std::string fmt(double v) {
-  std::ostringstream s;
-  s << std::setprecision(4) << v;
-  return s.str();
-}
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-// The scene's body at mesh level `level` (see TradeOptions::resolutions), compacted; `how`
-// (level -1) says how the coarser mesh was made.
-TetMesh body_at(const Scene& s, int level, std::string* how) {
-  if (level < -1) throw InvalidArgument("trade: resolutions below -1 are not supported");
-  TetMesh m;
-  if (level < 0) {
-    if (!s.generator.empty()) {
-      auto half = [](int n) { return std::max(1, n / 2); };
-      if (how) *how = "the " + s.generator + " generator with half the cells";
-      if (s.generator == "ellipsoid") m = generate_scene_mesh(s, {half(s.gen_resolution), 0, 0});
-      else m = generate_scene_mesh(s, {half(s.gen_cells[0]), half(s.gen_cells[1]), half(s.gen_cells[2])});
-      m.compact();
-      return m;
-    }
-    // A file: nothing regenerates it coarser, so contract its edges to about twice their
-    // length (quality/coarsen.h: same labels, tags and body within a bounded distance).
-    m = load_scene_mesh(s);
-    m.compact();
-    const CoarsenReport r = coarsen(m);
-    m.discard_change();
-    m.compact();
-    if (how) {
-      std::ostringstream t;
-      t << std::setprecision(3) << std::filesystem::path(s.mesh_file).filename().string()
-        << " coarsened by edge contraction: " << r.tets_before << " -> " << r.tets_after << " tets, mean edge "
-        << r.mean_edge_before << " -> " << r.mean_edge_after << ", surface within " << r.max_deviation;
-      *how = t.str();
-    }
-    return m;
-  }
-  m = load_scene_mesh(s);  // its file (relative to the scene) or its generator, as run_scene reads it
-  m.compact();
-  for (int k = 0; k < level; ++k) m = refine_uniform(m);
-  m.discard_change();
-  return m;
-}
-
-// A reference solution read at another mesh's vertices.
-struct Probe {
-  std::vector<PointLocation> at;  // by vertex slot of the run's mesh (invalid tet: dead slot)
-};
-
-Probe locate(const TetMesh& run, const PointLocator& loc) {
-  Probe p;
-  p.at.resize(run.vertex_capacity(), PointLocation{TetId(), {0, 0, 0, 0}, 0});
-  for (VertexId v : run.vertices()) p.at[v.idx()] = loc.locate(run.rest(v));
-  return p;
-}
-
-// The reference displacement at the run's vertices (3 per vertex slot).
-Eigen::VectorXd sample(const TetMesh& ref, const Probe& p, const Eigen::VectorXd& u_ref) {
-  Eigen::VectorXd out = Eigen::VectorXd::Zero(Eigen::Index(3 * p.at.size()));
-  for (std::size_t v = 0; v < p.at.size(); ++v)
-    if (p.at[v].tet.is_valid()) PointLocator::interpolate(ref, p.at[v], u_ref.data(), 3, out.data() + 3 * v);
-  return out;
-}
-
-struct Errors {
-  double l2 = 0, max_disp = 0;
-};
-
-Errors compare(const Eigen::VectorXd& u, const Eigen::VectorXd& ref) {
-  const Eigen::Index n = std::min(u.size(), ref.size());
-  const double norm = ref.head(n).norm(), diff = (u.head(n) - ref.head(n)).norm();
-  double mu = 0, mr = 0;
-  for (Eigen::Index i = 0; i + 2 < n; i += 3) {
-    mu = std::max(mu, u.segment<3>(i).norm());
-    mr = std::max(mr, ref.segment<3>(i).norm());
-  }
-  return {norm > 0 ? diff / norm : diff, mr > 0 ? std::abs(mu - mr) / mr : std::abs(mu - mr)};
-}
 
 struct Setting {
   Scene scene;
@@ -154,6 +55,12 @@ std::vector<Setting> grid(const Scene& base, const TradeOptions& opt, const std:
         Setting fs = st;
         fs.scene.formulation = f;
         fs.row.formulation = std::string(formulation_name(f));
+        if (is_quadratic(f)) {
+          // Quadratic tets are a reference discretization: solved directly, to tolerance, no barrier.
+          fs.scene.method = SolverMethod::Direct;
+          fs.scene.cg.budget_ms = 0;
+          fs.scene.inversion_barrier = {};
+        }
         fs.row.solver = fs.scene.method == SolverMethod::Direct ? "direct" : "cg";
         if (fs.row.solver == "cg") {
           fs.row.preconditioner = std::string(to_string(fs.scene.cg.preconditioner));
@@ -179,6 +86,8 @@ std::vector<Setting> grid(const Scene& base, const TradeOptions& opt, const std:
     for (Preconditioner pc : opt.preconditioners)
       for (double tol : opt.tolerances)
         for (double budget : opt.budgets_ms) {
+          // Quadratic tets take no budget and have no multigrid (scene_parse refuses both).
+          if (is_quadratic(base.formulation) && (budget > 0 || pc == Preconditioner::Amg)) continue;
           Setting c = st;
           c.scene.method = SolverMethod::Cg;
           c.scene.cg.preconditioner = pc;
@@ -242,112 +151,21 @@ int last_ramp_frame(const Scene& s) {
 }  // namespace
 
 TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
-  // Meshes of different resolutions cut by one blade give different bodies, so there is no
-  // shared reference through a cut: settings are compared on the uncut body, and it is said.
-  Scene scene = cut_scene;
-  if (!scene.cuts.empty()) {
-    if (opt.progress)
-      *opt.progress << "trade: the scene's " << scene.cuts.size()
-                    << " cut(s) are left out: settings are compared on the uncut body\n";
-    scene.cuts.clear();
-  }
+  Basis basis;
+  prepare(basis, cut_scene, opt, opt.resolutions);
+  const Scene& scene = basis.scene;
   TradeResult result;
-  std::map<int, std::unique_ptr<TetMesh>> meshes;
-  auto mesh = [&](int level) -> const TetMesh& {
-    auto& m = meshes[level];
-    if (!m) {
-      m = std::make_unique<TetMesh>(body_at(scene, level, level < 0 ? &result.coarser : nullptr));
-      if (level < 0 && opt.progress) *opt.progress << "trade: level -1: " << result.coarser << "\n";
-    }
-    return *m;
-  };
-  std::vector<int> levels = opt.resolutions;
-  if (levels.empty()) {
-    // A coarser level (generated with half the cells, or the file's mesh coarsened), the
-    // scene's, and a refined one when its reference (64x the scene's tets) stays within what a
-    // direct solve does in seconds.
-    levels.push_back(-1);
-    levels.push_back(0);
-    if (64 * mesh(0).num_tets() <= opt.max_reference_tets) levels.push_back(1);
-  }
-  std::sort(levels.begin(), levels.end());
-  levels.erase(std::unique(levels.begin(), levels.end()), levels.end());
-  const int ref_level = opt.reference_level >= 0 ? opt.reference_level : levels.back() + 1;
-  if (ref_level <= levels.back())
-    throw InvalidArgument("trade: the reference level (" + std::to_string(ref_level) +
-                          ") must be above the finest resolution (" + std::to_string(levels.back()) + ")");
-  {
-    // The reference's size before it is built: each level splits every tet into 8.
-    const double tets = double(mesh(0).num_tets()) * std::pow(8.0, ref_level);
-    refuse_past_memory("trade: the reference at level " + std::to_string(ref_level), tets * reference_bytes_per_tet(tets),
-                       std::to_string(static_cast<long long>(tets)) + " tets", "use a lower --reference-level");
-  }
-  const int frames = opt.frames >= 0 ? opt.frames : scene.frames;
-
-
-  // ---- the reference, and the same one level coarser for its error bar ------------------
-  const Formulation best = Formulation::Mixed;
-  auto solve_reference = [&](int level) {
-    Scene rs = scene;
-    rs.model = SceneModel::FemCorotational;
-    rs.formulation = best;
-    // Direct (SparseLU on the saddle point) up to direct_reference_tets; above, its fill makes
-    // a frame take tens of seconds, and MINRES with the exact Cholesky factor of the
-    // displacement block to a relative residual of 1e-10 gives the same answer to that digit.
-    if (mesh(level).num_tets() <= opt.direct_reference_tets) {
-      rs.method = SolverMethod::Direct;
-    } else {
-      rs.method = SolverMethod::Cg;
-      rs.cg.preconditioner = Preconditioner::Cholesky;
-      rs.cg.tolerance = 1e-10;
-      rs.cg.budget_ms = 0;
-      rs.cg.max_iterations = 100000;
-    }
-    rs.integrator = "static";
-    std::vector<Eigen::VectorXd> u;
-    SceneRunOptions ro;
-    ro.frames = frames;
-    ro.mesh = &mesh(level);
-    ro.on_frame = [&](int, const Eigen::VectorXd& d, const FrameStats&) { u.push_back(d); };
-    run_scene(rs, ro);
-    return u;
-  };
-  const TetMesh& ref_mesh = mesh(ref_level);
-  if (opt.progress)
-    *opt.progress << "trade: reference: level " << ref_level << " (" << ref_mesh.num_tets() << " tets), fem-corotational "
-                  << formulation_name(best) << ", "
-                  << (ref_mesh.num_tets() <= opt.direct_reference_tets ? "direct" : "MINRES to 1e-10 with the exact factor")
-                  << ", " << frames << " frames\n";
-  auto t0 = std::chrono::steady_clock::now();
-  const std::vector<Eigen::VectorXd> ref = solve_reference(ref_level);
-  result.reference = {ref_level, ref_mesh.num_tets(), std::string(formulation_name(best)),
-                      ref_mesh.num_tets() <= opt.direct_reference_tets ? "direct" : "minres 1e-10", seconds_since(t0), -1};
-  const PointLocator locator(ref_mesh);
-  std::map<int, Probe> probes;
+  result.reference = basis.reference;
+  result.coarser = basis.coarser;
+  const std::vector<int>& levels = basis.levels;
+  const int frames = basis.frames;
+  const TetMesh& ref_mesh = basis.ref_mesh();
+  const std::vector<Eigen::VectorXd>& ref = basis.ref;
+  auto mesh = [&](int level) -> const TetMesh& { return basis.mesh(level, opt.progress); };
   auto probe = [&](int level) -> const Probe& {
-    auto it = probes.find(level);
-    if (it == probes.end()) it = probes.emplace(level, locate(mesh(level), locator)).first;
-    return it->second;
+    mesh(level);
+    return basis.probe(level);
   };
-  if (ref_level >= 1) {
-    const std::vector<Eigen::VectorXd> coarser = solve_reference(ref_level - 1);
-    const TetMesh& cm = mesh(ref_level - 1);
-    const Probe& at_scene = probe(0);
-    // Both read at the scene mesh's vertices: the coarser one through its own locator.
-    const PointLocator cl(cm);
-    const Probe at_scene_coarse = locate(mesh(0), cl);
-    double change = 0;
-    for (std::size_t f = 0; f < ref.size() && f < coarser.size(); ++f)
-      change = std::max(change, compare(sample(cm, at_scene_coarse, coarser[f]), sample(ref_mesh, at_scene, ref[f])).l2);
-    result.reference.change = change;
-  }
-  if (opt.progress) {
-    *opt.progress << "trade: reference took " << fmt(result.reference.seconds) << " s";
-    if (result.reference.change >= 0)
-      *opt.progress << "; it differs from level " << ref_level - 1 << " by " << fmt(result.reference.change)
-                    << " (relative L2): errors below that are not resolved";
-    *opt.progress << "\n";
-  }
 
   // ---- the grid ---------------------------------------------------------------------------
   std::vector<Setting> settings = grid(scene, opt, levels);
@@ -452,17 +270,18 @@ TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
     }
     rows.push_back(r);
   }
-  mark_pareto(rows, std::max(result.reference.change, 0.0));
+  mark_pareto(rows, std::max(result.reference.error_bar, 0.0));
+  result.coarser = basis.coarser;  // level -1 is made when its first run needs it
   return result;
 }
 
 void mark_pareto(std::vector<TradeRow>& rows, double resolved) {
-  auto err = [&](const TradeRow& r) { return std::max(r.error, resolved); };
+  for (TradeRow& a : rows) a.resolved = !(a.error < resolved);
   for (TradeRow& a : rows) {
-    a.pareto = true;
+    a.pareto = a.resolved;
     for (const TradeRow& b : rows)
-      if (&a != &b && b.ms_per_frame <= a.ms_per_frame && err(b) <= err(a) &&
-          (b.ms_per_frame < a.ms_per_frame || err(b) < err(a)))
+      if (a.pareto && &a != &b && b.resolved && b.ms_per_frame <= a.ms_per_frame && b.error <= a.error &&
+          (b.ms_per_frame < a.ms_per_frame || b.error < a.error))
         a.pareto = false;
   }
 }

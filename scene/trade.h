@@ -3,11 +3,15 @@
 // frame and the error against a converged reference, so a user can pick settings for a scene.
 //
 // Reference: the scene's body refined uniformly (1:8 per level, mesh/refine.h) one level
-// beyond the finest run, solved by the direct solver (MINRES to a relative residual of 1e-10
-// with the exact factor above 20k tets) with static corotational FEM in the most accurate
-// formulation (mixed: pressure as an unknown, exact at any Poisson's ratio),
-// re-linearized solver.nonlinear_iterations times per frame like the runs. Its own error bar
-// is the difference between it and the same reference one level coarser (reference_change).
+// beyond the finest run, solved directly with static corotational quadratic tets (10 nodes;
+// Taylor-Hood, P2 displacement and P1 pressure, when a material's Poisson's ratio is above
+// 0.45), re-linearized solver.nonlinear_iterations times per frame like the runs. Its own error
+// bar comes from Richardson extrapolation over two levels: `change` is the difference between it
+// and the same reference one level coarser, and the bar change / (2^order - 1). Rows whose error
+// is below the bar are marked not resolved and kept off the Pareto frontier.
+//
+// The convergence study (run_convergence, `incise trade --convergence`): per formulation, the
+// error at each level against the same reference, and the observed order between levels.
 //
 // Runs are compared at shared material points: each run's vertices, located in the reference
 // mesh and read there by barycentric interpolation (mesh/point_locator.h). Error of a run: the
@@ -46,7 +50,7 @@ struct TradeOptions {
   // tenth of the new edge length). Empty: -1, 0, and 1 when the reference two levels up has at
   // most max_reference_tets tets.
   std::vector<int> resolutions;
-  std::size_t max_reference_tets = 200000;
+  std::size_t max_reference_tets = 50000;  // quadratic tets: about 65 KB a tet (docs/solver.md)
   // The reference is solved directly up to this many tets, by MINRES to 1e-10 above (see trade.cpp).
   std::size_t direct_reference_tets = 20000;
   int reference_level = -1;  // -1: one above the finest resolution
@@ -79,7 +83,8 @@ struct TradeRow {
   double dt = 0;                              // at-rest: the time step it settled with (see run_trade)
   bool settled = true;                        // at-rest: false when max_settle_frames ran out
   int frames_not_converged = 0;
-  bool pareto = false;                        // no other row is both faster and more accurate
+  bool pareto = false;                        // no other resolved row is both faster and more accurate
+  bool resolved = true;                       // error at or above the reference's error bar
 };
 
 struct TradeReference {
@@ -89,8 +94,12 @@ struct TradeReference {
   std::string method;  // "direct" or "minres 1e-10"
   double seconds = 0;
   // Relative L2 difference, at the scene mesh's vertices, between this reference and the same
-  // solve one level coarser: the reference's own error bar (-1 when level 0 has no coarser).
+  // solve one level coarser (-1 when level 0 has no coarser).
   double change = -1;
+  // Richardson's estimate of the reference's own error: change / (2^order - 1) with the order
+  // assumed for quadratic tets' displacement (docs/solver.md#quadratic-tets); -1 without change.
+  double error_bar = -1;
+  double order = 2;
 };
 
 struct TradeResult {
@@ -102,8 +111,9 @@ struct TradeResult {
 // Runs the reference and the grid. Throws what run_scene throws, naming the setting.
 TradeResult run_trade(const Scene& scene, const TradeOptions& options);
 
-// Marks the Pareto frontier of (ms_per_frame, error). Errors below `resolved` (the reference's
-// own error bar) count as equal: the reference cannot tell them apart, so the faster wins.
+// Marks rows whose error is below `resolved` (the reference's error bar) not resolved, and the
+// Pareto frontier of (ms_per_frame, error) among the others: an error the reference cannot
+// resolve is no measured accuracy, so such rows are kept off the frontier.
 void mark_pareto(std::vector<TradeRow>& rows, double resolved = 0);
 
 // The most accurate row whose time per frame fits each budget (nullptr: none fits), errors
@@ -113,7 +123,7 @@ std::vector<const TradeRow*> recommend(const std::vector<TradeRow>& rows, const 
 
 // CSV with a header: resolution,tets,model,formulation,solver,preconditioner,tolerance,budget_ms,
 // ms_per_frame,iterations,error,max_displacement_error,compared,settle_frames,settle_ms,dt,settled,
-// frames_not_converged,pareto.
+// frames_not_converged,pareto,resolved.
 std::string trade_csv(const std::vector<TradeRow>& rows);
 // The same as JSON, with the reference and the recommendations.
 std::string trade_json(const TradeResult& result, const std::vector<double>& budgets_ms);
@@ -124,5 +134,29 @@ std::string trade_summary(const TradeResult& result, const std::vector<double>& 
 // Errors below `resolved` (> 0) lie in a shaded band: the reference does not resolve them.
 std::string trade_svg(const std::vector<TradeRow>& rows, const std::string& title, const std::vector<double>& budgets_ms = {},
                       double resolved = 0);
+
+// ---- the convergence study ------------------------------------------------------------------
+struct ConvergenceRow {
+  std::string model, formulation;
+  std::vector<int> levels;
+  std::vector<std::size_t> tets;
+  std::vector<double> errors;  // relative L2 against the reference, largest over frames
+  // The largest displacement against the reference's, signed (+: overshoot), at the last frame.
+  std::vector<double> max_displacement_errors;
+  // Observed order between consecutive levels: log(e_k / e_k+1) / log(h_k / h_k+1), h = tets^(-1/3)
+  // (log2 of the error ratio for a uniform refinement); NaN when undefined.
+  std::vector<double> orders;
+};
+struct ConvergenceResult {
+  TradeReference reference;
+  std::string coarser;
+  std::vector<ConvergenceRow> rows;
+};
+// Static FEM rows, per model in options.models (springs left out) and formulation in
+// options.formulations, solved directly at each of options.resolutions (default 0, 1, 2 with the
+// reference one above, while it stays within max_reference_tets; -1 added when that leaves one).
+ConvergenceResult run_convergence(const Scene& scene, const TradeOptions& options);
+// The table `incise trade --convergence` prints: one line per row, errors per level, orders.
+std::string convergence_table(const ConvergenceResult& result);
 
 }  // namespace incise

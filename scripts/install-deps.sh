@@ -12,6 +12,7 @@ PACKAGES=(
   libsuitesparse-dev                     # CHOLMOD: the Cholesky preconditioner's factorization
   libopenblas0-pthread                   # optimized BLAS under CHOLMOD (Debian's default is the reference one)
   tetgen gmsh                            # peers: cross-format tests and benchmarks
+  calculix-ccx                           # ccx: the quadratic tets' C3D10 comparison (tests/sim)
   python3 python3-meshio python3-numpy   # meshio cross-check of every written format
   pybind11-dev python3-dev python3-pytest # Python bindings and their tests
   chromium chromium-driver python3-selenium # the viewer's browser test (headless, tests/view)

@@ -14,7 +14,8 @@ def main():
     print(f"`{command}`: {len(rows)} runs in {seconds / 60:.1f} min ({seconds:.0f} s) on this machine; "
           f"the reference is level {ref['level']} ({ref['tets']:,} tets, {ref['formulation']} corotational, "
           f"{ref['method']}, {ref['seconds']:.1f} s) and moves by {ref['change_from_coarser']:.3f} from one level "
-          f"coarser (errors below that are not resolved).")
+          f"coarser: its error bar (Richardson, order {ref['error_bar_order']:g}) is {ref['error_bar']:.4f}; "
+          f"errors below it (marked *) are not resolved and kept off the Pareto frontier.")
     if j.get("coarser"):
         print(f"Level -1: {j['coarser']}.")
     print()
@@ -22,7 +23,8 @@ def main():
     fems = [r for r in rows if r["model"] != "springs" and r["solver"] == "cg" and r["preconditioner"] == "cholesky"
             and r["tolerance"] == 1e-6 and r["budget_ms"] == 0]
     forms = sorted({r["formulation"] for r in fems}, key=["standard", "nodal-averaged", "mixed", "edge-smoothed",
-                                                            "mixed-edge-smoothed"].index)
+                                                            "mixed-edge-smoothed", "quadratic",
+                                                            "mixed-quadratic"].index)
     print("Relative L2 error (ms per frame), CG with the Cholesky factor to 1e-6:")
     print()
     print("| model | level (tets) | " + " | ".join(forms) + " |")
@@ -34,7 +36,8 @@ def main():
                 continue
             tets = next(iter(cell.values()))["tets"]
             print(f"| {model} | {level} ({tets:,}) | " +
-                  " | ".join(f"{cell[f]['error']:.3f} ({cell[f]['ms_per_frame']:.1f})" if f in cell else "-"
+                  " | ".join(f"{cell[f]['error']:.3f}{'' if cell[f].get('resolved', True) else '*'} "
+                             f"({cell[f]['ms_per_frame']:.1f})" if f in cell else "-"
                              for f in forms) + " |")
     print()
     springs = [r for r in rows if r["model"] == "springs"]

@@ -4,6 +4,9 @@
 #include <cmath>
 
 #include <Eigen/SparseCholesky>
+#ifdef INCISE_HAVE_CHOLMOD
+#include <Eigen/CholmodSupport>
+#endif
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -36,11 +39,23 @@ void AssembledStiffness::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) 
 
 struct DirectSolver::Impl {
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+#ifdef INCISE_HAVE_CHOLMOD
+  std::unique_ptr<Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>>> llt;  // supernodal
+#endif
   Eigen::SparseMatrix<double> a_fk;  // free rows, kept columns: moves prescribed values to the rhs
   std::vector<Eigen::Index> free_index, kept_index;
 };
 
-DirectSolver::DirectSolver() : impl_(std::make_unique<Impl>()) {}
+DirectSolver::DirectSolver(bool supernodal) : impl_(std::make_unique<Impl>()) {
+#ifdef INCISE_HAVE_CHOLMOD
+  if (supernodal) {
+    impl_->llt = std::make_unique<Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>>>();
+    impl_->llt->cholmod().print = 0;  // a failure is reported by info(), not on stdout
+  }
+#else
+  (void)supernodal;
+#endif
+}
 DirectSolver::~DirectSolver() = default;
 
 void DirectSolver::compute(const Eigen::SparseMatrix<double>& a, const std::vector<std::uint8_t>& free) {
@@ -72,6 +87,16 @@ void DirectSolver::compute(const Eigen::SparseMatrix<double>& a, const std::vect
   aff.setFromTriplets(ff.begin(), ff.end());
   im.a_fk.resize(nf, nk);
   im.a_fk.setFromTriplets(fk.begin(), fk.end());
+#ifdef INCISE_HAVE_CHOLMOD
+  if (im.llt) {
+    im.llt->compute(aff);
+    if (im.llt->info() != Eigen::Success)
+      throw Error("direct solver: matrix is singular or indefinite on the free unknowns: too few fixed nodes for a "
+                  "static solve?");
+    factorize_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    return;
+  }
+#endif
   im.ldlt.compute(aff);
   if (im.ldlt.info() != Eigen::Success)
     throw Error("direct solver: factorization failed (matrix singular on the free unknowns: too few fixed nodes?)");
@@ -92,7 +117,11 @@ void DirectSolver::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) const {
   for (Eigen::Index i = 0; i < nf; ++i) bf[i] = b[im.free_index[i]];
   for (Eigen::Index i = 0; i < nk; ++i) xk[i] = x[im.kept_index[i]];
   if (nk) bf -= im.a_fk * xk;
+#ifdef INCISE_HAVE_CHOLMOD
+  const Eigen::VectorXd xf = im.llt ? Eigen::VectorXd(im.llt->solve(bf)) : Eigen::VectorXd(im.ldlt.solve(bf));
+#else
   const Eigen::VectorXd xf = im.ldlt.solve(bf);
+#endif
   for (Eigen::Index i = 0; i < nf; ++i) x[im.free_index[i]] = xf[i];
 }
 

@@ -36,7 +36,9 @@ private:
 // enter the right-hand side), by sparse LDL^T. A is symmetric of size free.size().
 class DirectSolver {
 public:
-  DirectSolver();
+  // `supernodal`: CHOLMOD's supernodal LL^T where the build has CHOLMOD (factors with much fill,
+  // as quadratic tets': docs/solver.md#quadratic-tets), else the same LDL^T.
+  explicit DirectSolver(bool supernodal = false);
   ~DirectSolver();
   // Factorizes the free-free block; throws Error naming the problem if A is singular there
   // (e.g. too few fixed nodes). O(fill-in).

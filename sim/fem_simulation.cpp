@@ -10,6 +10,7 @@
 #include "mesh/errors.h"
 #include "sim/assembled_stiffness.h"
 #include "sim/mixed_solver.h"
+#include "sim/quadratic_solver.h"
 
 namespace incise {
 
@@ -56,10 +57,15 @@ FemSimulation::FemSimulation(const TetMesh& mesh, const MaterialTable& materials
       opt_(options),
       // Mixed: the model holds the deviatoric part (lambda = 0, the standard element), the mixed
       // solver the rest; the model still gives masses, rotations and the stress output.
-      model_(mesh, is_mixed(options.formulation) ? MixedMaterials(materials).deviatoric_table() : materials,
-             options.kind, is_mixed(options.formulation) ? Formulation::Standard : options.formulation,
+      // Quadratic: the linear model stays (rigid-mode checks, lumped masses); Taylor-Hood's may
+      // hold Poisson's ratio 0.5, so it gets the deviatoric table as Mixed does.
+      model_(mesh,
+             allows_incompressible(options.formulation) ? MixedMaterials(materials).deviatoric_table() : materials,
+             options.kind,
+             is_mixed(options.formulation) || is_quadratic(options.formulation) ? Formulation::Standard
+                                                                               : options.formulation,
              smooths_edges(options.formulation)),
-      cg_(options.cg) {
+      cg_(options.cg), materials_(materials) {
   if (!(opt_.dt > 0) || !std::isfinite(opt_.dt)) throw InvalidArgument("fem: dt: expected a positive number");
   if (!(opt_.damping >= 0)) throw InvalidArgument("fem: damping: expected a number >= 0");
   if (opt_.nonlinear_iterations < 1) throw InvalidArgument("fem: nonlinear_iterations: expected an integer >= 1");
@@ -88,6 +94,7 @@ FemSimulation::FemSimulation(const TetMesh& mesh, const MaterialTable& materials
                                                                            : MixedPreconditioner::BlockJacobi;
     mixed_ = std::make_unique<MixedSolver>(mesh, MixedMaterials(materials), opt_.kind, mo);
   }
+  if (is_quadratic(opt_.formulation)) make_quadratic();
   grow();
   for (std::size_t v = 0; v < model_.vertex_slots(); ++v) update_free(std::uint32_t(v));
 }
@@ -140,6 +147,8 @@ void FemSimulation::release(VertexId v) {
 void FemSimulation::reset_state() {
   u_.setZero();
   v_.setZero();
+  qu_.setZero();
+  qv_.setZero();
 }
 
 std::vector<Vec3> FemSimulation::positions() const {
@@ -150,6 +159,7 @@ std::vector<Vec3> FemSimulation::positions() const {
 }
 
 std::vector<double> FemSimulation::von_mises() const {
+  if (quadratic_) return quadratic_->von_mises(qu_);
   return model_.von_mises(u_);  // changes nothing: writing stresses must not change the run
 }
 
@@ -187,6 +197,7 @@ void FemSimulation::apply(const TopologyChange& change) {
   // callers that want the precise diagnosis call check_constraints().
   predictor_.apply(change, model_.vertex_slots());
   if (mixed_) mixed_->apply(change);
+  if (quadratic_ && !change.empty()) make_quadratic();
   if (cholesky_) cholesky_->apply(change);
   if (amg_) amg_->apply(change);
   if (!change.empty()) assembled_dirty_ = direct_dirty_ = system_dirty_ = changed_since_frame_ = true;
@@ -423,6 +434,12 @@ const FrameStats& FemSimulation::step(double spent_ms) {
   if (!opt_.dynamic && opt_.check_rigid_modes && rigid_dirty_) {
     check_rigid_modes();
     rigid_dirty_ = false;
+  }
+  if (quadratic_) {
+    step_quadratic();
+    stats_.frame_ms = ms_since(t0);
+    changed_since_frame_ = false;
+    return stats_;
   }
   if (mixed_) {
     step_mixed(t0);

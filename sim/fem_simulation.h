@@ -49,6 +49,7 @@ class AssembledStiffness;
 class AsyncCholesky;
 class DirectSolver;
 class MixedSolver;
+class QuadraticSolver;
 
 enum class SolverMethod { Cg, Direct };
 enum class StiffnessBackend { MatrixFree, Assembled };
@@ -59,6 +60,8 @@ struct FemSimulationOptions {
   // or Mixed: displacement and pressure (sim/mixed_solver.h), solved by MINRES (CG's tolerance,
   // cap and budget; its displacement block preconditioned by the Cholesky factor, the multigrid,
   // or block-Jacobi for the others) or by SparseLU (method Direct); Poisson's ratio 0.5 allowed.
+  // Quadratic / MixedQuadratic: 10-node tets (sim/quadratic_solver.h), assembled and solved to
+  // tolerance each frame (no budget, no warm-start prediction; a change rebuilds them).
   Formulation formulation = Formulation::Standard;
   SolverMethod method = SolverMethod::Cg;               // Direct: SimplicialLDLT reference
   StiffnessBackend backend = StiffnessBackend::MatrixFree;  // operator CG multiplies with
@@ -123,7 +126,10 @@ public:
   unsigned constrained_axes(VertexId v) const { return constrained_[v.idx()]; }
   void set_force(VertexId v, const Vec3& f) { f_ext_.segment<3>(3 * v.idx()) = f; }
   void add_force(VertexId v, const Vec3& f) { f_ext_.segment<3>(3 * v.idx()) += f; }
-  void clear_forces() { f_ext_.setZero(); }
+  void clear_forces() {
+    f_ext_.setZero();
+    qf_.setZero();
+  }
   void set_gravity(const Vec3& g) { opt_.gravity = g; }
 
   // ---- frames ------------------------------------------------------------------------
@@ -157,6 +163,16 @@ public:
   const AggregationAmg* amg() const { return amg_.get(); }
   // The mixed formulation's solver (nullptr for the others); its pressure() is per vertex slot.
   const MixedSolver* mixed() const { return mixed_.get(); }
+  // Quadratic and MixedQuadratic: the 10-node solver (nullptr for the others) and the displacement
+  // of every P2 node (its p2() numbering: the vertex slots, then the mid-edge nodes); displacement()
+  // holds the corners'. Loads set by vertex act on the corner nodes; gravity and
+  // add_face_traction() are consistent over the 10 / 6 nodes.
+  const QuadraticSolver* quadratic() const { return quadratic_.get(); }
+  const Eigen::VectorXd& quadratic_displacement() const { return qu_; }
+  // A uniform traction t [Pa] on the boundary triangle (a, b, c), added to the external forces
+  // until clear_forces(): area / 3 per corner on linear tets, the 6-node triangle's consistent
+  // load (area / 3 per mid-edge node) on quadratic ones.
+  void add_face_traction(VertexId a, VertexId b, VertexId c, const Vec3& t);
   FemModel& model() { return model_; }
   const FemModel& model() const { return model_; }
   FemSimulationOptions& options() { return opt_; }
@@ -175,6 +191,8 @@ private:
   void relinearize();
   void static_rhs_and_guess();
   void step_mixed(std::chrono::steady_clock::time_point t0);
+  void step_quadratic();  // sim/fem_simulation_quadratic.cpp
+  void make_quadratic();
 
   const TetMesh* mesh_;
   ChangeFollower follower_;  // apply() takes the mesh's changes in order, each once
@@ -196,6 +214,9 @@ private:
   std::unique_ptr<AggregationAmg> amg_;      // Preconditioner::Amg: built on first use
   std::unique_ptr<MixedSolver> mixed_;       // Formulation::Mixed: it solves every frame
   bool mixed_pending_ = false;               // the last mixed solve ran out of budget
+  std::unique_ptr<QuadraticSolver> quadratic_;  // Formulation::Quadratic / MixedQuadratic
+  Eigen::VectorXd qu_, qv_, qf_;             // per P2 unknown: displacement, velocity, face loads
+  MaterialTable materials_;                  // kept for the quadratic solver's rebuild after a change
   Eigen::VectorXd b_rot_;              // corotational right-hand side term
   double relinearize_ms_per_packet_ = 0;  // measured (running mean) cost of refreshing one packet's rotations
   std::size_t relinearize_cursor_ = 0;    // the next packet a partial refresh starts at

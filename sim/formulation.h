@@ -18,12 +18,17 @@
 //   MixedEdgeSmoothed  Mixed with the displacement block's strain smoothed over edge domains
 //                  as EdgeSmoothed does: the mixed formulation's validity at 0.5 and the
 //                  edge-smoothed element's bending.
+//   Quadratic      10-node tets (P2 displacement: corners and mid-edge nodes, sim/p2_mesh.h),
+//                  one SPD displacement system, assembled (sim/quadratic_solver.h). For
+//                  references and offline accuracy, not the real-time path (docs/solver.md#quadratic-tets).
+//   MixedQuadratic Taylor-Hood: P2 displacement and a P1 (vertex) pressure, inf-sup stable
+//                  without stabilization; valid at Poisson's ratio 0.5.
 #include <optional>
 #include <string_view>
 
 namespace incise {
 
-enum class Formulation { Standard, NodalAveraged, EdgeSmoothed, Mixed, MixedEdgeSmoothed };
+enum class Formulation { Standard, NodalAveraged, EdgeSmoothed, Mixed, MixedEdgeSmoothed, Quadratic, MixedQuadratic };
 
 inline std::string_view formulation_name(Formulation f) {
   switch (f) {
@@ -32,6 +37,8 @@ inline std::string_view formulation_name(Formulation f) {
     case Formulation::EdgeSmoothed: return "edge-smoothed";
     case Formulation::Mixed: return "mixed";
     case Formulation::MixedEdgeSmoothed: return "mixed-edge-smoothed";
+    case Formulation::Quadratic: return "quadratic";
+    case Formulation::MixedQuadratic: return "mixed-quadratic";
   }
   return "standard";
 }
@@ -42,15 +49,22 @@ inline std::optional<Formulation> parse_formulation(std::string_view s) {
   if (s == "edge-smoothed") return Formulation::EdgeSmoothed;
   if (s == "mixed") return Formulation::Mixed;
   if (s == "mixed-edge-smoothed") return Formulation::MixedEdgeSmoothed;
+  if (s == "quadratic") return Formulation::Quadratic;
+  if (s == "mixed-quadratic") return Formulation::MixedQuadratic;
   return std::nullopt;
 }
 
 // For messages: the names parse_formulation() accepts.
 inline constexpr std::string_view kFormulationNames =
-    "\"standard\", \"nodal-averaged\", \"edge-smoothed\", \"mixed\" or \"mixed-edge-smoothed\"";
+    "\"standard\", \"nodal-averaged\", \"edge-smoothed\", \"mixed\", \"mixed-edge-smoothed\", \"quadratic\" or "
+    "\"mixed-quadratic\"";
 
-// Pressure as an unknown (the saddle-point solver).
+// Pressure as an unknown on linear tets (the saddle-point solver of sim/mixed_solver.h).
 inline bool is_mixed(Formulation f) { return f == Formulation::Mixed || f == Formulation::MixedEdgeSmoothed; }
+// 10-node tets (sim/quadratic_solver.h).
+inline bool is_quadratic(Formulation f) { return f == Formulation::Quadratic || f == Formulation::MixedQuadratic; }
+// Poisson's ratio 0.5 allowed: a pressure unknown carries the volumetric part.
+inline bool allows_incompressible(Formulation f) { return is_mixed(f) || f == Formulation::MixedQuadratic; }
 // The strain of the displacement block smoothed over edge domains.
 inline bool smooths_edges(Formulation f) {
   return f == Formulation::EdgeSmoothed || f == Formulation::MixedEdgeSmoothed;

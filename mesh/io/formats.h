@@ -54,6 +54,7 @@ struct FlatMesh {
   std::vector<std::uint16_t> face_tags;
   std::vector<std::uint32_t> vertex_ids;  // dense index -> VertexId
   std::vector<std::uint32_t> tet_ids;     // dense index -> TetId
+  std::vector<std::array<std::uint32_t, 6>> mid;  // quadratic cells: per tet its mid-edge points (empty: linear)
   // Fields gathered to dense order (components * count values each).
   struct DenseField {
     std::string name;

@@ -244,6 +244,29 @@ FlatMesh flatten(const TetMesh& mesh, const MeshFields* fields) {
       f.face_tags.push_back(mesh.face_tag(t, k));
     }
   }
+  // Quadratic cells: the mid points follow the vertices; their point data follows the vertices' (ids vcap + m).
+  std::vector<std::uint32_t> point_ids = f.vertex_ids;
+  std::size_t pcap = vcap;
+  if (fields && fields->mid_nodes && fields->mid_points) {
+    const auto& mids = *fields->mid_points;
+    const auto base = static_cast<std::uint32_t>(f.points.size());
+    for (std::size_t m = 0; m < mids.size(); ++m) {
+      if (!mids[m].allFinite()) throw InvalidArgument("mid-edge point #" + std::to_string(m) + " has a non-finite position");
+      f.points.push_back(mids[m]);
+      point_ids.push_back(static_cast<std::uint32_t>(vcap + m));
+    }
+    pcap = vcap + mids.size();
+    f.mid.reserve(f.tet_ids.size());
+    for (std::uint32_t ti : f.tet_ids) {
+      std::array<std::uint32_t, 6> q{};
+      for (std::size_t k = 0; k < 6; ++k) {
+        const std::uint32_t m = (*fields->mid_nodes)[ti][k];
+        if (m >= mids.size()) throw InvalidArgument("quadratic cells: tet #" + std::to_string(ti) + " names mid point " + std::to_string(m));
+        q[k] = base + m;
+      }
+      f.mid.push_back(q);
+    }
+  }
   if (fields) {
     auto gather = [](const Field& in, const std::vector<std::uint32_t>& ids, std::size_t cap, const char* kind) {
       if (in.components < 1 || in.components > 9)
@@ -266,7 +289,7 @@ FlatMesh flatten(const TetMesh& mesh, const MeshFields* fields) {
         }
       return d;
     };
-    for (const Field& pd : fields->point_data) f.point_data.push_back(gather(pd, f.vertex_ids, vcap, "point"));
+    for (const Field& pd : fields->point_data) f.point_data.push_back(gather(pd, point_ids, pcap, "point"));
     for (const Field& cd : fields->cell_data) f.cell_data.push_back(gather(cd, f.tet_ids, tcap, "cell"));
   }
   return f;
@@ -309,6 +332,8 @@ void write_impl(const TetMesh& mesh, const std::string& path, const MeshFields* 
   const TetFormat format = output_format(path, options);
   if (fields && format != TetFormat::Vtu && format != TetFormat::VtkLegacy)
     throw InvalidArgument("fields can only be written to .vtu or .vtk, not " + path);
+  if (fields && fields->mid_nodes && format != TetFormat::Vtu)
+    throw InvalidArgument("quadratic cells are written to .vtu only, not " + path);
   const std::vector<std::string> files = output_files(path, format);
   FlatMesh flat = flatten(mesh, fields);
   switch (format) {

@@ -38,6 +38,12 @@ struct MeshFields {
   const std::vector<Vec3>* points = nullptr;  // positions to write instead of rest (by VertexId)
   std::vector<Field> point_data;
   std::vector<Field> cell_data;
+  // Quadratic cells (VTU only, VTK_QUADRATIC_TETRA = 24): per TetId its six mid-edge nodes in
+  // VTK's order ((0,1), (1,2), (0,2), (0,3), (1,3), (2,3)) as indices into mid_points, which the
+  // file lists after the vertices. Point data then holds components * (vertex_capacity() +
+  // mid_points->size()) values: the vertices by VertexId, then the mid points.
+  const std::vector<Vec3>* mid_points = nullptr;
+  const std::vector<std::array<std::uint32_t, 6>>* mid_nodes = nullptr;
 };
 
 struct ReadReport {

@@ -587,9 +587,15 @@ void write_vtu(const FlatMesh& m, AtomicFile& out, const WriteOptions& options) 
   b += "</CellData>\n<Points>\n";
   w.array<double>("Float64", "Points", 3, np, [&](std::size_t i) { return m.points[i / 3][static_cast<int>(i % 3)]; });
   b += "</Points>\n<Cells>\n";
-  w.array<std::int64_t>("Int64", "connectivity", 1, 4 * nt, [&](std::size_t i) { return m.tets[i / 4][i % 4]; });
-  w.array<std::int64_t>("Int64", "offsets", 1, nt, [&](std::size_t i) { return 4 * (i + 1); });
-  w.array<std::uint8_t>("UInt8", "types", 1, nt, [&](std::size_t) { return 10; });
+  // Quadratic cells (VTK_QUADRATIC_TETRA = 24): the corners, then the six mid-edge points.
+  const bool quadratic = !m.mid.empty();
+  const std::size_t per = quadratic ? 10 : 4;
+  w.array<std::int64_t>("Int64", "connectivity", 1, per * nt, [&](std::size_t i) {
+    const std::size_t t = i / per, k = i % per;
+    return k < 4 ? m.tets[t][k] : m.mid[t][k - 4];
+  });
+  w.array<std::int64_t>("Int64", "offsets", 1, nt, [&](std::size_t i) { return per * (i + 1); });
+  w.array<std::uint8_t>("UInt8", "types", 1, nt, [&](std::size_t) { return quadratic ? 24 : 10; });
   b += "</Cells>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
   out.write(b);
 }

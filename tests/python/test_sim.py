@@ -223,6 +223,18 @@ def test_run_scene_frames_as_the_cli(source_dir, tmp_path, frames):
     assert not (tmp_path / "out").exists()
 
 
+def squeezed_box(mesh, formulation, nu):
+    """A 2x1x1 box on three symmetry rollers, its end x = 2 prescribed 0.02 inwards, solved directly."""
+    x = mesh.points
+    sim = incise.FemSimulation(mesh, incise.Material(1e3, nu), formulation=formulation, method="direct")
+    sim.constrain(np.nonzero(x[:, 0] == 0)[0], "x")
+    sim.constrain(np.nonzero(x[:, 1] == 0)[0], "y")
+    sim.constrain(np.nonzero(x[:, 2] == 0)[0], "z")
+    sim.constrain(np.nonzero(x[:, 0] == 2)[0], "x", (-0.02, 0, 0))
+    assert sim.step()["info"] == "success"
+    return sim
+
+
 def test_formulations_rollers_and_incompressible_pressure():
     # A 2x1x1 box on three symmetry rollers, squeezed along x by a prescribed end: standard tets
     # at nu = 0.4999 lock (the end needs a far larger force), nodal-averaged and mixed do not, and
@@ -231,13 +243,7 @@ def test_formulations_rollers_and_incompressible_pressure():
     x = mesh.points
 
     def squeezed(formulation, nu):
-        sim = incise.FemSimulation(mesh, incise.Material(1e3, nu), formulation=formulation, method="direct")
-        sim.constrain(np.nonzero(x[:, 0] == 0)[0], "x")
-        sim.constrain(np.nonzero(x[:, 1] == 0)[0], "y")
-        sim.constrain(np.nonzero(x[:, 2] == 0)[0], "z")
-        sim.constrain(np.nonzero(x[:, 0] == 2)[0], "x", (-0.02, 0, 0))
-        assert sim.step()["info"] == "success"
-        return sim
+        return squeezed_box(mesh, formulation, nu)
 
     for formulation in ("mixed", "mixed-edge-smoothed"):
         mixed = squeezed(formulation, 0.5)
@@ -257,6 +263,28 @@ def test_formulations_rollers_and_incompressible_pressure():
     sim = incise.FemSimulation(mesh)
     with pytest.raises(incise.InvalidArgument, match="components"):
         sim.constrain([0], "xq")
+
+
+def test_quadratic_formulations_reproduce_uniaxial_compression_at_their_mid_edge_nodes():
+    # The same squeezed box on 10-node tets: the linear field is exact at every node, mid-edge
+    # ones too, and Taylor-Hood ("mixed-quadratic") takes nu = 0.5 with a uniform pressure.
+    mesh = incise.generate_box((2.0, 1.0, 1.0), (4, 2, 2))
+    x = mesh.points
+    for formulation, nu in (("quadratic", 0.3), ("mixed-quadratic", 0.5)):
+        sim = squeezed_box(mesh, formulation, nu)
+        lateral = nu * 0.01
+        expected = np.column_stack([-0.01 * x[:, 0], lateral * x[:, 1], lateral * x[:, 2]])
+        assert np.allclose(sim.displacement, expected, atol=1e-9)
+        edges, u_mid = sim.mid_edge_nodes
+        mid = 0.5 * (x[edges[:, 0]] + x[edges[:, 1]])
+        assert np.allclose(u_mid, np.column_stack([-0.01 * mid[:, 0], lateral * mid[:, 1], lateral * mid[:, 2]]), atol=1e-9)
+        if formulation == "mixed-quadratic":
+            assert np.all(sim.pressure == pytest.approx(sim.pressure[0]))
+        else:
+            assert sim.pressure is None
+    assert incise.FemSimulation(mesh).mid_edge_nodes is None
+    with pytest.raises(incise.InvalidArgument, match="poisson"):
+        incise.FemSimulation(mesh, incise.Material(1e3, 0.5), formulation="quadratic")
 
 
 def test_run_scene_into_a_directory_behaves_like_incise_simulate(tmp_path):

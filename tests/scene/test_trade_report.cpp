@@ -21,16 +21,24 @@ TradeRow row(double ms, double error) {
 
 }  // namespace
 
-TEST_CASE("trade: errors below the reference's error bar tie; the faster row leads", "[scene][trade]") {
-  std::vector<TradeRow> rows{row(1, 0.01), row(10, 0.001), row(30, 0.2)};
+TEST_CASE("trade: errors below the reference's error bar are not resolved and stay off the frontier", "[scene][trade]") {
+  std::vector<TradeRow> rows{row(1, 0.01), row(10, 0.001), row(30, 0.2), row(40, 0.06)};
   mark_pareto(rows);  // no bar: both of the first two are on the frontier
   CHECK(rows[0].pareto);
   CHECK(rows[1].pareto);
   CHECK_FALSE(rows[2].pareto);
+  CHECK_FALSE(rows[3].pareto);
+  CHECK(rows[0].resolved);
   CHECK(recommend(rows, {20})[0] == &rows[1]);
-  mark_pareto(rows, 0.05);  // both below the bar: the slower is dominated
-  CHECK(rows[0].pareto);
+  mark_pareto(rows, 0.05);  // the first two below the bar: not resolved, off the frontier
+  CHECK_FALSE(rows[0].resolved);
+  CHECK_FALSE(rows[1].resolved);
+  CHECK_FALSE(rows[0].pareto);
   CHECK_FALSE(rows[1].pareto);
+  CHECK(rows[2].pareto);  // the fastest resolved row
+  CHECK(rows[3].pareto);  // slower, but more accurate
+  CHECK(trade_csv(rows).find(",pareto,resolved\n") != std::string::npos);
+  // Recommendations: errors below the bar tie, so the faster one leads.
   CHECK(recommend(rows, {20}, 0.05)[0] == &rows[0]);
   CHECK(recommend(rows, {0.5}, 0.05)[0] == nullptr);
 }

@@ -109,8 +109,8 @@ TEST_CASE("scene keys for rollers, pressure and formulation are checked", "[scen
         "s.json: loads[0]: expected exactly one of \"tag\" and \"box\" to select the faces");
   CHECK(err(R"("loads": [{"type": "pressure", "tag": 1}])") == "s.json: loads[0].value: missing");
   CHECK(err(R"("formulation": "locking-free")") ==
-        "s.json: formulation: expected \"standard\", \"nodal-averaged\", \"edge-smoothed\", \"mixed\" or "
-        "\"mixed-edge-smoothed\", got \"locking-free\"");
+        "s.json: formulation: expected \"standard\", \"nodal-averaged\", \"edge-smoothed\", \"mixed\", "
+        "\"mixed-edge-smoothed\", \"quadratic\" or \"mixed-quadratic\", got \"locking-free\"");
   CHECK_THAT(err(R"("model": "springs", "formulation": "mixed")"), Catch::Contains("formulation: is for FEM models"));
   CHECK_THAT(err(R"("model": "springs", "fixed": [{"box": [0,0,0,0,1,1], "components": "x"}])"),
              Catch::Contains("fixed[0].components: rollers are for FEM models"));

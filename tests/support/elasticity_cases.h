@@ -132,7 +132,7 @@ inline CantileverResult run_cantilever(int n, double nu, MixedOptions opt = {}) 
 
 // Cook's membrane in plane strain (make_cook_membrane, one layer, z held on every vertex): the
 // edge x = 0 clamped, a uniform vertical shear traction of total force `force` on the edge x = 48
-// (consistent nodal loads: each face's traction x area / 3 to its corners). The result is the
+// (consistent nodal loads: FemSimulation::add_face_traction). The result is the
 // vertical displacement of the top corner (48, 60) and of the loaded edge's midpoint (48, 52),
 // each the mean over the two layers' vertices. Linear elasticity: the displacement scales as
 // force / E, so one reference per Poisson's ratio covers every E and force.
@@ -153,9 +153,7 @@ inline CookResult run_cook(int cells, double e, double nu, double force, FemSimu
   const Vec3 traction(0, force / (16 * thickness), 0);
   for (const BoundaryFace& f : m.boundary_faces()) {
     if (f.tag != kTagCookLoaded) continue;
-    const Vec3 a = m.rest(f.vertices[0]), b = m.rest(f.vertices[1]), c = m.rest(f.vertices[2]);
-    const double area = 0.5 * (b - a).cross(c - a).norm();
-    for (VertexId v : f.vertices) sim.add_force(v, traction * (area / 3));
+    sim.add_face_traction(f.vertices[0], f.vertices[1], f.vertices[2], traction);  // quadratic tets: on the mid-edge nodes
   }
   CookResult r;
   r.stats = sim.step();
