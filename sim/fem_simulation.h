@@ -49,9 +49,12 @@ class AssembledStiffness;
 class AsyncCholesky;
 class DirectSolver;
 class MixedSolver;
+class PetscSolver;
 
 enum class SolverMethod { Cg, Direct };
-enum class StiffnessBackend { MatrixFree, Assembled };
+// Petsc: the system assembled into a distributed PETSc matrix and solved by PETSc's KSP (CG with
+// GAMG by default) instead of incise's CG; sim/petsc/petsc_solver.h, docs/solver.md#petsc.
+enum class StiffnessBackend { MatrixFree, Assembled, Petsc };
 
 struct FemSimulationOptions {
   FemKind kind = FemKind::Linear;                       // Linear or Corotational elements
@@ -61,7 +64,8 @@ struct FemSimulationOptions {
   // or block-Jacobi for the others) or by SparseLU (method Direct); Poisson's ratio 0.5 allowed.
   Formulation formulation = Formulation::Standard;
   SolverMethod method = SolverMethod::Cg;               // Direct: SimplicialLDLT reference
-  StiffnessBackend backend = StiffnessBackend::MatrixFree;  // operator CG multiplies with
+  StiffnessBackend backend = StiffnessBackend::MatrixFree;  // operator CG multiplies with, or Petsc
+  std::string petsc_options;                            // Petsc: PETSc options ("-ksp_type minres ...")
   // tolerance, cap, budget, preconditioner: the asynchronous Cholesky, as in scenes (the
   // fastest measured, docs/solver.md; block-Jacobi above AsyncCholeskyOptions::max_unknowns).
   CgOptions cg{.preconditioner = Preconditioner::Cholesky};
@@ -157,6 +161,8 @@ public:
   const AggregationAmg* amg() const { return amg_.get(); }
   // The mixed formulation's solver (nullptr for the others); its pressure() is per vertex slot.
   const MixedSolver* mixed() const { return mixed_.get(); }
+  // The PETSc solver behind StiffnessBackend::Petsc (nullptr until the first solve).
+  const PetscSolver* petsc() const { return petsc_.get(); }
   FemModel& model() { return model_; }
   const FemModel& model() const { return model_; }
   FemSimulationOptions& options() { return opt_; }
@@ -195,6 +201,10 @@ private:
   std::unique_ptr<AsyncCholesky> cholesky_;  // Preconditioner::Cholesky: built on first use
   std::unique_ptr<AggregationAmg> amg_;      // Preconditioner::Amg: built on first use
   std::unique_ptr<MixedSolver> mixed_;       // Formulation::Mixed: it solves every frame
+  std::unique_ptr<PetscSolver> petsc_;       // StiffnessBackend::Petsc: built on first use
+  bool uses_own_cg() const { return opt_.method == SolverMethod::Cg && opt_.backend != StiffnessBackend::Petsc; }
+  void solve_petsc(const LinearOperator& op, double a, double c, const Eigen::VectorXd& b, Eigen::VectorXd& x,
+                   FrameStats& st);
   bool mixed_pending_ = false;               // the last mixed solve ran out of budget
   Eigen::VectorXd b_rot_;              // corotational right-hand side term
   double relinearize_ms_per_packet_ = 0;  // measured (running mean) cost of refreshing one packet's rotations
