@@ -129,6 +129,9 @@ public:
 
   void assemble(const Header& h, const Part& p) {
     destroy_matrix();
+    // A cut that added vertex slots changes the sizes: a new KSP (GAMG's levels keep the old
+    // sizes through KSPReset).
+    if (ksp_ && h.vertices != n_) INCISE_PETSC(KSPDestroy(&ksp_));
     n_ = h.vertices;
     vstart_ = split(n_, size_);
     const PetscInt vb = vstart_[std::size_t(rank_)], ve = vstart_[std::size_t(rank_) + 1], nl = ve - vb;
