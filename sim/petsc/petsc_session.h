@@ -25,6 +25,7 @@ int petsc_start_distributed();
 // PetscFinalize.
 int petsc_serve();
 // Rank 0: tells the serving ranks to exit with `status` and finalizes. No-op when not distributed.
+// Every PetscSolver of rank 0 must be gone by then (freeing PETSc objects is collective).
 void petsc_finish(int status);
 // Whether this process is rank 0 of a distributed run with more than one rank.
 bool petsc_distributed();
