@@ -53,7 +53,7 @@ void add_simulate(CLI::App& app) {
   cmd->add_flag("--json", o->json, "Print the summary as JSON on stdout");
   cmd->callback([o] {
     // Under mpirun the ranks other than 0 serve rank 0's PETSc solves (scene solver.backend
-    // "petsc", docs/solver.md#petsc); rank 0 plays the scene and writes the files as one process does.
+    // "petsc", docs/solver.md#petsc-more-than-one-machine); rank 0 plays the scene and writes the files as one process does.
     if (petsc_start_distributed() != 0) std::exit(petsc_serve());
     ReleaseServingRanks release;
     check_output_dir(o->out);

@@ -1,4 +1,4 @@
-# PETSc over MPI for the distributed FEM backend (sim/petsc/, docs/solver.md#petsc). Optional:
+# PETSc over MPI for the distributed FEM backend (sim/petsc/, docs/solver.md#petsc-more-than-one-machine). Optional:
 # found through pkg-config (Debian's petsc-dev puts PETSc.pc under /usr/lib/petscdir/...); when
 # absent everything builds as before and asking for the backend is a one-line error.
 option(INCISE_WITH_PETSC "Build the PETSc/MPI solver backend when PETSc and MPI are found" ON)

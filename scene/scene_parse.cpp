@@ -209,7 +209,7 @@ void read_blade_options(const Reader& rd, const json& c, const std::string& key,
   }
 }
 
-// solver.backend ("incise", the default, or "petsc": docs/solver.md#petsc) and
+// solver.backend ("incise", the default, or "petsc": docs/solver.md#petsc-more-than-one-machine) and
 // solver.petsc_options. After the model, formulation, method and operator are read.
 void parse_solver_backend(const Reader& rd, const json& js, Scene& s) {
   const std::string b = js.contains("backend") ? rd.string(js["backend"], "solver.backend") : "incise";

@@ -93,7 +93,7 @@ FemSimulation::FemSimulation(const TetMesh& mesh, const MaterialTable& materials
   if (opt_.nonlinear_iterations < 1) throw InvalidArgument("fem: nonlinear_iterations: expected an integer >= 1");
   if (opt_.backend == StiffnessBackend::Petsc) {
     if (is_mixed(opt_.formulation))
-      throw InvalidArgument("fem: backend petsc: the mixed formulations are not supported yet (docs/solver.md#petsc)");
+      throw InvalidArgument("fem: backend petsc: the mixed formulations are not supported yet (docs/solver.md#petsc-more-than-one-machine)");
     if (opt_.method != SolverMethod::Cg) throw InvalidArgument("fem: backend petsc is a solver of its own: method must be cg");
   }
   const InversionBarrierOptions& ib = opt_.inversion_barrier;

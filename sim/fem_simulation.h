@@ -53,7 +53,7 @@ class PetscSolver;
 
 enum class SolverMethod { Cg, Direct };
 // Petsc: the system assembled into a distributed PETSc matrix and solved by PETSc's KSP (CG with
-// GAMG by default) instead of incise's CG; sim/petsc/petsc_solver.h, docs/solver.md#petsc.
+// GAMG by default) instead of incise's CG; sim/petsc/petsc_solver.h, docs/solver.md#petsc-more-than-one-machine.
 enum class StiffnessBackend { MatrixFree, Assembled, Petsc };
 
 struct FemSimulationOptions {

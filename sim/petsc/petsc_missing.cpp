@@ -8,7 +8,7 @@ namespace incise {
 
 namespace {
 const char* const kMissing =
-    "this incise was built without PETSc (install petsc-dev and openmpi-bin, then reconfigure: docs/solver.md#petsc)";
+    "this incise was built without PETSc (install petsc-dev and openmpi-bin, then reconfigure: docs/solver.md#petsc-more-than-one-machine)";
 }
 
 bool petsc_built() { return false; }

@@ -16,7 +16,7 @@
 // tets touching them and assembles its own rows from them (element_block, the model's element
 // math), and B's rows in an even split (K += B^T B by MatTransposeMatMult). The solution is
 // gathered to rank 0. Anywhere else (one process, the library, Python) it runs on
-// PETSC_COMM_SELF. docs/solver.md#petsc.
+// PETSC_COMM_SELF. docs/solver.md#petsc-more-than-one-machine.
 #include <cstdint>
 #include <memory>
 #include <string>
