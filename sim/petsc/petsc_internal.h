@@ -12,6 +12,7 @@ enum Command : int { kFinish = 0, kCreate = 1, kAssemble = 2, kSolve = 3, kDestr
 
 struct State {
   bool distributed = false;  // started by petsc_start_distributed() with more than one rank
+  bool shared = false;       // started by petsc_start_shared() with more than one rank
   int rank = 0, size = 1;
   int next_id = 1;           // rank 0: the id of the next solver
 };

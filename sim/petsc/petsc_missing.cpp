@@ -29,5 +29,11 @@ int petsc_serve() { return 0; }
 void petsc_finish(int) {}
 bool petsc_distributed() { return false; }
 std::vector<double> rank_peak_memory_mb() { return {}; }
+int petsc_start_shared() { return petsc_start_distributed(); }
+int petsc_ranks() { return 1; }
+std::vector<std::string> petsc_gather(const std::string& mine) { return {mine}; }
+bool petsc_all_ok(bool ok) { return ok; }
+void petsc_end_shared() {}
+void petsc_abort(const std::string& message) { throw Error(message); }
 
 }  // namespace incise

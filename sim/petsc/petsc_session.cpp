@@ -117,11 +117,56 @@ int petsc_serve() {
 
 std::vector<double> rank_peak_memory_mb() {
   if (!petsc_distributed()) return {peak_memory_mb()};
-  std::vector<double> all(std::size_t(state().size));
+  std::vector<double> all(static_cast<std::size_t>(state().size));
   broadcast_command(kMemory, 0);
   gather_peak_memory(all.data());
   return all;
 }
+
+int petsc_start_shared() {
+  if (launched_ranks() <= 1) return 0;
+  ensure_initialized();
+  state().shared = state().size > 1;
+  return state().rank;
+}
+
+int petsc_ranks() { return state().distributed || state().shared ? state().size : 1; }
+
+std::vector<std::string> petsc_gather(const std::string& mine) {
+  if (!state().shared) return {mine};
+  const int size = state().size, rank = state().rank;
+  long long n = (long long)mine.size();
+  std::vector<long long> sizes(static_cast<std::size_t>(size));
+  MPI_Gather(&n, 1, MPI_LONG_LONG, sizes.data(), 1, MPI_LONG_LONG, 0, PETSC_COMM_WORLD);
+  std::vector<int> counts(static_cast<std::size_t>(size)), displs(static_cast<std::size_t>(size));
+  long long total = 0;
+  for (int r = 0; r < size; ++r) {
+    counts[std::size_t(r)] = int(sizes[std::size_t(r)]);
+    displs[std::size_t(r)] = int(total);
+    total += sizes[std::size_t(r)];
+  }
+  std::string all(rank == 0 ? std::size_t(total) : 0, '\0');
+  MPI_Gatherv(mine.data(), int(n), MPI_CHAR, all.data(), counts.data(), displs.data(), MPI_CHAR, 0, PETSC_COMM_WORLD);
+  std::vector<std::string> out;
+  if (rank == 0)
+    for (int r = 0; r < size; ++r) out.push_back(all.substr(std::size_t(displs[std::size_t(r)]), std::size_t(counts[std::size_t(r)])));
+  return out;
+}
+
+bool petsc_all_ok(bool ok) {
+  if (!state().shared) return ok;
+  int v = ok ? 1 : 0;
+  MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_INT, MPI_MIN, PETSC_COMM_WORLD);
+  return v == 1;
+}
+
+void petsc_end_shared() {
+  if (!state().shared) return;
+  state().shared = false;
+  PetscFinalize();
+}
+
+[[noreturn]] void petsc_abort(const std::string& message) { abort_all(message); }
 
 void petsc_finish(int status) {
   if (!state().distributed || state().rank != 0) return;

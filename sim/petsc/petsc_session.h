@@ -10,6 +10,7 @@
 // A failure on rank 0 outside a solve reaches the others as a status (rank 0 prints its one
 // line, every rank exits 1); a failure inside a collective step aborts the communicator with the
 // message (MPI_Abort), so no rank hangs.
+#include <string>
 #include <vector>
 
 namespace incise {
@@ -29,6 +30,20 @@ int petsc_serve();
 void petsc_finish(int status);
 // Whether this process is rank 0 of a distributed run with more than one rank.
 bool petsc_distributed();
+// Shared work (`mpirun -np N incise trade`): every rank plays its share of independent runs and
+// rank 0 gathers the results; no rank serves another, so PetscSolvers made meanwhile stay on
+// their own process. petsc_start_shared() returns this rank (0 without mpirun, nothing started).
+int petsc_start_shared();
+int petsc_ranks();  // ranks of the distributed or shared run (1 when none)
+// Rank 0 receives every rank's `mine` in rank order, the others an empty vector. Collective.
+std::vector<std::string> petsc_gather(const std::string& mine);
+// Whether `ok` holds on every rank (collective; `ok` itself without mpirun).
+bool petsc_all_ok(bool ok);
+// Ends a shared run on this rank (after its last collective call).
+void petsc_end_shared();
+// A failure of one rank in a shared run: its one line on stderr and every rank stops.
+[[noreturn]] void petsc_abort(const std::string& message);
+
 // Peak resident memory of every rank in MB, rank 0 first (getrusage); collective in a
 // distributed run (rank 0 asks the others), this process's alone otherwise.
 std::vector<double> rank_peak_memory_mb();

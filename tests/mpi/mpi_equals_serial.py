@@ -4,6 +4,7 @@ displacement: the scene is run once by one process with the direct solver (the r
 once over N ranks with PETSc, both at a tight tolerance, and every written frame is compared.
 
 usage: mpi_equals_serial.py INCISE SCENE RANKS WORKDIR [--frames F] [--extra JSON]
+       mpi_equals_serial.py INCISE --trade SCENE RANKS WORKDIR (incise trade's table over RANKS)
 Exit 0 when every frame's displacement agrees to 1e-6 of its largest value.
 Also: mpi_equals_serial.py INCISE --bad-scene RANKS WORKDIR: a bad scene gives one line on
 stderr and exit 1 from every rank, within the timeout (no rank hangs)."""
@@ -39,7 +40,47 @@ def frames(d):
     return sorted(n for n in os.listdir(d) if n.startswith("frame_") and n.endswith(".vtu"))
 
 
+def trade(exe, scene, ranks, work):
+    """`mpirun -np N incise trade` writes the table one process writes (the columns that do not
+    time anything; no budgeted rows, whose iterations depend on the clock)."""
+    os.makedirs(work, exist_ok=True)
+    cmd, env = mpirun(ranks)
+    grid = ["--models", "fem-linear", "fem-corotational", "--formulations", "standard", "nodal-averaged",
+            "--preconditioners", "jacobi", "amg", "--tolerances", "1e-4", "1e-8", "--budgets", "0",
+            "--resolutions", "-1", "0", "--frames", "3", "-q"]
+    one, many = os.path.join(work, "one"), os.path.join(work, "many")
+    for d in (one, many):
+        subprocess.run(["rm", "-rf", d], check=True)
+    subprocess.run([exe, "trade", scene, "-o", one] + grid, check=True, timeout=300, stdout=subprocess.DEVNULL)
+    subprocess.run(cmd + [exe, "trade", scene, "-o", many] + grid, check=True, env=env, timeout=300,
+                   stdout=subprocess.DEVNULL)
+    import csv
+    rows = []
+    for d in (one, many):
+        with open(os.path.join(d, "trade.csv")) as f:
+            rows.append(list(csv.DictReader(f)))
+    timed = {"ms_per_frame", "settle_ms", "pareto"}
+    if len(rows[0]) != len(rows[1]) or not rows[0]:
+        print("row counts differ:", len(rows[0]), len(rows[1]))
+        return 1
+    for a, b in zip(*rows):
+        for k in a:
+            if k in timed:
+                continue
+            try:
+                same = abs(float(a[k]) - float(b[k])) <= 1e-6 * max(abs(float(a[k])), 1e-12)
+            except ValueError:
+                same = a[k] == b[k]
+            if not same:
+                print("differs:", k, a, b)
+                return 1
+    print(len(rows[0]), "rows alike over", ranks, "ranks")
+    return 0
+
+
 def main(argv):
+    if argv[2] == "--trade":
+        return trade(argv[1], argv[3], int(argv[4]), argv[5])
     exe, scene, ranks, work = argv[1], argv[2], int(argv[3]), argv[4]
     os.makedirs(work, exist_ok=True)
     cmd, env = mpirun(ranks)
