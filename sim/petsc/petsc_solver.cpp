@@ -17,6 +17,7 @@
 #include "sim/fem_model.h"
 #include "sim/petsc/petsc_internal.h"
 #include "sim/petsc/petsc_session.h"
+#include "sim/petsc/vertex_partition.h"
 
 namespace incise {
 
@@ -125,15 +126,17 @@ public:
     if (options_db_) PetscOptionsDestroy(&options_db_);
   }
   int size() const { return size_; }
+  PetscOptions options() const { return options_db_; }
   const std::vector<PetscInt>& vertex_start() const { return vstart_; }
 
-  void assemble(const Header& h, const Part& p) {
+  // starts: the first row block (vertex) of each rank, size + 1 entries.
+  void assemble(const Header& h, const std::vector<PetscInt>& starts, const Part& p) {
     destroy_matrix();
     // A cut that added vertex slots changes the sizes: a new KSP (GAMG's levels keep the old
     // sizes through KSPReset).
     if (ksp_ && h.vertices != n_) INCISE_PETSC(KSPDestroy(&ksp_));
     n_ = h.vertices;
-    vstart_ = split(n_, size_);
+    vstart_ = starts;
     const PetscInt vb = vstart_[std::size_t(rank_)], ve = vstart_[std::size_t(rank_) + 1], nl = ve - vb;
     auto owned = [&](std::uint32_t v) { return PetscInt(v) >= vb && PetscInt(v) < ve; };
     const std::size_t tets = p.tet_verts.size() / 4;
@@ -409,9 +412,13 @@ void serve_command(Command c, int id) {
     case kAssemble: {
       Header h;
       MPI_Bcast(&h, int(sizeof h), MPI_BYTE, 0, comm);
+      int size = 0;
+      MPI_Comm_size(comm, &size);
+      std::vector<PetscInt> starts(static_cast<std::size_t>(size) + 1);
+      MPI_Bcast(starts.data(), size + 1, MPIU_INT, 0, comm);
       Part p;
       receive_part(p, comm);
-      served().at(id)->assemble(h, p);
+      served().at(id)->assemble(h, starts, p);
       break;
     }
     case kSolve: {
@@ -438,6 +445,19 @@ struct PetscSolver::Impl {
   bool distributed = false;
   int id = 0;
   std::unique_ptr<System> system;
+  // Over several ranks: the rows' order (vertex slot -> row block; empty: the slots' own order)
+  // and each rank's first row block. Kept while the slot count is, redone when it grows.
+  std::vector<PetscInt> perm, starts;
+  // b or x (3 per vertex slot) in the rows' order, and back.
+  void to_rows(const Eigen::VectorXd& v, std::vector<double>& out) const {
+    out.resize(std::size_t(v.size()));
+    for (std::size_t s = 0; s < perm.size(); ++s)
+      for (int k = 0; k < 3; ++k) out[std::size_t(3 * perm[s] + k)] = v[Eigen::Index(3 * s + std::size_t(k))];
+  }
+  void from_rows(const std::vector<double>& in, Eigen::VectorXd& v) const {
+    for (std::size_t s = 0; s < perm.size(); ++s)
+      for (int k = 0; k < 3; ++k) v[Eigen::Index(3 * s + std::size_t(k))] = in[std::size_t(3 * perm[s] + k)];
+  }
 };
 
 PetscSolver::PetscSolver(const std::string& options, double tolerance, int max_iterations) : impl_(new Impl) {
@@ -474,8 +494,19 @@ void PetscSolver::compute(const FemModel& model, double a, double c, const std::
   Eigen::SparseMatrix<double, Eigen::RowMajor> bmat = e.nodal_b;
   bmat.makeCompressed();
   h.b_rows = bmat.rows();
-  const std::vector<PetscInt> vs = split(h.vertices, size), bs = split(h.b_rows, size);
-  auto owner = [&](std::uint32_t v) { return int(std::upper_bound(vs.begin(), vs.end(), PetscInt(v)) - vs.begin()) - 1; };
+  if (size > 1 && m.perm.size() != std::size_t(h.vertices))
+    partition_vertices(e, std::size_t(h.vertices), size, m.system->options(), m.perm, m.starts);
+  else if (size == 1)
+    m.starts = split(h.vertices, 1);
+  const std::vector<PetscInt>& vs = m.starts;
+  const std::vector<PetscInt> bs = split(h.b_rows, size);
+  std::vector<std::uint32_t> slot_of;  // row block -> vertex slot
+  if (!m.perm.empty()) {
+    slot_of.resize(m.perm.size());
+    for (std::size_t v = 0; v < m.perm.size(); ++v) slot_of[std::size_t(m.perm[v])] = std::uint32_t(v);
+  }
+  auto row_of = [&](std::uint32_t v) { return m.perm.empty() ? PetscInt(v) : m.perm[v]; };
+  auto owner = [&](std::uint32_t v) { return int(std::upper_bound(vs.begin(), vs.end(), row_of(v)) - vs.begin()) - 1; };
   // Each tet goes to every rank owning one of its vertices.
   std::vector<std::vector<std::uint32_t>> tets(static_cast<std::size_t>(size));
   for (std::size_t t = 0; t < e.alive.size(); ++t) {
@@ -498,14 +529,15 @@ void PetscSolver::compute(const FemModel& model, double a, double c, const std::
     p.tet_verts.reserve(4 * ts.size());
     p.tet_data.reserve(kTetData * ts.size());
     for (std::uint32_t t : ts) {
-      for (std::uint32_t v : e.verts[t]) p.tet_verts.push_back(v);
+      for (std::uint32_t v : e.verts[t]) p.tet_verts.push_back(std::uint32_t(row_of(v)));
       p.tet_data.insert(p.tet_data.end(), e.bm[t].data(), e.bm[t].data() + 9);
       p.tet_data.insert(p.tet_data.end(), e.rot[t].data(), e.rot[t].data() + 9);
       p.tet_data.push_back(e.vol[t]);
       p.tet_data.push_back(e.mu[t]);
       p.tet_data.push_back(e.lambda[t]);
     }
-    for (PetscInt v = vs[std::size_t(r)]; v < vs[std::size_t(r) + 1]; ++v) {
+    for (PetscInt row = vs[std::size_t(r)]; row < vs[std::size_t(r) + 1]; ++row) {
+      const PetscInt v = slot_of.empty() ? row : PetscInt(slot_of[std::size_t(row)]);
       const bool alive = std::size_t(v) < mesh.vertex_capacity() && mesh.is_alive(VertexId(std::uint32_t(v)));
       const Vec3 x = alive ? mesh.rest(VertexId(std::uint32_t(v))) : Vec3::Zero();
       for (int k = 0; k < 3; ++k) {
@@ -520,8 +552,20 @@ void PetscSolver::compute(const FemModel& model, double a, double c, const std::
       const auto* outer = bmat.outerIndexPtr();
       p.b_ptr.reserve(std::size_t(r1 - r0 + 1));
       for (PetscInt i = r0; i <= r1; ++i) p.b_ptr.push_back(PetscInt(outer[i] - outer[r0]));
-      p.b_col.assign(bmat.innerIndexPtr() + outer[r0], bmat.innerIndexPtr() + outer[r1]);
-      p.b_val.assign(bmat.valuePtr() + outer[r0], bmat.valuePtr() + outer[r1]);
+      // Columns in the rows' order, sorted again within each row.
+      std::vector<std::pair<PetscInt, double>> entries;
+      for (PetscInt i = r0; i < r1; ++i) {
+        entries.clear();
+        for (auto k = outer[i]; k < outer[i + 1]; ++k) {
+          const auto col = bmat.innerIndexPtr()[k];
+          entries.emplace_back(3 * row_of(std::uint32_t(col / 3)) + PetscInt(col % 3), bmat.valuePtr()[k]);
+        }
+        std::sort(entries.begin(), entries.end());
+        for (const auto& [col, val] : entries) {
+          p.b_col.push_back(col);
+          p.b_val.push_back(val);
+        }
+      }
     }
     return p;
   };
@@ -529,12 +573,13 @@ void PetscSolver::compute(const FemModel& model, double a, double c, const std::
     try {
       broadcast_command(kAssemble, m.id);
       MPI_Bcast(&h, int(sizeof h), MPI_BYTE, 0, m.comm);
+      MPI_Bcast(m.starts.data(), size + 1, MPIU_INT, 0, m.comm);
       for (int r = 1; r < size; ++r) send_part(part_of(r), r, m.comm);
     } catch (const std::exception& ex) {
       abort_all(std::string("petsc: rank 0: ") + ex.what());
     }
   }
-  m.system->assemble(h, part_of(0));
+  m.system->assemble(h, m.starts, part_of(0));
   assemble_ms_ = ms_since(t0);
 }
 
@@ -543,10 +588,22 @@ PetscSolveStats PetscSolver::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x)
   System& s = *m.system;
   std::vector<double> bl, xl;
   if (m.distributed) broadcast_command(kSolve, m.id);
-  scatter_rows(s, b.data(), bl, m.comm);
-  scatter_rows(s, x.data(), xl, m.comm);
-  PetscSolveStats st = s.solve(bl.data(), xl.data());
-  gather_rows(s, xl, x.data(), m.comm);
+  PetscSolveStats st;
+  if (m.perm.empty()) {
+    scatter_rows(s, b.data(), bl, m.comm);
+    scatter_rows(s, x.data(), xl, m.comm);
+    st = s.solve(bl.data(), xl.data());
+    gather_rows(s, xl, x.data(), m.comm);
+  } else {
+    std::vector<double> rows;
+    m.to_rows(b, rows);
+    scatter_rows(s, rows.data(), bl, m.comm);
+    m.to_rows(x, rows);
+    scatter_rows(s, rows.data(), xl, m.comm);
+    st = s.solve(bl.data(), xl.data());
+    gather_rows(s, xl, rows.data(), m.comm);
+    m.from_rows(rows, x);
+  }
   st.assemble_ms = assemble_ms_;
   return st;
 }

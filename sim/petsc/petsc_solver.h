@@ -12,10 +12,11 @@
 //
 // Ranks: in a distributed run (sim/petsc/petsc_session.h, `mpirun -np N incise simulate`) rank 0
 // holds the model and calls compute()/solve(); each call sends the other ranks, which serve in
-// petsc_serve(), the data of their rows: rank r owns a contiguous range of vertex slots, gets the
-// tets touching them and assembles its own rows from them (element_block, the model's element
-// math), and B's rows in an even split (K += B^T B by MatTransposeMatMult). The solution is
-// gathered to rank 0. Anywhere else (one process, the library, Python) it runs on
+// petsc_serve(), the data of their rows: the vertex graph is cut into one part per rank
+// (sim/petsc/vertex_partition.h, PT-Scotch through MatPartitioning; redone when the slot count
+// grows), rank r gets the tets touching its vertices and assembles its own rows from them
+// (element_block, the model's element math), and B's rows in an even split (K += B^T B by
+// MatTransposeMatMult). The solution is gathered to rank 0. Anywhere else (one process, the library, Python) it runs on
 // PETSC_COMM_SELF. docs/solver.md#petsc-more-than-one-machine.
 #include <cstdint>
 #include <memory>
