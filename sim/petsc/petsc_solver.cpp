@@ -163,22 +163,21 @@ public:
     INCISE_PETSC(MatSetType(k_, MATAIJ));
     INCISE_PETSC(MatSetBlockSize(k_, 3));
     INCISE_PETSC(MatXAIJSetPreallocation(k_, 3, dnnz.data(), onnz.data(), nullptr, nullptr));
-    // The element blocks of the rows this rank owns: the model's own element math.
+    // The element blocks of the rows this rank owns: the model's own element math, one block
+    // row (3 x 12) of a tet per call.
     Eigen::Matrix<double, 3, 3, Eigen::RowMajor> blk;
+    Eigen::Matrix<double, 3, 12, Eigen::RowMajor> row_blocks;
     for (std::size_t t = 0; t < tets; ++t) {
       const double* d = &p.tet_data[kTetData * t];
       const Eigen::Matrix3d bm = Eigen::Map<const Eigen::Matrix3d>(d), rot = Eigen::Map<const Eigen::Matrix3d>(d + 9);
       const double vol = d[18], mu = d[19], lambda = d[20];
       if (mu == 0 && lambda == 0) continue;  // edge-smoothed: K is all B^T B
+      PetscInt cols[4];
+      for (int j = 0; j < 4; ++j) cols[j] = PetscInt(p.tet_verts[4 * t + std::size_t(j)]);
       for (int i = 0; i < 4; ++i) {
-        const std::uint32_t vi = p.tet_verts[4 * t + std::size_t(i)];
-        if (!owned(vi)) continue;
-        const PetscInt row = PetscInt(vi);
-        for (int j = 0; j < 4; ++j) {
-          const PetscInt col = PetscInt(p.tet_verts[4 * t + std::size_t(j)]);
-          blk = h.c * element_block(bm, vol, mu, lambda, rot, i, j);
-          INCISE_PETSC(MatSetValuesBlocked(k_, 1, &row, 1, &col, blk.data(), ADD_VALUES));
-        }
+        if (!owned(std::uint32_t(cols[i]))) continue;
+        for (int j = 0; j < 4; ++j) row_blocks.middleCols<3>(3 * j) = h.c * element_block(bm, vol, mu, lambda, rot, i, j);
+        INCISE_PETSC(MatSetValuesBlocked(k_, 1, &cols[i], 4, cols, row_blocks.data(), ADD_VALUES));
       }
     }
     for (PetscInt l = 0; l < nl; ++l) {
