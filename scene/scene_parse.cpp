@@ -222,7 +222,6 @@ void parse_solver_backend(const Reader& rd, const json& js, Scene& s) {
   if (!petsc_built())
     rd.fail("solver.backend", "this incise was built without PETSc (install petsc-dev and openmpi-bin, then reconfigure)");
   if (s.model == SceneModel::Springs) rd.fail("solver.backend", "\"petsc\" solves FEM models; springs use \"incise\"");
-  if (is_mixed(s.formulation)) rd.fail("solver.backend", "\"petsc\" does not solve the mixed formulations yet");
   if (s.method != SolverMethod::Cg) rd.fail("solver.backend", "\"petsc\" is a solver of its own: leave solver.method out");
   if (js.contains("operator")) rd.fail("solver.operator", "goes with \"backend\": \"incise\" only");
   s.backend = StiffnessBackend::Petsc;

@@ -92,8 +92,6 @@ FemSimulation::FemSimulation(const TetMesh& mesh, const MaterialTable& materials
   if (!(opt_.damping >= 0)) throw InvalidArgument("fem: damping: expected a number >= 0");
   if (opt_.nonlinear_iterations < 1) throw InvalidArgument("fem: nonlinear_iterations: expected an integer >= 1");
   if (opt_.backend == StiffnessBackend::Petsc) {
-    if (is_mixed(opt_.formulation))
-      throw InvalidArgument("fem: backend petsc: the mixed formulations are not supported yet (docs/solver.md#petsc-more-than-one-machine)");
     if (opt_.method != SolverMethod::Cg) throw InvalidArgument("fem: backend petsc is a solver of its own: method must be cg");
   }
   const InversionBarrierOptions& ib = opt_.inversion_barrier;
@@ -114,7 +112,9 @@ FemSimulation::FemSimulation(const TetMesh& mesh, const MaterialTable& materials
     mo.edge_smoothed = smooths_edges(opt_.formulation);
     mo.tolerance = opt_.cg.tolerance;
     mo.max_iterations = opt_.cg.max_iterations;
-    mo.direct = opt_.method == SolverMethod::Direct;
+    mo.direct = opt_.method == SolverMethod::Direct || opt_.backend == StiffnessBackend::Petsc;
+    mo.petsc = opt_.backend == StiffnessBackend::Petsc;  // MINRES + field split in this process
+    mo.petsc_options = opt_.petsc_options;
     mo.amg = opt_.amg;
     mo.preconditioner = opt_.cg.preconditioner == Preconditioner::Cholesky ? MixedPreconditioner::Cholesky
                         : opt_.cg.preconditioner == Preconditioner::Amg    ? MixedPreconditioner::Amg

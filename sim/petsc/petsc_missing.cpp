@@ -1,6 +1,7 @@
 // The PETSc backend in a build without PETSc (INCISE_WITH_PETSC off): asking for it is an error
 // of one line; a plain run never notices.
 #include "mesh/errors.h"
+#include "sim/petsc/petsc_saddle.h"
 #include "sim/petsc/petsc_session.h"
 #include "sim/petsc/petsc_solver.h"
 
@@ -19,6 +20,10 @@ PetscSolver::~PetscSolver() = default;
 void PetscSolver::compute(const FemModel&, double, double, const std::vector<std::uint8_t>&) {}
 PetscSolveStats PetscSolver::solve(const Eigen::VectorXd&, Eigen::VectorXd&) { return {}; }
 int PetscSolver::ranks() const { return 1; }
+PetscSaddleStats petsc_solve_saddle(const Eigen::SparseMatrix<double>&, Eigen::Index, const Eigen::VectorXd&,
+                                    const Eigen::VectorXd&, Eigen::VectorXd&, double, int, const std::string&) {
+  throw InvalidArgument(std::string("solver backend petsc: ") + kMissing);
+}
 
 int petsc_start_distributed() {
   if (launched_ranks() > 1)

@@ -45,7 +45,7 @@ TEST_CASE("scene solver.backend: petsc parsed, wrong uses refused with one line"
   CHECK_THAT(error_of(beam(R"({"backend": "petsc", "operator": "assembled"})")), Catch::Contains("solver.operator"));
   std::string mixed = beam(R"({"backend": "petsc"})");
   mixed.replace(mixed.find("nodal-averaged"), 14, "mixed");
-  CHECK_THAT(error_of(mixed), Catch::Contains("solver.backend") && Catch::Contains("mixed"));
+  CHECK(error_of(mixed).empty());  // MINRES and a field split, in rank 0's process
   const Scene s = parse_scene(beam(R"({"backend": "petsc", "petsc_options": "-pc_gamg_threshold 0.01"})"), "scene.json");
   CHECK(s.backend == StiffnessBackend::Petsc);
   CHECK(s.petsc_options == "-pc_gamg_threshold 0.01");
