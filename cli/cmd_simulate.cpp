@@ -15,6 +15,7 @@
 #include "scene/run_directory.h"
 #include "scene/run_scene.h"
 #include "scene/scene_runner.h"
+#include "sim/petsc/petsc_session.h"
 
 namespace incise::cli {
 
@@ -27,6 +28,12 @@ extern "C" void on_stop_signal(int s) {
   g_signal.store(s);
   std::signal(s, SIG_DFL);
 }
+
+// Rank 0 of `mpirun -np N incise simulate`: however the run ends, the serving ranks learn its
+// status (1 on an exception) and exit with it.
+struct ReleaseServingRanks {
+  ~ReleaseServingRanks() { petsc_finish(std::uncaught_exceptions() > 0 ? 1 : 0); }
+};
 
 }  // namespace
 
@@ -45,6 +52,10 @@ void add_simulate(CLI::App& app) {
   cmd->add_flag("-q,--quiet", o->quiet, "No per-frame progress on stderr");
   cmd->add_flag("--json", o->json, "Print the summary as JSON on stdout");
   cmd->callback([o] {
+    // Under mpirun the ranks other than 0 serve rank 0's PETSc solves (scene solver.backend
+    // "petsc", docs/solver.md#petsc-more-than-one-machine); rank 0 plays the scene and writes the files as one process does.
+    if (petsc_start_distributed() != 0) std::exit(petsc_serve());
+    ReleaseServingRanks release;
     check_output_dir(o->out);
     const Scene scene = load_scene(o->scene);
     SceneRunOptions ro;

@@ -3,6 +3,7 @@
 // (docs/solver.md); writes DIR/trade.csv and DIR/trade.svg (and --json), progress on stderr,
 // the frontier and one recommendation per frame budget on stdout.
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
@@ -15,6 +16,7 @@
 #include "mesh/io/tet_io.h"
 #include "sim/formulation.h"
 #include "scene/trade.h"
+#include "sim/petsc/petsc_session.h"
 
 namespace incise::cli {
 
@@ -29,23 +31,27 @@ SceneModel parse_model(const std::string& m) {
 
 }  // namespace
 
+struct TradeCliOptions {
+  std::string scene, out;
+  int frames = -1;
+  std::vector<std::string> models{"fem-linear", "fem-corotational", "springs"};
+  std::vector<std::string> formulations{"standard", "nodal-averaged", "mixed"};
+  std::vector<std::string> spring_volumes{"tet", "nodal"};
+  std::vector<int> resolutions;
+  int reference_level = -1;
+  std::vector<double> frame_budgets{2, 16, 33};
+  std::string json;
+  std::vector<std::string> preconditioners{"jacobi", "block-jacobi", "cholesky", "amg"};
+  std::vector<double> tolerances{1e-2, 1e-4, 1e-6, 1e-8};
+  std::vector<double> budgets{0, 2};
+  bool no_direct = false, quiet = false, convergence = false;
+};
+
+// One process's part of a run (all of it without mpirun): rank 0 writes the outputs.
+void trade(const TradeCliOptions& opts, int rank);
+
 void add_trade(CLI::App& app) {
-  struct Opts {
-    std::string scene, out;
-    int frames = -1;
-    std::vector<std::string> models{"fem-linear", "fem-corotational", "springs"};
-    std::vector<std::string> formulations{"standard", "nodal-averaged", "mixed"};
-    std::vector<std::string> spring_volumes{"tet", "nodal"};
-    std::vector<int> resolutions;
-    int reference_level = -1;
-    std::vector<double> frame_budgets{2, 16, 33};
-    std::string json;
-    std::vector<std::string> preconditioners{"jacobi", "block-jacobi", "cholesky", "amg"};
-    std::vector<double> tolerances{1e-2, 1e-4, 1e-6, 1e-8};
-    std::vector<double> budgets{0, 2};
-    bool no_direct = false, quiet = false, convergence = false;
-  };
-  auto o = std::make_shared<Opts>();
+  auto o = std::make_shared<TradeCliOptions>();
   auto* cmd = app.add_subcommand("trade", "Speed against accuracy of a scene: resolutions, models, formulations and solver settings against a converged reference");
   cmd->add_option("scene", o->scene, "Scene file (.json, see docs/scene.md)")->required();
   cmd->add_option("-o,--output", o->out, "Output directory: trade.csv, trade.svg")->required();
@@ -77,6 +83,22 @@ void add_trade(CLI::App& app) {
                 "--resolutions) against the reference and the observed order; DIR/convergence.csv");
   cmd->add_flag("-q,--quiet", o->quiet, "No progress on stderr");
   cmd->callback([o] {
+    // Under mpirun every rank plays its share of the grid and rank 0 writes the table and the
+    // plot (sim/petsc/petsc_session.h, docs/solver.md#picking-settings-for-a-scene-incise-trade).
+    const int rank = petsc_start_shared();
+    try {
+      trade(*o, rank);
+    } catch (const std::exception& e) {
+      if (petsc_ranks() > 1) petsc_abort(std::string("rank ") + std::to_string(rank) + ": " + e.what());
+      throw;
+    }
+    petsc_end_shared();
+  });
+}
+
+void trade(const TradeCliOptions& opts, int rank) {
+  const TradeCliOptions* o = &opts;
+  {
     TradeOptions to;
     to.frames = o->frames;
     to.models.clear();
@@ -113,7 +135,10 @@ void add_trade(CLI::App& app) {
     to.tolerances = o->tolerances;
     to.budgets_ms = o->budgets;
     to.direct = !o->no_direct;
-    to.progress = o->quiet ? nullptr : &std::cerr;
+    to.progress = o->quiet || rank != 0 ? nullptr : &std::cerr;
+    to.rank = rank;
+    to.ranks = petsc_ranks();
+    to.gather = petsc_gather;
     // The directory is checked now and created only when there is something to put in it: a
     // scene error leaves no empty directory behind.
     check_output_dir(o->out);
@@ -121,7 +146,19 @@ void add_trade(CLI::App& app) {
     if (!o->json.empty() && std::filesystem::path(o->json).parent_path().lexically_normal() !=
                                 std::filesystem::path(o->out).lexically_normal())
       check_output_path(o->json);
-    const Scene scene = load_scene(o->scene);
+    // Every rank reads the scene; a bad one is rank 0's one line, the others exit quietly.
+    Scene scene;
+    std::string failure;
+    try {
+      scene = load_scene(o->scene);
+    } catch (const Error& e) {
+      failure = e.what();
+    }
+    if (!petsc_all_ok(failure.empty())) {
+      petsc_end_shared();  // then the usual one line (no abort: every rank knows)
+      if (rank != 0) std::exit(1);
+      throw Error(failure.empty() ? "trade: another rank could not read " + o->scene : failure);
+    }
     // No output may be the scene or its mesh: checked before the runs.
     auto forbid_inputs = [&](OutputTransaction& t) {
       t.forbid_input(o->scene);
@@ -133,6 +170,7 @@ void add_trade(CLI::App& app) {
       early.reserve(o->json, "--json");
     }
     if (o->convergence) {
+      if (rank != 0) return;  // the study is one process's (a few direct solves)
       const ConvergenceResult conv = run_convergence(scene, to);
       std::error_code ec;
       std::filesystem::create_directories(o->out, ec);
@@ -152,6 +190,7 @@ void add_trade(CLI::App& app) {
       return;
     }
     const TradeResult result = run_trade(scene, to);
+    if (rank != 0) return;
     std::error_code ec;
     std::filesystem::create_directories(o->out, ec);
     if (ec) throw IoError(o->out, 0, "cannot create output directory: " + ec.message());
@@ -167,7 +206,7 @@ void add_trade(CLI::App& app) {
     std::cout << trade_summary(result, to.frame_budgets_ms);
     std::cout << "trade: wrote " << (dir / "trade.csv").string() << " and " << (dir / "trade.svg").string()
               << (o->json.empty() ? "" : " and " + o->json) << "\n";
-  });
+  }
 }
 
 }  // namespace incise::cli

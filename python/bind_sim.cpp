@@ -140,7 +140,7 @@ std::unique_ptr<Fem> make_fem(const py::object& mesh_obj, const py::object& mate
                               int max_iterations, double budget_ms, const std::string& preconditioner,
                               bool warm_start, bool dynamic, double dt, double damping, int nonlinear_iterations,
                               const py::object& gravity, bool check_rigid_modes, const std::string& formulation,
-                              double inversion_barrier, double barrier_stiffness) {
+                              double inversion_barrier, double barrier_stiffness, const std::string& petsc_options) {
   FemSimulationOptions o;
   o.inversion_barrier = {.j_min = inversion_barrier, .stiffness = barrier_stiffness};
   const auto f = parse_formulation(formulation);
@@ -149,7 +149,9 @@ std::unique_ptr<Fem> make_fem(const py::object& mesh_obj, const py::object& mate
   o.kind = parse_choice<FemKind>("kind", kind, {{"linear", FemKind::Linear}, {"corotational", FemKind::Corotational}});
   o.method = parse_choice<SolverMethod>("method", method, {{"cg", SolverMethod::Cg}, {"direct", SolverMethod::Direct}});
   o.backend = parse_choice<StiffnessBackend>(
-      "backend", backend, {{"matrix-free", StiffnessBackend::MatrixFree}, {"assembled", StiffnessBackend::Assembled}});
+      "backend", backend,
+      {{"matrix-free", StiffnessBackend::MatrixFree}, {"assembled", StiffnessBackend::Assembled}, {"petsc", StiffnessBackend::Petsc}});
+  o.petsc_options = petsc_options;
   o.cg.tolerance = tolerance;
   o.cg.max_iterations = max_iterations;
   o.cg.budget_ms = budget_ms;
@@ -220,7 +222,7 @@ void bind_sim(py::module_& m) {
            py::arg("dt") = 0.01, py::arg("damping") = 0.0, py::arg("nonlinear_iterations") = 1,
            py::arg("gravity") = py::make_tuple(0.0, 0.0, 0.0), py::arg("check_rigid_modes") = true,
            py::arg("formulation") = "standard", py::arg("inversion_barrier") = 0.0,
-           py::arg("barrier_stiffness") = InversionBarrierOptions{}.stiffness)
+           py::arg("barrier_stiffness") = InversionBarrierOptions{}.stiffness, py::arg("petsc_options") = "")
       .def_property_readonly("barrier_tets",
                              [](const Fem& f) { return f.sim.model().inversion_barrier().held(); })
       .def("fix", [](Fem& f, const py::object& v) { for (VertexId x : to_vertices(f.mesh, v)) f.sim.fix(x); })
@@ -372,7 +374,9 @@ void bind_sim(py::module_& m) {
       .def_property_readonly("solver", [](const Scene& s) {
         py::dict d;
         d["method"] = s.method == SolverMethod::Direct ? "direct" : "cg";
-        d["backend"] = s.backend == StiffnessBackend::Assembled ? "assembled" : "matrix-free";
+        d["backend"] = s.backend == StiffnessBackend::Assembled ? "assembled"
+                       : s.backend == StiffnessBackend::Petsc  ? "petsc"
+                                                               : "matrix-free";
         d["tolerance"] = s.cg.tolerance;
         d["max_iterations"] = s.cg.max_iterations;
         d["budget_ms"] = s.cg.budget_ms;

@@ -120,7 +120,8 @@ struct Scene {
   std::vector<SceneLoad> loads;
   // solver
   SolverMethod method = SolverMethod::Cg;
-  StiffnessBackend backend = StiffnessBackend::MatrixFree;
+  StiffnessBackend backend = StiffnessBackend::MatrixFree;  // solver.operator, or Petsc for solver.backend "petsc"
+  std::string petsc_options;        // solver.petsc_options
   CgOptions cg{.preconditioner = Preconditioner::Cholesky};  // the fastest measured (docs/solver.md)
   bool warm_start = true;
   bool predict = true;              // warm start extrapolates the last frames ("predict")

@@ -19,6 +19,7 @@
 #include "mesh/io/input_file.h"
 #include "mesh/io/tet_io.h"
 #include "sim/integrator.h"
+#include "sim/petsc/petsc_solver.h"
 
 namespace incise {
 
@@ -206,6 +207,24 @@ void read_blade_options(const Reader& rd, const json& c, const std::string& key,
     if (!c["improve"].is_boolean()) rd.fail(key + ".improve", "expected true or false");
     improve = c["improve"].get<bool>();
   }
+}
+
+// solver.backend ("incise", the default, or "petsc": docs/solver.md#petsc-more-than-one-machine) and
+// solver.petsc_options. After the model, formulation, method and operator are read.
+void parse_solver_backend(const Reader& rd, const json& js, Scene& s) {
+  const std::string b = js.contains("backend") ? rd.string(js["backend"], "solver.backend") : "incise";
+  if (b != "incise" && b != "petsc") rd.fail("solver.backend", "expected \"incise\" or \"petsc\", got \"" + b + "\"");
+  if (js.contains("petsc_options")) {
+    if (b != "petsc") rd.fail("solver.petsc_options", "goes with \"backend\": \"petsc\" only");
+    s.petsc_options = rd.string(js["petsc_options"], "solver.petsc_options");
+  }
+  if (b != "petsc") return;
+  if (!petsc_built())
+    rd.fail("solver.backend", "this incise was built without PETSc (install petsc-dev and openmpi-bin, then reconfigure)");
+  if (s.model == SceneModel::Springs) rd.fail("solver.backend", "\"petsc\" solves FEM models; springs use \"incise\"");
+  if (s.method != SolverMethod::Cg) rd.fail("solver.backend", "\"petsc\" is a solver of its own: leave solver.method out");
+  if (js.contains("operator")) rd.fail("solver.operator", "goes with \"backend\": \"incise\" only");
+  s.backend = StiffnessBackend::Petsc;
 }
 
 // A cut's "path": [{"frame": F, "blade": [[ax,ay,az],[bx,by,bz]]}, ...], at least two keys,
@@ -433,7 +452,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   if (j.contains("solver")) {
     const json& js = j["solver"];
     rd.keys(js, "solver", {"method", "tolerance", "max_iterations", "budget_ms", "warm_start", "preconditioner", "operator",
-                           "nonlinear_iterations"});
+                           "nonlinear_iterations", "backend", "petsc_options"});
     if (js.contains("method")) {
       const std::string m = rd.string(js["method"], "solver.method");
       if (m == "cg") s.method = SolverMethod::Cg;
@@ -473,6 +492,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     }
     if (js.contains("nonlinear_iterations"))
       s.nonlinear_iterations = rd.integer(js["nonlinear_iterations"], "solver.nonlinear_iterations", 1);
+    parse_solver_backend(rd, js, s);
   }
 
   if (j.contains("time")) {

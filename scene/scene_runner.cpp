@@ -214,6 +214,7 @@ SceneRunner::SceneRunner(const Scene& scene, const TetMesh* mesh) : scene_(scene
     fo.formulation = s.formulation;
     fo.method = s.method;
     fo.backend = s.backend;
+    fo.petsc_options = s.petsc_options;
     fo.cg = s.cg;
     fo.warm_start = s.warm_start;
     fo.predict = s.predict;

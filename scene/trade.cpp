@@ -10,6 +10,8 @@
 #include <ostream>
 #include <sstream>
 
+#include <nlohmann/json.hpp>
+
 #include "mesh/errors.h"
 #include "scene/trade_reference.h"
 #include "sim/fem_model.h"
@@ -150,6 +152,52 @@ int last_ramp_frame(const Scene& s) {
 
 }  // namespace
 
+namespace {
+
+// A grid spread over processes: every rank's rows (with their grid indices) to rank 0, which
+// puts them back in the grid's order; the other ranks keep none.
+void gather_rows(const TradeOptions& opt, const std::vector<std::size_t>& indices, std::vector<TradeRow>& rows) {
+  nlohmann::json mine = nlohmann::json::array();
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    const TradeRow& r = rows[k];
+    mine.push_back({indices[k], r.resolution, r.tets, r.model, r.formulation, r.solver, r.preconditioner, r.tolerance,
+                    r.budget_ms, r.ms_per_frame, r.iterations, r.error, r.max_displacement_error, r.compared,
+                    r.settle_frames, r.settle_ms, r.dt, r.settled, r.frames_not_converged});
+  }
+  const std::vector<std::string> all = opt.gather(mine.dump());
+  std::vector<std::pair<std::size_t, TradeRow>> indexed;
+  for (const std::string& text : all)
+    for (const auto& j : nlohmann::json::parse(text)) {
+      TradeRow r;
+      std::size_t i = 0;
+      j.at(0).get_to(i);
+      j.at(1).get_to(r.resolution);
+      j.at(2).get_to(r.tets);
+      j.at(3).get_to(r.model);
+      j.at(4).get_to(r.formulation);
+      j.at(5).get_to(r.solver);
+      j.at(6).get_to(r.preconditioner);
+      j.at(7).get_to(r.tolerance);
+      j.at(8).get_to(r.budget_ms);
+      j.at(9).get_to(r.ms_per_frame);
+      j.at(10).get_to(r.iterations);
+      j.at(11).get_to(r.error);
+      j.at(12).get_to(r.max_displacement_error);
+      j.at(13).get_to(r.compared);
+      j.at(14).get_to(r.settle_frames);
+      j.at(15).get_to(r.settle_ms);
+      j.at(16).get_to(r.dt);
+      j.at(17).get_to(r.settled);
+      j.at(18).get_to(r.frames_not_converged);
+      indexed.emplace_back(i, r);
+    }
+  std::sort(indexed.begin(), indexed.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  rows.clear();
+  for (auto& [i, r] : indexed) rows.push_back(std::move(r));
+}
+
+}  // namespace
+
 TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
   Basis basis;
   prepare(basis, cut_scene, opt, opt.resolutions);
@@ -190,7 +238,11 @@ TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
     }
     return left;
   };
+  const bool spread = opt.ranks > 1 && opt.gather;
+  std::vector<std::size_t> played_here;  // the grid indices of this process's rows
   for (std::size_t i = 0; i < settings.size(); ++i) {
+    if (spread && int(i % std::size_t(opt.ranks)) != opt.rank) continue;
+    played_here.push_back(i);
     Setting& st = settings[i];
     TradeRow& r = st.row;
     const TetMesh& m = mesh(r.resolution);
@@ -270,6 +322,7 @@ TradeResult run_trade(const Scene& cut_scene, const TradeOptions& opt) {
     }
     rows.push_back(r);
   }
+  if (spread) gather_rows(opt, played_here, rows);
   mark_pareto(rows, std::max(result.reference.error_bar, 0.0));
   result.coarser = basis.coarser;  // level -1 is made when its first run needs it
   return result;

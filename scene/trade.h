@@ -67,6 +67,12 @@ struct TradeOptions {
   int max_settle_frames = 2000;
   std::vector<double> frame_budgets_ms{2, 16, 33};  // one recommendation per frame budget
   std::ostream* progress = nullptr;                 // the plan, then one line per run (stderr in the CLI)
+  // Spread over processes (`mpirun -np N incise trade`): this process plays the grid's runs i
+  // with i % ranks == rank, and `gather` hands rank 0 every rank's serialized rows (rank order;
+  // empty on the others), which it puts back in the grid's order: the same table as one process.
+  // Every rank solves the reference itself. Other ranks return no rows.
+  int rank = 0, ranks = 1;
+  std::function<std::vector<std::string>(const std::string&)> gather;
 };
 
 struct TradeRow {

@@ -16,6 +16,7 @@ PACKAGES=(
   python3 python3-meshio python3-numpy   # meshio cross-check of every written format
   pybind11-dev python3-dev python3-pytest # Python bindings and their tests
   chromium chromium-driver python3-selenium # the viewer's browser test (headless, tests/view)
+  petsc-dev openmpi-bin                  # the distributed solver backend (PETSc 3.18 over OpenMPI) and mpirun
 )
 
 missing=()

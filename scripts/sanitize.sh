@@ -19,9 +19,13 @@ if [ -f "$BUILD_DIR/CMakeCache.txt" ] && ! grep -q '^CMAKE_CXX_COMPILER:.*clang'
   echo "sanitize: $BUILD_DIR was configured with another compiler; remove it or set BUILD_DIR" >&2
   exit 1
 fi
+# Without PETSc: OpenMPI's initialization leaks about 120 kB in its dlopen'ed components, whose
+# frames LeakSanitizer cannot name (so no suppression matches them); the tree tests the
+# backend's one-line refusal instead, and the Release run tests the backend (tests/mpi among them).
 CXX=${SANITIZE_CXX:-clang++} cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DINCISE_SANITIZE=ON -DINCISE_FUZZ=ON "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG" \
-  -DINCISE_WITH_CGAL=OFF -DINCISE_WITH_VIEW=OFF -DINCISE_BUILD_CLI=OFF -DINCISE_BUILD_BENCH=OFF >/dev/null
+  -DINCISE_WITH_CGAL=OFF -DINCISE_WITH_VIEW=OFF -DINCISE_BUILD_CLI=OFF -DINCISE_BUILD_BENCH=OFF \
+  -DINCISE_WITH_PETSC=OFF >/dev/null
 cmake --build "$BUILD_DIR" -j "${JOBS:-$(nproc)}"
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1

@@ -10,6 +10,7 @@
 #include "mesh/errors.h"
 #include "sim/assembled_stiffness.h"
 #include "sim/mixed_solver.h"
+#include "sim/petsc/petsc_solver.h"
 #include "sim/quadratic_solver.h"
 
 namespace incise {
@@ -49,6 +50,33 @@ private:
   std::vector<Eigen::Matrix3d> blocks_;
 };
 
+// b - A x_held on the free unknowns, zero on the held ones (x_held: x with its free entries
+// zeroed): the right-hand side of the free block, for the solvers that eliminate held unknowns.
+Eigen::VectorXd lifted_rhs(const LinearOperator& op, const Eigen::VectorXd& b, const Eigen::VectorXd& x,
+                           const std::vector<std::uint8_t>& free) {
+  Eigen::VectorXd xk = x, ax;
+  for (Eigen::Index i = 0; i < xk.size(); ++i)
+    if (free[std::size_t(i)]) xk[i] = 0;
+  op.multiply(xk, ax);
+  ax = b - ax;
+  for (Eigen::Index i = 0; i < ax.size(); ++i)
+    if (!free[std::size_t(i)]) ax[i] = 0;
+  return ax;
+}
+
+// The true residual on the free unknowns relative to the lifted right-hand side, so every
+// solver's stats compare with CG's.
+double free_relative_residual(const LinearOperator& op, const Eigen::VectorXd& b, const Eigen::VectorXd& x,
+                              const std::vector<std::uint8_t>& free, const Eigen::VectorXd& lifted) {
+  Eigen::VectorXd r;
+  op.multiply(x, r);
+  r = b - r;
+  for (Eigen::Index i = 0; i < r.size(); ++i)
+    if (!free[std::size_t(i)]) r[i] = 0;
+  const double bn = lifted.norm();
+  return bn > 0 ? r.norm() / bn : 0;
+}
+
 }  // namespace
 
 FemSimulation::FemSimulation(const TetMesh& mesh, const MaterialTable& materials, const FemSimulationOptions& options)
@@ -69,6 +97,9 @@ FemSimulation::FemSimulation(const TetMesh& mesh, const MaterialTable& materials
   if (!(opt_.dt > 0) || !std::isfinite(opt_.dt)) throw InvalidArgument("fem: dt: expected a positive number");
   if (!(opt_.damping >= 0)) throw InvalidArgument("fem: damping: expected a number >= 0");
   if (opt_.nonlinear_iterations < 1) throw InvalidArgument("fem: nonlinear_iterations: expected an integer >= 1");
+  if (opt_.backend == StiffnessBackend::Petsc) {
+    if (opt_.method != SolverMethod::Cg) throw InvalidArgument("fem: backend petsc is a solver of its own: method must be cg");
+  }
   const InversionBarrierOptions& ib = opt_.inversion_barrier;
   if (!(ib.j_min >= 0 && ib.j_min < 1) || !(ib.stiffness > 0) || !std::isfinite(ib.stiffness))
     throw InvalidArgument("fem: inversion_barrier: expected j_min in [0, 1) and a positive finite stiffness");
@@ -87,7 +118,9 @@ FemSimulation::FemSimulation(const TetMesh& mesh, const MaterialTable& materials
     mo.edge_smoothed = smooths_edges(opt_.formulation);
     mo.tolerance = opt_.cg.tolerance;
     mo.max_iterations = opt_.cg.max_iterations;
-    mo.direct = opt_.method == SolverMethod::Direct;
+    mo.direct = opt_.method == SolverMethod::Direct || opt_.backend == StiffnessBackend::Petsc;
+    mo.petsc = opt_.backend == StiffnessBackend::Petsc;  // MINRES + field split in this process
+    mo.petsc_options = opt_.petsc_options;
     mo.amg = opt_.amg;
     mo.preconditioner = opt_.cg.preconditioner == Preconditioner::Cholesky ? MixedPreconditioner::Cholesky
                         : opt_.cg.preconditioner == Preconditioner::Amg    ? MixedPreconditioner::Amg
@@ -301,6 +334,10 @@ void FemSimulation::solve_system(const LinearOperator& k, double a, double c, co
                                  Eigen::VectorXd& x, double budget_ms, FrameStats& st,
                                  std::span<const Eigen::VectorXd> prediction) {
   if (st.products == 0 && st.solve_ms == 0) st.setup_ms = ms_since(frame_start_);
+  if (opt_.backend == StiffnessBackend::Petsc) {
+    solve_petsc(k, a, c, b, x, st);
+    return;
+  }
   if (opt_.method == SolverMethod::Direct) {
     const auto t0 = std::chrono::steady_clock::now();
     if (direct_dirty_ || model_.kind() == FemKind::Corotational || a != direct_mass_coeff_ || c != direct_stiffness_coeff_) {
@@ -315,23 +352,11 @@ void FemSimulation::solve_system(const LinearOperator& k, double a, double c, co
       direct_mass_coeff_ = a;
       direct_stiffness_coeff_ = c;
     }
-    direct_->solve(b, x);
     // Report the true residual so CG and direct stats compare.
     ScaledSystem op(k, model_.lumped_mass(), a, c);
-    op.multiply(x, tmp_);
-    tmp_ = b - tmp_;
-    for (Eigen::Index i = 0; i < tmp_.size(); ++i)
-      if (!free_[std::size_t(i)]) tmp_[i] = 0;
-    Eigen::VectorXd xk = x;
-    for (Eigen::Index i = 0; i < xk.size(); ++i)
-      if (free_[std::size_t(i)]) xk[i] = 0;
-    Eigen::VectorXd bk;
-    op.multiply(xk, bk);
-    bk = b - bk;
-    for (Eigen::Index i = 0; i < bk.size(); ++i)
-      if (!free_[std::size_t(i)]) bk[i] = 0;
-    const double bn = bk.norm();
-    st.relative_residual = bn > 0 ? tmp_.norm() / bn : 0;
+    const Eigen::VectorXd bk = lifted_rhs(op, b, x, free_);
+    direct_->solve(b, x);
+    st.relative_residual = free_relative_residual(op, b, x, free_, bk);
     st.solve_ms += ms_since(t0);
     check_finite(x, st);
     return;
@@ -365,6 +390,33 @@ void FemSimulation::solve_system(const LinearOperator& k, double a, double c, co
   check_finite(x, st);
 }
 
+// PETSc assembles a M + c K from the model's elements (again after a topology change, a new
+// constraint or, corotational, every relinearization: re-assembly is its local update) and
+// solves the free block; the held values enter through the lifted right-hand side.
+void FemSimulation::solve_petsc(const LinearOperator& k, double a, double c, const Eigen::VectorXd& b,
+                                Eigen::VectorXd& x, FrameStats& st) {
+  // Made outside the timing: the first one starts PETSc (and MPI), a process's start-up.
+  if (!petsc_) petsc_ = std::make_unique<PetscSolver>(opt_.petsc_options, opt_.cg.tolerance, opt_.cg.max_iterations);
+  const auto t0 = std::chrono::steady_clock::now();
+  if (direct_dirty_ || model_.kind() == FemKind::Corotational || a != direct_mass_coeff_ || c != direct_stiffness_coeff_) {
+    petsc_->compute(model_, a, c, free_);
+    direct_dirty_ = false;
+    direct_mass_coeff_ = a;
+    direct_stiffness_coeff_ = c;
+    st.preconditioner_setup_ms += ms_since(t0);
+  }
+  ScaledSystem op(k, model_.lumped_mass(), a, c);
+  const Eigen::VectorXd bk = lifted_rhs(op, b, x, free_);
+  const PetscSolveStats ps = petsc_->solve(bk, x);
+  st.relative_residual = free_relative_residual(op, b, x, free_, bk);
+  st.iterations += ps.iterations;
+  st.products += ps.iterations;
+  st.solve_ms += ms_since(t0);
+  st.info = ps.converged ? SolveInfo::Success : SolveInfo::NoConvergence;
+  if (!ps.converged) st.message = "petsc: " + ps.reason;
+  check_finite(x, st);
+}
+
 // A solution or residual that is not finite is a breakdown whatever the solver concluded: the
 // direct solver has no verdict of its own, and a residual whose norm overflows vouches for
 // nothing. One pass over x, cheaper than any solve.
@@ -373,7 +425,9 @@ void FemSimulation::check_finite(const Eigen::VectorXd& x, FrameStats& st) const
   const bool x_ok = x.allFinite();
   if (x_ok && std::isfinite(st.relative_residual)) return;
   st.info = SolveInfo::NumericalIssue;
-  st.message = std::string(opt_.method == SolverMethod::Direct ? "direct solver" : "cg") +
+  st.message = std::string(opt_.backend == StiffnessBackend::Petsc ? "petsc"
+                           : opt_.method == SolverMethod::Direct ? "direct solver"
+                                                                 : "cg") +
                (x_ok ? ": the residual is not finite (loads or displacements beyond double precision?)"
                      : ": NaN/Inf in the solution");
 }
@@ -449,7 +503,7 @@ const FrameStats& FemSimulation::step(double spent_ms) {
   }
   // The asynchronous factor: adopt a finished one, start a fresh one if due, before anything
   // below decides whether CG resumes (a new factor means a restart).
-  if (opt_.method == SolverMethod::Cg && cg_.options().preconditioner == Preconditioner::Cholesky) {
+  if (uses_own_cg() && cg_.options().preconditioner == Preconditioner::Cholesky) {
     if (!cholesky_) {
       // A budgeted frame never waits for the first factor: block-Jacobi until it lands.
       AsyncCholeskyOptions co = opt_.cholesky;
@@ -472,7 +526,7 @@ const FrameStats& FemSimulation::step(double spent_ms) {
     cholesky_.reset();
     amg_.reset();  // it was the factor's (settle_with_amg)
   }
-  if (opt_.method == SolverMethod::Cg && cg_.options().preconditioner == Preconditioner::Amg) {
+  if (uses_own_cg() && cg_.options().preconditioner == Preconditioner::Amg) {
     if (!amg_) {
       amg_ = std::make_unique<AggregationAmg>(model_, opt_.amg);
       cg_.set_preconditioner(amg_.get());
@@ -502,7 +556,7 @@ const FrameStats& FemSimulation::step(double spent_ms) {
     if (budget <= 0) return 0.0;
     return std::max(1e-6, budget - ms_since(t0));
   };
-  auto resumable = [&] { return opt_.method == SolverMethod::Cg && !system_dirty_ && cg_.can_resume(b_, x_); };
+  auto resumable = [&] { return uses_own_cg() && !system_dirty_ && cg_.can_resume(b_, x_); };
 
   if (!opt_.dynamic) {
     const bool corot = model_.kind() == FemKind::Corotational;
@@ -523,7 +577,7 @@ const FrameStats& FemSimulation::step(double spent_ms) {
       // interpolated from their parents and knows nothing of the opening, and extrapolating
       // it cost CG iterations (organ cut scene: 24 / 43 median / max a frame against 21 / 40
       // from the last solution, four products more; docs/solver.md).
-      if (opt_.warm_start && opt_.predict && it == 0 && opt_.method == SolverMethod::Cg && !resumable() &&
+      if (opt_.warm_start && opt_.predict && it == 0 && uses_own_cg() && !resumable() &&
           !changed_since_frame_) {
         // directions() fills (and may reallocate) d_: take its data after the call, not in the
         // same argument list (the order arguments are evaluated in is unspecified; clang took

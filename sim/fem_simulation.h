@@ -50,9 +50,12 @@ class AsyncCholesky;
 class DirectSolver;
 class MixedSolver;
 class QuadraticSolver;
+class PetscSolver;
 
 enum class SolverMethod { Cg, Direct };
-enum class StiffnessBackend { MatrixFree, Assembled };
+// Petsc: the system assembled into a distributed PETSc matrix and solved by PETSc's KSP (CG with
+// GAMG by default) instead of incise's CG; sim/petsc/petsc_solver.h, docs/solver.md#petsc-more-than-one-machine.
+enum class StiffnessBackend { MatrixFree, Assembled, Petsc };
 
 struct FemSimulationOptions {
   FemKind kind = FemKind::Linear;                       // Linear or Corotational elements
@@ -64,7 +67,8 @@ struct FemSimulationOptions {
   // tolerance each frame (no budget, no warm-start prediction; a change rebuilds them).
   Formulation formulation = Formulation::Standard;
   SolverMethod method = SolverMethod::Cg;               // Direct: SimplicialLDLT reference
-  StiffnessBackend backend = StiffnessBackend::MatrixFree;  // operator CG multiplies with
+  StiffnessBackend backend = StiffnessBackend::MatrixFree;  // operator CG multiplies with, or Petsc
+  std::string petsc_options;                            // Petsc: PETSc options ("-ksp_type minres ...")
   // tolerance, cap, budget, preconditioner: the asynchronous Cholesky, as in scenes (the
   // fastest measured, docs/solver.md; block-Jacobi above AsyncCholeskyOptions::max_unknowns).
   CgOptions cg{.preconditioner = Preconditioner::Cholesky};
@@ -173,6 +177,8 @@ public:
   // until clear_forces(): area / 3 per corner on linear tets, the 6-node triangle's consistent
   // load (area / 3 per mid-edge node) on quadratic ones.
   void add_face_traction(VertexId a, VertexId b, VertexId c, const Vec3& t);
+  // The PETSc solver behind StiffnessBackend::Petsc (nullptr until the first solve).
+  const PetscSolver* petsc() const { return petsc_.get(); }
   FemModel& model() { return model_; }
   const FemModel& model() const { return model_; }
   FemSimulationOptions& options() { return opt_; }
@@ -213,6 +219,10 @@ private:
   std::unique_ptr<AsyncCholesky> cholesky_;  // Preconditioner::Cholesky: built on first use
   std::unique_ptr<AggregationAmg> amg_;      // Preconditioner::Amg: built on first use
   std::unique_ptr<MixedSolver> mixed_;       // Formulation::Mixed: it solves every frame
+  std::unique_ptr<PetscSolver> petsc_;       // StiffnessBackend::Petsc: built on first use
+  bool uses_own_cg() const { return opt_.method == SolverMethod::Cg && opt_.backend != StiffnessBackend::Petsc; }
+  void solve_petsc(const LinearOperator& op, double a, double c, const Eigen::VectorXd& b, Eigen::VectorXd& x,
+                   FrameStats& st);
   bool mixed_pending_ = false;               // the last mixed solve ran out of budget
   std::unique_ptr<QuadraticSolver> quadratic_;  // Formulation::Quadratic / MixedQuadratic
   Eigen::VectorXd qu_, qv_, qf_;             // per P2 unknown: displacement, velocity, face loads

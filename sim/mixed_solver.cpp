@@ -11,6 +11,7 @@
 
 #include "mesh/clock.h"
 #include "mesh/errors.h"
+#include "sim/petsc/petsc_saddle.h"
 
 namespace incise {
 
@@ -506,14 +507,35 @@ MixedStats MixedSolver::solve_direct(const Eigen::VectorXd& b, Eigen::VectorXd& 
   Eigen::VectorXd bf(n);
   for (Eigen::Index i = 0; i < x.size(); ++i)
     if (index[std::size_t(i)] >= 0) bf[index[std::size_t(i)]] = rhs[i];
-  Eigen::SparseLU<Eigen::SparseMatrix<double>> lu;
-  lu.compute(af);
-  if (lu.info() != Eigen::Success) {
-    st.breakdown = true;
-    st.solve_ms = now_ms() - t0;
-    return st;
+  Eigen::VectorXd xf(n);
+  bool iterative_converged = true;  // PETSc's MINRES met its tolerance
+  if (opt_.petsc) {
+    // The free displacements come first in af, then the free pressures (index keeps the order).
+    setup_preconditioner();
+    const Eigen::Index nu_all = Eigen::Index(num_dofs());
+    Eigen::Index nu = 0;
+    Eigen::VectorXd pd(n);
+    for (Eigen::Index i = 0; i < x.size(); ++i) {
+      const Eigen::Index k = index[std::size_t(i)];
+      if (k < 0) continue;
+      xf[k] = x[i];
+      if (i < nu_all) ++nu;
+      else pd[k] = pdiag_[i - nu_all];
+    }
+    const PetscSaddleStats ps = petsc_solve_saddle(af, nu, pd.tail(n - nu), bf, xf, opt_.tolerance, opt_.max_iterations,
+                                                   opt_.petsc_options);
+    st.iterations = st.total_iterations = ps.iterations;
+    iterative_converged = ps.converged;
+  } else {
+    Eigen::SparseLU<Eigen::SparseMatrix<double>> lu;
+    lu.compute(af);
+    if (lu.info() != Eigen::Success) {
+      st.breakdown = true;
+      st.solve_ms = now_ms() - t0;
+      return st;
+    }
+    xf = lu.solve(bf);
   }
-  const Eigen::VectorXd xf = lu.solve(bf);
   for (Eigen::Index i = 0; i < x.size(); ++i)
     if (index[std::size_t(i)] >= 0) x[i] = xf[index[std::size_t(i)]];
   // The residual in the iterative solver's measure, so the two compare.
@@ -525,8 +547,8 @@ MixedStats MixedSolver::solve_direct(const Eigen::VectorXd& b, Eigen::VectorXd& 
   krylov_->valid = false;
   krylov_->bnorm = preconditioned_norm(r);
   st.relative_residual = relative_residual(b, x);
-  st.converged = std::isfinite(st.relative_residual);
-  st.breakdown = !st.converged;
+  st.breakdown = !std::isfinite(st.relative_residual);
+  st.converged = !st.breakdown && iterative_converged;
   st.solve_ms = now_ms() - t0;
   return st;
 }

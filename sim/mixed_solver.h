@@ -38,6 +38,7 @@
 // touched vertices, and interpolates the kept pressure onto added vertices.
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <unordered_map>
 #include <vector>
 
@@ -89,6 +90,10 @@ struct MixedOptions {
   int max_iterations = 5000;   // per solve() call
   double budget_ms = 0;        // wall-clock budget per call; 0: none
   bool direct = false;         // SparseLU on the assembled system instead of MINRES
+  // With direct: PETSc's MINRES and field split on the assembled system instead of SparseLU
+  // (sim/petsc/petsc_saddle.h; to `tolerance`), with these PETSc options.
+  bool petsc = false;
+  std::string petsc_options;
   // K_mu's strain smoothed over edge domains (Formulation::MixedEdgeSmoothed; FemModel's
   // smooth_edges): linear tets' bending stiffness goes, the pressure coupling stays per tet.
   bool edge_smoothed = false;
