@@ -50,7 +50,7 @@ struct TradeOptions {
   // tenth of the new edge length). Empty: -1, 0, and 1 when the reference two levels up has at
   // most max_reference_tets tets.
   std::vector<int> resolutions;
-  std::size_t max_reference_tets = 50000;  // quadratic tets: about 65 KB a tet (docs/solver.md)
+  std::size_t max_reference_tets = 50000;  // what a quadratic reference costs a tet: docs/solver.md
   // The reference is solved directly up to this many tets, by MINRES to 1e-10 above (see trade.cpp).
   std::size_t direct_reference_tets = 20000;
   int reference_level = -1;  // -1: one above the finest resolution
