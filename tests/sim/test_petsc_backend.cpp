@@ -49,6 +49,17 @@ double relative_difference(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
   return (a - b).norm() / std::max(b.norm(), 1e-300);
 }
 
+// One case of the formulation x kind x dynamics grid, loaded by gravity.
+FemSimulationOptions case_options(Formulation f, FemKind kind, bool dynamic) {
+  FemSimulationOptions o;
+  o.formulation = f;
+  o.kind = kind;
+  o.dynamic = dynamic;
+  o.dt = 0.05;
+  o.gravity = Vec3(0, 0, -1);
+  return o;
+}
+
 }  // namespace
 
 TEST_CASE("petsc backend: equals the direct solve for every displacement formulation", "[fem][petsc]") {
@@ -60,13 +71,8 @@ TEST_CASE("petsc backend: equals the direct solve for every displacement formula
   for (Formulation f : {Formulation::Standard, Formulation::NodalAveraged, Formulation::EdgeSmoothed})
     for (FemKind kind : {FemKind::Linear, FemKind::Corotational})
       for (bool dynamic : {false, true}) {
-        FemSimulationOptions o;
-        o.formulation = f;
-        o.kind = kind;
-        o.dynamic = dynamic;
-        o.dt = 0.05;
+        FemSimulationOptions o = case_options(f, kind, dynamic);
         o.nonlinear_iterations = 2;
-        o.gravity = Vec3(0, 0, -1);
         FemSimulation petsc(m, table(1e4, 0.45, 10), petsc_options(o)), direct(m, table(1e4, 0.45, 10), direct_options(o));
         load(m, petsc);
         load(m, direct);
@@ -157,12 +163,7 @@ TEST_CASE("petsc backend: the mixed formulations by MINRES and a field split equ
   for (Formulation f : {Formulation::Mixed, Formulation::MixedEdgeSmoothed})
     for (FemKind kind : {FemKind::Linear, FemKind::Corotational})
       for (bool dynamic : {false, true}) {
-        FemSimulationOptions o;
-        o.formulation = f;
-        o.kind = kind;
-        o.dynamic = dynamic;
-        o.dt = 0.05;
-        o.gravity = Vec3(0, 0, -1);
+        const FemSimulationOptions o = case_options(f, kind, dynamic);
         FemSimulation petsc(m, table(1e4, 0.49, 10), petsc_options(o)), direct(m, table(1e4, 0.49, 10), direct_options(o));
         load(m, petsc);
         load(m, direct);
