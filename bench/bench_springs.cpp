@@ -65,10 +65,14 @@ int edit_tets(TetMesh& m, std::mt19937& rng, int k) {
 
 // Static equilibrium of a model under per-vertex forces with the vertices at x = 0 held:
 // springs by implicit Euler with a huge step (each step a Newton step), FEM by its static solve.
-// Returns the displacement per vertex slot. volume: "tet", "nodal", "none" or "fem".
-std::vector<Vec3> equilibrium(const TetMesh& m, const Material& mat, const std::string& volume,
-                              const std::vector<std::pair<VertexId, Vec3>>& forces) {
+// Returns the displacement per vertex slot. model: "tet", "nodal", "none" (the volume term,
+// Van Gelder's constants), the same with "-fit" (SpringStiffness::Fitted), or "fem".
+std::vector<Vec3> equilibrium(const TetMesh& m, const Material& mat, const std::string& model,
+                              const std::vector<std::pair<VertexId, Vec3>>& forces,
+                              bool (*held)(const Vec3&) = [](const Vec3& p) { return p.x() < 1e-9; }) {
   std::vector<Vec3> u(m.vertex_capacity(), Vec3::Zero());
+  const bool fit = model.size() > 4 && model.compare(model.size() - 4, 4, "-fit") == 0;
+  const std::string volume = fit ? model.substr(0, model.size() - 4) : model;
   if (volume == "fem") {
     FemSimulationOptions o;
     o.kind = FemKind::Corotational;
@@ -77,7 +81,7 @@ std::vector<Vec3> equilibrium(const TetMesh& m, const Material& mat, const std::
     o.cg.tolerance = 1e-10;
     FemSimulation fem(m, MaterialTable(mat), o);
     for (VertexId v : m.vertices())
-      if (m.rest(v).x() < 1e-9) fem.fix(v);
+      if (held(m.rest(v))) fem.fix(v);
     for (const auto& [v, f] : forces) fem.set_force(v, f);
     for (int k = 0; k < 3; ++k) fem.step();
     for (VertexId v : m.vertices()) u[v.idx()] = fem.displacement().segment<3>(3 * v.idx());
@@ -86,12 +90,13 @@ std::vector<Vec3> equilibrium(const TetMesh& m, const Material& mat, const std::
   SpringOptions o;
   o.volume_term = volume != "none";
   o.nodal_volume = volume == "nodal";
+  o.stiffness = fit ? SpringStiffness::Fitted : SpringStiffness::VanGelder;
   o.cg_tolerance = 1e-12;
   o.cg_max_iterations = 50000;
   o.compute_energy = false;
   SpringModel s(m, MaterialTable(mat), o);
   for (VertexId v : m.vertices())
-    if (m.rest(v).x() < 1e-9) s.set_fixed(v, true);
+    if (held(m.rest(v))) s.set_fixed(v, true);
   for (const auto& [v, f] : forces) s.set_external_force(v, f);
   for (int k = 0; k < 8; ++k) s.step(1e6, Integrator::ImplicitEuler);
   for (VertexId v : m.vertices()) u[v.idx()] = s.positions()[v.idx()] - m.rest(v);
@@ -112,8 +117,8 @@ void effective_moduli(bool quick) {
   const Material mat{1e4, 0.45, 1000};
   std::printf("== what each volume term makes of E = 1e4, nu = 0.45: a 4x1x1 bar pulled (strain 1e-4), and\n"
               "   an 8x1x1 cantilever's tip under a load (deflection over Timoshenko's, which FEM's converges to)\n");
-  std::printf("%-10s %5s %8s %-6s %10s %10s %14s\n", "pattern", "cells", "tets", "model", "E_eff/E", "nu_eff",
-              "tip/Timoshenko");
+  std::printf("%-10s %5s %8s %-9s %10s %10s %10s %14s\n", "pattern", "cells", "tets", "model", "E_eff/E", "nu_eff",
+              "G_eff/G", "tip/Timoshenko");
   for (const char* pattern : {"kuhn", "mirrored", "jittered"}) {
     for (int n : {1, 2, 4}) {
       if (quick && n > 2) break;
@@ -123,7 +128,7 @@ void effective_moduli(bool quick) {
         return m;
       };
       const TetMesh bar = mesh(Vec3(4, 1, 1), {4 * n, n, n}), beam = mesh(Vec3(8, 1, 1), {8 * n, n, n});
-      for (const char* model : {"tet", "nodal", "none", "fem"}) {
+      for (const char* model : {"tet", "tet-fit", "nodal", "nodal-fit", "none", "none-fit", "fem"}) {
         // Tension: force E * 1e-4 over the end face's vertices.
         std::vector<std::pair<VertexId, Vec3>> pull, load;
         std::vector<VertexId> end;
@@ -147,11 +152,23 @@ void effective_moduli(bool quick) {
           if (beam.rest(v).x() > 8 - 1e-9) end.push_back(v);
         for (VertexId v : end) load.push_back({v, Vec3(0, 0, -F / double(end.size()))});
         const auto uc = equilibrium(beam, mat, model, load);
+        // Shear: a 4x4x1 slab held at z = 0, its top pulled along x by tau = 1e-4 G; the shear
+        // strain from the top's mean displacement over its middle quarter.
+        const TetMesh slab = mesh(Vec3(4, 4, 1), {4 * n, 4 * n, n});
+        const double G = mat.young / (2 * (1 + mat.poisson)), tau = 1e-4 * G;
+        std::vector<VertexId> top;
+        for (VertexId v : slab.vertices())
+          if (slab.rest(v).z() > 1 - 1e-9) top.push_back(v);
+        std::vector<std::pair<VertexId, Vec3>> shear;
+        for (VertexId v : top) shear.push_back({v, Vec3(tau * 16 / double(top.size()), 0, 0)});
+        const auto us = equilibrium(slab, mat, model, shear, [](const Vec3& p) { return p.z() < 1e-9; });
+        const double gamma = mean_over(slab, us, [](const Vec3& p) {
+          return p.z() > 1 - 1e-9 && std::abs(p.x() - 2) < 1 + 1e-9 && std::abs(p.y() - 2) < 1 + 1e-9; },
+                                       [](const Vec3& d) { return d.x(); });
         const double tip = -mean_over(beam, uc, [](const Vec3& p) { return p.x() > 8 - 1e-9; }, [](const Vec3& d) { return d.z(); });
-        const double G = mat.young / (2 * (1 + mat.poisson));
         const double timoshenko = F * 512 / (3 * mat.young / 12) + F * 8 / (5.0 / 6 * G);
-        std::printf("%-10s %5d %8zu %-6s %10.3f %10.3f %14.3f\n", pattern, n, bar.num_tets(), model,
-                    1e-4 / ex, -ey / ex, tip / timoshenko);
+        std::printf("%-10s %5d %8zu %-9s %10.3f %10.3f %10.3f %14.3f\n", pattern, n, bar.num_tets(), model,
+                    1e-4 / ex, -ey / ex, 1e-4 / gamma, tip / timoshenko);
         std::fflush(stdout);
       }
     }

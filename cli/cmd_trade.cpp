@@ -17,6 +17,7 @@
 #include "sim/formulation.h"
 #include "scene/trade.h"
 #include "sim/petsc/petsc_session.h"
+#include "sim/spring_model.h"
 
 namespace incise::cli {
 
@@ -37,6 +38,7 @@ struct TradeCliOptions {
   std::vector<std::string> models{"fem-linear", "fem-corotational", "springs"};
   std::vector<std::string> formulations{"standard", "nodal-averaged", "mixed"};
   std::vector<std::string> spring_volumes{"tet", "nodal"};
+  std::vector<std::string> spring_stiffness{"van-gelder", "fitted"};
   std::vector<int> resolutions;
   int reference_level = -1;
   std::vector<double> frame_budgets{2, 16, 33};
@@ -60,6 +62,9 @@ void add_trade(CLI::App& app) {
   cmd->add_option("--models", o->models, "Models to run")->capture_default_str();
   cmd->add_option("--spring-volumes", o->spring_volumes,
                   "Springs' volume terms, a row each: tet (per tet), nodal (averaged at the vertices), none")
+      ->capture_default_str();
+  cmd->add_option("--spring-stiffness", o->spring_stiffness,
+                  "Springs' constants, a row each: van-gelder (the isotropic rule), fitted (to each tet's FEM stiffness)")
       ->capture_default_str();
   cmd->add_option("--formulations", o->formulations, "FEM formulations to run (standard, nodal-averaged, edge-smoothed, mixed, mixed-edge-smoothed, quadratic, mixed-quadratic)")
       ->capture_default_str();
@@ -115,6 +120,11 @@ void trade(const TradeCliOptions& opts, int rank) {
         throw InvalidArgument("trade: --spring-volumes: expected tet, nodal or none, got \"" + v + "\"");
     if (o->spring_volumes.empty()) throw InvalidArgument("trade: --spring-volumes: expected at least one");
     to.spring_volumes = o->spring_volumes;
+    for (const auto& k : o->spring_stiffness)
+      if (!parse_spring_stiffness(k))
+        throw InvalidArgument("trade: --spring-stiffness: expected " + std::string(kSpringStiffnessNames) + ", got \"" + k + "\"");
+    if (o->spring_stiffness.empty()) throw InvalidArgument("trade: --spring-stiffness: expected at least one");
+    to.spring_stiffness = o->spring_stiffness;
     to.resolutions = o->resolutions;
     to.reference_level = o->reference_level;
     for (double b : o->frame_budgets)

@@ -304,8 +304,14 @@ void bind_sim(py::module_& m) {
                       "Spring-mass model on the mesh edges with per-tet volume terms (sim/spring_model.h)")
       .def(py::init([](const py::object& mesh_obj, const py::object& materials, double damping,
                        const py::object& volume_term, const py::object& compute_energy,
-                       const py::object& nodal_volume, double viscosity, double stiffening) {
+                       const py::object& nodal_volume, double viscosity, double stiffening,
+                       const std::string& stiffness) {
              SpringOptions o;
+             const auto rule = parse_spring_stiffness(stiffness);
+             if (!rule)
+               throw InvalidArgument("SpringSimulation: stiffness: expected " + std::string(kSpringStiffnessNames) +
+                                     ", got \"" + stiffness + "\"");
+             o.stiffness = *rule;
              o.viscosity = viscosity;
              o.stiffening = stiffening;
              o.nodal_volume = strict_bool(nodal_volume, "SpringSimulation: nodal_volume");
@@ -317,7 +323,8 @@ void bind_sim(py::module_& m) {
            }),
            py::arg("mesh"), py::arg("materials") = py::none(), py::kw_only(), py::arg("damping") = 0.0,
            py::arg("volume_term") = py::bool_(true), py::arg("compute_energy") = py::bool_(true),
-           py::arg("nodal_volume") = py::bool_(false), py::arg("viscosity") = 0.0, py::arg("stiffening") = 0.0)
+           py::arg("nodal_volume") = py::bool_(false), py::arg("viscosity") = 0.0, py::arg("stiffening") = 0.0,
+           py::arg("stiffness") = "van-gelder")
       .def("fix", [](Springs& s, const py::object& v) { for (VertexId x : to_vertices(s.mesh, v)) s.model.set_fixed(x, true); })
       .def("release", [](Springs& s, const py::object& v) {
         for (VertexId x : to_vertices(s.mesh, v)) {

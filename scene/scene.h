@@ -111,6 +111,9 @@ struct Scene {
   // springs: the volume term per tet ("tet", default), averaged at the vertices ("nodal") or
   // none (SpringOptions::volume_term, ::nodal_volume; docs/solver.md#spring-volume-terms).
   std::string springs_volume = "tet";
+  // springs: each spring's constant, "van-gelder" (default) or "fitted" to each tet's FEM
+  // stiffness (SpringOptions::stiffness; docs/solver.md#spring-stiffness).
+  std::string springs_stiffness = "van-gelder";
   double springs_viscosity = 0, springs_stiffening = 0;  // SpringOptions::viscosity, ::stiffening
   // fem-corotational: hold tets near inversion (docs/solver.md#inversion-barrier); off by default.
   InversionBarrierOptions inversion_barrier;

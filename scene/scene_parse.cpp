@@ -20,6 +20,7 @@
 #include "mesh/io/tet_io.h"
 #include "sim/integrator.h"
 #include "sim/petsc/petsc_solver.h"
+#include "sim/spring_model.h"
 
 namespace incise {
 
@@ -415,8 +416,14 @@ Scene parse_scene(const std::string& text, const std::string& path) {
   if (j.contains("springs")) {
     const json& jsp = j["springs"];
     if (!jsp.is_object())
-      rd.fail("springs", "expected {\"volume\": \"tet\" | \"nodal\" | \"none\", \"viscosity\": T, \"stiffening\": B}");
-    rd.keys(jsp, "springs", {"volume", "viscosity", "stiffening"});
+      rd.fail("springs", "expected {\"volume\": \"tet\" | \"nodal\" | \"none\", \"stiffness\": \"van-gelder\" | "
+                         "\"fitted\", \"viscosity\": T, \"stiffening\": B}");
+    rd.keys(jsp, "springs", {"volume", "stiffness", "viscosity", "stiffening"});
+    if (jsp.contains("stiffness")) {
+      s.springs_stiffness = rd.string(jsp["stiffness"], "springs.stiffness");
+      if (!parse_spring_stiffness(s.springs_stiffness))
+        rd.fail("springs.stiffness", "expected \"van-gelder\" or \"fitted\", got \"" + s.springs_stiffness + "\"");
+    }
     if (jsp.contains("viscosity")) s.springs_viscosity = rd.non_negative(jsp["viscosity"], "springs.viscosity");
     if (jsp.contains("stiffening")) {
       s.springs_stiffening = rd.non_negative(jsp["stiffening"], "springs.stiffening");

@@ -45,12 +45,14 @@ std::vector<Setting> grid(const Scene& base, const TradeOptions& opt, const std:
         st.scene.formulation = Formulation::Standard;
         st.row.solver = "implicit-euler";
         st.row.tolerance = st.scene.cg.tolerance;
-        for (const std::string& v : opt.spring_volumes) {
-          Setting vs = st;
-          vs.scene.springs_volume = v;
-          vs.row.formulation = "volume " + v;
-          out.push_back(vs);
-        }
+        for (const std::string& v : opt.spring_volumes)
+          for (const std::string& k : opt.spring_stiffness) {
+            Setting vs = st;
+            vs.scene.springs_volume = v;
+            vs.scene.springs_stiffness = k;
+            vs.row.formulation = "volume " + v + ", " + k;
+            out.push_back(vs);
+          }
         continue;
       }
       for (Formulation f : opt.formulations) {

@@ -46,7 +46,13 @@ double signed_volume(const Vec3& x0, const Vec3& x1, const Vec3& x2, const Vec3&
   return (x1 - x0).dot((x2 - x0).cross(x3 - x0)) / 6;
 }
 
-constexpr std::array<std::array<int, 2>, 6> kEdges = {{{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}}};
+constexpr const auto& kEdges = kTetEdges;
+
+// The index in kTetEdges of the edge joining corners i and j.
+int tet_edge_index(int i, int j) {
+  if (i > j) std::swap(i, j);
+  return i == 0 ? j - 1 : i + j;  // (0,1)0 (0,2)1 (0,3)2 (1,2)3 (1,3)4 (2,3)5
+}
 
 }  // namespace
 
@@ -73,6 +79,7 @@ SpringModel::SpringModel(const TetMesh& mesh, const MaterialTable& materials, co
   bound_.reserve(nv + nv / 4 + 64);
   tet_v_.reserve(nt + nt / 4 + 64);
   tet_alive_.reserve(nt + nt / 4 + 64);
+  if (opt_.stiffness == SpringStiffness::Fitted) tet_fit_.reserve(nt + nt / 4 + 64);
   volume_slot_.reserve(nt + nt / 4 + 64);
   grow_tree(nv + nv / 4 + 64);
   grow(nv, nt);
@@ -87,6 +94,7 @@ SpringModel::SpringModel(const TetMesh& mesh, const MaterialTable& materials, co
     if (!mesh.is_alive(TetId(t))) continue;
     tet_v_[t] = mesh.tet_vertices(TetId(t));
     tet_alive_[t] = 1;
+    fit_tet(mesh, TetId(t));
     if (opt_.volume_term) add_volume(mesh, TetId(t));
   }
   for (std::uint32_t t = 0; t < mesh.tet_capacity(); ++t) {
@@ -125,6 +133,7 @@ void SpringModel::grow(std::size_t nv, std::size_t nt) {
     bound_.resize(nv, 0.0);
   }
   grow_tree(nv);
+  if (opt_.stiffness == SpringStiffness::Fitted && nt > tet_fit_.size()) tet_fit_.resize(nt);
   if (nt > tet_v_.size()) {
     tet_v_.resize(nt);
     tet_alive_.resize(nt, 0);
@@ -155,7 +164,7 @@ void SpringModel::set_bound(std::uint32_t v, double b) {
 void SpringModel::update_edge(const TetMesh& mesh, std::uint32_t a, std::uint32_t b) {
   if (a > b) std::swap(a, b);
   const std::uint64_t key = edge_key(a, b);
-  double sum = 0, vol = 0, tau = 0, stiff = 0;
+  double sum = 0, fitted = 0, vol = 0, tau = 0, stiff = 0;
   bool any = false;
   if (mesh.is_alive(VertexId(a)) && mesh.is_alive(VertexId(b))) {
     // Scan the shorter incidence list (a deterministic choice, so still bit-reproducible).
@@ -167,7 +176,12 @@ void SpringModel::update_edge(const TetMesh& mesh, std::uint32_t a, std::uint32_
       const auto& tv = mesh.tet_vertices(t);
       if (tv[0].idx() != other && tv[1].idx() != other && tv[2].idx() != other && tv[3].idx() != other) continue;
       const double v = mesh.volume(t);
-      sum += calibration(mesh.label(t)).spring_modulus * v;
+      if (opt_.stiffness == SpringStiffness::Fitted) {
+        const int ia = mesh.local_index(t, VertexId(a)), ib = mesh.local_index(t, VertexId(b));
+        fitted += tet_fit_[t.idx()].k[tet_edge_index(ia, ib)];
+      } else {
+        sum += calibration(mesh.label(t)).spring_modulus * v;
+      }
       const Material& m = materials_.get(mesh.label(t));
       vol += v;
       tau += v * (m.viscosity > 0 ? m.viscosity : opt_.viscosity);
@@ -180,7 +194,7 @@ void SpringModel::update_edge(const TetMesh& mesh, std::uint32_t a, std::uint32_
     return;
   }
   const double rest = (mesh.rest(VertexId(a)) - mesh.rest(VertexId(b))).norm();
-  const double k = sum / (rest * rest);
+  const double k = sum / (rest * rest) + fitted;
   auto [it, inserted] = spring_index_.try_emplace(key, static_cast<std::uint32_t>(springs_.size()));
   const Spring sp{a, b, rest, k, tau / vol, stiff / vol};
   max_tau_ = std::max(max_tau_, sp.tau);
@@ -204,8 +218,18 @@ void SpringModel::remove_spring(std::uint64_t key) {
   ++counters_.visits;
 }
 
+void SpringModel::fit_tet(const TetMesh& mesh, TetId t) {
+  if (opt_.stiffness != SpringStiffness::Fitted) return;
+  calibration(mesh.label(t));  // checks the material as the isotropic rule does
+  const auto& tv = mesh.tet_vertices(t);
+  const Material& m = materials_.get(mesh.label(t));
+  tet_fit_[t.idx()] = fit_tet_springs({mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3])}, m.mu(),
+                                      m.lambda(), opt_.volume_term, opt_.min_volume_ratio * m.mu());
+}
+
 void SpringModel::add_volume(const TetMesh& mesh, TetId t) {
-  const double kappa = calibration(mesh.label(t)).volume_modulus;
+  const double kappa = opt_.stiffness == SpringStiffness::Fitted ? tet_fit_[t.idx()].kappa
+                                                                 : calibration(mesh.label(t)).volume_modulus;
   if (!(kappa > 0)) return;
   const auto& tv = mesh.tet_vertices(t);
   volume_slot_[t.idx()] = static_cast<std::uint32_t>(volumes_.size());
@@ -348,6 +372,7 @@ void SpringModel::apply(const TetMesh& mesh, const TopologyChange& change) {
     }
     tet_v_[t.idx()] = mesh.tet_vertices(t);
     tet_alive_[t.idx()] = 1;
+    fit_tet(mesh, t);
     add_edges(tet_v_[t.idx()]);
     if (opt_.volume_term) add_volume(mesh, t);
   }

@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <unordered_map>
 #include <vector>
 
@@ -27,10 +28,23 @@
 #include "mesh/topology_change.h"
 #include "sim/integrator.h"
 #include "sim/material.h"
+#include "sim/spring_fit.h"
 
 namespace incise {
 
+// How a spring's constant is set: VanGelder: calibrate_springs()'s isotropic rule (below);
+// Fitted: per tet, the constants closest to that tet's FEM stiffness (sim/spring_fit.h),
+// summed over the edge's tets. docs/solver.md#spring-stiffness compares them.
+enum class SpringStiffness { VanGelder, Fitted };
+inline constexpr const char* kSpringStiffnessNames = "van-gelder or fitted";
+inline std::optional<SpringStiffness> parse_spring_stiffness(std::string_view s) {
+  if (s == "van-gelder") return SpringStiffness::VanGelder;
+  if (s == "fitted") return SpringStiffness::Fitted;
+  return std::nullopt;
+}
+
 struct SpringOptions {
+  SpringStiffness stiffness = SpringStiffness::VanGelder;
   // Mass-proportional damping c [1/s]: gamma_i = c * m_i, so every particle's velocity decays
   // at the same rate whatever the mesh resolution. 0 = undamped.
   double damping = 0.0;
@@ -232,6 +246,9 @@ private:
   // Copy of each live tet's vertices (by TetId): apply() needs the edges of removed tets.
   std::vector<std::array<VertexId, 4>> tet_v_;
   std::vector<std::uint8_t> tet_alive_;
+  // SpringStiffness::Fitted: each live tet's constants (by TetId), fitted when it is added.
+  std::vector<TetSpringFit> tet_fit_;
+  void fit_tet(const TetMesh& mesh, TetId t);
 
   // Per-vertex Gershgorin row bound on w^2 and a max segment tree over it (O(log n) updates).
   std::vector<double> bound_;

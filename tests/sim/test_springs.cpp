@@ -450,6 +450,7 @@ TEST_CASE("local updates after thousands of random edits equal a fresh build", "
   struct Setup {
     TetMesh mesh;
     bool volume;
+    SpringStiffness stiffness = SpringStiffness::VanGelder;
   };
   std::vector<Setup> setups;
   setups.push_back({make_box(Vec3(1, 1, 1), {3, 3, 3}), true});
@@ -458,6 +459,9 @@ TEST_CASE("local updates after thousands of random edits equal a fresh build", "
   setups.push_back({make_box(Vec3(1e3, 1e3, 3e3), {2, 2, 4}), false});    // x1e3, springs only
   setups.push_back({make_box(Vec3(1, 1, 1), {4, 4, 4}), true});
   jitter(setups.back().mesh, 0.2, 11);
+  // The fitted constants are per tet: an edit refits only its new tets.
+  setups.push_back({make_ellipsoid(Vec3(2, 1, 0.5), 2), true, SpringStiffness::Fitted});
+  setups.push_back({make_box(Vec3(1e3, 1e3, 3e3), {2, 2, 4}), false, SpringStiffness::Fitted});
   MaterialTable mats(Material{1e5, 0.3, 1000});
   mats.set(2, Material{1e9, 0.49, 1500});
   mats.set(3, Material{10, 0.1, 900});
@@ -468,6 +472,7 @@ TEST_CASE("local updates after thousands of random edits equal a fresh build", "
     for (TetId t : m.tets()) m.set_label(t, 1 + (i++ % 3));
     SpringOptions o;
     o.volume_term = su.volume;
+    o.stiffness = su.stiffness;
     SpringModel s(m, mats, o);
     // An affine state: interpolated new vertices must land exactly on it.
     Eigen::Matrix3d F;
