@@ -50,7 +50,7 @@ std::vector<Setting> grid(const Scene& base, const TradeOptions& opt, const std:
             Setting vs = st;
             vs.scene.springs_volume = v;
             vs.scene.springs_stiffness = k;
-            vs.row.formulation = "volume " + v + ", " + k;
+            vs.row.formulation = "volume " + v + (k == "van-gelder" ? "" : " (" + k + ")");  // no comma: a CSV field
             out.push_back(vs);
           }
         continue;

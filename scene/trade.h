@@ -44,7 +44,7 @@ struct TradeOptions {
   // Springs: one row per volume term ("tet", "nodal", "none": the scene key springs.volume),
   // shown in the formulation column as "volume tet" etc.
   std::vector<std::string> spring_volumes{"tet", "nodal"};
-  // And one per stiffness rule ("van-gelder", "fitted": springs.stiffness), "volume tet, fitted".
+  // And one per stiffness rule ("van-gelder", "fitted": springs.stiffness), "volume tet (fitted)".
   std::vector<std::string> spring_stiffness{"van-gelder", "fitted"};
   // Mesh levels: 0 the scene's mesh, k > 0 refined k times, -1 one coarser: a generated mesh
   // with half the cells, a mesh file coarsened to about twice its edge length

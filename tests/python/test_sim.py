@@ -463,6 +463,11 @@ def test_springs_nodal_volume_term_sags_its_own_way(box):
     assert nodal != per_tet
     with pytest.raises(incise.InvalidArgument, match="nodal_volume: expected True or False"):
         incise.SpringSimulation(box, nodal_volume=1)
+    # Spring constants fitted to each tet's FEM stiffness (docs/solver.md#spring-stiffness).
+    fitted = sag(stiffness="fitted")
+    assert np.isfinite(fitted) and fitted < 0 and fitted != per_tet
+    with pytest.raises(incise.InvalidArgument, match='stiffness: expected van-gelder or fitted, got "lloyd"'):
+        incise.SpringSimulation(box, stiffness="lloyd")
 
 
 def test_springs_viscosity_and_stiffening(box):

@@ -272,6 +272,27 @@ TEST_CASE("springs.volume: per tet, averaged at the vertices, or none; bad value
     last = norm;
   }
   CHECK(error_of(volume("edge")) == "scene.json: springs.volume: expected \"tet\", \"nodal\" or \"none\", got \"edge\"");
+  // The springs' constants: Van Gelder's rule (default) or fitted per tet (docs/solver.md#spring-stiffness).
+  auto stiffness = [&](const std::string& k) {
+    std::string t = text;
+    t.insert(t.rfind('}'), ", \"springs\": {\"stiffness\": \"" + k + "\"}");
+    return t;
+  };
+  CHECK(parse_scene(text, "scene.json").springs_stiffness == "van-gelder");
+  std::vector<double> norms;
+  for (const char* k : {"van-gelder", "fitted"}) {
+    const Scene s = parse_scene(stiffness(k), "scene.json");
+    CHECK(s.springs_stiffness == k);
+    SceneRunOptions ro;
+    double norm = 0;
+    ro.on_frame = [&](int, const Eigen::VectorXd& d, const FrameStats&) { norm = d.norm(); };
+    run_scene(s, ro);
+    CHECK(std::isfinite(norm));
+    CHECK(norm > 0);
+    norms.push_back(norm);
+  }
+  CHECK(norms[0] != norms[1]);
+  CHECK(error_of(stiffness("lloyd")) == "scene.json: springs.stiffness: expected \"van-gelder\" or \"fitted\", got \"lloyd\"");
   // Kelvin-Voigt viscosity and strain-stiffening ride in the same key.
   std::string viscous = text;
   viscous.insert(viscous.rfind('}'), R"(, "springs": {"viscosity": 0.002, "stiffening": 5})");
