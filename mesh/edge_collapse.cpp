@@ -333,7 +333,8 @@ CollapseCheck check_collapse(const TetMesh& m, VertexId keep, VertexId remove, d
       }
     }
   if (!(std::abs(after - before) <= 1e-8 * std::abs(before) + sweep)) return refuse(CollapseRefusal::Volume);
-  for (const auto& [l, dv] : by_label) out.plan.volume_change += std::abs(dv);
+  if (tolerant)  // an exact retiling moves only rounding
+    for (const auto& [l, dv] : by_label) out.plan.volume_change += std::abs(dv);
   out.refusal = CollapseRefusal::None;
   return out;
 }
