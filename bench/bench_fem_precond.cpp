@@ -8,8 +8,10 @@
 //     and of the prediction against a cold start;
 //  4. a corotational beam bent far with a stale Cholesky factor, rotated (now) against as is;
 //  5. iterations against Poisson's ratio up to 0.4999 for each preconditioner;
-//  6. with --size-tets N: Jacobi against Cholesky on a large model (first-frame wait, memory).
-//   bench_fem_precond [--organ MESH] [--beam SCENE] [--budget-tets 30000] [--only SECTION] [--size-tets N] [--out DIR]
+//  6. with --size-tets N: Jacobi against Cholesky on a large model (first-frame wait, memory);
+//  7. --only scaling: each parallel pass and the organ cut frame on 1, 2, 4, ... threads, and
+//     the serial share (issue 37; docs/solver.md#what-each-core-buys).
+//   bench_fem_precond [--organ MESH] [--organ2 MESH] [--scaling-box-tets N] [--beam SCENE] [--budget-tets 30000] [--only SECTION] [--size-tets N] [--out DIR]
 #include <sys/resource.h>
 
 #include <algorithm>
@@ -19,12 +21,18 @@
 #include <cstdlib>
 #include <filesystem>
 #include <sstream>
+#include <thread>
 #include <fstream>
 
 #include "bench/bench_common.h"
 #include "mesh/generate.h"
 #include "mesh/io/tet_io.h"
+#include <tbb/global_control.h>
+
+#include "sim/aggregation_amg.h"
 #include "sim/async_cholesky.h"
+#include "sim/cg_solver.h"
+#include "sim/preconditioner.h"
 #include "sim/fem_simulation.h"
 #include "scene/run_scene.h"
 #include "tests/support/mesh_edits.h"
@@ -296,10 +304,9 @@ TetMesh largest_part(const TetMesh& m) {
   return out;
 }
 
-void section_cut_scene(const std::string& organ_file, Csv& csv) {
-  const TetMesh organ = largest_part(read_tet_mesh(organ_file));
-  const std::string organ_path = (std::filesystem::temp_directory_path() / "incise-bench-cut-organ.vtu").string();
-  write_tet_mesh(organ, organ_path);
+// The organ cut scene: held at its base, a probe pressing its top over 60 frames, a blade
+// through its middle over frames 10-50, corotational, tolerance 1e-4 (the issue 37 scene).
+Scene organ_cut_scene(const TetMesh& organ, const std::string& organ_path) {
   const Box b(organ);
   const Vec3 c = 0.5 * (b.lo + b.hi), s = b.size();
   Scene scene;
@@ -337,6 +344,64 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
   scene.cg.tolerance = 1e-4;
   scene.frames = 60;
   scene.output_every = 1000;  // the last frame only: the table is about the solver
+  return scene;
+}
+
+// Frames 10-50 of a played cut scene, from its stats.csv.
+struct CutFrames {
+  std::vector<double> frame, cut, setup, solve, iters, resid, pc_setup;
+};
+
+CutFrames play_cut_scene(const Scene& sc, const std::filesystem::path& dir, const char* keep_as = nullptr) {
+  CutFrames out;
+  std::filesystem::remove_all(dir);
+  SceneRunOptions ro;
+  ro.out_dir = dir.string();
+  ro.on_frame = [&](int f, const Eigen::VectorXd&, const FrameStats& st) {
+    if (f >= 10 && f <= 50) out.pc_setup.push_back(st.preconditioner_setup_ms);
+  };
+  run_scene(sc, ro);
+  if (keep_as)  // inspect a configuration's per-frame stats
+    std::filesystem::copy_file(dir / "stats.csv", keep_as, std::filesystem::copy_options::overwrite_existing);
+  // stats.csv: frame,...,frame_ms,setup_ms,cheaper_preconditioner,relinearized,outside_ms,cut_ms,tets
+  std::ifstream in(dir / "stats.csv");
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::string> head;
+  {
+    std::stringstream hs(line);
+    for (std::string h; std::getline(hs, h, ',');) head.push_back(h);
+  }
+  auto col = [&](const char* name) { return std::size_t(std::find(head.begin(), head.end(), name) - head.begin()); };
+  while (std::getline(in, line)) {
+    std::vector<double> v;
+    std::stringstream ls(line);
+    for (std::string x; std::getline(ls, x, ',');) v.push_back(std::stod(x));
+    const int f = int(v[col("frame")]);
+    if (f < 10 || f > 50) continue;
+    // The whole frame: what ran before the solver step (cut, backends' updates, loads) and the step.
+    out.frame.push_back(v[col("frame_ms")] + v[col("outside_ms")]);
+    out.cut.push_back(v[col("cut_ms")]);
+    out.setup.push_back(v[col("setup_ms")]);
+    out.solve.push_back(v[col("solve_ms")]);
+    out.iters.push_back(v[col("iterations")]);
+    out.resid.push_back(v[col("relative_residual")]);
+  }
+  std::filesystem::remove_all(dir);
+  return out;
+}
+
+double pct(std::vector<double> x, double q) {
+  if (x.empty()) return 0;
+  std::sort(x.begin(), x.end());
+  return x[std::min(x.size() - 1, std::size_t(q * double(x.size() - 1) + 0.5))];
+}
+
+void section_cut_scene(const std::string& organ_file, Csv& csv) {
+  const TetMesh organ = largest_part(read_tet_mesh(organ_file));
+  const std::string organ_path = (std::filesystem::temp_directory_path() / "incise-bench-cut-organ.vtu").string();
+  write_tet_mesh(organ, organ_path);
+  const Scene scene = organ_cut_scene(organ, organ_path);
   std::printf("\norgan cut scene: %s, %zu tets, corotational, probe over 60 frames, blade through the middle over "
               "frames 10-50, tolerance 1e-4; over frames 10-50: frame = everything before the solver step (cut, updates, loads) + the step (ms), its parts (median), CG "
               "iterations median/max, worst residual, factorizations started while cutting show as a busy core\n",
@@ -390,48 +455,13 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
     sc.cg.budget_ms = cfg.budget_ms;
     sc.amg = cfg.amg;
     sc.cholesky.settle_with_amg = cfg.settle_amg;
-    std::filesystem::remove_all(dir);
-    SceneRunOptions ro;
-    ro.out_dir = dir.string();
-    std::vector<double> pc_setup;  // frames 10-50: the preconditioner's setup inside the solve
-    ro.on_frame = [&](int f, const Eigen::VectorXd&, const FrameStats& st) {
-      if (f >= 10 && f <= 50) pc_setup.push_back(st.preconditioner_setup_ms);
-    };
-    run_scene(sc, ro);
-    if (std::getenv("INCISE_BENCH_KEEP"))  // inspect a configuration's per-frame stats
-      std::filesystem::copy_file(dir / "stats.csv", std::string(std::getenv("INCISE_BENCH_KEEP")) + "-" +
-                                 std::to_string(&cfg - configs) + ".csv", std::filesystem::copy_options::overwrite_existing);
-    // stats.csv: frame,...,frame_ms,setup_ms,cheaper_preconditioner,relinearized,outside_ms,cut_ms,tets
-    std::ifstream in(dir / "stats.csv");
-    std::string line;
-    std::getline(in, line);
-    std::vector<std::string> head;
-    {
-      std::stringstream hs(line);
-      for (std::string h; std::getline(hs, h, ',');) head.push_back(h);
-    }
-    auto col = [&](const char* name) { return std::size_t(std::find(head.begin(), head.end(), name) - head.begin()); };
-    std::vector<double> frame, cutms, setup, solve, iters, resid;
-    double worst = 0;
-    while (std::getline(in, line)) {
-      std::vector<double> v;
-      std::stringstream ls(line);
-      for (std::string x; std::getline(ls, x, ',');) v.push_back(std::stod(x));
-      const int f = int(v[col("frame")]);
-      if (f < 10 || f > 50) continue;
-      // The whole frame: what ran before the solver step (cut, backends' updates, loads) and the step.
-      frame.push_back(v[col("frame_ms")] + v[col("outside_ms")]);
-      cutms.push_back(v[col("cut_ms")]);
-      setup.push_back(v[col("setup_ms")]);
-      solve.push_back(v[col("solve_ms")]);
-      iters.push_back(v[col("iterations")]);
-      worst = std::max(worst, v[col("relative_residual")]);
-      resid.push_back(v[col("relative_residual")]);
-    }
-    auto pct = [](std::vector<double> x, double q) {
-      std::sort(x.begin(), x.end());
-      return x[std::min(x.size() - 1, std::size_t(q * double(x.size() - 1) + 0.5))];
-    };
+    const std::string keep = std::getenv("INCISE_BENCH_KEEP")
+                                 ? std::string(std::getenv("INCISE_BENCH_KEEP")) + "-" + std::to_string(&cfg - configs) + ".csv"
+                                 : "";
+    const CutFrames cf = play_cut_scene(sc, dir, keep.empty() ? nullptr : keep.c_str());
+    const auto &frame = cf.frame, &cutms = cf.cut, &setup = cf.setup, &solve = cf.solve, &iters = cf.iters,
+               &resid = cf.resid, &pc_setup = cf.pc_setup;
+    const double worst = resid.empty() ? 0.0 : *std::max_element(resid.begin(), resid.end());
     std::printf("  %-28s %8.1f %8.1f %8.1f %8.1f %8.1f %8.1f %5.0f/%-4.0f %8.1e/%-8.1e %6.1f/%-6.1f\n", cfg.name,
                 pct(frame, 0.5), pct(frame, 0.95), pct(frame, 1.0), pct(cutms, 0.5), pct(setup, 0.5), pct(solve, 0.5),
                 pct(iters, 0.5), pct(iters, 1.0), pct(resid, 0.5), worst, pc_setup.empty() ? 0.0 : pct(pc_setup, 0.5),
@@ -440,6 +470,156 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
             pct(setup, 0.5), pct(solve, 0.5), pct(iters, 0.5), worst);
   }
   std::filesystem::remove_all(dir);
+}
+
+// y = D x: an operator that costs one vector pass, for timing CG's own vector work.
+class DiagonalOperator : public LinearOperator {
+public:
+  explicit DiagonalOperator(const Eigen::VectorXd& d) : d_(d) {
+    for (Eigen::Index i = 0; i < d_.size(); ++i)
+      if (!(d_[i] > 0)) d_[i] = 1;
+  }
+  Eigen::Index rows() const override { return d_.size(); }
+  void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const override { y = d_.cwiseProduct(x); }
+  const Eigen::VectorXd& diagonal() const override { return d_; }
+
+private:
+  Eigen::VectorXd d_;
+};
+
+// Thread scaling (issue 37): each parallel pass of a frame, and the organ cut scene's whole
+// frame, on 1, 2, 4, ... threads up to the machine's (tbb::global_control), with the serial
+// share Amdahl's law gives from the speed-up S on p threads: s = (p / S - 1) / (p - 1).
+// Passes (median of 15, ms): K x, the block-Jacobi and multigrid applications, the
+// relinearization (every tet's rotation and the diagonal blocks), and CG's vector work per
+// iteration (a Jacobi CG of 40 iterations on a diagonal operator, less its products and
+// applications).
+void section_scaling(const std::vector<std::string>& organ_files, long box_tets, Csv& csv) {
+  std::vector<int> threads{1};
+  const int hw = int(std::thread::hardware_concurrency());
+  for (int t = 2; t <= std::max(hw, 1); t *= 2) threads.push_back(t);
+  if (threads.back() != hw && hw > 1) threads.push_back(hw);
+  auto serial_share = [](double t1, double tp, int p) {
+    if (p < 2 || !(tp > 0)) return 0.0;
+    return (double(p) * tp / t1 - 1) / double(p - 1);
+  };
+  auto header = [&](const char* first) {
+    std::printf("  %-30s", first);
+    for (int t : threads) std::printf(" %7d t", t);
+    std::printf(" %9s %8s\n", "speed-up", "serial");
+  };
+  auto row = [&](const std::string& mesh, const std::string& name, std::size_t tets, const std::vector<double>& ms) {
+    std::printf("  %-30s", name.c_str());
+    for (double m : ms) std::printf(" %9.3f", m);
+    const double S = ms.front() / ms.back();
+    const double s = serial_share(ms.front(), ms.back(), threads.back());
+    std::printf(" %8.2fx %8.2f\n", S, s);
+    csv.row("scaling", mesh + " " + name, tets, ms.front(), ms.back(), threads.back(), S, s);
+  };
+  struct Mesh {
+    std::string name;
+    TetMesh mesh;
+    bool organ;
+  };
+  std::vector<Mesh> meshes;
+  for (const std::string& f : organ_files) meshes.push_back({f, largest_part(read_tet_mesh(f)), true});
+  if (box_tets > 0) {
+    const int n = std::max(2, int(std::lround(std::cbrt(double(box_tets) / 12))));  // 2n x n x n cubes, 6 tets each
+    meshes.push_back({"box", make_box(Vec3(2, 1, 1), {2 * n, n, n}), false});
+  }
+  for (const Mesh& me : meshes) {
+    const TetMesh& m = me.mesh;
+    std::printf("\nthread scaling on %s (%zu tets), corotational, ms per pass (median of 15) on each thread count\n",
+                me.name.c_str(), m.num_tets());
+    header("pass");
+    for (Formulation form : {Formulation::Standard, Formulation::NodalAveraged}) {
+      const Box b(m);
+      FemSimulationOptions opt;
+      opt.kind = FemKind::Corotational;
+      opt.formulation = form;
+      opt.cg.tolerance = 1e-4;
+      opt.cg.preconditioner = Preconditioner::Amg;
+      FemSimulation sim(m, material(5e3, 0.4), opt);
+      for (VertexId v : m.vertices()) {
+        const Vec3 p = m.rest(v);
+        if (p.z() < b.lo.z() + 0.15 * b.size().z()) sim.fix(v);
+        if (p.z() > b.hi.z() - 0.05 * b.size().z()) sim.set_force(v, Vec3(0, 0, -1e-3));
+      }
+      sim.step();
+      const Eigen::VectorXd u = sim.displacement();
+      AggregationAmg amg(sim.model(), opt.amg);
+      amg.setup(sim.model(), &sim.free_mask());
+      BlockJacobi bj;
+      bj.setup(sim.model(), &sim.free_mask());
+      const auto jac = make_preconditioner(Preconditioner::Jacobi);
+      jac->setup(sim.model(), &sim.free_mask());
+      const DiagonalOperator diag(sim.model().diagonal());
+      Eigen::VectorXd r = Eigen::VectorXd::Random(sim.model().rows()), z;
+      for (std::size_t i = 0; i < sim.free_mask().size(); ++i)
+        if (!sim.free_mask()[i]) r[Eigen::Index(i)] = 0;
+      auto med15 = [](auto&& f) {
+        std::vector<double> t;
+        for (int k = 0; k < 15; ++k) {
+          const auto t0 = std::chrono::steady_clock::now();
+          f();
+          t.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+        }
+        return pct(t, 0.5);
+      };
+      std::vector<double> kx, bja, amga, relin, vec;
+      for (int t : threads) {
+        tbb::global_control gc(tbb::global_control::max_allowed_parallelism, std::size_t(t));
+        kx.push_back(med15([&] { sim.model().multiply(r, z); }));
+        bja.push_back(med15([&] { bj.apply(r, z); }));
+        amga.push_back(med15([&] { amg.apply(r, z); }));
+        relin.push_back(med15([&] { sim.model().update_rotations(u); }));
+        // CG's own vector work: 40 iterations on a diagonal operator of the model's size (the
+        // operator's and Jacobi's passes measured alone and taken off).
+        const double diag_ms = med15([&] { diag.multiply(r, z); });
+        const double jac_ms = med15([&] { jac->apply(r, z); });
+        CgOptions co;
+        co.tolerance = 1e-300;
+        co.max_iterations = 40;
+        ConjugateGradient cg(co);
+        cg.set_preconditioner(Preconditioner::Jacobi);
+        cg.compute(diag, &sim.free_mask());
+        const double cg_ms = med15([&] {
+          Eigen::VectorXd x = Eigen::VectorXd::Zero(r.size());
+          cg.solve_with_guess(r, x);
+        });
+        const SolveStats& st = cg.stats();
+        vec.push_back((cg_ms - st.products * diag_ms - st.iterations * jac_ms) / std::max(1, st.iterations));
+      }
+      const std::string f = std::string(formulation_name(form));
+      row(me.name, "K x, " + f, m.num_tets(), kx);
+      row(me.name, "relinearization, " + f, m.num_tets(), relin);
+      if (form == Formulation::Standard) {
+        row(me.name, "block-Jacobi apply", m.num_tets(), bja);
+        row(me.name, "multigrid apply", m.num_tets(), amga);
+        row(me.name, "CG vector work / iteration", m.num_tets(), vec);
+      }
+    }
+    if (!me.organ) continue;
+    // The cut scene: its frames 10-50 on each thread count.
+    const std::string organ_path = (std::filesystem::temp_directory_path() / "incise-bench-scaling-organ.vtu").string();
+    write_tet_mesh(m, organ_path);
+    const Scene scene = organ_cut_scene(m, organ_path);
+    const std::filesystem::path dir = std::filesystem::temp_directory_path() / "incise-bench-scaling";
+    std::printf("  organ cut scene (default settings), frames 10-50: median / p95 frame, median cut, setup, solve, "
+                "iterations med/max\n");
+    std::vector<double> frame_med;
+    for (int t : threads) {
+      tbb::global_control gc(tbb::global_control::max_allowed_parallelism, std::size_t(t));
+      const CutFrames cf = play_cut_scene(scene, dir);
+      frame_med.push_back(pct(cf.frame, 0.5));
+      std::printf("    %2d threads: %7.1f / %-7.1f cut %6.2f setup %6.2f solve %6.2f it %3.0f/%-3.0f\n", t,
+                  pct(cf.frame, 0.5), pct(cf.frame, 0.95), pct(cf.cut, 0.5), pct(cf.setup, 0.5), pct(cf.solve, 0.5),
+                  pct(cf.iters, 0.5), pct(cf.iters, 1.0));
+      csv.row("scaling-cut-scene", me.name, m.num_tets(), t, pct(cf.frame, 0.5), pct(cf.frame, 0.95), pct(cf.cut, 0.5),
+              pct(cf.setup, 0.5), pct(cf.solve, 0.5));
+    }
+    row(me.name, "cut frame (median)", m.num_tets(), frame_med);
+  }
 }
 
 // What the aggregation multigrid costs on the organ: one build's phases (aggregation,
@@ -696,6 +876,14 @@ int main(int argc, char** argv) {
   if (want("amg-build")) {
     if (!organ.empty()) section_amg_build(organ, csv);
     else if (!only.empty()) std::printf("\namg-build: needs --organ MESH\n");
+  }
+  // --only scaling: the passes and the cut frame on each thread count (organs from --organ and
+  // --organ2, a box of --scaling-box-tets, default 1M; 0: none).
+  if (only == "scaling") {
+    std::vector<std::string> organs;
+    for (const char* key : {"--organ", "--organ2"})
+      if (!args.get(key, "").empty()) organs.push_back(args.get(key, ""));
+    section_scaling(organs, long(args.num("--scaling-box-tets", 1e6)), csv);
   }
   if (want("warm")) section_warm_start(csv);
   if (want("rotated")) section_rotated(csv);
