@@ -18,12 +18,9 @@ constexpr double kInsideTol = 1e-9;
 // At a sheet's finish, a vertex of the body's surface inside the swept polygon is put on the
 // sheet when it is within this fraction of the snap distance; farther, it keeps its side. Kept
 // on its side, the edges it has across the plane are split a hair from it, and the tets there
-// (surface vertex, cut vertex 0.06 apart on the liver, elements of 11) go below 1 degree with
-// no contraction possible (the edge joins two sheets). Snapping the whole distance moves the
-// rim, and the opened area with it: 2 of 60 random straight box cuts opened 1.6% and 2.3% off
-// their swept area (tests/cut/test_cut_progressive.cpp); at half, all 60 are within 1%, and
-// 100 random steps on the liver leave 406 tets below 10 degrees, smallest 0.79 (483, 0.22 with
-// surface vertices never snapped; bench_cut --only quality).
+// go below 1 degree with no contraction possible (the edge joins two sheets). Snapping the
+// whole distance moves the rim, and the opened area with it, past the 1% the tests allow; half
+// keeps it and most of the quality (docs/cut.md#the-defaults).
 constexpr double kSurfaceSnapFraction = 0.5;
 
 // On an earlier cut's faces and on no other boundary face (the body's surface).
@@ -449,8 +446,8 @@ int CutStep::side(const Piece& piece, std::size_t k, VertexId v) {
     // reaches past its rim (the blade's sides and last front inside the body) snaps too. Kept
     // on its side, the edges it has across the plane were split a hair from it, and the
     // slivers there had both ends of their short edge on the boundary once the cut opened: no
-    // contraction may join them (100 random steps on the liver: 558 tets below 10 degrees,
-    // 461 with this). Its cut faces lie inside the polygon, so the rim stays where it was.
+    // contraction may join them (docs/cut.md#the-defaults). Its cut faces lie inside the
+    // polygon, so the rim stays where it was.
     // A vertex of an earlier cut cannot move (its cut face would leave its plane); it is put on
     // the sheet where it is, the new cut bending through it by at most the snap distance:
     // otherwise the slivers beside it have a short interior edge between two cut vertices,

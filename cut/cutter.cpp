@@ -64,8 +64,8 @@ struct Cutter::Progress {
 namespace {
 constexpr int kImproveSteps = 4;
 // Only tets this bad join the queue (their rings come with them): evaluating every tet a step
-// cut, and its ring, at every step cost more than the operations (27k organ: 1000 tets, 2.5 ms
-// a step). The finish() pass takes the rest to the improvement's own targets.
+// cut, and its ring, at every step cost more than the operations (docs/cut.md#the-defaults).
+// The finish() pass takes the rest to the improvement's own targets.
 constexpr double kQueueMinDihedral = 20, kQueueMaxDihedral = 150;
 }  // namespace
 
@@ -588,8 +588,8 @@ void Cutter::improve_finish_slice(CutStepReport& rep, int work) {
 void Cutter::keep_finish_seeds(const TopologyChange& change) {
   if (!finishing()) return;
   // A slice that changed nothing leaves the next one the same mesh, seeds and options: it
-  // would spend its operations on the same failed attempts (100-operation slices that changed
-  // nothing took 18-25 ms a frame on the organ, for 50 frames). The improvement is done. Under
+  // would spend its operations on the same failed attempts, frame after frame
+  // (docs/cut.md#the-defaults). The improvement is done. Under
   // a time cap (improve_budget_ms) the next slice would stop at about the same attempt: done
   // too, with what fitted.
   if (change.empty()) {

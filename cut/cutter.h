@@ -1,5 +1,5 @@
 #pragma once
-// Cutter: progressive cuts of a TetMesh by a blade (DESIGN.md 2.5).
+// Cutter: progressive cuts of a TetMesh by a blade (docs/cut.md).
 //
 //   Cutter cutter(mesh);                      // options: CutOptions
 //   cutter.start(blade_at_t0);
@@ -102,10 +102,8 @@ struct CutOptions {
   // on the curved surface (moving it by at most that hair, well inside the snap threshold).
   // Contraction deviation 0.05 (the default snap): short edges on bent cut sheets and along the
   // rim go too, the surface moving by at most what snapping moves it.
-  // One ring around the step's tets, not two: a step on the liver touches ~900 tets, and
-  // queueing two rings (~8k tets) took more than a 2 ms budget before any operation; with
-  // one, 100 random steps leave 2278 tets below 5 deg at 2 ms (2439 with two) and 1211 at
-  // 10 ms (1400), and about as many with no budget (347 against 318).
+  // One ring around the step's tets, not two: queueing two rings cost more than a small
+  // budget before any operation, for about the same quality (docs/cut.md#the-defaults).
   // The budget counts operations (max_work: attempted flips, smoothings, contractions), not
   // time, so the same cut gives the same mesh on every run and machine.
   ImproveOptions improve_options = [] {
@@ -116,25 +114,23 @@ struct CutOptions {
     o.max_work = kDefaultImproveWork;
     return o;
   }();
-  // 20 operations a step: a step that commits a layer of tets then costs ~1 ms more, and the
-  // work its tets need is spread over the next steps (cutter.cpp, improve queue).
+  // A few operations a step: a step that commits a layer of tets stays cheap, and the work
+  // its tets need is spread over the next steps (cutter.cpp, improve queue; docs/cut.md#the-defaults).
   static constexpr int kDefaultImproveWork = 8;
   // Operations of finish()'s improvement (the front released; once per cut, so more). An
-  // insertion attempt counts 10 (ImproveOptions::insertion_work): 2000 before insertion.
+  // insertion attempt counts 10 (ImproveOptions::insertion_work).
   int finish_improve_work = 5000;
   // finish()'s improvement also inserts vertices (quality/insertion.h) into tets whose smallest
   // dihedral stays below this many degrees after flips, contraction and smoothing (0: none).
   // Where a cut crosses earlier cuts or meets the surface at a small angle, the wedge between
-  // the two sheets has no good tets at the old size: it needs smaller ones. 100 random steps
-  // (bench_cut --only quality): the liver's tets below 10 deg 348 -> 219 (seed 2026), 235 -> 83,
-  // 293 -> 112 (seeds 7, 99) for 13-14% more tets; the 26.8k organ's 538 -> 346 (1.18% ->
-  // 0.72%, smallest 0.087 -> 0.96 deg) for 5.5% more. Inserting into every tet short of the
-  // targets (35 deg) went to 0.5-0.8% but grew the liver by 60-80%.
+  // the two sheets has no good tets at the old size: it needs smaller ones. Only the worst
+  // tets, not every tet short of the targets: that grew the mesh far more for little gain
+  // (docs/cut.md#the-defaults).
   double finish_insertion_below_deg = 15;
   // At most this many of them in finish() itself, the rest in later finish_more() calls (one
   // slice each: a simulation calls it once a frame, so the withdrawn blade's improvement is
-  // spread over frames instead of stalling one: ~0.15 ms an operation on a 27k-tet organ, 0.3 s
-  // for the whole 2000). 0: all of it in finish().
+  // spread over frames instead of stalling one; README, "When a blade is withdrawn"). 0: all
+  // of it in finish().
   int finish_improve_slice = 0;
   // Optional wall-clock cap of the local improvement per step, on top of max_work; 0: none.
   // A time cap makes the result depend on the machine and its load.

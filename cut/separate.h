@@ -34,7 +34,7 @@ struct SeparationResult {
 // and b; duplicates: the vertex's).
 // split_chords false: chords stay whole and their faces shut (a progressive step, whose rim
 // next to the waiting tets moves on: the next steps open those faces, and splitting chords
-// there grew the mesh by 3-4% on through-cuts in many steps).
+// there grew the mesh on through-cuts in many steps; docs/cut.md#the-defaults).
 SeparationResult separate(TetMesh& mesh, std::span<const CutFacePair> faces, bool split_chords = true);
 
 }  // namespace incise::cut_detail

@@ -52,14 +52,14 @@ struct SceneFrame {
 
 class SceneRunner {
 public:
-  // A withdrawn blade's improvement (Cutter::finish, 2000 operations) runs at most this many
-  // operations a frame, the rest in the frames after: one frame took 0.3 s for all of it on a
-  // 27k-tet organ; 100 a frame keeps the slowest frame's cut near 30 ms at the same quality.
+  // A withdrawn blade's improvement (Cutter::finish, CutOptions::finish_improve_work
+  // operations) runs at most this many operations a frame, the rest in the frames after: all
+  // of it in one frame stalled that frame (README, "When a blade is withdrawn").
   static constexpr int kFinishImproveSlice = 100;
   // Under solver.budget_ms the scene's own blades' improvement (each step's and each finish
   // slice) also stops after this share of the budget: an operation count is a time only on one
-  // machine (a 100-operation slice took 18-25 ms on the organ on a slow day, more than a 16 ms
-  // frame). An outside blade (blade_step, the viewer's) keeps operation counts alone: a take
+  // machine (a slice could take more than a 16 ms frame; docs/cut.md#the-defaults). An outside
+  // blade (blade_step, the viewer's) keeps operation counts alone: a take
   // must replay to the same mesh.
   static constexpr double kCutImproveShareOfBudget = 0.25;
 
