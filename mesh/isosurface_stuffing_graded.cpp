@@ -114,8 +114,8 @@ private:
           if (inside_domain(k)) next.push_back(k);
         }
       }
-      // Once the surface spans many blocks, their count multiplies by about 4 per level; the
-      // output has ~60 tets per level-1 block (measured on spheres, r/h = 32 to 96). A few
+      // Once the surface spans many blocks, their count multiplies by about 4 per level, with
+      // a few tens of output tets per level-1 block (docs/tetra.md#behind-the-estimate). A few
       // blocks say nothing: a huge block around a small object.
       const double estimate = 15.0 * double(passed) * std::pow(4.0, l);
       if ((passed >= 64 && estimate > 2.0 * double(in_.max_tets)) || next.size() > kMaxNodesPerLevel)

@@ -244,8 +244,8 @@ public:
   // Renumbers live elements densely along a space-filling (Morton) curve: vertices by rest
   // position, tets by centroid, so elements near in space are near in memory. Solvers read
   // each tet's corners and scatter to them every product; in a mesher's order (CGAL's is
-  // scattered) most of those reads miss the cache. The organ of docs/solver.md: rotations
-  // 2.2 -> 1.75 ms a frame, its cut scene's frame 15-30% shorter. Clears free lists.
+  // scattered) most of those reads miss the cache (docs/solver.md, "Numbering"). Clears free
+  // lists.
   CompactMaps compact_spatially();
   // Checks every invariant; throws InvalidMesh naming the element and the broken rule.
   //  check_orientation: every live tet has positive volume.

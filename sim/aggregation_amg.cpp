@@ -52,14 +52,11 @@ Eigen::Vector3d shape_gradient(const Eigen::Matrix3d& bm, int j) {
 }  // namespace
 
 // The coarse factor. Up to AggregationAmgOptions::block_factor_aggregates aggregates of
-// (mostly) six modes: the block Cholesky of sim/block_cholesky.h, 3-5x faster than CHOLMOD's
-// simplicial LL^T on the 27k-tet organ's coarse matrix (137 aggregates: 1.0 ms against
-// 3.6-5.5) and 1.4x at 96.7k tets (465: 16.8 against 24.2). Larger ones, or translations only
-// (three modes padded to six), go to a general sparse factor: CHOLMOD (simplicial LL^T up to
-// kSupernodalFrom unknowns, supernodal with one BLAS thread above; AMD ordering) or Eigen's
-// SimplicialLDLT without it. At 360k tets CHOLMOD's supernodal factored ring 2's 1,488
-// aggregates in 156 ms against 197, ring 1's 3,541 in 669 against 2,555
-// (bench_fem_precond --only amg-build).
+// (mostly) six modes: the block Cholesky of sim/block_cholesky.h, faster than CHOLMOD's
+// simplicial LL^T there. Larger ones, or translations only (three modes padded to six), go to
+// a general sparse factor: CHOLMOD (simplicial LL^T up to kSupernodalFrom unknowns,
+// supernodal with one BLAS thread above; AMD ordering) or Eigen's SimplicialLDLT without it.
+// Figures: docs/solver.md#behind-the-constants (bench_fem_precond --only amg-build).
 struct AggregationAmg::Coarse {
   bool block = true;  // which factor holds the matrix
   BlockCholesky6 factor;
@@ -139,8 +136,8 @@ void AggregationAmg::setup(const LinearOperator& a, const std::vector<std::uint8
 }
 
 double AggregationAmg::next_setup_ms() const {
-  // Before the first build: ~2.5 us per tet (58-75 ms measured on the 27k-tet organ, two
-  // loaded cores), so that a budgeted frame does not find out by building.
+  // Before the first build: an estimate per tet (docs/solver.md#behind-the-constants), so that a budgeted frame
+  // does not find out by building.
   if (stale_ || !coarse_) return build_ms_ > 0 ? smoother_ms_ + build_ms_ : 2.5e-3 * double(model_->mesh().num_tets());
   if (!pending_.empty() && patch_ms_ > 0) return smoother_ms_ + patch_ms_;
   return smoother_ms_ > 0 ? smoother_ms_ : -1;
@@ -567,9 +564,8 @@ void AggregationAmg::apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
     if (!coarse) return;
     // Fixed-size 6-vectors per aggregate (P's columns beyond k are zero, and the factor
     // returns zero there).
-    // Aggregates own disjoint vertices: both passes split over them on large meshes (the
-    // application was serial beside a two-thread K x; ~0.18 ms of ~0.75 a CG iteration on
-    // the organ).
+    // Aggregates own disjoint vertices: both passes split over them on large meshes (serial,
+    // the application was a large share of a CG iteration beside a parallel K x).
     const std::size_t na = agg_.count();
     rc_.resize(na);
     auto over_aggregates = [&](auto&& f) {

@@ -15,12 +15,8 @@
 //
 // Application, z = M^-1 r:
 //  - additive (default): z = S r + P A_c^-1 P^T r, no product; SPD for any SPD A_c. About
-//    twice the iterations of the multiplicative cycle at a third of the cost each; its median
-//    frame on the organ cut scene was never slower in the runs measured (docs/solver.md; amg
-//    alone had the worse p95 in two quiet runs, 43 / 41 ms against 36 / 38): default policy,
-//    24.4 / 24.6 ms median a frame against 25.8 / 26.1 (p95 33.3 / 33.4 against 38.0 / 35.5)
-//    on a quiet machine; amg alone 27.5-29 against 33-41 in slower runs. The same within run-to-
-//    run variation under a 16 ms budget at 96.7k tets, and for MINRES on the mixed formulation.
+//    twice the iterations of the multiplicative cycle at a third of the cost each; its frame
+//    on the organ cut scene was never slower (docs/solver.md#what-the-frame-through-a-cut-is-made-of).
 //  - multiplicative: a symmetric two-level V-cycle, damped block-Jacobi S before and after the
 //    coarse correction: z = w S r; z += P A_c^-1 P^T (r - A z); z += w S (r - A z). Two
 //    products A x per application. SPD when w < 2 / lambda_max(S A) (w is 4/3 over an
@@ -37,7 +33,8 @@
 // so does, for corotational models, a frame that needed more than `rebuild_iterations`
 // iterations (off by default: between cuts A_c keeps its rotations, the smoother reads the
 // current blocks). `topology_rebuild_iterations` > 0 instead keeps the stale hierarchy after a
-// change until a frame needs that many iterations (measured slower than patching). Patches and
+// change until a frame needs that many iterations (slower than patching: bench_fem_precond
+// --only cut-scene, "amg lazy"). Patches and
 // builds run in setup(), so CG's budget planning sees them (next_setup_ms() says whether one
 // is due) and a budget that cannot afford one uses cheaper() (block-Jacobi) for the frame.
 // Nodal-averaged models (sim/formulation.h): A_c also carries the Galerkin product of the

@@ -32,9 +32,9 @@ using FactorType = Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Low
 #endif
 
 // The factorization thread yields to the frame: at the lowest priority it runs on what the
-// frame's parallel loops leave idle, instead of halving them (a 2 ms budget on the 80x8x8
-// cantilever held in 38% of frames while the first factor ran at normal priority). Linux sets
-// nice per thread; elsewhere this does nothing.
+// frame's parallel loops leave idle, instead of halving them (at normal priority a 2 ms budget
+// often did not hold while the first factor ran: docs/solver.md#behind-the-constants). Linux sets nice per thread;
+// elsewhere this does nothing.
 void yield_to_frames() {
 #ifdef __linux__
   setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 19);

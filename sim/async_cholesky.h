@@ -47,15 +47,15 @@ struct AsyncCholeskyOptions {
   // start no factorization; once `settle_frames` frames passed without a change, factorize,
   // and use the factor again when one of the settled topology lands. 0: keep preconditioning
   // with the stale factor (with block-Jacobi corrections) and refactor after every change.
-  // Measured on the organ cut scene (bench_fem_precond --only cut-scene): the stale factor
-  // takes ~5x the time per frame of block-Jacobi while the blade moves (fewer iterations, each
-  // a triangular solve), and a core stays busy refactoring; hence the default.
+  // On the organ cut scene (bench_fem_precond --only cut-scene) the stale factor took several
+  // times the frame of block-Jacobi while the blade moves (fewer iterations, each a triangular
+  // solve), and a core stays busy refactoring; hence the default (docs/solver.md#behind-the-constants).
   int settle_frames = 3;
   // While the blade moves (settle_frames) and before the first factor lands, precondition with
   // the aggregation multigrid (sim/aggregation_amg.h) instead of block-Jacobi; the FEM frame
   // driver makes it and attaches it (set_moving). Block-Jacobi stays the budget's cheaper one.
-  // On by default: through the organ cut scene it took the median frame from 84-91 to 58-66 ms
-  // and the p95 from 248-288 to 105-107 (docs/solver.md); between cuts nothing changes.
+  // On by default: it shortened the organ cut scene's frames through the cut (docs/solver.md#behind-the-constants);
+  // between cuts nothing changes.
   bool settle_with_amg = true;
 };
 

@@ -3,10 +3,9 @@
 // blocks: the multigrid's coarse matrix (sim/aggregation_amg.h), one block row per aggregate
 // (its rigid-body modes), a few hundred blocks, refactored at every cut step.
 //
-// Why not CHOLMOD: on the organ's coarse matrix (822 unknowns, 52k nonzeros in L) its
-// simplicial LL^T took 3.6 ms a refactorization with the AMD ordering and the triplet
-// assembly, a sixth of a cut frame; this one works on the block graph (137 nodes, not 822
-// unknowns), orders it by exact minimum degree (the graph is small enough for dense bit
+// Why not CHOLMOD: on the organ's coarse matrix its simplicial LL^T with the AMD ordering and
+// the triplet assembly took a sixth of a cut frame (docs/solver.md, "The coarse factor"); this
+// one works on the block graph (a node per aggregate, not one per unknown), orders it by exact minimum degree (the graph is small enough for dense bit
 // rows), gets L's pattern from that same elimination, and does the numeric work as
 // fixed-size 6x6 products (bench_fem_precond --only amg-build prints both).
 //

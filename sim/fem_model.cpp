@@ -37,8 +37,7 @@ void parallel_range(std::size_t n, F&& f) {
 }
 
 // Below this many tets the volumetric passes run serially: four parallel loops per product cost
-// more in thread wake-ups than they give (as the kernel's kSerialBelow; measured on 40x4x4, 3.8k
-// tets: 0.66 ms a product in parallel on a busy 2-core machine).
+// more in thread wake-ups than they give (as the kernel's kSerialBelow; docs/solver.md#behind-the-constants).
 constexpr std::size_t kVolumetricSerialBelow = 8000;
 
 template <class F>
@@ -593,7 +592,7 @@ Eigen::SparseMatrix<double, Eigen::RowMajor> FemModel::nodal_b() const {
 // the corner forces, added into *y when given. In parallel each pass is conflict-free (vertices
 // gather their corners' div and forces through corner_slots_). Small meshes run serially and
 // scatter instead: every pass then sweeps the tets in order, no per-vertex slot lists to chase
-// and no per-corner scratch (40x4x4: 0.19 ms a product, 0.23-0.28 ms with the parallel passes).
+// and no per-corner scratch (docs/solver.md#behind-the-constants).
 void FemModel::volumetric_pass(const Eigen::VectorXd* x, bool rotation, double sign, Eigen::VectorXd* y) const {
   const bool corot = kind_ == FemKind::Corotational;
   const bool serial = tet_capacity_ < kVolumetricSerialBelow;

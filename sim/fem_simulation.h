@@ -82,7 +82,7 @@ struct FemSimulationOptions {
   int nonlinear_iterations = 1;                         // corotational re-linearizations per static frame
   // With cg.budget_ms: the corotational rotations may take at most this share of the budget
   // (measured per packet of tets); the tets that do not fit are refreshed in the next frames,
-  // in turn (FemModel::update_rotations_partial). At 97k tets a full refresh took 23 ms.
+  // in turn (FemModel::update_rotations_partial; docs/solver.md#behind-the-constants).
   double relinearize_share = 0.5;
   // Corotational: hold tets whose volume ratio falls below inversion_barrier.j_min (0: off;
   // sim/inversion_barrier.h, docs/solver.md#inversion-barrier).

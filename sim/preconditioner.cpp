@@ -68,8 +68,8 @@ namespace {
 
 // The inverse of a symmetric 3x3 block (its lower triangle) by the adjugate, when Sylvester's
 // criterion says it is positive definite. About 40 flops: an LLT and a solve against the
-// identity per block took 0.6-1.0 ms a frame on the organ's 5,800 vertices, a frame that sets
-// the blocks up again each time the rotations change.
+// identity per block cost a noticeable share of a frame that sets the blocks up again each
+// time the rotations change (docs/solver.md, "The coarse factor").
 bool spd_inverse(const Eigen::Matrix3d& m, Eigen::Matrix3d& inv) {
   const double a = m(0, 0), b = m(1, 0), c = m(2, 0), d = m(1, 1), e = m(2, 1), f = m(2, 2);
   const double ca = d * f - e * e, cb = c * e - b * f, cc = b * e - c * d;

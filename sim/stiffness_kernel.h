@@ -66,7 +66,7 @@ public:
 
   std::size_t slabs() const { return blocks_.size() - 1; }
 
-  static constexpr std::size_t kLanes = 8;  // tets per packet (measured best of 4, 8, 16, 32 at 1M tets)
+  static constexpr std::size_t kLanes = 8;  // tets per packet (the best of 4, 8, 16, 32: docs/solver.md#behind-the-constants)
   // Struct of arrays per packet of kLanes tets (array of structs of arrays): a packet is what the
   // arithmetic loop reads, contiguous, in one piece. Unused lanes hold zeros.
   struct Packet {
