@@ -1,17 +1,23 @@
-// Preconditioners, budgets and warm start, each against a baseline measured in the same run:
-//  1. iterations and time per frame on the sample beam scene, an organ and the organ cut
-//     mid-run, for Jacobi (baseline), block-Jacobi, Cholesky (the scene default) and the
-//     aggregation multigrid (amg);
-//  2. budgeted convergence on a cantilever: relative residual against frames at several
-//     budgets, resuming CG (now) against restarting it every frame (before);
-//  3. warm start on a probe moving steadily over 40 frames: iterations of the last solution
-//     and of the prediction against a cold start;
-//  4. a corotational beam bent far with a stale Cholesky factor, rotated (now) against as is;
-//  5. iterations against Poisson's ratio up to 0.4999 for each preconditioner;
-//  6. with --size-tets N: Jacobi against Cholesky on a large model (first-frame wait, memory);
-//  7. --only scaling: each parallel pass and the organ cut frame on 1, 2, 4, ... threads, and
-//     the serial share (issue 37; docs/solver.md#what-each-core-buys).
-//   bench_fem_precond [--organ MESH] [--organ2 MESH] [--scaling-box-tets N] [--beam SCENE] [--budget-tets 30000] [--only SECTION] [--size-tets N] [--out DIR]
+// Preconditioners, budgets and warm start, each against a baseline measured in the same run
+// (--only SECTION runs one):
+//  beam:      iterations and time per frame on the sample beam scene, for Jacobi (baseline),
+//             block-Jacobi, Cholesky (the scene default) and the aggregation multigrid (amg);
+//  organ:     the same on an organ (--organ), uncut and cut mid-run;
+//  budget:    budgeted convergence on a cantilever: relative residual against frames at several
+//             budgets, resuming CG (now) against restarting it every frame (before);
+//  holds:     a 2 ms budget on the 80x8x8 cantilever: the share of frames within 4 ms;
+//  cut-scene: the organ cut scene (--organ) per preconditioner and policy: frame, cut, setup,
+//             solve, iterations, residuals;
+//  amg-build: the multigrid's build phases and applications on the organ;
+//  scaling:   each parallel pass and the organ cut frame on 1, 2, 4, ... threads, and the serial
+//             share (issue 37; docs/solver.md#what-each-core-buys); only with --only;
+//  warm:      warm start on a probe moving steadily over 40 frames: iterations of the last
+//             solution and of the prediction against a cold start;
+//  rotated:   a corotational beam bent far with a stale Cholesky factor, rotated against as is;
+//  poisson:   iterations against Poisson's ratio up to 0.4999 for each preconditioner;
+//  with --size-tets N: Jacobi against Cholesky on a large model (first-frame wait, memory).
+//   bench_fem_precond [--organ MESH] [--organ2 MESH] [--scaling-box-tets N] [--beam SCENE]
+//                     [--budget-tets 30000] [--only SECTION] [--size-tets N] [--out DIR]
 #include <sys/resource.h>
 
 #include <algorithm>

@@ -16,4 +16,7 @@ inline double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
+// Seconds elapsed since t0 (long runs: trade's reference and grid).
+inline double seconds_since(std::chrono::steady_clock::time_point t0) { return ms_since(t0) / 1000; }
+
 }  // namespace incise

@@ -50,9 +50,6 @@ std::string fmt(double v) {
   return s.str();
 }
 
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 TetMesh body_at(const Scene& s, int level, std::string* how) {
   if (level < -1) throw InvalidArgument("trade: resolutions below -1 are not supported");

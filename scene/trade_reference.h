@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 
+#include "mesh/clock.h"
 #include "mesh/point_locator.h"
 #include "scene/trade.h"
 
@@ -18,7 +19,6 @@ namespace incise::trade_detail {
 
 const char* model_name(SceneModel m);
 std::string fmt(double v);  // 4 significant digits
-double seconds_since(std::chrono::steady_clock::time_point t0);
 
 // The scene's body at mesh level `level` (see TradeOptions::resolutions), compacted; `how`
 // (level -1) says how the coarser mesh was made.

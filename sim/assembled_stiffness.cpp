@@ -10,6 +10,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "mesh/clock.h"
 #include "mesh/errors.h"
 
 namespace incise {
@@ -93,7 +94,7 @@ void DirectSolver::compute(const Eigen::SparseMatrix<double>& a, const std::vect
     if (im.llt->info() != Eigen::Success)
       throw Error("direct solver: matrix is singular or indefinite on the free unknowns: too few fixed nodes for a "
                   "static solve?");
-    factorize_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    factorize_ms_ = ms_since(t0);
     return;
   }
 #endif
@@ -107,7 +108,7 @@ void DirectSolver::compute(const Eigen::SparseMatrix<double>& a, const std::vect
     if (!(d[i] > 1e-13 * dmax))
       throw Error("direct solver: matrix is singular or indefinite on the free unknowns (pivot " +
                   std::to_string(d[i]) + "): too few fixed nodes for a static solve?");
-  factorize_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  factorize_ms_ = ms_since(t0);
 }
 
 void DirectSolver::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) const {
