@@ -9,6 +9,7 @@
 #include "cli/commands.h"
 #include "mesh/io/surface.h"
 #include "mesh/io/tet_io.h"
+#include "mesh/rest_bounds.h"
 
 namespace incise::cli {
 
@@ -27,11 +28,8 @@ std::string fmt3(const Vec3& v) {
 void info_tet(const std::string& file, bool json) {
   ReadReport report;
   TetMesh m = read_tet_mesh(file, &report);
-  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
-  for (VertexId v : m.vertices()) {
-    lo = lo.cwiseMin(m.rest(v));
-    hi = hi.cwiseMax(m.rest(v));
-  }
+  const RestBounds box = rest_bounds(m);
+  const Vec3 lo = box.lo, hi = box.hi;
   std::map<int, std::size_t> labels;
   double volume = 0, min_volume = std::numeric_limits<double>::infinity();
   for (TetId t : m.tets()) {

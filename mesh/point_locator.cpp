@@ -6,6 +6,8 @@
 
 #include <Eigen/Dense>
 
+#include "mesh/rest_bounds.h"
+
 namespace incise {
 
 namespace {
@@ -47,11 +49,8 @@ Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3
 
 PointLocator::PointLocator(const TetMesh& mesh) : mesh_(&mesh) {
   if (mesh.num_tets() == 0) return;
-  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::max()), hi = -lo;
-  for (VertexId v : mesh.vertices()) {
-    lo = lo.cwiseMin(mesh.rest(v));
-    hi = hi.cwiseMax(mesh.rest(v));
-  }
+  const RestBounds box = rest_bounds(mesh);
+  const Vec3 lo = box.lo, hi = box.hi;
   // About one tet per cell: cells of the mean tet's size.
   const Vec3 ext = (hi - lo).cwiseMax(1e-12 * std::max(1.0, (hi - lo).maxCoeff()));
   cell_ = std::cbrt(ext.prod() / double(mesh.num_tets())) * 1.5;

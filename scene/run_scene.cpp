@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "mesh/errors.h"
+#include "mesh/rest_bounds.h"
 #include "scene/scene_output.h"
 #include "scene/scene_runner.h"
 
@@ -14,14 +15,7 @@ namespace incise {
 
 namespace {
 
-double body_size(const TetMesh& mesh) {
-  Vec3 lo = Vec3::Constant(1e300), hi = -lo;
-  for (VertexId v : mesh.vertices()) {
-    lo = lo.cwiseMin(mesh.rest(v));
-    hi = hi.cwiseMax(mesh.rest(v));
-  }
-  return mesh.num_vertices() == 0 ? 0.0 : (hi - lo).maxCoeff();
-}
+double body_size(const TetMesh& mesh) { return rest_bounds(mesh).size().maxCoeff(); }
 
 Vec3 gravity(const Scene& s) {
   Vec3 g = Vec3::Zero();

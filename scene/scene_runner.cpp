@@ -10,6 +10,7 @@
 
 #include "mesh/clock.h"
 #include "mesh/errors.h"
+#include "mesh/rest_bounds.h"
 
 namespace incise {
 
@@ -151,12 +152,9 @@ SceneRunner::SceneRunner(const Scene& scene, const TetMesh* mesh) : scene_(scene
   if (mesh_.num_tets() == 0) fail(s, "mesh", "the mesh has no tetrahedra");
 
   // ---- boxes -> vertex sets (checked before anything is written) -----------------------
-  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
-  for (VertexId v : mesh_.vertices()) {
-    lo = lo.cwiseMin(mesh_.rest(v));
-    hi = hi.cwiseMax(mesh_.rest(v));
-  }
-  size_ = (hi - lo).norm();  // the body's size, for the blow-up check
+  const RestBounds box = rest_bounds(mesh_);
+  const Vec3 lo = box.lo, hi = box.hi;
+  size_ = box.size().norm();  // the body's size, for the blow-up check
   const double tol = 1e-9 * size_;
   auto select = [&](const SceneBox& b, const std::string& key) {
     std::vector<VertexId> out;

@@ -8,6 +8,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include "mesh/rest_bounds.h"
 #include "sim/simd_clones.h"
 
 #if defined(__GNUC__) && defined(__x86_64__)
@@ -296,12 +297,8 @@ bool StiffnessKernel::simd_available() {
 }
 
 void StiffnessKernel::configure(const TetMesh& mesh) {
-  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::max()), hi = -lo;
-  for (VertexId v : mesh.vertices()) {
-    lo = lo.cwiseMin(mesh.rest(v));
-    hi = hi.cwiseMax(mesh.rest(v));
-  }
-  const Vec3 ext = (hi - lo).cwiseMax(0.0);
+  const RestBounds box = rest_bounds(mesh);
+  const Vec3 ext = box.size();
   // The axis along which vertex ids vary slowest (smallest mean step between consecutive ids,
   // relative to the extent): a slab is then a narrow range of ids, so each task sweeps a
   // compact part of x and y. Structured meshes number one axis last; spatially sorted ones
@@ -329,7 +326,7 @@ void StiffnessKernel::configure(const TetMesh& mesh) {
   std::size_t n = 48;
   if (widest > 0) n = std::min<std::size_t>(n, std::size_t(std::max(1.0, std::floor(len / (1.02 * widest)))));
   if (!(len > 0) || n < 6) n = 1;  // too short to split: one slab, serial
-  origin_ = lo[axis_];
+  origin_ = box.empty() ? 0.0 : box.lo[axis_];
   width_ = len > 0 ? len / double(n) : 1.0;
   blocks_.assign(n + 1, Block{});
 }

@@ -11,6 +11,7 @@
 #include "mesh/clock.h"
 #include "mesh/errors.h"
 #include "mesh/io/atomic_file.h"
+#include "mesh/rest_bounds.h"
 #include "quality/metrics.h"
 #include "scene/scene_output.h"
 #include "scene/scene_record.h"
@@ -99,13 +100,9 @@ LiveSession::LiveSession(const Scene& scene, std::string record_dir)
       throw IoError(record_dir_, 0, "--record: neither this directory nor its parent " + dir.parent_path().string() +
                                         " exists (create it first)");
   }
-  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
-  for (VertexId v : state_->runner.mesh().vertices()) {
-    lo = lo.cwiseMin(state_->runner.mesh().rest(v));
-    hi = hi.cwiseMax(state_->runner.mesh().rest(v));
-  }
-  body_size_ = (hi - lo).norm();
-  body_center_ = 0.5 * (lo + hi);
+  const RestBounds box = rest_bounds(state_->runner.mesh());
+  body_size_ = box.size().norm();
+  body_center_ = box.center();
   publish();
 }
 

@@ -15,6 +15,7 @@
 #include "mesh/errors.h"
 #include "mesh/io/input_file.h"
 #include "mesh/io/tet_io.h"
+#include "mesh/rest_bounds.h"
 #include "quality/report.h"
 #include "view/boundary_tracker.h"
 
@@ -337,9 +338,7 @@ void LookSession::show(std::size_t frame) {
   // gets only the positions that moved; otherwise it starts over.
   if (!snapshot_ || snapshot_->tris != snap->tris) ++generation_;
   snap->generation = generation_;
-  Vec3 lo = Vec3::Constant(INFINITY), hi = Vec3::Constant(-INFINITY);
-  for (VertexId v : mesh.vertices()) lo = lo.cwiseMin(mesh.rest(v)), hi = hi.cwiseMax(mesh.rest(v));
-  snap->position_epsilon = float(1e-6 * (hi - lo).norm());
+  snap->position_epsilon = float(1e-6 * rest_bounds(mesh).size().norm());
   snap->triangles = triangles;
   snap->cut_triangles = cut;
   snap->tets = mesh.num_tets();
