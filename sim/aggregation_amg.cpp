@@ -363,19 +363,12 @@ void AggregationAmg::coarse_rows(const std::vector<std::uint32_t>& which) {
   const double c = stiffness_coeff_, am = mass_coeff_;
   const Eigen::VectorXd& mass = model_->lumped_mass();
   const bool nodal = model_->nodal_averaged();
-  // Nodal-averaged rows reach the 2-ring (~80 vertices): a per-thread position map replaces the
-  // linear search of the 1-ring rows there. Entries are summed in the same order either way.
-  tbb::enumerable_thread_specific<std::vector<std::int32_t>> positions;
-  const std::size_t slots = model_->vertex_slots();
+
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, which.size(), 8), [&](const tbb::blocked_range<std::size_t>& range) {
     std::vector<std::pair<std::uint32_t, Eigen::Matrix3d>> fine;  // v's row: (w, A_vw)
     std::vector<std::pair<std::uint32_t, Eigen::Vector3d>> brow;  // a row of B
-    std::vector<std::uint32_t> ring;                              // v's 1-ring
-    std::vector<std::int32_t>* pos = nullptr;
-    if (nodal) {
-      pos = &positions.local();
-      if (pos->size() < slots) pos->assign(slots, -1);
-    }
+    std::vector<std::uint32_t> arows;                             // nodal: the B rows reaching ai
+    std::vector<std::pair<std::int32_t, Vec6>> coarse_b;          // nodal: a B row times P
     for (std::size_t wi = range.begin(); wi != range.end(); ++wi) {
       const std::size_t ai = which[wi];
       auto& row = rows_[ai];
@@ -390,16 +383,7 @@ void AggregationAmg::coarse_rows(const std::vector<std::uint32_t>& which) {
       for (std::uint32_t v : agg_.members[ai]) {
         fine.clear();
         fine.emplace_back(v, (am * mass[Eigen::Index(3 * v)]) * Eigen::Matrix3d::Identity());
-        if (pos) (*pos)[v] = 0;
         auto fine_block = [&](std::uint32_t w) -> Eigen::Matrix3d& {
-          if (pos) {
-            std::int32_t& at = (*pos)[w];
-            if (at < 0) {
-              at = std::int32_t(fine.size());
-              fine.emplace_back(w, Eigen::Matrix3d::Zero());
-            }
-            return fine[std::size_t(at)].second;
-          }
           for (auto& [id, m] : fine)
             if (id == w) return m;
           fine.emplace_back(w, Eigen::Matrix3d::Zero());
@@ -428,26 +412,6 @@ void AggregationAmg::coarse_rows(const std::vector<std::uint32_t>& which) {
             a.noalias() += (vlam * hr[i]) * hr[j].transpose();
           }
         }
-        if (nodal) {
-          // The volumetric term's row of v: sum over a in v's 1-ring of B_a^T B_a's blocks (v, w),
-          // (row a of B at v) (row a of B at w)^T, so A_c is the Galerkin product of all of K.
-          ring.clear();
-          for (TetId t : mesh.incident_tets(VertexId(v)))
-            if (model_->tet_alive(t))
-              for (std::uint32_t a : model_->tet_vertex_ids(t)) ring.push_back(a);
-          std::sort(ring.begin(), ring.end());
-          ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
-          for (std::uint32_t a : ring) {
-            model_->nodal_b_row(a, brow);
-            Eigen::Vector3d dv = Eigen::Vector3d::Zero();
-            for (const auto& [w, d] : brow)
-              if (w == v) dv = c * d;
-            for (const auto& [w, d] : brow)
-              if (agg_.of[w] >= 0) fine_block(w).noalias() += dv * d.transpose();
-          }
-        }
-        if (pos)
-          for (const auto& [w, m] : fine) (*pos)[w] = -1;
         const Eigen::Vector3d& pv = pos_[v];
         for (const auto& [w, a] : fine) {
           // B_v^T A B_w with B = [I | -[p]x]: M = A B_w = [A | -A [p_w]x], then (M; p_v x M).
@@ -461,8 +425,54 @@ void AggregationAmg::coarse_rows(const std::vector<std::uint32_t>& which) {
       }
   // Into the orthonormal coarse basis.
       for (auto& [b, m] : row) m = t_[ai].transpose() * m * t_[std::size_t(b)];
+      if (nodal) volumetric_rows(ai, row, arows, brow, coarse_b);
     }
   });
+}
+
+// Nodal-averaged K's volumetric part, c B^T B, straight into aggregate ai's coarse row:
+// P^T B^T B P = sum over vertices a of (B_a P)^T (B_a P), B_a P a row of 6-vectors, one per
+// aggregate a's B row reaches. Only the a whose B row reaches ai's members count: the 1-rings
+// of the members. Each B row is made once per aggregate (not once per member whose ring holds
+// it) and no 2-ring of fine blocks is built.
+void AggregationAmg::volumetric_rows(std::size_t ai, std::vector<std::pair<std::int32_t, Mat6>>& row,
+                                     std::vector<std::uint32_t>& arows,
+                                     std::vector<std::pair<std::uint32_t, Eigen::Vector3d>>& brow,
+                                     std::vector<std::pair<std::int32_t, Vec6>>& coarse_b) const {
+  const TetMesh& mesh = model_->mesh();
+  const double c = stiffness_coeff_;
+  arows.clear();
+  for (std::uint32_t v : agg_.members[ai])
+    for (TetId t : mesh.incident_tets(VertexId(v)))
+      if (model_->tet_alive(t))
+        for (std::uint32_t a : model_->tet_vertex_ids(t)) arows.push_back(a);
+  std::sort(arows.begin(), arows.end());
+  arows.erase(std::unique(arows.begin(), arows.end()), arows.end());
+  auto block = [&](std::int32_t b) -> Mat6& {
+    for (auto& [id, m] : row)
+      if (id == b) return m;
+    row.emplace_back(b, Mat6::Zero());
+    return row.back().second;
+  };
+  for (std::uint32_t a : arows) {
+    model_->nodal_b_row(a, brow);
+    coarse_b.clear();
+    const Vec6* mine = nullptr;
+    for (const auto& [w, d] : brow) {
+      const std::int32_t b = agg_.of[w];
+      if (b < 0) continue;
+      const Vec6 r = p_[w].transpose() * d;  // d^T P_w, P_w = B_w T_b
+      auto it = std::find_if(coarse_b.begin(), coarse_b.end(), [&](const auto& e) { return e.first == b; });
+      if (it == coarse_b.end())
+        coarse_b.emplace_back(b, r);
+      else
+        it->second += r;
+    }
+    for (const auto& [b, r] : coarse_b)
+      if (std::size_t(b) == ai) mine = &r;
+    if (!mine) continue;
+    for (const auto& [b, r] : coarse_b) block(b).noalias() += (c * *mine) * r.transpose();
+  }
 }
 
 // The coarse matrix from the rows (lower triangle; aggregates left empty by a patch have no

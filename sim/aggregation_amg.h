@@ -115,6 +115,11 @@ private:
   void patch(const LinearOperator& a, const std::vector<std::uint8_t>* free);
   void prolongator(const std::vector<std::uint32_t>& aggregates);  // centre, scale, T, P rows
   void coarse_rows(const std::vector<std::uint32_t>& aggregates);   // their rows_ of A_c
+  // Nodal-averaged: the volumetric part of aggregate ai's row (scratch vectors per thread).
+  void volumetric_rows(std::size_t ai, std::vector<std::pair<std::int32_t, Eigen::Matrix<double, 6, 6>>>& row,
+                       std::vector<std::uint32_t>& arows,
+                       std::vector<std::pair<std::uint32_t, Eigen::Vector3d>>& brow,
+                       std::vector<std::pair<std::int32_t, Eigen::Matrix<double, 6, 1>>>& coarse_b) const;
   void refresh_halo(std::size_t first);  // nodal-averaged: rows the patch's 1-ring changed
   void factor();                                                    // A_c from rows_, factored
   double estimate_lambda_max(const LinearOperator& a, const std::vector<std::uint8_t>* free) const;
