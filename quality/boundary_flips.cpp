@@ -71,7 +71,8 @@ std::optional<BoundaryEdgeRemoval> plan_boundary_edge_removal(const TetMesh& mes
   const bool coplanar = m > 1 && n.norm() > 0 && std::abs(n.normalized().dot(pm - pa)) <= 1e-10 * h;
   double six_v = 0;  // 6 V(a, b, c0, cm): what the surface moves by
   if (!coplanar) {
-    if (!reshape) return std::nullopt;
+    // A cut is made of tet faces exactly where the blade went: its faces never move.
+    if (!reshape || mesh.face_tag(t0, f0) == kTagCut) return std::nullopt;
     // The old edge must stay near the new one (a cap triangle's long edge, a gently bent quad).
     const Vec3 u = pb - pa, w = pm - p0;
     const double cross = u.cross(w).norm(), shorter = std::min(u.norm(), w.norm());
