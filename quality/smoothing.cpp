@@ -168,7 +168,8 @@ Freedom freedom(const TetMesh& mesh, VertexId v, const ImproveScope& scope, cons
     n += normals.back();
     h = std::max(h, (mesh.rest(f[1]) - pv).norm());
   }
-  // Sliding along a bent feature line moves the surface: as a curved slide does, once per pass.
+  // Sliding along a bent feature line moves the surface: it counts as a curved slide (and
+  // happens at most once a vertex a pass, see feature_line).
   const bool slid_enough = opt.curved_slides && slides_of(*opt.curved_slides, v) >= opt.max_curved_slides;
   const bool may_bend = opt.slide_curved && opt.feature_line_angle_deg > 0 && !cut && !fr.tags.empty() && !slid_enough;
   if (mixed) {

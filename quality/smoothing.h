@@ -9,8 +9,10 @@
 // edge sharper than feature_angle_deg; only with slide_curved, never for cut faces) it moves
 // in the tangent plane and is projected back onto the old disc, so it stays on the old
 // surface (the surface then changes by at most the disc's sagitta). A vertex on a straight
-// crease (tags or planes change across two boundary edges in line) slides along it. Other
-// vertices (corners, curved feature edges, where three labels meet) stay. The move goes through
+// crease (tags or planes change across two boundary edges in line) slides along it; one on a
+// bent feature line (exactly two feature edges, with slide_curved and feature_line_angle_deg)
+// slides along the old line, onto one of its two old segments. Other vertices (corners, where
+// three labels meet) stay. The move goes through
 // TetMesh::move_vertex, recorded as a point of the mesh before the move.
 #include <cstdint>
 #include <unordered_map>
