@@ -79,7 +79,8 @@ void add_prepare(CLI::App& app) {
           io.volume_tolerance = 1;
           // Without a volume limit the surface-moving operations are held to what they were
           // before the allowance existed: one slide a vertex, no feature lines, no surface flips
-          // (with them the 1.7% liver's sub-percent tangles passed the readers' 2% tolerance).
+          // (with them the improvement's tangles can pass the readers' overlap tolerance:
+          // docs/improve.md, "Reshaping the surface").
           io.max_curved_slides = 1;
           io.slide_feature_lines = false;
           io.reshape_surface = false;

@@ -75,9 +75,6 @@ struct ImproveOptions {
                                      // not coplanar (quality/boundary_flips.h), within the volume allowance,
                                      // when the old edge stays within surface_flip_deviation of the new one
   double surface_flip_deviation = 0.1;  // ... distance between the old and new edge, relative to the shorter
-  int insertion_stages = 4;          // with insertion: the tets that may take a vertex are those below
-                                     // target * k / stages, k = 1..stages in turn, each run to convergence:
-                                     // the growth cap is spent on the worst tets first (1: all at once)
   std::span<const VertexId> frozen;  // vertices that must not move or be removed
   int rings = 2;                     // local mode: rings grown around the seeds
   int max_ring = 7;                  // edge removal: largest ring (tets around the edge) tried
