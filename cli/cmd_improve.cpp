@@ -21,7 +21,8 @@ void add_improve(CLI::App& app) {
   struct Opts {
     std::string in, out, json;
     ImproveOptions improve;
-    bool no_flips = false, no_multi_face = false, no_smoothing = false, fixed_boundary = false, keep_surface = false, insert = false;
+    bool no_flips = false, no_multi_face = false, no_smoothing = false, fixed_boundary = false, keep_surface = false, insert = false,
+         no_surface_flips = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("improve", "Improve element quality by flips, contraction and smoothing (surface and label volumes kept within --volume-tolerance)");
@@ -57,8 +58,25 @@ void add_improve(CLI::App& app) {
       ->check(finite_range(0, 1))
       ->capture_default_str();
   cmd->add_option("--feature-angle", o->improve.feature_angle_deg,
-                  "Surface edges bent more than this (degrees) are features: their vertices stay")
+                  "Surface edges bent more than this (degrees) are features: their vertices stay, or slide along "
+                  "their line (--feature-line-angle)")
       ->check(finite_range(0, 180))
+      ->capture_default_str();
+  cmd->add_option("--feature-line-angle", o->improve.feature_line_angle_deg,
+                  "A vertex on exactly two feature edges slides along the old line when it bends there by at most "
+                  "this (degrees; 0: never), within --volume-tolerance")
+      ->check(finite_range(0, 180))
+      ->capture_default_str();
+  cmd->add_option("--max-slides", o->improve.max_curved_slides,
+                  "How often one vertex may slide on a curved part or a feature line in a pass")
+      ->check(CLI::Range(0, 1000))
+      ->capture_default_str();
+  cmd->add_flag("--no-surface-flips", o->no_surface_flips,
+                "Boundary flips only between coplanar faces (by default also between faces of one tag that are "
+                "not coplanar, within --volume-tolerance)");
+  cmd->add_option("--surface-flip-deviation", o->improve.surface_flip_deviation,
+                  "A surface flip's old edge stays within this times the shorter of the old and new edge of the new one")
+      ->check(finite_range(0, 1))
       ->capture_default_str();
   cmd->callback([o] {
     check_improve_options(o->improve, CliNames{});
@@ -70,6 +88,8 @@ void add_improve(CLI::App& app) {
     opt.move_surface = !o->fixed_boundary;
     opt.slide_curved = !o->keep_surface;
     opt.insertion = o->insert;
+    opt.reshape_surface = !o->no_surface_flips;
+    opt.slide_feature_lines = opt.feature_line_angle_deg > 0;
     OutputTransaction tx;  // the mesh and the report: both written or neither
     reserve_tet_mesh_output(tx, o->out);
     if (!o->json.empty()) tx.reserve(o->json, "--json");
@@ -85,6 +105,7 @@ void add_improve(CLI::App& app) {
       j["input"] = o->in;
       j["output"] = o->out;
       j["boundary_angle"] = bound ? nlohmann::json(bound->degrees) : nlohmann::json(nullptr);
+      j["max_growth"] = opt.max_growth;
       tx.write_text(o->json, j.dump(2) + "\n");
     }
     tx.commit();

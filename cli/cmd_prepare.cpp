@@ -77,6 +77,13 @@ void add_prepare(CLI::App& app) {
           // input's): sliding on it is not limited by volume, the summary line says what it moved.
           io.slide_curved = true;
           io.volume_tolerance = 1;
+          // Without a volume limit the surface-moving operations are held to what they were
+          // before the allowance existed: one slide a vertex, no feature lines, no surface flips
+          // (with them the improvement's tangles can pass the readers' overlap tolerance:
+          // docs/improve.md, "Reshaping the surface").
+          io.max_curved_slides = 1;
+          io.slide_feature_lines = false;
+          io.reshape_surface = false;
           imp = improve(mesh, io);
           mesh.discard_change();
           if (!quiet) std::cerr << format_improve_report(imp);

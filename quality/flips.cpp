@@ -64,7 +64,7 @@ void consider_flip23(const TetMesh& mesh, TetId t, int f, const ImproveScope& sc
 }
 
 void consider_edge_removal(const TetMesh& mesh, VertexId a, VertexId b, const ImproveScope& scope, int max_ring,
-                           std::vector<Candidate>& out) {
+                           const SurfaceReshape* reshape, std::vector<Candidate>& out) {
   TetMesh::EdgeStar star;
   try {
     star = mesh.edge_star(a, b);
@@ -73,7 +73,7 @@ void consider_edge_removal(const TetMesh& mesh, VertexId a, VertexId b, const Im
   }
   const int n = static_cast<int>(star.tets.size());
   if (!star.closed) {
-    if (auto plan = plan_boundary_edge_removal(mesh, a, b, scope, max_ring)) {
+    if (auto plan = plan_boundary_edge_removal(mesh, a, b, scope, max_ring, reshape)) {
       Candidate c;
       c.after = plan->after;
       c.kind = FlipOutcome::BoundaryFlip;
@@ -142,7 +142,7 @@ FlipOutcome improve_by_flip(TetMesh& mesh, TetId t, const ImproveScope& scope, c
     if (opt.multi_face) consider_multi_face(mesh, t, f, scope, opt.max_sandwich, cands);
   }
   for (int i = 0; i < 4; ++i)
-    for (int j = i + 1; j < 4; ++j) consider_edge_removal(mesh, v[i], v[j], scope, opt.max_ring, cands);
+    for (int j = i + 1; j < 4; ++j) consider_edge_removal(mesh, v[i], v[j], scope, opt.max_ring, opt.reshape, cands);
   // Best result first; the mesh's own check may still refuse one (an edge the flip would
   // create exists elsewhere, or a new tet is too flat to trust its orientation).
   std::sort(cands.begin(), cands.end(), [](const Candidate& x, const Candidate& y) { return x.after.q > y.after.q; });
@@ -151,6 +151,9 @@ FlipOutcome improve_by_flip(TetMesh& mesh, TetId t, const ImproveScope& scope, c
     if (growth_of(c) > scope.growth_left) continue;
     if (c.kind == FlipOutcome::BoundaryFlip) {
       out.added = remove_boundary_edge(mesh, *c.boundary);
+      out.surface_moved = c.boundary->volume_change != 0;
+      if (out.surface_moved && opt.reshape_volume)
+        opt.reshape_volume->moved[c.boundary->label] += c.boundary->volume_change;
     } else if (!c.faces.empty()) {  // multi-face removal (a 4-4 flip when it has two faces)
       if (!mesh.is_multi_face_removal_ok(c.a, c.b, c.faces)) continue;
       out.added = mesh.remove_faces(c.a, c.b, c.faces);

@@ -106,10 +106,20 @@ public:
     smooth_.move_interface = opt.move_interface;
     smooth_.slide_curved = opt.slide_curved;
     smooth_.feature_angle_deg = opt.feature_angle_deg;
+    smooth_.feature_line_angle_deg = opt.slide_feature_lines ? opt.feature_line_angle_deg : 0;
     smooth_.iterations = opt.smoothing_iterations;
     smooth_.frozen = &frozen_;
-    smooth_.curved_slid = &curved_slid_;
+    smooth_.curved_slides = &curved_slides_;
+    smooth_.max_curved_slides = opt.max_curved_slides;
     if (opt.slide_curved) smooth_.volume = &volume_;
+    // Boundary flips that move the surface: where curved slides may (not on cut faces: a cut
+    // is made of tet faces exactly where the blade went).
+    if (opt.slide_curved && opt.reshape_surface && opt.move_surface) {
+      reshape_.deviation = opt.surface_flip_deviation;
+      reshape_.volume = &volume_;
+      flip_.reshape = &reshape_;
+      flip_.reshape_volume = &volume_;
+    }
     collapse_.edge_ratio = opt.collapse_edge_ratio;
     collapse_.tolerance = opt.collapse_tolerance;
     collapse_.surface_deviation = opt.collapse_deviation;
@@ -120,6 +130,7 @@ public:
     collapse_.frozen = &frozen_;
     insert_.max_cavity = opt.max_cavity;
     insert_.iterations = 2 * opt.smoothing_iterations;
+    insert_.growth_refused = &growth_refused_;
     // The boundary keeps its shape under boundary insertion, but its triangulation changes: only
     // where boundary vertices may move at all.
     if (opt.boundary_insertion && (opt.move_surface || opt.move_cut))
@@ -178,6 +189,7 @@ public:
   // (ImproveOptions::radius_ratio_floor). Starting from the converged strict pass, an
   // insertion run never ends worse than the default one.
   bool insertion_allowed = true;
+  bool growth_refused() const { return growth_refused_; }
   void allow_insertion() {
     insertion_allowed = true;
     scope_.targets.radius_ratio_floor = opt_.radius_ratio_floor;
@@ -250,7 +262,7 @@ private:
       const std::uint32_t gone = c->removed_vertex.idx();
       moved.erase(gone);
       stuck_.erase(gone);
-      curved_slid_.erase(gone);
+      curved_slides_.erase(gone);
       replaced(c->removed, c->rebuilt);
       return true;
     }
@@ -278,6 +290,7 @@ private:
       FlipOutcome f = improve_by_flip(mesh_, t, scope_, flip_);
       if (f.kind == FlipOutcome::None) flip_stuck_.insert(t.idx());
       if (f.kind != FlipOutcome::None) {
+        rep.surface_flips += f.surface_moved;
         switch (f.kind) {
           case FlipOutcome::Flip23: ++rep.flips23; break;
           case FlipOutcome::Flip32: ++rep.flips32; break;
@@ -296,11 +309,13 @@ private:
       const auto tv = mesh_.tet_vertices(t);
       for (VertexId v : tv) {
         if (stuck_.count(v.idx())) continue;
-        if (!smooth_vertex(mesh_, v, scope_, smooth_)) {
+        const SmoothMove how = smooth_vertex_how(mesh_, v, scope_, smooth_);
+        if (how == SmoothMove::None) {
           stuck_.insert(v.idx());  // until a tet around it changes
           continue;
         }
         ++rep.smoothing_moves;
+        rep.feature_slides += how == SmoothMove::FeatureLine;
         moved.insert(v.idx());
         any = true;
         const auto inc = mesh_.incident_tets(v);
@@ -312,6 +327,8 @@ private:
     }
     // Insertion checks its growth against scope_.growth_left. (Ids freed by this pass's
     // contractions are not reused before the batch ends, so both can mix.)
+    if (!any && opt_.insertion && insertion_allowed && mesh_.is_alive(t) && scope_.growth_left <= 0)
+      growth_refused_ = true;
     if (!any && opt_.insertion && insertion_allowed && mesh_.is_alive(t) && scope_.growth_left > 0 &&
         (opt_.insertion_below_deg <= 0 ||
          angle_quality(mesh_, t, AngleTargets{}).min_dihedral < opt_.insertion_below_deg)) {
@@ -336,8 +353,10 @@ private:
   SmoothOptions smooth_;
   CollapseOptions collapse_;
   InsertionOptions insert_;
+  SurfaceReshape reshape_;
+  bool growth_refused_ = false;
   std::unordered_set<std::uint32_t> frozen_;
-  std::unordered_set<std::uint32_t> curved_slid_;
+  std::unordered_map<std::uint32_t, int> curved_slides_;
   VolumeAllowance volume_;
   // Smoothing (vertices) or flips (tets) failed and nothing around changed since.
   std::unordered_set<std::uint32_t> stuck_, flip_stuck_, collapse_stuck_;
@@ -407,6 +426,7 @@ ImproveReport improve(TetMesh& mesh, const ImproveOptions& opt) {
     for (int round = 0; round < 8 && !rep.budget_exhausted; ++round, ++pass)
       if (!d.sweep(pass == 0 ? all : mesh.tets(), rep, pass == 0 ? &before : nullptr)) break;
   }
+  rep.growth_capped = d.growth_refused();
   rep.min_dihedral_before = before.min_dih;
   rep.max_dihedral_before = before.max_dih;
   rep.min_radius_ratio_before = before.min_rr;
@@ -450,6 +470,7 @@ ImproveReport improve_local(TetMesh& mesh, std::span<const TetId> seeds, const I
     const std::vector<std::uint32_t> ids(region.begin(), region.end());
     if (!d.sweep(ids, rep, pass == 0 ? &before : nullptr)) break;
   }
+  rep.growth_capped = d.growth_refused();
   rep.min_dihedral_before = before.min_dih;
   rep.max_dihedral_before = before.max_dih;
   rep.min_radius_ratio_before = before.min_rr;

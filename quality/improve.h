@@ -64,7 +64,17 @@ struct ImproveOptions {
   double volume_tolerance = 1e-4;    // with slide_curved: curved slides may move each label's volume by at most
                                      // this fraction of it (net; of the region's in local mode), the way
                                      // Stellar bounds surface smoothing. 1: no limit in practice
-  double feature_angle_deg = 30;     // dihedral between boundary faces above which an edge is a feature (fixed)
+  double feature_angle_deg = 30;     // dihedral between boundary faces above which an edge is a feature
+  int max_curved_slides = 3;         // with slide_curved: how often one vertex may slide on a curved disc or a
+                                     // feature line in a pass (each time onto the faces it is on then)
+  bool slide_feature_lines = true;   // with slide_curved: a vertex on exactly two feature edges (a line through
+                                     // it, bent by at most feature_line_angle_deg) slides along the old line,
+                                     // spending the volume allowance like a curved slide
+  double feature_line_angle_deg = 60;  // ... how much such a line may bend at the vertex (degrees)
+  bool reshape_surface = true;       // with slide_curved: boundary edge flips between faces of one tag that are
+                                     // not coplanar (quality/boundary_flips.h), within the volume allowance,
+                                     // when the old edge stays within surface_flip_deviation of the new one
+  double surface_flip_deviation = 0.1;  // ... distance between the old and new edge, relative to the shorter
   std::span<const VertexId> frozen;  // vertices that must not move or be removed
   int rings = 2;                     // local mode: rings grown around the seeds
   int max_ring = 7;                  // edge removal: largest ring (tets around the edge) tried
@@ -86,6 +96,9 @@ struct ImproveReport {
   double seconds = 0;
   std::vector<VertexId> moved_vertices;  // vertices whose position changed (for local backend refresh)
   bool budget_exhausted = false;
+  bool growth_capped = false;  // an insertion was refused because the tet count reached max_growth
+  int surface_flips = 0;       // boundary flips between faces that are not coplanar (in boundary_flips too)
+  int feature_slides = 0;      // smoothing moves along a bent feature line (in smoothing_moves too)
 };
 
 // Whole mesh, worst elements first, within opt.time_limit_s. All edits go through the mesh's

@@ -44,6 +44,9 @@ void check_improve_options(const ImproveOptions& o, const Names& name) {
   check_finite_range("improve", "feature_angle", o.feature_angle_deg, 0, 180, name);
   check_finite_range("improve", "time_limit", o.time_limit_s, 0, 1e6, name);
   check_finite_range("improve", "volume_tolerance", o.volume_tolerance, 0, 1, name);
+  check_finite_range("improve", "feature_line_angle", o.feature_line_angle_deg, 0, 180, name);
+  check_finite_range("improve", "surface_flip_deviation", o.surface_flip_deviation, 0, 1, name);
+  check_finite_range("improve", "max_slides", o.max_curved_slides, 0, 1000, name);
 }
 
 }  // namespace incise

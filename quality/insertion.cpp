@@ -143,7 +143,7 @@ std::array<double, 3> in_triangle(const Vec3& p, const Vec3& a, const Vec3& b, c
 }
 
 std::optional<Plan> plan_at(const TetMesh& mesh, TetId t, const Vec3& p0, bool delaunay, const OnBoundary& on,
-                            const ImproveScope& scope, int max_cavity, int iterations) {
+                            const ImproveScope& scope, int max_cavity, int iterations, bool* growth_refused) {
   Plan plan;
   plan.on = on;
   plan.cavity.add(t);
@@ -184,7 +184,10 @@ std::optional<Plan> plan_at(const TetMesh& mesh, TetId t, const Vec3& p0, bool d
   if (!grow(mesh, plan.cavity, p, scope, max_cavity, on)) return std::nullopt;
   const auto s = sides(mesh, plan.cavity, on);
   const long growth = static_cast<long>(s.size()) - static_cast<long>(plan.cavity.tets.size());
-  if (growth > scope.growth_left) return std::nullopt;
+  if (growth > scope.growth_left) {
+    if (growth_refused) *growth_refused = true;
+    return std::nullopt;
+  }
   Vec3 actual = Vec3::Zero();
   if (!bx.empty()) {
     plan.boundary_weights = coords(p);
@@ -264,7 +267,7 @@ std::optional<InsertionOutcome> improve_by_insertion(TetMesh& mesh, TetId t, con
     }
   std::optional<Plan> best;
   for (const Start& s : starts)
-    if (auto plan = plan_at(mesh, t, s.p, s.delaunay, s.on, scope, opt.max_cavity, opt.iterations))
+    if (auto plan = plan_at(mesh, t, s.p, s.delaunay, s.on, scope, opt.max_cavity, opt.iterations, opt.growth_refused))
       if (!best || plan->after.q > best->after.q) best = std::move(plan);
   if (!best) return std::nullopt;
   InsertionOutcome out;

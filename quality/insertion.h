@@ -28,6 +28,7 @@ struct InsertionOptions {
   // Boundary faces of these tags may take the new vertex (split in three, exactly in their
   // plane); empty: interior insertion only.
   std::function<bool(std::uint16_t)> boundary_tags;
+  bool* growth_refused = nullptr;  // set when a candidate was refused only for the growth cap
 };
 
 struct InsertionOutcome {

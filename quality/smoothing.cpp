@@ -16,12 +16,55 @@ namespace {
 // n, on the old curved disc `fan` (moving along n's tangent plane, projected back), or along
 // a straight crease of the boundary (direction n) between its crease neighbours a and b.
 struct Freedom {
-  enum Kind { Fixed, Free, Plane, Surface, Line } kind = Fixed;
+  enum Kind { Fixed, Free, Plane, Surface, Line, Bent } kind = Fixed;
   Vec3 n = Vec3::Zero();
   std::vector<std::array<VertexId, 3>> fan;  // disc faces around v, v first, consistently oriented
   std::vector<std::uint16_t> tags;           // per fan face (boundary fans)
   VertexId a, b;                             // Line: the crease neighbours (a - v opposite to n)
+                                             // Bent: the feature neighbours; n points from a's side to b's
+  bool a_open = true, b_open = true;         // Bent: whether v may move towards a (b)
 };
+
+int slides_of(const std::unordered_map<std::uint32_t, int>& slides, VertexId v) {
+  const auto it = slides.find(v.idx());
+  return it == slides.end() ? 0 : it->second;
+}
+
+// A feature line bent at v: exactly two of v's fan edges (v,a), (v,b) are features (tags
+// change across them or their faces bend more than the feature angle), every other edge is
+// smooth, and the line a-v-b bends by at most the line angle. v may slide along the old
+// segments v-a and v-b: the feature stays on its old polyline and the faces beside it move
+// by their sagitta (the caller spends the volume that moves).
+bool feature_line(const TetMesh& mesh, VertexId v, const std::vector<Vec3>& normals,
+                  const std::map<std::uint32_t, std::size_t>& from, const SmoothOptions& opt, Freedom& fr) {
+  const double cos_feature = std::cos(opt.feature_angle_deg * 3.14159265358979323846 / 180);
+  std::vector<VertexId> feature;
+  for (std::size_t i = 0; i < fr.fan.size(); ++i) {
+    const std::size_t j = from.at(fr.fan[i][2].idx());  // the face across edge (v, fan[i][2])
+    const bool bent = normals[i].normalized().dot(normals[j].normalized()) < cos_feature;
+    if (bent || fr.tags[i] != fr.tags[j]) feature.push_back(fr.fan[i][2]);
+  }
+  if (feature.size() != 2) return false;
+  const Vec3& pv = mesh.rest(v);
+  const Vec3 ua = (mesh.rest(feature[0]) - pv).normalized(), ub = (mesh.rest(feature[1]) - pv).normalized();
+  // The line's bend at v: 180 degrees minus the angle a-v-b.
+  if (-ua.dot(ub) < std::cos(opt.feature_line_angle_deg * 3.14159265358979323846 / 180)) return false;
+  // Exactly on the input's line: v is still where the pass found it (it never slid along a
+  // line or a curved part), and it moves only towards a neighbour that never did either, so the
+  // segment it moves on is a piece of an input segment (a neighbour that slid may have left the
+  // corner between them).
+  if (opt.curved_slides) {
+    if (slides_of(*opt.curved_slides, v) > 0) return false;
+    fr.a_open = slides_of(*opt.curved_slides, feature[0]) == 0;
+    fr.b_open = slides_of(*opt.curved_slides, feature[1]) == 0;
+    if (!fr.a_open && !fr.b_open) return false;
+  }
+  fr.kind = Freedom::Bent;
+  fr.a = feature[0];
+  fr.b = feature[1];
+  fr.n = (ub - ua).normalized();
+  return true;
+}
 
 // A straight crease through v: exactly two of v's boundary edges (v,a), (v,b) separate faces
 // that differ in tag or plane, a and b lie on opposite sides of v on one line, and the faces
@@ -116,7 +159,6 @@ Freedom freedom(const TetMesh& mesh, VertexId v, const ImproveScope& scope, cons
     at = it->second;
   }
   if (at != 0) return fr;
-  if (mixed) return crease_or_fixed();
   const Vec3& pv = mesh.rest(v);
   std::vector<Vec3> normals;
   Vec3 n = Vec3::Zero();
@@ -125,6 +167,15 @@ Freedom freedom(const TetMesh& mesh, VertexId v, const ImproveScope& scope, cons
     normals.push_back((mesh.rest(f[1]) - pv).cross(mesh.rest(f[2]) - pv));
     n += normals.back();
     h = std::max(h, (mesh.rest(f[1]) - pv).norm());
+  }
+  // Sliding along a bent feature line moves the surface: it counts as a curved slide (and
+  // happens at most once a vertex a pass, see feature_line).
+  const bool slid_enough = opt.curved_slides && slides_of(*opt.curved_slides, v) >= opt.max_curved_slides;
+  const bool may_bend = opt.slide_curved && opt.feature_line_angle_deg > 0 && !cut && !fr.tags.empty() && !slid_enough;
+  if (mixed) {
+    if (crease_or_fixed().kind == Freedom::Line || !may_bend) return fr;
+    feature_line(mesh, v, normals, from, opt, fr);
+    return fr;
   }
   if (!(n.norm() > 0)) return fr;
   n.normalize();
@@ -139,13 +190,20 @@ Freedom freedom(const TetMesh& mesh, VertexId v, const ImproveScope& scope, cons
     fr.kind = Freedom::Plane;
     return fr;
   }
-  if (crease_or_fixed().kind == Freedom::Line || !height_field) return fr;
-  if (!opt.slide_curved || cut || (opt.curved_slid && opt.curved_slid->count(v.idx()))) return fr;
+  if (crease_or_fixed().kind == Freedom::Line) return fr;
+  if (!height_field) {
+    if (may_bend) feature_line(mesh, v, normals, from, opt, fr);
+    return fr;
+  }
+  if (!opt.slide_curved || cut || slid_enough) return fr;
   // Smooth: adjacent faces (sharing edge v-y) bend by at most the feature angle.
   const double cos_feature = std::cos(opt.feature_angle_deg * 3.14159265358979323846 / 180);
   for (std::size_t i = 0; i < fr.fan.size(); ++i) {
     const std::size_t j = from.at(fr.fan[i][2].idx());
-    if (normals[i].normalized().dot(normals[j].normalized()) < cos_feature) return fr;
+    if (normals[i].normalized().dot(normals[j].normalized()) < cos_feature) {
+      if (may_bend) feature_line(mesh, v, normals, from, opt, fr);
+      return fr;
+    }
   }
   fr.kind = Freedom::Surface;
   return fr;
@@ -162,6 +220,18 @@ bool locate(const TetMesh& mesh, VertexId v, const Vec3& p, const Freedom& fr, s
     const VertexId w = t >= 0 ? fr.b : fr.a;
     const double s = std::abs(t) / (mesh.rest(w) - pv).norm();
     if (!(s < 1 - 1e-9)) return false;
+    parents = {v, w};
+    weights = {1 - s, s};
+    return true;
+  }
+  if (fr.kind == Freedom::Bent) {
+    // On the segment from v towards a or b (the side n points to), strictly before it.
+    const bool to_b = fr.n.dot(p - pv) >= 0;
+    if (!(to_b ? fr.b_open : fr.a_open)) return false;
+    const VertexId w = to_b ? fr.b : fr.a;
+    const Vec3 e = mesh.rest(w) - pv;
+    const double s = (p - pv).dot(e) / e.squaredNorm();
+    if (!(s >= 0 && s < 1 - 1e-9)) return false;
     parents = {v, w};
     weights = {1 - s, s};
     return true;
@@ -228,19 +298,17 @@ bool spend_volume(const TetMesh& mesh, VertexId v, const Vec3& p, VolumeAllowanc
     const double after = (x[1] - x[0]).cross(x[2] - x[0]).dot(x[3] - x[0]) / 6;
     delta[mesh.label(t)] += after - mesh.volume(t);
   }
-  for (const auto& [label, d] : delta) {
-    const auto lim = allowance.limit.find(label);
-    if (lim == allowance.limit.end() || std::abs(allowance.moved[label] + d) > lim->second) return false;
-  }
+  for (const auto& [label, d] : delta)
+    if (!allowance.allows(label, d)) return false;
   for (const auto& [label, d] : delta) allowance.moved[label] += d;
   return true;
 }
 
 }  // namespace
 
-bool smooth_vertex(TetMesh& mesh, VertexId v, const ImproveScope& scope, const SmoothOptions& opt) {
+SmoothMove smooth_vertex_how(TetMesh& mesh, VertexId v, const ImproveScope& scope, const SmoothOptions& opt) {
   const Freedom fr = freedom(mesh, v, scope, opt);
-  if (fr.kind == Freedom::Fixed) return false;
+  if (fr.kind == Freedom::Fixed) return SmoothMove::None;
   OpenStar star;
   double hmin = 1e300;
   for (TetId t : mesh.incident_tets(v)) {
@@ -260,22 +328,29 @@ bool smooth_vertex(TetMesh& mesh, VertexId v, const ImproveScope& scope, const S
   ao.iterations = opt.iterations;
   ao.scale = hmin;
   if (fr.kind != Freedom::Free) {
-    (fr.kind == Freedom::Line ? ao.line : ao.normal) = &fr.n;
+    (fr.kind == Freedom::Line || fr.kind == Freedom::Bent ? ao.line : ao.normal) = &fr.n;
     ao.project = [&](Vec3& p) { return place(mesh, v, p, fr, p); };
   }
   const Vec3 best_p = ascend(star, p0, tg, ao, &orig, &at_best);
-  if (best_p == p0) return false;
+  if (best_p == p0) return SmoothMove::None;
   std::vector<VertexId> parents;
   std::vector<double> weights;
-  if (!locate(mesh, v, best_p, fr, parents, weights)) return false;
+  if (!locate(mesh, v, best_p, fr, parents, weights)) return SmoothMove::None;
   const Vec3 actual = combine(mesh, parents, weights);
   // The located point is usually the ascent's own (bit for bit): its figures are known then.
   const AngleQuality at_actual = std::memcmp(&actual, &best_p, sizeof actual) == 0 ? at_best : star.at(actual, tg);
-  if (!better(at_actual, orig, tg) || !mesh.is_move_ok(v, actual)) return false;
-  if (fr.kind == Freedom::Surface && opt.volume && !spend_volume(mesh, v, actual, *opt.volume)) return false;
+  if (!better(at_actual, orig, tg) || !mesh.is_move_ok(v, actual)) return SmoothMove::None;
+  const bool moves_surface = fr.kind == Freedom::Surface || fr.kind == Freedom::Bent;
+  if (moves_surface && opt.volume && !spend_volume(mesh, v, actual, *opt.volume)) return SmoothMove::None;
   mesh.move_vertex(v, parents, weights);
-  if (fr.kind == Freedom::Surface && opt.curved_slid) opt.curved_slid->insert(v.idx());
-  return true;
+  if (moves_surface && opt.curved_slides) ++(*opt.curved_slides)[v.idx()];
+  switch (fr.kind) {
+    case Freedom::Free: return SmoothMove::Free;
+    case Freedom::Plane: return SmoothMove::Plane;
+    case Freedom::Surface: return SmoothMove::Surface;
+    case Freedom::Line: return SmoothMove::Crease;
+    default: return SmoothMove::FeatureLine;
+  }
 }
 
 }  // namespace incise

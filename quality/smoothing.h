@@ -9,8 +9,10 @@
 // edge sharper than feature_angle_deg; only with slide_curved, never for cut faces) it moves
 // in the tangent plane and is projected back onto the old disc, so it stays on the old
 // surface (the surface then changes by at most the disc's sagitta). A vertex on a straight
-// crease (tags or planes change across two boundary edges in line) slides along it. Other
-// vertices (corners, curved feature edges, where three labels meet) stay. The move goes through
+// crease (tags or planes change across two boundary edges in line) slides along it; one on a
+// bent feature line (exactly two feature edges, with slide_curved and feature_line_angle_deg)
+// slides along the old line, onto one of its two old segments. Other vertices (corners, where
+// three labels meet) stay. The move goes through
 // TetMesh::move_vertex, recorded as a point of the mesh before the move.
 #include <cstdint>
 #include <unordered_map>
@@ -18,31 +20,36 @@
 
 #include "mesh/tet_mesh.h"
 #include "quality/improve_scope.h"
+#include "quality/volume_allowance.h"
 
 namespace incise {
-
-// How far slides on curved discs may move each label's volume: a slide that would take a
-// label's net change past its limit is refused (flat slides keep volumes exactly).
-struct VolumeAllowance {
-  std::unordered_map<int, double> limit;  // per label, absolute volume
-  std::unordered_map<int, double> moved;  // per label, net change by curved slides so far
-};
 
 struct SmoothOptions {
   bool move_surface = true;  // boundary (non-cut) vertices may slide in flat neighbourhoods
   bool move_cut = true;      // vertices on cut-tagged faces may slide in their plane
   bool move_interface = true;  // vertices on a two-label interface may slide within it
   bool slide_curved = false;   // also slide on smooth curved discs (surface changes slightly)
-  double feature_angle_deg = 30;  // adjacent disc faces bent more than this: a feature (fixed)
+  double feature_angle_deg = 30;  // adjacent disc faces bent more than this: a feature
+  // With slide_curved: a vertex on exactly two feature edges whose line bends at most this
+  // (degrees) slides along the old line (the feature stays on its old polyline); 0: never.
+  double feature_line_angle_deg = 0;
   int iterations = 8;        // ascent steps
   const std::unordered_set<std::uint32_t>* frozen = nullptr;  // vertex ids that never move
-  // Vertices that already slid on a curved disc in this pass: they slide there once, so the
-  // drift from the input surface stays within one disc's sagitta (nullptr: no limit).
-  std::unordered_set<std::uint32_t>* curved_slid = nullptr;
+  // How often each vertex slid on a curved disc or a bent feature line in this pass: it slides
+  // there at most max_curved_slides times, each onto the faces it is on, so its drift from the
+  // input surface stays within that many discs' sagittas (nullptr: no limit).
+  std::unordered_map<std::uint32_t, int>* curved_slides = nullptr;
+  int max_curved_slides = 1;
   VolumeAllowance* volume = nullptr;  // curved slides spend it (nullptr: no limit)
 };
 
-// Returns true when v moved (its tets strictly better by better()).
-bool smooth_vertex(TetMesh& mesh, VertexId v, const ImproveScope& scope, const SmoothOptions& opt);
+// How a vertex moved (None: it did not; its tets strictly better by better() otherwise).
+enum class SmoothMove { None, Free, Plane, Surface, Crease, FeatureLine };
+
+SmoothMove smooth_vertex_how(TetMesh& mesh, VertexId v, const ImproveScope& scope, const SmoothOptions& opt);
+// Returns true when v moved.
+inline bool smooth_vertex(TetMesh& mesh, VertexId v, const ImproveScope& scope, const SmoothOptions& opt) {
+  return smooth_vertex_how(mesh, v, scope, opt) != SmoothMove::None;
+}
 
 }  // namespace incise

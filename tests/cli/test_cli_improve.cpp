@@ -121,3 +121,30 @@ TEST_CASE("incise improve keeps each label's volume within --volume-tolerance on
     CHECK_FALSE(std::filesystem::exists(dir / "bad.msh"));
   }
 }
+
+TEST_CASE("incise improve --insert says when --max-growth stopped it; the reshaping options refuse bad values",
+          "[cli][improve]") {
+  const auto dir = scratch_dir("cli_improve_growth");
+  const std::string in = std::string(INCISE_SOURCE_DIR) + "/samples/elephant.msh";
+  const std::string json = (dir / "capped.json").string();
+  Run c = run_incise("improve '" + in + "' -o '" + (dir / "capped.msh").string() + "' --insert --max-growth 1 --json '" +
+                         json + "'",
+                     dir);
+  INFO(c.err);
+  REQUIRE(c.code == 0);
+  CHECK(c.out.find("stopped by the growth cap (--max-growth)") != std::string::npos);
+  const auto j = nlohmann::json::parse(slurp(json));
+  CHECK(j["growth_capped"].get<bool>());
+  CHECK(j["operations"].contains("surface_flips"));
+  CHECK(j["operations"].contains("feature_slides"));
+  Run f = run_incise("improve '" + in + "' -o '" + (dir / "free.msh").string() + "' --insert --max-growth 3", dir);
+  REQUIRE(f.code == 0);
+  CHECK(f.out.find("stopped by the growth cap") == std::string::npos);
+  for (const char* bad : {"--feature-line-angle -1", "--surface-flip-deviation 2", "--max-slides -1"}) {
+    Run b = run_incise("improve '" + in + "' -o '" + (dir / "bad.msh").string() + "' " + bad, dir);
+    CHECK(b.code == 1);
+    CHECK(b.err.find(std::string(bad).substr(0, std::string(bad).find(' '))) != std::string::npos);
+    CHECK(std::count(b.err.begin(), b.err.end(), '\n') == 1);
+    CHECK_FALSE(std::filesystem::exists(dir / "bad.msh"));
+  }
+}
