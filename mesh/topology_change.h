@@ -20,6 +20,24 @@ struct VertexOrigin {
   std::array<double, 4> weights{0, 0, 0, 0};
 };
 
+// sum_k weights[k] * value(parents[k]) over o's parents (unused slots skipped): how a consumer
+// carries any per-vertex quantity (displacement, velocity, pressure) to an added or moved
+// vertex. `zero` is the quantity's zero (Vec3::Zero(), 0.0).
+template <class T, class Value>
+T interpolate_origin(const VertexOrigin& o, const T& zero, Value&& value) {
+  T s = zero;
+  for (int k = 0; k < 4; ++k)
+    if (o.parents[k].is_valid() && o.weights[k] != 0) s += o.weights[k] * value(o.parents[k]);
+  return s;
+}
+
+// Whether o has a parent (a plain new vertex has none).
+inline bool has_parents(const VertexOrigin& o) {
+  for (int k = 0; k < 4; ++k)
+    if (o.parents[k].is_valid() && o.weights[k] != 0) return true;
+  return false;
+}
+
 struct TopologyChange {
   // Tets alive before the batch and dead after it (ids may have been reused: a reused id
   // appears in both lists, removed first).

@@ -3,7 +3,7 @@
 // measured as the sum of the dihedral angles of the tets around that edge. Those dihedral
 // angles add up to it in every tet mesh of the same surface, so the smallest of them is at
 // most this angle: no improvement that keeps the surface can lift the worst dihedral angle
-// above it (the sample liver's sharpest edge, 34.98 degrees, caps it just under 35).
+// above it (the sample liver's sharpest edge caps it just under the 35-degree target).
 #include <optional>
 #include <vector>
 

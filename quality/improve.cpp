@@ -193,8 +193,8 @@ public:
   void allow_insertion() {
     insertion_allowed = true;
     scope_.targets.radius_ratio_floor = opt_.radius_ratio_floor;
-    // What failed under the strict rule may pass under the floor: retry everything (kept
-    // marks left CGAL's elephant at 29.66 and fandisk at 26.24 deg instead of 30.15, 30.89).
+    // What failed under the strict rule may pass under the floor: retry everything (kept marks
+    // cost angle: docs/improve.md#behind-the-defaults).
     stuck_.clear();
     flip_stuck_.clear();
     collapse_stuck_.clear();

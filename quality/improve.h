@@ -27,18 +27,18 @@ struct ImproveOptions {
   double radius_ratio_floor = 0.1;   // with insertion: an operation may lower its tets' min radius ratio,
                                      // but not below this (nor at all where it already is below), so the
                                      // mesh's never drops below min(input's, floor). The strict guard
-                                     // refused most insertions that lift organ meshes past 25 deg (a 0.45
-                                     // tet traded for 0.35 ones); without insertion it stays strict (the
-                                     // floor there took the jittered box from 33.1 to 28.3 deg). 1 = strict
+                                     // refused most insertions that lift organ meshes; without insertion
+                                     // it stays strict (the floor there cost quality; docs/improve.md#
+                                     // behind-the-defaults). 1 = strict
   bool flips = true;                 // 2-3, 3-2, 4-4, edge removal and multi-face removal
   bool multi_face_removal = true;    // ... multi-face removal among them (quality/multi_face_removal.h)
   bool smoothing = true;             // optimization-based vertex smoothing
   bool insertion = false;            // vertex insertion into a cavity (quality/insertion.h) where the rest fails
   double insertion_below_deg = 0;    // ... only into tets whose smallest dihedral is below this (0: any tet short
                                      // of the targets): refinement where slivers are left, not everywhere
-  int insertion_work = 10;           // ... an attempt counts as this many operations against max_work: on the
-                                     // liver's cuts one took 0.94 ms, the other operations 0.07-0.1 ms, so a
-                                     // budget in operations stays one in time (a finish() slice per frame)
+  int insertion_work = 10;           // ... an attempt counts as this many operations against max_work: it
+                                     // costs about ten of the others (docs/improve.md#behind-the-defaults),
+                                     // so a budget in operations stays one in time (a finish() slice per frame)
   int max_cavity = 16;               // ... largest cavity (tets replaced by one insertion)
   bool boundary_insertion = true;    // ... also on boundary faces (split in their plane, tag kept), where
                                      // move_surface (move_cut for cut faces) allows boundary changes

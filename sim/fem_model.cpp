@@ -1173,12 +1173,9 @@ void interpolate_added_vertices(const TopologyChange& change, std::size_t vertex
   }
   // Added first, then moved, each in order (the TopologyChange contract).
   for (const auto* list : {&change.added_vertices, &change.moved_vertices})
-    for (const VertexOrigin& o : *list) {
-      Eigen::Vector3d s = Eigen::Vector3d::Zero();
-      for (int k = 0; k < 4; ++k)
-        if (o.parents[k].is_valid() && o.weights[k] != 0) s += o.weights[k] * field.segment<3>(3 * o.parents[k].idx());
-      field.segment<3>(3 * o.vertex.idx()) = s;
-    }
+    for (const VertexOrigin& o : *list)
+      field.segment<3>(3 * o.vertex.idx()) = interpolate_origin(
+          o, Eigen::Vector3d(Eigen::Vector3d::Zero()), [&](VertexId p) { return Eigen::Vector3d(field.segment<3>(3 * p.idx())); });
   for (VertexId v : change.removed_vertices) field.segment<3>(3 * v.idx()).setZero();
 }
 

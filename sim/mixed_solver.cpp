@@ -201,10 +201,7 @@ void MixedSolver::apply(const TopologyChange& change) {
     if (!mesh_->is_alive(t)) rg_[t.idx()].setZero();
   // The kept pressure follows the vertices like the displacement does (a warm start).
   auto interpolate = [&](const VertexOrigin& o) {
-    double p = 0;
-    for (int k = 0; k < 4; ++k)
-      if (o.parents[k].is_valid()) p += o.weights[k] * p_[o.parents[k].idx()];
-    p_[o.vertex.idx()] = p;
+    p_[o.vertex.idx()] = interpolate_origin(o, 0.0, [&](VertexId q) { return p_[q.idx()]; });
   };
   for (const VertexOrigin& o : change.added_vertices) interpolate(o);
   for (const VertexOrigin& o : change.moved_vertices) interpolate(o);

@@ -305,18 +305,17 @@ void SpringModel::apply(const TetMesh& mesh, const TopologyChange& change) {
   };
   for (const VertexOrigin& o : change.added_vertices) {
     const std::uint32_t i = o.vertex.idx();
-    Vec3 x = Vec3::Zero(), u = Vec3::Zero(), target = Vec3::Zero();
-    bool all_fixed = true, all_prescribed = true, any = false;
-    for (int k = 0; k < 4; ++k) {
-      if (!o.parents[k].is_valid() || o.weights[k] == 0) continue;
-      const std::uint32_t p = o.parents[k].idx();
-      x += o.weights[k] * x_[p];
-      u += o.weights[k] * v_[p];
-      target += o.weights[k] * target_[p];
-      all_fixed = all_fixed && fixed_[p];
-      all_prescribed = all_prescribed && prescribed_[p];
-      any = true;
-    }
+    const Vec3 zero = Vec3::Zero();
+    Vec3 x = interpolate_origin(o, zero, [&](VertexId p) { return x_[p.idx()]; });
+    const Vec3 u = interpolate_origin(o, zero, [&](VertexId p) { return v_[p.idx()]; });
+    const Vec3 target = interpolate_origin(o, zero, [&](VertexId p) { return target_[p.idx()]; });
+    const bool any = has_parents(o);
+    bool all_fixed = true, all_prescribed = true;
+    for (int k = 0; k < 4; ++k)
+      if (o.parents[k].is_valid() && o.weights[k] != 0) {
+        all_fixed = all_fixed && fixed_[o.parents[k].idx()];
+        all_prescribed = all_prescribed && prescribed_[o.parents[k].idx()];
+      }
     if (!any) x = mesh.rest(o.vertex);  // no parents: a plain new vertex starts at rest
     alive_[i] = 1;
     x_[i] = x;
@@ -332,14 +331,10 @@ void SpringModel::apply(const TetMesh& mesh, const TopologyChange& change) {
   // shape does not change.
   for (const VertexOrigin& o : change.moved_vertices) {
     const std::uint32_t i = o.vertex.idx();
-    Vec3 x = Vec3::Zero(), u = Vec3::Zero(), target = Vec3::Zero();
-    for (int k = 0; k < 4; ++k) {
-      if (!o.parents[k].is_valid() || o.weights[k] == 0) continue;
-      const std::uint32_t p = o.parents[k].idx();
-      x += o.weights[k] * x_[p];
-      u += o.weights[k] * v_[p];
-      target += o.weights[k] * target_[p];
-    }
+    const Vec3 zero = Vec3::Zero();
+    const Vec3 x = interpolate_origin(o, zero, [&](VertexId p) { return x_[p.idx()]; });
+    const Vec3 u = interpolate_origin(o, zero, [&](VertexId p) { return v_[p.idx()]; });
+    const Vec3 target = interpolate_origin(o, zero, [&](VertexId p) { return target_[p.idx()]; });
     x_[i] = x;
     v_[i] = u;
     if (prescribed_[i]) target_[i] = target;
