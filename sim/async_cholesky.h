@@ -41,7 +41,8 @@ struct AsyncCholeskyOptions {
   bool background = true;          // factorize on a thread (false: in frame(), for tests/benchmarks)
   bool wait_for_first = true;      // the first factor is waited for (no factor to fall back on yet)
   int refactor_iterations = 10;    // a frame needing more CG iterations asks for a fresh factor
-  std::size_t max_unknowns = 150000;  // above this many free unknowns no factor is built (block-Jacobi)
+  std::size_t max_unknowns = 150000;  // above this many free unknowns no factor is built (the multigrid
+                                      // with settle_with_amg, else block-Jacobi)
   bool rotate = true;              // corotational: rotate the stale factor by the vertices' rotation change
   // > 0: while the topology changes (a blade moving), precondition with block-Jacobi alone and
   // start no factorization; once `settle_frames` frames passed without a change, factorize,
@@ -86,6 +87,9 @@ public:
   double next_setup_ms() const override { return use_moving() ? moving_->next_setup_ms() : -1; }
 
   bool has_factor() const;
+  // Whether the moving preconditioner (the multigrid) preconditions now: no factor of the
+  // current topology, or none at all (above max_unknowns).
+  bool uses_multigrid() const { return use_moving(); }
   bool settling() const { return settling_; }  // block-Jacobi alone (settle_frames policy)
   bool factorizing() const { return job_.valid(); }
   int factorizations() const { return factorizations_; }  // adopted so far
@@ -97,9 +101,9 @@ private:
   void start(const std::vector<std::uint8_t>& free, double a, double c);
   void adopt();
   void update_rotation_change();  // q_ from the model's current rotations and snap_rot_
-  // The moving preconditioner is in use: no factor of the current topology, and a mesh small
-  // enough to factor (above max_unknowns block-Jacobi stays, as documented; not measured there).
-  bool use_moving() const { return moving_ && !too_large_ && (!factor_ || settling_); }
+  // The moving preconditioner is in use: no factor of the current topology (and none at all
+  // above max_unknowns: there the multigrid takes every frame; docs/solver.md#what-each-core-buys).
+  bool use_moving() const { return moving_ && (too_large_ || !factor_ || settling_); }
 
   const FemModel* model_;
   AsyncCholeskyOptions opt_;

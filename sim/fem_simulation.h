@@ -70,7 +70,7 @@ struct FemSimulationOptions {
   StiffnessBackend backend = StiffnessBackend::MatrixFree;  // operator CG multiplies with, or Petsc
   std::string petsc_options;                            // Petsc: PETSc options ("-ksp_type minres ...")
   // tolerance, cap, budget, preconditioner: the asynchronous Cholesky, as in scenes (the
-  // fastest measured, docs/solver.md; block-Jacobi above AsyncCholeskyOptions::max_unknowns).
+  // fastest measured, docs/solver.md; the multigrid above AsyncCholeskyOptions::max_unknowns).
   CgOptions cg{.preconditioner = Preconditioner::Cholesky};
   AsyncCholeskyOptions cholesky;                        // for cg.preconditioner == Cholesky
   AggregationAmgOptions amg;                            // for cg.preconditioner == Amg

@@ -186,12 +186,16 @@ TEST_CASE("settle policy: block-Jacobi while the topology changes, a factor of t
   check_equals_direct(m, opt, top, sim);
 }
 
-TEST_CASE("a mesh above the factorization limit runs on block-Jacobi", "[fem][preconditioner]") {
+TEST_CASE("a mesh above the factorization limit runs on the multigrid (block-Jacobi without it)",
+          "[fem][preconditioner]") {
+  for (bool amg : {true, false}) {
+  INFO("settle_with_amg " << amg);
   TetMesh m = make_box(Vec3(4, 1, 1), {12, 3, 3});
   FemSimulationOptions opt;
   opt.cg.tolerance = 1e-10;
   opt.cg.preconditioner = Preconditioner::Cholesky;
   opt.cholesky.max_unknowns = 10;
+  opt.cholesky.settle_with_amg = amg;
   opt.gravity = Vec3(0, 0, -9.81);
   FemSimulation sim(m, table(1e5, 0.3), opt);
   fix_ends(m, sim);
@@ -203,7 +207,10 @@ TEST_CASE("a mesh above the factorization limit runs on block-Jacobi", "[fem][pr
   for (int f = 0; f < 3; ++f) REQUIRE(sim.step().info == SolveInfo::Success);
   CHECK(!sim.cholesky()->has_factor());
   CHECK(!sim.cholesky()->factorizing());
+  CHECK(sim.cholesky()->uses_multigrid() == amg);
+  CHECK((sim.amg() != nullptr) == amg);
   CHECK((sim.displacement() - direct.displacement()).norm() <= 1e-7 * direct.displacement().norm());
+  }
 }
 
 TEST_CASE("corotational: the stale factor rotated is symmetric, and CG still equals the direct solution",
