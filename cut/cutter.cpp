@@ -58,6 +58,12 @@ struct Cutter::Progress {
   // cut) within its operation budget, worst first, so the work a commit needs is spread over
   // the steps after it instead of falling on the one frame; a tet leaves after kImproveSteps.
   std::vector<std::pair<TetId, int>> improve_queue;
+  // Tets the committed steps made (some dead since): finish() seeds those still short of the
+  // queue's bounds. The steps' improvement reaches only the queue and holds the waiting tets'
+  // vertices, and tets left behind (the creases of a curved path) are never revisited
+  // (docs/cut.md#curved-paths).
+  std::vector<TetId> made;
+  std::size_t made_compacted = 0;
   int step = 0;
 };
 
@@ -68,6 +74,22 @@ constexpr int kImproveSteps = 4;
 // The finish() pass takes the rest to the improvement's own targets.
 constexpr double kQueueMinDihedral = 20, kQueueMaxDihedral = 150;
 }  // namespace
+
+void Cutter::keep_made(Progress& pr) const {
+  const std::vector<TetId> added = mesh_->pending_added_tets();
+  pr.made.insert(pr.made.end(), added.begin(), added.end());
+  // Smoothing reshapes tets without making new ones.
+  for (const VertexOrigin& o : mesh_->pending_moved_vertices())
+    if (mesh_->is_alive(o.vertex))
+      for (TetId t : mesh_->incident_tets(o.vertex)) pr.made.push_back(t);
+  // Dead ids go once the list has doubled since it was last compacted: O(1) a tet, amortized.
+  if (pr.made.size() > 2 * pr.made_compacted + 64) {
+    std::erase_if(pr.made, [&](TetId t) { return !mesh_->is_alive(t); });
+    std::sort(pr.made.begin(), pr.made.end(), [](TetId a, TetId b) { return a.idx() < b.idx(); });
+    pr.made.erase(std::unique(pr.made.begin(), pr.made.end()), pr.made.end());
+    pr.made_compacted = pr.made.size();
+  }
+}
 
 bool Cutter::needs_improving(TetId t) const {
   const auto& tv = mesh_->tet_vertices(t);
@@ -243,6 +265,7 @@ void Cutter::start(const BladeSegment& blade) {
   if (!finite(blade.a) || !finite(blade.b)) throw InvalidArgument("cut: blade endpoints must be finite");
   if (!((blade.b - blade.a).norm() > 0)) throw InvalidArgument("cut: the blade's two ends are the same point");
   finish_seeds_.clear();  // a new cut: the last one's remaining improvement is dropped
+  repair_seeds_.clear();
   finish_left_ = 0;
   progress_->last_blade = blade_;
   blade_ = blade;
@@ -445,7 +468,7 @@ void Cutter::take_back_provisional(CutStepReport& rep, const PositionFn& positio
     return it != renamed.end() ? it->second : t;
   };
   // Ids the pieces had are dead or (reused) restored tets: lists keep what they held before.
-  for (std::vector<TetId>* list : {&pr.waiting, &pr.closed, &front_}) {
+  for (std::vector<TetId>* list : {&pr.waiting, &pr.closed, &pr.made, &front_}) {
     for (TetId& t : *list) t = rename(t);
     std::erase_if(*list, [&](TetId t) { return !mesh_->is_alive(t); });
   }
@@ -511,11 +534,17 @@ CutStepReport Cutter::finish(const PositionFn& caller_positions) {
   for (const auto& e : progress_->improve_queue) live.push_back(e.first);
   resume_to_blade(positions, blade_);
   finish_sheet(rep, positions);
+  keep_made(*progress_);
+  std::vector<TetId> bad;
+  for (TetId t : progress_->made)
+    if (mesh_->is_alive(t) && needs_improving(t)) bad.push_back(t);
   const bool edited = progress_->edited;
   live.insert(live.end(), front_.begin(), front_.end());
-  std::erase_if(live, [&](TetId t) { return !mesh_->is_alive(t); });
-  std::sort(live.begin(), live.end(), [](TetId a, TetId b) { return a.idx() < b.idx(); });
-  live.erase(std::unique(live.begin(), live.end()), live.end());
+  for (std::vector<TetId>* list : {&live, &bad}) {
+    std::erase_if(*list, [&](TetId t) { return !mesh_->is_alive(t); });
+    std::sort(list->begin(), list->end(), [](TetId a, TetId b) { return a.idx() < b.idx(); });
+    list->erase(std::unique(list->begin(), list->end()), list->end());
+  }
   started_ = false;
   front_.clear();
   front_vertices_.clear();
@@ -525,12 +554,15 @@ CutStepReport Cutter::finish(const PositionFn& caller_positions) {
   map_.reset();
   rest_known_ = false;
   finish_seeds_.clear();
+  repair_seeds_.clear();
   finish_left_ = 0;
-  if (opt_.mode == CutMode::Subdivide && opt_.improve && edited && !live.empty()) {
+  if (opt_.mode == CutMode::Subdivide && opt_.improve && edited && !(live.empty() && bad.empty())) {
     // The front need no longer stay where it is: its tets get the improvement with its
     // vertices free (a step's improvement keeps them frozen, and nothing else revisits them).
     // With a slice, the first one now and the rest in finish_more().
     finish_seeds_ = std::move(live);
+    repair_seeds_ = std::move(bad);
+    repair_seeds_.insert(repair_seeds_.end(), finish_seeds_.begin(), finish_seeds_.end());
     finish_left_ = opt_.finish_improve_work;
     improve_finish_slice(rep, opt_.finish_improve_slice > 0 ? opt_.finish_improve_slice : opt_.finish_improve_work);
   }
@@ -555,34 +587,62 @@ void Cutter::end_finish_record(CutStepReport& rep, bool grid_stale, std::chrono:
 void Cutter::improve_finish_slice(CutStepReport& rep, int work) {
   work = std::min(work, finish_left_);
   std::erase_if(finish_seeds_, [&](TetId t) { return !mesh_->is_alive(t); });
-  if (work <= 0 || finish_seeds_.empty()) {
+  std::erase_if(repair_seeds_, [&](TetId t) { return !mesh_->is_alive(t); });
+  if (work <= 0 || (finish_seeds_.empty() && repair_seeds_.empty())) {
     finish_left_ = 0;
     return;
   }
-  ImproveOptions io = opt_.improve_options;
-  io.frozen = opt_.frozen;
-  io.time_budget_ms = opt_.improve_budget_ms;
-  io.max_work = work;
-  io.insertion = opt_.finish_insertion_below_deg > 0;
-  io.insertion_below_deg = opt_.finish_insertion_below_deg;
-  const auto ti = std::chrono::steady_clock::now();
-  // Later slices seed only the region's tets still short of the targets (with their ring):
-  // queueing the whole region again each slice cost more than its operations.
-  std::vector<TetId> seeds;
-  if (opt_.finish_improve_slice > 0) {
-    for (TetId t : finish_seeds_) {
-      const TetQuality q = tet_quality(*mesh_, t);
-      if (q.min_dihedral < io.target_dihedral_deg || q.max_dihedral > io.target_max_dihedral_deg) seeds.push_back(t);
+  bool first = true;
+  while (work > 0) {
+    ImproveOptions io = opt_.improve_options;
+    io.frozen = opt_.frozen;
+    io.time_budget_ms = opt_.improve_budget_ms;
+    io.max_work = work;
+    io.insertion = opt_.finish_insertion_below_deg > 0;
+    io.insertion_below_deg = opt_.finish_insertion_below_deg;
+    // First the repair: only the tets short of the queue's bounds count, so the passes go over
+    // them alone and try again what failed while their neighbours were still bad. With the
+    // improvement's own targets from the start, one pass over the whole region spent the budget
+    // and a stuck sliver stayed (docs/cut.md#curved-paths).
+    const bool repair = !repair_seeds_.empty();
+    if (repair) {
+      io.target_dihedral_deg = std::min(io.target_dihedral_deg, kQueueMinDihedral);
+      io.target_max_dihedral_deg = std::max(io.target_max_dihedral_deg, kQueueMaxDihedral);
     }
-  } else {
-    seeds = finish_seeds_;
+    const auto ti = std::chrono::steady_clock::now();
+    // Later slices seed only the region's tets still short of the targets (with their ring):
+    // queueing the whole region again each slice cost more than its operations.
+    std::vector<TetId> seeds;
+    if (opt_.finish_improve_slice > 0 || repair) {
+      for (TetId t : repair ? repair_seeds_ : finish_seeds_) {
+        const TetQuality q = tet_quality(*mesh_, t);
+        if (q.min_dihedral < io.target_dihedral_deg || q.max_dihedral > io.target_max_dihedral_deg) seeds.push_back(t);
+      }
+    } else {
+      seeds = finish_seeds_;
+    }
+    const ImproveReport r = improve_local(*mesh_, seeds, io);
+    rep.ms_improve += ms_since(ti);
+    if (first) rep.improve = r;
+    else accumulate(rep.improve, r);
+    first = false;
+    const int spent = std::max(r.work, 1);
+    finish_left_ -= spent;
+    work -= spent;
+    // Spent: the next slice goes on. Converged: the repair hands the rest of the budget to the
+    // improvement's own targets, over the region and what the repair made; those are done.
+    if (r.budget_exhausted) break;
+    if (!repair) {
+      finish_left_ = 0;
+      break;
+    }
+    repair_seeds_.clear();
+    for (TetId t : mesh_->pending_added_tets()) finish_seeds_.push_back(t);
   }
-  rep.improve = improve_local(*mesh_, seeds, io);
-  rep.ms_improve += ms_since(ti);
-  // Converged, or spent: done. Else the next slice starts from the region plus what this one
-  // made (keep_finish_seeds, once the record is taken).
-  finish_left_ = rep.improve.budget_exhausted ? finish_left_ - work : 0;
-  if (finish_left_ <= 0) finish_seeds_.clear();
+  if (finish_left_ <= 0) {
+    finish_seeds_.clear();
+    repair_seeds_.clear();
+  }
 }
 
 void Cutter::keep_finish_seeds(const TopologyChange& change) {
@@ -595,13 +655,17 @@ void Cutter::keep_finish_seeds(const TopologyChange& change) {
   if (change.empty()) {
     finish_left_ = 0;
     finish_seeds_.clear();
+    repair_seeds_.clear();
     return;
   }
-  for (TetId t : change.added_tets)
-    if (mesh_->is_alive(t)) finish_seeds_.push_back(t);
-  std::erase_if(finish_seeds_, [&](TetId t) { return !mesh_->is_alive(t); });
-  std::sort(finish_seeds_.begin(), finish_seeds_.end(), [](TetId a, TetId b) { return a.idx() < b.idx(); });
-  finish_seeds_.erase(std::unique(finish_seeds_.begin(), finish_seeds_.end()), finish_seeds_.end());
+  for (std::vector<TetId>* list : {&finish_seeds_, &repair_seeds_}) {
+    if (list->empty() && list == &repair_seeds_) continue;  // the repair is over
+    for (TetId t : change.added_tets)
+      if (mesh_->is_alive(t)) list->push_back(t);
+    std::erase_if(*list, [&](TetId t) { return !mesh_->is_alive(t); });
+    std::sort(list->begin(), list->end(), [](TetId a, TetId b) { return a.idx() < b.idx(); });
+    list->erase(std::unique(list->begin(), list->end()), list->end());
+  }
 }
 
 CutStepReport Cutter::finish_more() {
@@ -862,6 +926,7 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
   // are taken back: a part they alone cut off is not detached). A step that detached one makes
   // none: the scene may remove the part.
   find_detached(rep, mesh_->pending_added_tets());
+  keep_made(pr);
   if (rep.fragments.empty()) cut_provisional(rep, positions);
   rep.change = mesh_->take_change();
   if (!grid_stale) {

@@ -267,6 +267,7 @@ private:
   // A cut start() left unfinished is completed before the next edit (cut/cutter.cpp).
   void complete_previous(CutStepReport& rep, const PositionFn& positions);
   bool needs_improving(TetId t) const;  // joins the per-step improvement queue
+  void keep_made(Progress& pr) const;  // adds the pending change's tets to pr.made
   // Keeps the live tets with a face in the sheet's plane still shut (and adds their partner).
   void keep_shut(std::vector<TetId>& tets) const;
   void refresh_waiting(const PositionFn& positions, std::span<const TetId> more);
@@ -309,6 +310,9 @@ private:
   void find_detached(CutStepReport& rep, std::span<const TetId> added);  // before take_change()
   // finish()'s improvement still to come (finish_more): its region and operations left.
   std::vector<TetId> finish_seeds_;
+  // Its first phase, the repair: the tets the drag made that are short of the step queue's
+  // bounds (with the region's), to those bounds only; empty once done.
+  std::vector<TetId> repair_seeds_;
   int finish_left_ = 0;
   // One slice of the finish improvement on finish_seeds_ (improvement only: no cut).
   void improve_finish_slice(CutStepReport& rep, int work);

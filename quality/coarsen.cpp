@@ -223,22 +223,6 @@ private:
   std::priority_queue<Entry, std::vector<Entry>, std::greater<>> queue_;
 };
 
-void accumulate(ImproveReport& into, const ImproveReport& r) {
-  into.min_dihedral_after = r.min_dihedral_after;
-  into.max_dihedral_after = r.max_dihedral_after;
-  into.min_radius_ratio_after = r.min_radius_ratio_after;
-  into.tets_after = r.tets_after;
-  into.flips23 += r.flips23;
-  into.flips32 += r.flips32;
-  into.flips44 += r.flips44;
-  into.edge_removals += r.edge_removals;
-  into.multi_face_removals += r.multi_face_removals;
-  into.smoothing_moves += r.smoothing_moves;
-  into.contractions += r.contractions;
-  into.boundary_flips += r.boundary_flips;
-  into.seconds += r.seconds;
-}
-
 }  // namespace
 
 double mean_edge_length(const TetMesh& m) {

@@ -190,6 +190,7 @@ public:
   // insertion run never ends worse than the default one.
   bool insertion_allowed = true;
   bool growth_refused() const { return growth_refused_; }
+  int work() const { return work_; }
   void allow_insertion() {
     insertion_allowed = true;
     scope_.targets.radius_ratio_floor = opt_.radius_ratio_floor;
@@ -394,6 +395,7 @@ double largest_change(const std::unordered_map<int, double>& before, const std::
 }
 
 void finish(ImproveReport& rep, const Driver& d, Clock::time_point start) {
+  rep.work = d.work();
   rep.moved_vertices.reserve(d.moved.size());
   for (auto v : d.moved) rep.moved_vertices.emplace_back(v);
   std::sort(rep.moved_vertices.begin(), rep.moved_vertices.end());
@@ -401,6 +403,34 @@ void finish(ImproveReport& rep, const Driver& d, Clock::time_point start) {
 }
 
 }  // namespace
+
+void accumulate(ImproveReport& into, const ImproveReport& next) {
+  into.min_dihedral_after = next.min_dihedral_after;
+  into.max_dihedral_after = next.max_dihedral_after;
+  into.min_radius_ratio_after = next.min_radius_ratio_after;
+  into.tets_after = next.tets_after;
+  into.flips23 += next.flips23;
+  into.flips32 += next.flips32;
+  into.flips44 += next.flips44;
+  into.edge_removals += next.edge_removals;
+  into.multi_face_removals += next.multi_face_removals;
+  into.smoothing_moves += next.smoothing_moves;
+  into.insertions += next.insertions;
+  into.contractions += next.contractions;
+  into.boundary_insertions += next.boundary_insertions;
+  into.boundary_flips += next.boundary_flips;
+  into.surface_flips += next.surface_flips;
+  into.feature_slides += next.feature_slides;
+  into.volume_change += next.volume_change;
+  into.label_volume_change = std::max(into.label_volume_change, next.label_volume_change);
+  into.seconds += next.seconds;
+  into.work += next.work;
+  into.moved_vertices.insert(into.moved_vertices.end(), next.moved_vertices.begin(), next.moved_vertices.end());
+  std::sort(into.moved_vertices.begin(), into.moved_vertices.end());
+  into.moved_vertices.erase(std::unique(into.moved_vertices.begin(), into.moved_vertices.end()), into.moved_vertices.end());
+  into.budget_exhausted = next.budget_exhausted;
+  into.growth_capped = into.growth_capped || next.growth_capped;
+}
 
 ImproveReport improve(TetMesh& mesh, const ImproveOptions& opt) {
   const auto start = Clock::now();

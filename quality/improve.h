@@ -99,7 +99,12 @@ struct ImproveReport {
   bool growth_capped = false;  // an insertion was refused because the tet count reached max_growth
   int surface_flips = 0;       // boundary flips between faces that are not coplanar (in boundary_flips too)
   int feature_slides = 0;      // smoothing moves along a bent feature line (in smoothing_moves too)
+  int work = 0;                // operations spent, as counted against max_work
 };
+
+// Adds a later pass's report to an earlier one's over the same mesh: counts and work summed,
+// "before" figures kept, "after" figures and budget state the later pass's.
+void accumulate(ImproveReport& into, const ImproveReport& next);
 
 // Whole mesh, worst elements first, within opt.time_limit_s. All edits go through the mesh's
 // check-then-act API and accumulate in the mesh's pending TopologyChange (one change per pass).
