@@ -117,8 +117,10 @@ struct CutOptions {
   // A few operations a step: a step that commits a layer of tets stays cheap, and the work
   // its tets need is spread over the next steps (cutter.cpp, improve queue; docs/cut.md#the-defaults).
   static constexpr int kDefaultImproveWork = 8;
-  // Operations of finish()'s improvement (the front released; once per cut, so more). An
-  // insertion attempt counts 10 (ImproveOptions::insertion_work).
+  // Operations of finish()'s improvement (once per cut, so more): first the repair of every
+  // tet the drag made that is still short of the steps' queue bounds, then the front released
+  // and taken to the improvement's targets (docs/cut.md#curved-paths). An insertion attempt
+  // counts 10 (ImproveOptions::insertion_work).
   int finish_improve_work = 5000;
   // finish()'s improvement also inserts vertices (quality/insertion.h) into tets whose smallest
   // dihedral stays below this many degrees after flips, contraction and smoothing (0: none).

@@ -119,6 +119,10 @@ TEST_CASE("curved paths: an arc detaches the half disc it closes off, growing th
     CHECK(double(c.added) / kPi <= 1.25 * straight_rate);
     // What the cutter before path_tolerance made of this (a sheet a step): 1 part, 45k tets at 100 steps.
     CHECK(c.added < box.num_tets() / 2);
+    // Issue 16's quality floor, its share: under 1% of tets below 10 degrees (the creases
+    // between sheets left 2% before finish() repaired every sliver the drag made).
+    CHECK(double(c.quality.below) < 0.01 * double(box.num_tets() + c.added));
+    CHECK(c.quality.min_dihedral > 1.0);
   }
 }
 
@@ -141,6 +145,7 @@ TEST_CASE("curved paths: an S and a 90-degree turn give one sheet with corners, 
     const PathCut cs = cut_along(box, sample(s, steps));
     REQUIRE(cs.parts.size() == 2);
     CHECK(cs.parts[0] == Approx(8 - 2.03 * 2).epsilon(0.01));
+    CHECK(double(cs.quality.below) < 0.01 * double(box.num_tets() + cs.added));
     const auto tp = sample(turn, steps);
     const PathCut ct = cut_along(box, tp);
     REQUIRE(ct.parts.size() == 2);
@@ -150,6 +155,7 @@ TEST_CASE("curved paths: an S and a 90-degree turn give one sheet with corners, 
     region.push_back(Vec3(4, 1.03, 0));
     region.push_back(Vec3(4, 0, 0));
     CHECK(ct.parts[0] == Approx(shoelace(region)).epsilon(0.01));
+    CHECK(double(ct.quality.below) < 0.01 * double(box.num_tets() + ct.added));
   }
 }
 
