@@ -300,8 +300,8 @@ private:
   void cut_provisional(CutStepReport& rep, const PositionFn& positions);
   void take_back_provisional(CutStepReport& rep, const PositionFn& positions);
   TetGrid grid_;
-  std::uint64_t grid_edits_ = 0;
-  std::unique_ptr<cut_detail::FragmentScratch> fragment_scratch_;
+  std::uint64_t grid_edits_ = 0;  // the mesh's edit counter when the grid was last in sync
+  std::unique_ptr<cut_detail::FragmentScratch> fragment_scratch_;  // the fragment search's marks
   // Tets beside the faces this call opened: where detached parts are looked for, once the
   // call's edits are done (find_detached).
   std::vector<TetId> fragment_starts_;
@@ -319,7 +319,10 @@ private:
   // One slice of the finish improvement on finish_seeds_ (improvement only: no cut).
   void improve_finish_slice(CutStepReport& rep, int work);
   void keep_finish_seeds(const TopologyChange& change);  // the slice's new tets join the region
-  void end_finish_record(CutStepReport& rep, bool grid_stale, std::chrono::steady_clock::time_point t0);  // the fragment search's marks  // the mesh's edit counter when the grid was last in sync
+  void end_finish_record(CutStepReport& rep, bool grid_stale, std::chrono::steady_clock::time_point t0);
+  // The call's edits taken into rep.change and its counts; the grid follows them unless it was
+  // stale before the call (the next first contact rebuilds it).
+  void take_record(CutStepReport& rep, bool grid_stale);
 };
 
 }  // namespace incise
