@@ -48,6 +48,8 @@
 
 using namespace incise;
 using incise::testing::draw_vec3;
+using incise::testing::random_blades;
+using incise::testing::RandomBlade;
 
 namespace {
 // --provisional: every row with CutOptions::provisional (a paired run against the default).
@@ -149,31 +151,6 @@ void step_to_solver_ready(bool quick, bool with_1m) {
 }
 
 // ---- 2 -------------------------------------------------------------------------------------
-struct Blade {
-  Vec3 a, b, sweep;
-};
-std::vector<Blade> random_blades(const TetMesh& m, int count, unsigned seed) {
-  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
-  for (VertexId v : m.vertices()) {
-    lo = lo.cwiseMin(m.rest(v));
-    hi = hi.cwiseMax(m.rest(v));
-  }
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(0, 1);
-  std::normal_distribution<double> nd;
-  std::vector<Blade> out;
-  const double diag = (hi - lo).norm();
-  for (int i = 0; i < count; ++i) {
-    const Vec3 c = lo + draw_vec3(u, rng).cwiseProduct(hi - lo);
-    Vec3 dir = draw_vec3(nd, rng).normalized();
-    Vec3 sweep = draw_vec3(nd, rng);
-    sweep = (sweep - sweep.dot(dir) * dir).normalized() * diag * (0.15 + 0.3 * u(rng));
-    const double len = diag * (0.15 + 0.3 * u(rng));
-    out.push_back({c - 0.5 * len * dir - 0.5 * sweep, c + 0.5 * len * dir - 0.5 * sweep, sweep});
-  }
-  return out;
-}
-
 // Where the tets below `deg` are: at a rim (a vertex on both a cut face and a surface face),
 // on the cut surface, on the body's surface, or inside.
 std::string where_bad(const TetMesh& m, double deg) {
@@ -286,7 +263,7 @@ void quality_after_cuts(const TetMesh& organ, const std::string& name, bool quic
     double total = 0;
     std::vector<double> ms;
     int contractions = 0;
-    for (const Blade& b : blades) {
+    for (const RandomBlade& b : blades) {
       cutter.start({b.a, b.b});
       for (int s = 1; s <= 5; ++s) {
         const Vec3 off = b.sweep * (s / 5.0);

@@ -26,34 +26,6 @@ using namespace incise::testing;
 
 namespace {
 
-struct RandomBlade {
-  Vec3 a, b, sweep;
-};
-
-// The same random blades as bench_cut's quality_after_cuts (centre in the box of the body, a
-// random direction, a sweep across it).
-std::vector<RandomBlade> random_blades(const TetMesh& m, int count, unsigned seed) {
-  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
-  for (VertexId v : m.vertices()) {
-    lo = lo.cwiseMin(m.rest(v));
-    hi = hi.cwiseMax(m.rest(v));
-  }
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(0, 1);
-  std::normal_distribution<double> nd;
-  std::vector<RandomBlade> out;
-  const double diag = (hi - lo).norm();
-  for (int i = 0; i < count; ++i) {
-    const Vec3 c = lo + draw_vec3(u, rng).cwiseProduct(hi - lo);
-    const Vec3 dir = draw_vec3(nd, rng).normalized();
-    Vec3 sweep = draw_vec3(nd, rng);
-    sweep = (sweep - sweep.dot(dir) * dir).normalized() * diag * (0.15 + 0.3 * u(rng));
-    const double len = diag * (0.15 + 0.3 * u(rng));
-    out.push_back({c - 0.5 * len * dir - 0.5 * sweep, c + 0.5 * len * dir - 0.5 * sweep, sweep});
-  }
-  return out;
-}
-
 // Each blade: placed, swept in 5 steps, finished. `seen(report, is_finish)` sees every report;
 // returns the label volume the tolerance-mode contractions moved.
 template <class Seen>

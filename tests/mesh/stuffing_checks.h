@@ -12,6 +12,7 @@
 #include <limits>
 #include <numeric>
 #include <set>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -202,6 +203,65 @@ TetMesh stuff(const Shape& s, double h, bool graded = kGraded) {
   opt.cell_size = h;
   opt.graded = graded;
   return isosurface_stuffing(s.sdf, s.lo, s.hi, opt);
+}
+
+// Every shape at scales 1, 1e-3 and 1e3 and lattices of a quarter, an eighth (and at scale 1 a
+// sixteenth) of its size: valid, within the angle bounds, and the volume converges (finer is
+// not worse, with slack for the alignment noise of coarse lattices; a few percent at an eighth).
+void check_shapes_converge() {
+  for (double scale : {1.0, 1e-3, 1e3}) {
+    for (const Shape& base : shapes()) {
+      Shape s = scaled(base, scale);
+      double prev_err = std::numeric_limits<double>::infinity();
+      // The finest lattice only at scale 1, to keep the run short.
+      std::vector<double> fracs{0.25, 0.125};
+      if (scale == 1.0) fracs.push_back(0.0625);
+      for (double frac : fracs) {
+        double h = frac * s.size;
+        INFO(base.name << " scale " << scale << " h " << h);
+        TetMesh m = stuff(s, h);
+        Checked c = check(m, s, h);
+        double err = std::abs(c.volume - s.volume) / s.volume;
+        INFO("relative volume error " << err);
+        CHECK(err <= std::max(prev_err * 1.05, 0.01));
+        if (frac <= 0.125) CHECK(err < 0.03);
+        prev_err = err;
+      }
+    }
+  }
+}
+
+// Every shape scaled by 1e-8 and 1e8 at an eighth of its size: the same checks, volume to 5%.
+void check_extreme_scales() {
+  for (double scale : {1e-8, 1e8})
+    for (const Shape& base : shapes()) {
+      Shape s = scaled(base, scale);
+      double h = 0.125 * s.size;
+      INFO(base.name << " scale " << scale);
+      Checked c = check(stuff(s, h), s, h);
+      CHECK(std::abs(c.volume - s.volume) / s.volume < 0.05);
+    }
+}
+
+// The dihedral range over every mesh check() saw in this test program, against the bounds.
+void check_dihedral_range(const char* what) {
+  if (g_max_dihedral > 0)
+    WARN(what << ": dihedral angles over all meshes " << g_min_dihedral << " .. " << g_max_dihedral << " deg (bounds "
+              << kStuffingMinDihedral << " .. " << kStuffingMaxDihedral << ")");
+  CHECK(g_min_dihedral >= kStuffingMinDihedral);
+  CHECK(g_max_dihedral <= kStuffingMaxDihedral);
+}
+
+// A request far over max_tets is refused with an estimate and the option to raise.
+void check_refused_as_too_large(const std::function<void()>& request) {
+  try {
+    request();
+    FAIL("expected a refusal");
+  } catch (const InvalidArgument& e) {
+    INFO(e.what());
+    CHECK(std::string(e.what()).find("about") != std::string::npos);
+    CHECK(std::string(e.what()).find("max_tets") != std::string::npos);
+  }
 }
 
 }  // namespace

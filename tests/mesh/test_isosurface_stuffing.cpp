@@ -10,41 +10,9 @@ constexpr bool kGraded = false;  // stuff() and check() default to this mode
 
 using namespace incise;
 
-TEST_CASE("stuffing: analytic shapes at several resolutions and scales", "[stuffing][long]") {
-  for (double scale : {1.0, 1e-3, 1e3}) {
-    for (const Shape& base : shapes()) {
-      Shape s = scaled(base, scale);
-      double prev_err = std::numeric_limits<double>::infinity();
-      // The finest lattice only at scale 1, to keep the run short.
-      std::vector<double> fracs{0.25, 0.125};
-      if (scale == 1.0) fracs.push_back(0.0625);
-      for (double frac : fracs) {
-        double h = frac * s.size;
-        INFO(base.name << " scale " << scale << " h " << h);
-        TetMesh m = stuff(s, h);
-        Checked c = check(m, s, h);
-        double err = std::abs(c.volume - s.volume) / s.volume;
-        INFO("relative volume error " << err);
-        // Converges: finer is not worse (slack for the alignment noise of coarse lattices),
-        // and a few percent at the finest h.
-        CHECK(err <= std::max(prev_err * 1.05, 0.01));
-        if (frac <= 0.125) CHECK(err < 0.03);
-        prev_err = err;
-      }
-    }
-  }
-}
+TEST_CASE("stuffing: analytic shapes at several resolutions and scales", "[stuffing][long]") { check_shapes_converge(); }
 
-TEST_CASE("stuffing: extreme scales x1e-8 and x1e8", "[stuffing]") {
-  for (double scale : {1e-8, 1e8})
-    for (const Shape& base : shapes()) {
-      Shape s = scaled(base, scale);
-      double h = 0.125 * s.size;
-      INFO(base.name << " scale " << scale);
-      Checked c = check(stuff(s, h), s, h);
-      CHECK(std::abs(c.volume - s.volume) / s.volume < 0.05);
-    }
-}
+TEST_CASE("stuffing: extreme scales x1e-8 and x1e8", "[stuffing]") { check_extreme_scales(); }
 
 TEST_CASE("stuffing: sphere at h = r/20 and the same sphere in a huge box", "[stuffing]") {
   Shape s = shapes()[0];
@@ -152,24 +120,12 @@ TEST_CASE("stuffing: bad options and empty results are refused", "[stuffing]") {
   CHECK_THROWS_AS(isosurface_stuffing(sphere(Vec3::Constant(5), 1), lo, hi, opt), InvalidArgument);   // outside box
   CHECK_THROWS_AS(isosurface_stuffing([](const Vec3&) { return std::nan(""); }, lo, hi, opt), InvalidArgument);
   // Too large: refused with an estimate, quickly (before building the lattice).
-  try {
-    isosurface_stuffing(s, lo, hi, with([](auto& o) { o.cell_size = 1e-4; }));
-    FAIL("expected a refusal");
-  } catch (const InvalidArgument& e) {
-    INFO(e.what());
-    CHECK(std::string(e.what()).find("about") != std::string::npos);
-    CHECK(std::string(e.what()).find("max_tets") != std::string::npos);
-  }
+  check_refused_as_too_large([&] { isosurface_stuffing(s, lo, hi, with([](auto& o) { o.cell_size = 1e-4; })); });
   CHECK_THROWS_AS(isosurface_stuffing(s, lo, hi, with([](auto& o) { o.max_tets = 1000; })), InvalidArgument);
 }
 
 TEST_CASE("stuffing: dihedral range over the meshes above", "[stuffing]") {
-  if (g_max_dihedral > 0)
-    WARN("isosurface stuffing: dihedral angles over all meshes " << g_min_dihedral << " .. " << g_max_dihedral
-                                                                 << " deg (guaranteed " << kStuffingMinDihedral
-                                                                 << " .. " << kStuffingMaxDihedral << ")");
-  CHECK(g_min_dihedral >= kStuffingMinDihedral);
-  CHECK(g_max_dihedral <= kStuffingMaxDihedral);
+  check_dihedral_range("isosurface stuffing");
 }
 
 // Hidden: prints size, volume error and dihedral range per shape and resolution

@@ -13,38 +13,9 @@ constexpr bool kGraded = true;  // stuff() and check() default to this mode
 
 using namespace incise;
 
-TEST_CASE("graded stuffing: analytic shapes at several resolutions and scales", "[stuffing][graded][long]") {
-  for (double scale : {1.0, 1e-3, 1e3}) {
-    for (const Shape& base : shapes()) {
-      Shape s = scaled(base, scale);
-      double prev_err = std::numeric_limits<double>::infinity();
-      std::vector<double> fracs{0.25, 0.125};
-      if (scale == 1.0) fracs.push_back(0.0625);
-      for (double frac : fracs) {
-        double h = frac * s.size;
-        INFO(base.name << " scale " << scale << " h " << h);
-        TetMesh m = stuff(s, h);
-        Checked c = check(m, s, h);
-        double err = std::abs(c.volume - s.volume) / s.volume;
-        INFO("relative volume error " << err);
-        CHECK(err <= std::max(prev_err * 1.05, 0.01));
-        if (frac <= 0.125) CHECK(err < 0.03);
-        prev_err = err;
-      }
-    }
-  }
-}
+TEST_CASE("graded stuffing: analytic shapes at several resolutions and scales", "[stuffing][graded][long]") { check_shapes_converge(); }
 
-TEST_CASE("graded stuffing: extreme scales x1e-8 and x1e8", "[stuffing][graded]") {
-  for (double scale : {1e-8, 1e8})
-    for (const Shape& base : shapes()) {
-      Shape s = scaled(base, scale);
-      double h = 0.125 * s.size;
-      INFO(base.name << " scale " << scale);
-      Checked c = check(stuff(s, h), s, h);
-      CHECK(std::abs(c.volume - s.volume) / s.volume < 0.05);
-    }
-}
+TEST_CASE("graded stuffing: extreme scales x1e-8 and x1e8", "[stuffing][graded]") { check_extreme_scales(); }
 
 TEST_CASE("graded stuffing: far fewer tets than uniform, coarse inside, same boundary", "[stuffing][graded]") {
   Shape s = shapes()[0];
@@ -149,14 +120,7 @@ TEST_CASE("graded stuffing: oversized requests are refused", "[stuffing][graded]
   StuffingOptions opt;
   opt.graded = true;
   opt.cell_size = 1e-5;  // ~1e11 tets even graded: refused from the octree's upper levels
-  try {
-    isosurface_stuffing(s, lo, hi, opt);
-    FAIL("expected a refusal");
-  } catch (const InvalidArgument& e) {
-    INFO(e.what());
-    CHECK(std::string(e.what()).find("about") != std::string::npos);
-    CHECK(std::string(e.what()).find("max_tets") != std::string::npos);
-  }
+  check_refused_as_too_large([&] { isosurface_stuffing(s, lo, hi, opt); });
   opt.cell_size = 0.1;
   opt.max_tets = 1000;
   CHECK_THROWS_AS(isosurface_stuffing(s, lo, hi, opt), InvalidArgument);
@@ -167,12 +131,7 @@ TEST_CASE("graded stuffing: oversized requests are refused", "[stuffing][graded]
 }
 
 TEST_CASE("graded stuffing: dihedral range over the meshes above", "[stuffing][graded]") {
-  if (g_max_dihedral > 0)
-    WARN("graded isosurface stuffing: dihedral angles over all meshes " << g_min_dihedral << " .. " << g_max_dihedral
-                                                                        << " deg (bounds " << kStuffingMinDihedral
-                                                                        << " .. " << kStuffingMaxDihedral << ")");
-  CHECK(g_min_dihedral >= kStuffingMinDihedral);
-  CHECK(g_max_dihedral <= kStuffingMaxDihedral);
+  check_dihedral_range("graded isosurface stuffing");
 }
 
 // Hidden: tet counts against the uniform lattice and dihedral ranges on a sphere

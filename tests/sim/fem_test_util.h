@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <functional>
 #include <random>
 #include <vector>
 
@@ -66,6 +67,50 @@ inline void check_equals_direct(const TetMesh& m, const FemSimulationOptions& op
   CHECK((sim.displacement() - direct.displacement()).norm() <= 1e-6 * direct.displacement().norm());
 }
 
+// The patch test of a formulation on a jittered box: an affine field prescribed on the
+// boundary is reproduced inside (to 1e-9, unless `solve` is false), and its internal force
+// vanishes at interior vertices. `per_tet` gets the model and the field for the formulation's
+// own per-tet check (its stress or pressure) with the field's gradient.
+inline void check_affine_patch(Formulation f, FemKind kind, double nu, bool solve,
+                               const std::function<void(FemModel&, const Eigen::VectorXd&, const Eigen::Matrix3d&)>& per_tet) {
+  TetMesh m = make_box(Vec3(2, 1, 1.5), {6, 3, 4});
+  jitter(m, 0.25, 11);
+  const auto boundary = boundary_vertices(m);
+  Eigen::Matrix3d a;
+  a << 0.01, 0.02, -0.01, 0.005, -0.03, 0.02, 0.0, 0.01, 0.015;
+  const Vec3 shift(0.1, -0.2, 0.05);
+  auto exact = [&](const Vec3& x) -> Vec3 { return a * x + shift; };
+  FemSimulationOptions opt;
+  opt.kind = kind;
+  opt.formulation = f;
+  opt.method = SolverMethod::Direct;
+  opt.nonlinear_iterations = 6;
+  FemSimulation sim(m, table(1e5, nu), opt);
+  for (VertexId v : m.vertices())
+    if (boundary[v.idx()]) sim.prescribe(v, exact(m.rest(v)));
+  if (solve) {
+    for (int k = 0; k < (kind == FemKind::Linear ? 1 : 3); ++k) REQUIRE(sim.step().info == SolveInfo::Success);
+    double err = 0, ref = 0;
+    for (VertexId v : m.vertices()) {
+      err = std::max(err, (sim.displacement().segment<3>(3 * v.idx()) - exact(m.rest(v))).norm());
+      ref = std::max(ref, exact(m.rest(v)).norm());
+    }
+    CHECK(err <= 1e-9 * ref);
+  }
+  FemModel& model = sim.model();
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(model.rows()), force;
+  for (VertexId v : m.vertices()) u.segment<3>(3 * v.idx()) = exact(m.rest(v));
+  model.update_rotations(u);
+  model.internal_forces(u, force);
+  double interior = 0, all = 0;
+  for (VertexId v : m.vertices()) {
+    all = std::max(all, force.segment<3>(3 * v.idx()).norm());
+    if (!boundary[v.idx()]) interior = std::max(interior, force.segment<3>(3 * v.idx()).norm());
+  }
+  CHECK(interior <= 1e-9 * all);
+  if (per_tet) per_tet(model, u, a);
+}
+
 inline double max_abs(const Eigen::VectorXd& v) { return v.size() ? v.cwiseAbs().maxCoeff() : 0.0; }
 
 // Shared by the nodal-averaged and edge-smoothed tests (their own namespace: other FEM tests
@@ -88,6 +133,27 @@ inline Eigen::VectorXd random_vector(Eigen::Index n, std::mt19937& rng, double s
 
 // Relative difference of K x, diagonal, diagonal blocks and mass of two models on the mesh's
 // vertex range, and (corotational) of b_R.
+// Work of one FemModel::apply, averaged over 1000 random edits of an n^3 unit box of two
+// materials (the locality tests: it must not grow with n).
+struct WorkPerUpdate {
+  double tets = 0, vertices = 0, blocks = 0, edges = 0;
+};
+inline WorkPerUpdate work_per_local_update(Formulation f, int n) {
+  TetMesh m = make_box(Vec3(1, 1, 1), {n, n, n});
+  m.discard_change();
+  FemModel model(m, two_materials(), FemKind::Linear, f);
+  model.reset_work();
+  std::mt19937 rng(3);
+  for (int i = 0; i < 1000; ++i) {
+    random_edit(m, rng, true);
+    model.apply(m.take_change());
+  }
+  const FemWork& w = model.work();
+  const double u = double(w.updates);
+  return {double(w.tets_recomputed) / u, double(w.vertices_updated) / u, double(w.blocks_updated) / u,
+          double(w.edges_updated) / u};
+}
+
 inline double model_difference(const FemModel& a, const FemModel& b, const TetMesh& m, std::mt19937& rng) {
   const Eigen::Index n = Eigen::Index(3 * m.vertex_capacity());
   Eigen::VectorXd xa = Eigen::VectorXd::Zero(a.rows()), xb = Eigen::VectorXd::Zero(b.rows()), ya, yb;

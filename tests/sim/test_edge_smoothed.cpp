@@ -90,51 +90,19 @@ TEST_CASE("edge-smoothed: K x, b_R and f_int match the assembled matrix, which h
 }
 
 TEST_CASE("edge-smoothed: patch test, an affine field is reproduced exactly, with its stress", "[fem][edge][verification]") {
-  TetMesh m = make_box(Vec3(2, 1, 1.5), {6, 3, 4});
-  jitter(m, 0.25, 11);
-  const auto boundary = boundary_vertices(m);
-  Eigen::Matrix3d a;
-  a << 0.01, 0.02, -0.01, 0.005, -0.03, 0.02, 0.0, 0.01, 0.015;
-  const Vec3 shift(0.1, -0.2, 0.05);
-  auto exact = [&](const Vec3& x) -> Vec3 { return a * x + shift; };
   for (FemKind kind : {FemKind::Linear, FemKind::Corotational})
     for (double nu : {0.3, 0.49}) {
       INFO("kind " << int(kind) << ", nu " << nu);
-      FemSimulationOptions opt;
-      opt.kind = kind;
-      opt.formulation = kEdge;
-      opt.method = SolverMethod::Direct;
-      opt.nonlinear_iterations = 6;
-      FemSimulation sim(m, table(1e5, nu), opt);
-      for (VertexId v : m.vertices())
-        if (boundary[v.idx()]) sim.prescribe(v, exact(m.rest(v)));
-      for (int f = 0; f < (kind == FemKind::Linear ? 1 : 3); ++f) REQUIRE(sim.step().info == SolveInfo::Success);
-      double err = 0, ref = 0;
-      for (VertexId v : m.vertices()) {
-        err = std::max(err, (sim.displacement().segment<3>(3 * v.idx()) - exact(m.rest(v))).norm());
-        ref = std::max(ref, exact(m.rest(v)).norm());
-      }
-      CHECK(err <= 1e-9 * ref);
-      FemModel& model = sim.model();
-      Eigen::VectorXd u = Eigen::VectorXd::Zero(model.rows()), f;
-      for (VertexId v : m.vertices()) u.segment<3>(3 * v.idx()) = exact(m.rest(v));
-      model.update_rotations(u);
-      model.internal_forces(u, f);
-      double interior = 0, all = 0;
-      for (VertexId v : m.vertices()) {
-        all = std::max(all, f.segment<3>(3 * v.idx()).norm());
-        if (!boundary[v.idx()]) interior = std::max(interior, f.segment<3>(3 * v.idx()).norm());
-      }
-      CHECK(interior <= 1e-9 * all);
-      if (kind == FemKind::Linear) {
+      check_affine_patch(kEdge, kind, nu, true, [&](FemModel& model, const Eigen::VectorXd& u, const Eigen::Matrix3d& a) {
+        if (kind != FemKind::Linear) return;
         // Every tet carries the field's stress: von Mises of 2 mu dev(eps) (the pressure adds none).
         const Material mat{1e5, nu, 1000};
         const Eigen::Matrix3d eps = 0.5 * (a + a.transpose());
         const Eigen::Matrix3d dev = eps - eps.trace() / 3 * Eigen::Matrix3d::Identity();
         const double expected = von_mises_of(2 * mat.mu() * dev);
         const std::vector<double> vm = model.von_mises(u);
-        for (TetId t : m.tets()) REQUIRE(vm[t.idx()] == Approx(expected).epsilon(1e-9));
-      }
+        for (TetId t : model.mesh().tets()) REQUIRE(vm[t.idx()] == Approx(expected).epsilon(1e-9));
+      });
     }
 }
 
@@ -154,22 +122,8 @@ TEST_CASE("edge-smoothed: the locally updated model equals a fresh one after edi
 }
 
 TEST_CASE("edge-smoothed: work per local update does not grow with mesh size", "[fem][edge][local][locality]") {
-  auto work_per_update = [](int n) {
-    TetMesh m = make_box(Vec3(1, 1, 1), {n, n, n});
-    m.discard_change();
-    FemModel model(m, two_materials(), FemKind::Linear, kEdge);
-    model.reset_work();
-    std::mt19937 rng(3);
-    for (int i = 0; i < 1000; ++i) {
-      random_edit(m, rng, true);
-      model.apply(m.take_change());
-    }
-    const FemWork& w = model.work();
-    const double u = double(w.updates);
-    return std::array<double, 2>{double(w.tets_recomputed) / u, double(w.edges_updated) / u};
-  };
-  const auto small = work_per_update(6);   // 1.3k tets
-  const auto large = work_per_update(30);  // 162k tets
+  const WorkPerUpdate w6 = work_per_local_update(kEdge, 6), w30 = work_per_local_update(kEdge, 30);  // 1.3k, 162k tets
+  const std::array<double, 2> small{w6.tets, w6.edges}, large{w30.tets, w30.edges};
   WARN("per update (1.3k vs 162k tets): tets " << small[0] << " vs " << large[0] << ", edges " << small[1] << " vs "
                                                << large[1]);
   for (int i = 0; i < 2; ++i) CHECK(large[std::size_t(i)] < 1.5 * small[std::size_t(i)]);

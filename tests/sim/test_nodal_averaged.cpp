@@ -40,56 +40,22 @@ TEST_CASE("nodal-averaged: the mixed formulation is refused, the standard one un
 }
 
 TEST_CASE("nodal-averaged: patch test, an affine field is reproduced exactly", "[fem][nodal][verification]") {
-  TetMesh m = make_box(Vec3(2, 1, 1.5), {6, 3, 4});
-  jitter(m, 0.25, 11);
-  const auto boundary = boundary_vertices(m);
-  Eigen::Matrix3d a;
-  a << 0.01, 0.02, -0.01, 0.005, -0.03, 0.02, 0.0, 0.01, 0.015;
-  const Vec3 shift(0.1, -0.2, 0.05);
-  auto exact = [&](const Vec3& x) -> Vec3 { return a * x + shift; };
   for (FemKind kind : {FemKind::Linear, FemKind::Corotational})
     for (double nu : {0.3, 0.49, 0.4999}) {
       INFO("kind " << int(kind) << ", nu " << nu);
-      FemSimulationOptions opt;
-      opt.kind = kind;
-      opt.formulation = kNodal;
-      opt.method = SolverMethod::Direct;
-      opt.nonlinear_iterations = 6;
-      FemSimulation sim(m, table(1e5, nu), opt);
-      for (VertexId v : m.vertices())
-        if (boundary[v.idx()]) sim.prescribe(v, exact(m.rest(v)));
       // The corotational frames re-linearize without geometric stiffness: the fixed-point
       // iteration contracts only while the pressure is small against mu (at nu = 0.4999 this
       // field's pressure is ~25 mu, and the iterates stall near 4e-4). There the discrete
-      // equilibrium below is the patch test.
-      if (kind == FemKind::Linear || nu <= 0.49) {
-        for (int f = 0; f < (kind == FemKind::Linear ? 1 : 3); ++f) REQUIRE(sim.step().info == SolveInfo::Success);
-        double err = 0, ref = 0;
-        for (VertexId v : m.vertices()) {
-          err = std::max(err, (sim.displacement().segment<3>(3 * v.idx()) - exact(m.rest(v))).norm());
-          ref = std::max(ref, exact(m.rest(v)).norm());
-        }
-        CHECK(err <= 1e-9 * ref);
-      }
-      // The internal force of the affine field vanishes at interior vertices, and every tet
-      // carries the same pressure, kappa tr(eps) (linear).
-      FemModel& model = sim.model();
-      Eigen::VectorXd u = Eigen::VectorXd::Zero(model.rows()), f;
-      for (VertexId v : m.vertices()) u.segment<3>(3 * v.idx()) = exact(m.rest(v));
-      model.update_rotations(u);
-      model.internal_forces(u, f);
-      double interior = 0, all = 0;
-      for (VertexId v : m.vertices()) {
-        all = std::max(all, f.segment<3>(3 * v.idx()).norm());
-        if (!boundary[v.idx()]) interior = std::max(interior, f.segment<3>(3 * v.idx()).norm());
-      }
-      CHECK(interior <= 1e-9 * all);
-      if (kind == FemKind::Linear) {
+      // equilibrium (no internal force at interior vertices) is the patch test.
+      const bool solve = kind == FemKind::Linear || nu <= 0.49;
+      check_affine_patch(kNodal, kind, nu, solve, [&](FemModel& model, const Eigen::VectorXd& u, const Eigen::Matrix3d& a) {
+        if (kind != FemKind::Linear) return;
+        // Every tet carries the same pressure, kappa tr(eps).
         const Material mat{1e5, nu, 1000};
         const double expected = (mat.lambda() + 2 * mat.mu() / 3) * a.trace();
         const std::vector<double> p = model.pressure(u);
-        for (TetId t : m.tets()) REQUIRE(p[t.idx()] == Approx(expected).epsilon(1e-9));
-      }
+        for (TetId t : model.mesh().tets()) REQUIRE(p[t.idx()] == Approx(expected).epsilon(1e-9));
+      });
     }
 }
 
@@ -148,23 +114,8 @@ TEST_CASE("nodal-averaged: the locally updated model equals a fresh one after ed
 }
 
 TEST_CASE("nodal-averaged: work per local update does not grow with mesh size", "[fem][nodal][local][locality]") {
-  auto work_per_update = [](int n) {
-    TetMesh m = make_box(Vec3(1, 1, 1), {n, n, n});
-    m.discard_change();
-    FemModel model(m, two_materials(), FemKind::Linear, kNodal);
-    model.reset_work();
-    std::mt19937 rng(3);
-    for (int i = 0; i < 1000; ++i) {
-      random_edit(m, rng, true);
-      model.apply(m.take_change());
-    }
-    const FemWork& w = model.work();
-    const double u = double(w.updates);
-    return std::array<double, 3>{double(w.tets_recomputed) / u, double(w.vertices_updated) / u,
-                                 double(w.blocks_updated) / u};
-  };
-  const auto small = work_per_update(6);   // 1.3k tets
-  const auto large = work_per_update(30);  // 162k tets
+  const WorkPerUpdate w6 = work_per_local_update(kNodal, 6), w30 = work_per_local_update(kNodal, 30);  // 1.3k, 162k tets
+  const std::array<double, 3> small{w6.tets, w6.vertices, w6.blocks}, large{w30.tets, w30.vertices, w30.blocks};
   WARN("per update (1.3k vs 162k tets): tets " << small[0] << " vs " << large[0] << ", vertices " << small[1]
                                                << " vs " << large[1] << ", 1-ring blocks " << small[2] << " vs "
                                                << large[2]);
