@@ -44,7 +44,7 @@
 #include "quality/metrics.h"
 #include "sim/fem_simulation.h"
 #include "sim/spring_model.h"
-#include "tests/support/draws.h"
+#include "testing/draws.h"
 
 using namespace incise;
 using incise::testing::draw_vec3;

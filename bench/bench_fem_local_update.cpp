@@ -11,7 +11,7 @@
 #include "mesh/generate.h"
 #include "sim/assembled_stiffness.h"
 #include "sim/fem_model.h"
-#include "tests/support/mesh_edits.h"
+#include "testing/mesh_edits.h"
 
 using namespace incise;
 using incise::testing::random_tet;

@@ -23,7 +23,7 @@
 
 #include "bench/bench_common.h"
 #include "sim/fem_model.h"
-#include "tests/support/elasticity_cases.h"
+#include "testing/elasticity_cases.h"
 
 using namespace incise;
 using namespace incise::testing;
@@ -134,7 +134,7 @@ Extrapolated richardson(double coarse, double mid, double fine) {
   return {fine + d2 / (std::pow(2.0, p) - 1), p};
 }
 
-// Cook's membrane (tests/support/elasticity_cases.h run_cook): E = 70, total shear force 100.
+// Cook's membrane (testing/elasticity_cases.h run_cook): E = 70, total shear force 100.
 void cook(const Args& args, Csv* csv) {
   const double e = 70, force = 100;
   const std::vector<double> meshes = args.list("--cook-meshes", args.flag("--quick") ? "4,8,16" : "4,8,16,32,64");

@@ -42,7 +42,7 @@
 #include "sim/preconditioner.h"
 #include "sim/fem_simulation.h"
 #include "scene/run_scene.h"
-#include "tests/support/mesh_edits.h"
+#include "testing/mesh_edits.h"
 
 using namespace incise;
 using namespace incise::bench;

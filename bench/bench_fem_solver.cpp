@@ -22,7 +22,7 @@
 #include "sim/cg_spectrum.h"
 #include "sim/fem_simulation.h"
 #include "sim/spring_model.h"
-#include "tests/support/mesh_edits.h"
+#include "testing/mesh_edits.h"
 
 using namespace incise;
 using incise::testing::jitter;

@@ -24,7 +24,7 @@
 #include "quality/improve.h"
 #include "sim/fem_simulation.h"
 #include "sim/spring_model.h"
-#include "tests/support/mesh_edits.h"
+#include "testing/mesh_edits.h"
 
 using namespace incise;
 

@@ -19,8 +19,8 @@
 #include "mesh/tet_mesh.h"
 #include "sim/fem_simulation.h"
 #include "sim/spring_model.h"
-#include "tests/support/draws.h"
-#include "tests/support/mesh_edits.h"
+#include "testing/draws.h"
+#include "testing/mesh_edits.h"
 
 using namespace incise;
 using incise::testing::draw_vec3;

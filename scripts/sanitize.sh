@@ -12,7 +12,7 @@ BUILD_DIR=${BUILD_DIR:-build-sanitize}
 # clang, with the libFuzzer targets in the same tree: scripts/run-fuzzers.sh reuses it
 # (FUZZ_BUILD_DIR) instead of compiling every library a third time, and clang compiles the
 # instrumented tree faster than gcc. The tests draw their random vectors in a fixed order
-# (tests/support/draws.h), so both compilers run the same cases.
+# (testing/draws.h), so both compilers run the same cases.
 # -g1 (line tables only): reports keep file:line; full debug info made the instrumented
 # Eigen-heavy files compile about 15% slower.
 if [ -f "$BUILD_DIR/CMakeCache.txt" ] && ! grep -q '^CMAKE_CXX_COMPILER:.*clang' "$BUILD_DIR/CMakeCache.txt"; then

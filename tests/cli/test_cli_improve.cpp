@@ -10,7 +10,7 @@
 #include "mesh/io/tet_io.h"
 #include "quality/metrics.h"
 #include "tests/cli/cli_run.h"
-#include "tests/support/mesh_edits.h"
+#include "testing/mesh_edits.h"
 
 using namespace incise;
 using incise::testing::Run;

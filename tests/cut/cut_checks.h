@@ -11,7 +11,7 @@
 #include "cut/cutter.h"
 #include "mesh/tet_mesh.h"
 #include "quality/components.h"
-#include "tests/support/mesh_measures.h"  // label_volumes
+#include "testing/mesh_measures.h"  // label_volumes
 
 namespace incise::testing {
 

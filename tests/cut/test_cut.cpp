@@ -13,8 +13,8 @@
 #include "quality/metrics.h"
 #include "quality/components.h"
 #include "tests/cut/cut_checks.h"
-#include "tests/support/mesh_edits.h"
-#include "tests/support/draws.h"
+#include "testing/mesh_edits.h"
+#include "testing/draws.h"
 
 using namespace incise;
 using namespace incise::testing;

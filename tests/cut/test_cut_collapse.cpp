@@ -12,7 +12,7 @@
 #include "mesh/generate.h"
 #include "quality/metrics.h"
 #include "tests/cut/cut_checks.h"
-#include "tests/support/mesh_edits.h"
+#include "testing/mesh_edits.h"
 
 using namespace incise;
 using namespace incise::testing;

@@ -12,7 +12,7 @@
 #include "mesh/io/tet_io.h"
 #include "quality/metrics.h"
 #include "tests/cut/cut_checks.h"
-#include "tests/support/draws.h"
+#include "testing/draws.h"
 
 using namespace incise;
 using namespace incise::testing;

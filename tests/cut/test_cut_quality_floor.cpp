@@ -19,7 +19,7 @@
 #include "quality/boundary_angle.h"
 #include "quality/metrics.h"
 #include "tests/cut/cut_checks.h"
-#include "tests/support/draws.h"
+#include "testing/draws.h"
 
 using namespace incise;
 using namespace incise::testing;

@@ -11,8 +11,8 @@
 #include "mesh/generate.h"
 #include "quality/components.h"
 #include "quality/improve.h"
-#include "tests/support/mesh_edits.h"
-#include "tests/support/draws.h"
+#include "testing/mesh_edits.h"
+#include "testing/draws.h"
 
 using namespace incise;
 using namespace incise::testing;

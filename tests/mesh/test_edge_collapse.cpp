@@ -8,8 +8,8 @@
 
 #include "mesh/edge_collapse.h"
 #include "mesh/generate.h"
-#include "tests/support/mesh_edits.h"
-#include "tests/support/mesh_measures.h"
+#include "testing/mesh_edits.h"
+#include "testing/mesh_measures.h"
 
 using namespace incise;
 using incise::testing::vertex_at;

@@ -11,7 +11,7 @@
 #include "mesh/errors.h"
 #include "mesh/generate.h"
 #include "mesh/tet_mesh.h"
-#include "tests/support/mesh_edits.h"
+#include "testing/mesh_edits.h"
 
 using namespace incise;
 using namespace incise::testing;

@@ -13,7 +13,7 @@
 #include "mesh/point_locator.h"
 #include "quality/coarsen.h"
 #include "quality/metrics.h"
-#include "tests/support/mesh_measures.h"
+#include "testing/mesh_measures.h"
 
 using namespace incise;
 using incise::testing::label_volumes;

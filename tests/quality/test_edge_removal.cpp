@@ -6,7 +6,7 @@
 #include <random>
 
 #include "quality/edge_removal.h"
-#include "tests/support/ring.h"
+#include "testing/ring.h"
 
 using namespace incise;
 

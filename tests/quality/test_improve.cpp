@@ -15,7 +15,7 @@
 #include "quality/dihedral_objective.h"
 #include "quality/improve.h"
 #include "quality/metrics.h"
-#include "tests/support/mesh_edits.h"
+#include "testing/mesh_edits.h"
 
 using namespace incise;
 

@@ -10,7 +10,7 @@
 
 #include "mesh/errors.h"
 #include "quality/metrics.h"
-#include "tests/support/draws.h"
+#include "testing/draws.h"
 
 using namespace incise;
 using incise::testing::draw_vec3;

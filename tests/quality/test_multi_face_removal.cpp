@@ -13,9 +13,9 @@
 #include "mesh/errors.h"
 #include "mesh/generate.h"
 #include "quality/improve.h"
-#include "tests/support/ring.h"
+#include "testing/ring.h"
 #include "quality/multi_face_removal.h"
-#include "tests/support/mesh_edits.h"
+#include "testing/mesh_edits.h"
 
 using namespace incise;
 

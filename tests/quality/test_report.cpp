@@ -8,7 +8,7 @@
 #include "mesh/errors.h"
 #include "mesh/generate.h"
 #include "quality/report.h"
-#include "tests/support/mesh_measures.h"
+#include "testing/mesh_measures.h"
 
 using namespace incise;
 using incise::testing::vertex_at;

@@ -12,7 +12,7 @@
 #include "mesh/point_locator.h"
 #include "quality/collapse.h"
 #include "quality/surface_star.h"
-#include "tests/support/mesh_measures.h"
+#include "testing/mesh_measures.h"
 
 using namespace incise;
 using incise::testing::vertex_at;

@@ -13,7 +13,7 @@
 #include "mesh/generate.h"
 #include "mesh/io/tet_io.h"
 #include "quality/improve.h"
-#include "tests/support/mesh_edits.h"
+#include "testing/mesh_edits.h"
 
 using namespace incise;
 

@@ -1,7 +1,7 @@
 #pragma once
 // Helpers shared by the FEM tests: loads on box faces, fixed ends, a run checked against the
 // direct solution (random edits and jitter come from
-// tests/support/mesh_edits.h).
+// testing/mesh_edits.h).
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -12,7 +12,7 @@
 #include "mesh/generate.h"
 #include "mesh/tet_mesh.h"
 #include "sim/fem_simulation.h"
-#include "tests/support/mesh_edits.h"
+#include "testing/mesh_edits.h"
 
 namespace incise::testing {
 

@@ -14,7 +14,7 @@
 #include "quality/conditioning.h"
 #include "quality/metrics.h"
 #include "sim/cg_spectrum.h"
-#include "tests/support/mesh_edits.h"
+#include "testing/mesh_edits.h"
 
 using namespace incise;
 

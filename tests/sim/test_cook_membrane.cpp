@@ -11,7 +11,7 @@
 #include "mesh/errors.h"
 #include "mesh/generate.h"
 #include "scene/run_scene.h"
-#include "tests/support/elasticity_cases.h"
+#include "testing/elasticity_cases.h"
 
 using namespace incise;
 using namespace incise::testing;

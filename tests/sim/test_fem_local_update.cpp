@@ -9,7 +9,7 @@
 #include "sim/fem_model.h"
 #include "sim/fem_simulation.h"
 #include "tests/sim/fem_test_util.h"
-#include "tests/support/draws.h"
+#include "testing/draws.h"
 
 using namespace incise;
 using namespace incise::testing;

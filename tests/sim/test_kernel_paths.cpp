@@ -8,8 +8,8 @@
 
 #include "mesh/generate.h"
 #include "sim/stiffness_kernel.h"
-#include "tests/support/mesh_edits.h"
-#include "tests/support/draws.h"
+#include "testing/mesh_edits.h"
+#include "testing/draws.h"
 
 using namespace incise;
 using incise::testing::draw_quaternion;

@@ -9,8 +9,8 @@
 #include "mesh/generate.h"
 #include "scene/run_scene.h"
 #include "sim/mixed_solver.h"
-#include "tests/support/elasticity_cases.h"
-#include "tests/support/mesh_edits.h"
+#include "testing/elasticity_cases.h"
+#include "testing/mesh_edits.h"
 
 using namespace incise;
 using namespace incise::testing;

@@ -9,7 +9,7 @@
 #include "sim/fem_simulation.h"
 #include "sim/p2_element.h"
 #include "sim/quadratic_solver.h"
-#include "tests/support/mesh_edits.h"
+#include "testing/mesh_edits.h"
 
 using namespace incise;
 

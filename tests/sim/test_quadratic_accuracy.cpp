@@ -1,5 +1,5 @@
 // Quadratic tets and Taylor-Hood through FemSimulation against outside answers: Timoshenko's
-// cantilever, Cook's membrane's converged tip (tests/support/elasticity_cases.h), Taylor-Hood
+// cantilever, Cook's membrane's converged tip (testing/elasticity_cases.h), Taylor-Hood
 // at Poisson's ratio 0.4999 and 0.5, corotational and implicit Euler against the static solve.
 #include <catch2/catch.hpp>
 
@@ -9,7 +9,7 @@
 #include "mesh/generate.h"
 #include "sim/fem_simulation.h"
 #include "sim/quadratic_solver.h"
-#include "tests/support/elasticity_cases.h"
+#include "testing/elasticity_cases.h"
 
 using namespace incise;
 

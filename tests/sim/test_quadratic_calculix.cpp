@@ -12,7 +12,7 @@
 #include "sim/fem_simulation.h"
 #include "sim/quadratic_solver.h"
 #include "tests/io/io_test_util.h"
-#include "tests/support/mesh_edits.h"
+#include "testing/mesh_edits.h"
 
 using namespace incise;
 using incise::testing::ScratchDir;

@@ -14,7 +14,7 @@
 #include "sim/fem_simulation.h"
 #include "sim/rotation_extraction.h"
 #include "tests/sim/fem_test_util.h"
-#include "tests/support/draws.h"
+#include "testing/draws.h"
 
 using namespace incise;
 using namespace incise::testing;

@@ -14,8 +14,8 @@
 #include "mesh/tet_mesh.h"
 #include "sim/integrator.h"
 #include "sim/spring_model.h"
-#include "tests/support/mesh_edits.h"
-#include "tests/support/draws.h"
+#include "testing/mesh_edits.h"
+#include "testing/draws.h"
 
 using namespace incise;
 using namespace incise::testing;

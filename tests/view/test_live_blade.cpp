@@ -11,7 +11,7 @@
 
 #include "scene/scene_runner.h"
 #include "view/live_session.h"
-#include "tests/support/draws.h"
+#include "testing/draws.h"
 
 using namespace incise;
 using incise::testing::draw_vec3;

@@ -8,7 +8,7 @@
 #include "mesh/edge_collapse.h"
 #include "mesh/errors.h"
 #include "mesh/tet_mesh.h"
-#include "tests/support/draws.h"
+#include "testing/draws.h"
 
 namespace incise::testing {
 

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "mesh/tet_mesh.h"
-#include "tests/support/draws.h"
+#include "testing/draws.h"
 
 namespace incise::testing {
 
