@@ -42,8 +42,8 @@
 #include "quality/boundary_angle.h"
 #include "quality/components.h"
 #include "quality/metrics.h"
-#include "sim/fem_simulation.h"
-#include "sim/spring_model.h"
+#include "sim/fem/fem_simulation.h"
+#include "sim/springs/spring_model.h"
 #include "testing/draws.h"
 
 using namespace incise;

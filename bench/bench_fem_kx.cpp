@@ -1,4 +1,4 @@
-// K*x: matrix-free (slab-coloured packets, sim/stiffness_kernel.h) vs the assembled sparse
+// K*x: matrix-free (slab-coloured packets, sim/fem/stiffness_kernel.h) vs the assembled sparse
 // matrix (our TBB CSR product and Eigen's serial SpMV), linear and corotational, on box meshes
 // from 10k to 1M tets, with 1 and 2 threads, next to a STREAM-triad bandwidth measurement in
 // the same run: ratio and percent of the memory-bandwidth bound.
@@ -15,8 +15,8 @@
 #include "bench/bench_common.h"
 #include "mesh/generate.h"
 #include "mesh/io/tet_io.h"
-#include "sim/assembled_stiffness.h"
-#include "sim/fem_model.h"
+#include "sim/fem/assembled_stiffness.h"
+#include "sim/fem/fem_model.h"
 
 using namespace incise;
 using namespace incise::bench;

@@ -9,8 +9,8 @@
 
 #include "bench/bench_common.h"
 #include "mesh/generate.h"
-#include "sim/assembled_stiffness.h"
-#include "sim/fem_model.h"
+#include "sim/fem/assembled_stiffness.h"
+#include "sim/fem/fem_model.h"
 #include "testing/mesh_edits.h"
 
 using namespace incise;

@@ -1,5 +1,5 @@
 // Volumetric locking of linear tets, and what the nodal-averaged and edge-smoothed formulations
-// (sim/formulation.h) do about it and cost:
+// (sim/fem/formulation.h) do about it and cost:
 //  1. accuracy: cantilever 10 x 1 x 1 (E = 1e6, tip shear load 1, clamped), tip deflection
 //     against Timoshenko beam theory, per Poisson's ratio, mesh and formulation. Solved by CG
 //     with the (exact, CHOLMOD) Cholesky preconditioner to 1e-12, which equals the direct solve
@@ -16,7 +16,7 @@
 
 #include "bench/bench_common.h"
 #include "mesh/generate.h"
-#include "sim/fem_simulation.h"
+#include "sim/fem/fem_simulation.h"
 
 using namespace incise;
 using namespace incise::bench;

@@ -1,4 +1,4 @@
-// The mixed u-p solver (sim/mixed_solver.h) against Poisson's ratio:
+// The mixed u-p solver (sim/fem/mixed_solver.h) against Poisson's ratio:
 //  1. Lame's thick-walled cylinder (plane strain, inner pressure): error of the inner radial
 //     displacement, mixed and standard tets, three meshes;
 //  2. cantilever tip deflection against Timoshenko beam theory, mixed and standard, three meshes;
@@ -22,7 +22,7 @@
 #include <Eigen/SparseCholesky>
 
 #include "bench/bench_common.h"
-#include "sim/fem_model.h"
+#include "sim/fem/fem_model.h"
 #include "testing/elasticity_cases.h"
 
 using namespace incise;

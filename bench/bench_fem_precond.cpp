@@ -36,11 +36,11 @@
 #include "mesh/io/tet_io.h"
 #include <tbb/global_control.h>
 
-#include "sim/aggregation_amg.h"
-#include "sim/async_cholesky.h"
-#include "sim/cg_solver.h"
-#include "sim/preconditioner.h"
-#include "sim/fem_simulation.h"
+#include "sim/fem/aggregation_amg.h"
+#include "sim/fem/async_cholesky.h"
+#include "sim/linalg/cg_solver.h"
+#include "sim/linalg/preconditioner.h"
+#include "sim/fem/fem_simulation.h"
 #include "scene/run_scene.h"
 #include "testing/mesh_edits.h"
 

@@ -19,8 +19,8 @@
 #include "bench/bench_common.h"
 #include "mesh/generate.h"
 #include "mesh/io/tet_io.h"
-#include "sim/fem_model.h"
-#include "sim/fem_simulation.h"
+#include "sim/fem/fem_model.h"
+#include "sim/fem/fem_simulation.h"
 
 using namespace incise;
 using namespace incise::bench;

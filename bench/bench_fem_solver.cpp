@@ -19,9 +19,9 @@
 #include "mesh/io/tet_io.h"
 #include "quality/conditioning.h"
 #include "quality/improve.h"
-#include "sim/cg_spectrum.h"
-#include "sim/fem_simulation.h"
-#include "sim/spring_model.h"
+#include "sim/fem/cg_spectrum.h"
+#include "sim/fem/fem_simulation.h"
+#include "sim/springs/spring_model.h"
 #include "testing/mesh_edits.h"
 
 using namespace incise;
@@ -93,7 +93,7 @@ struct Beam {
 double rel(const Eigen::VectorXd& a, const Eigen::VectorXd& ref) { return (a - ref).norm() / ref.norm(); }
 
 // 7. Formula and Lanczos estimates of CG iterations against full solves, on the problem the
-// quality report measures (sim/cg_spectrum.h: clamped on one side, gravity-like load, nu 0.45,
+// quality report measures (sim/fem/cg_spectrum.h: clamped on one side, gravity-like load, nu 0.45,
 // tolerance 1e-6).
 void spectrum_section(const Args& args, const std::string& out, bool quick) {
   const std::string dir = std::string(INCISE_SOURCE_DIR) + "/samples/";
@@ -132,7 +132,7 @@ void spectrum_section(const Args& args, const std::string& out, bool quick) {
           "mesh,tets,preconditioner,lanczos_iterations,formula_iterations,lanczos_kappa,lanczos_iterations_predicted,"
           "full_iterations,predicted_over_full,estimate_ms,full_ms");
   std::printf("7. CG iterations to %g (nu %g, clamped on the low 10%% of the longest axis, gravity-like load):\n"
-              "   formula (quality/conditioning.h), Lanczos estimate after k CG iterations (sim/cg_spectrum.h),\n"
+              "   formula (quality/conditioning.h), Lanczos estimate after k CG iterations (sim/fem/cg_spectrum.h),\n"
               "   and the full solve; ratio = estimate / full; times of the k-iteration run and of the full solve\n",
               tol, nu);
   for (const Case& c : cases) {

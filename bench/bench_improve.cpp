@@ -22,8 +22,8 @@
 #include "mesh/isosurface_stuffing.h"
 #include "quality/components.h"
 #include "quality/improve.h"
-#include "sim/fem_simulation.h"
-#include "sim/spring_model.h"
+#include "sim/fem/fem_simulation.h"
+#include "sim/springs/spring_model.h"
 #include "testing/mesh_edits.h"
 
 using namespace incise;

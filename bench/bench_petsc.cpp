@@ -13,9 +13,9 @@
 #include "bench/bench_common.h"
 #include "mesh/generate.h"
 #include "mesh/io/tet_io.h"
-#include "sim/fem_simulation.h"
+#include "sim/fem/fem_simulation.h"
 #include "sim/petsc/petsc_session.h"
-#include "sim/preconditioner.h"
+#include "sim/linalg/preconditioner.h"
 
 using namespace incise;
 using namespace incise::bench;

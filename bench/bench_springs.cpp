@@ -17,8 +17,8 @@
 
 #include "mesh/generate.h"
 #include "mesh/tet_mesh.h"
-#include "sim/fem_simulation.h"
-#include "sim/spring_model.h"
+#include "sim/fem/fem_simulation.h"
+#include "sim/springs/spring_model.h"
 #include "testing/draws.h"
 #include "testing/mesh_edits.h"
 

@@ -1,7 +1,7 @@
 // incise quality FILE: the mesh quality report (text for people, --json for programs,
 // schema in docs/quality-report.md). The report's solver estimate is the formula of
 // quality/conditioning.h; unless --solver-estimate formula, this command adds the measured one
-// of sim/cg_spectrum.h (a short CG solve; quality/ does not depend on sim/, so it is added here).
+// of sim/fem/cg_spectrum.h (a short CG solve; quality/ does not depend on sim/, so it is added here).
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -10,7 +10,7 @@
 #include "mesh/io/tet_io.h"
 #include "quality/report.h"
 #include "quality/report_json.h"
-#include "sim/cg_spectrum.h"
+#include "sim/fem/cg_spectrum.h"
 
 namespace incise::cli {
 

@@ -14,10 +14,10 @@
 #include "mesh/errors.h"
 #include "mesh/io/atomic_file.h"
 #include "mesh/io/tet_io.h"
-#include "sim/formulation.h"
+#include "sim/fem/formulation.h"
 #include "scene/trade.h"
 #include "sim/petsc/petsc_session.h"
-#include "sim/spring_model.h"
+#include "sim/springs/spring_model.h"
 
 namespace incise::cli {
 

@@ -14,8 +14,8 @@
 
 #include "mesh/errors.h"
 #include "mesh/generate.h"
-#include "sim/fem_simulation.h"
-#include "sim/spring_model.h"
+#include "sim/fem/fem_simulation.h"
+#include "sim/springs/spring_model.h"
 
 namespace {
 

@@ -12,11 +12,11 @@
 #include "quality/improve_checks.h"
 #include "scene/run_directory.h"
 #include "scene/run_scene.h"
-#include "sim/fem_simulation.h"
-#include "sim/quadratic_solver.h"
-#include "sim/preconditioner.h"
-#include "sim/mixed_solver.h"
-#include "sim/spring_model.h"
+#include "sim/fem/fem_simulation.h"
+#include "sim/fem/quadratic_solver.h"
+#include "sim/linalg/preconditioner.h"
+#include "sim/fem/mixed_solver.h"
+#include "sim/springs/spring_model.h"
 
 namespace incise::python {
 
@@ -214,7 +214,7 @@ void bind_sim(py::module_& m) {
 
   py::class_<Fem>(m, "FemSimulation",
                   "Linear / corotational FEM, static (K u = f per step) or dynamic (backward Euler); "
-                  "CG warm-started across steps (sim/fem_simulation.h)")
+                  "CG warm-started across steps (sim/fem/fem_simulation.h)")
       .def(py::init(&make_fem), py::arg("mesh"), py::arg("materials") = py::none(), py::kw_only(),
            py::arg("kind") = "linear", py::arg("method") = "cg", py::arg("backend") = "matrix-free",
            py::arg("tolerance") = 1e-8, py::arg("max_iterations") = 10000, py::arg("budget_ms") = 0.0,
@@ -301,7 +301,7 @@ void bind_sim(py::module_& m) {
       }, "Von Mises stress per tet id (tet_capacity entries)");
 
   py::class_<Springs>(m, "SpringSimulation",
-                      "Spring-mass model on the mesh edges with per-tet volume terms (sim/spring_model.h)")
+                      "Spring-mass model on the mesh edges with per-tet volume terms (sim/springs/spring_model.h)")
       .def(py::init([](const py::object& mesh_obj, const py::object& materials, double damping,
                        const py::object& volume_term, const py::object& compute_energy,
                        const py::object& nodal_volume, double viscosity, double stiffening,

@@ -15,8 +15,8 @@
 #include <vector>
 
 #include "mesh/tet_mesh.h"
-#include "sim/fem_simulation.h"
-#include "sim/formulation.h"
+#include "sim/fem/fem_simulation.h"
+#include "sim/fem/formulation.h"
 #include "sim/material.h"
 
 namespace incise {

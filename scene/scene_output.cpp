@@ -7,7 +7,7 @@
 #include "mesh/errors.h"
 #include "mesh/io/atomic_file.h"
 #include "mesh/io/tet_io.h"
-#include "sim/quadratic_solver.h"
+#include "sim/fem/quadratic_solver.h"
 
 namespace incise {
 

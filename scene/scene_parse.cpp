@@ -18,9 +18,9 @@
 #include "mesh/io/input_checks.h"
 #include "mesh/io/input_file.h"
 #include "mesh/io/tet_io.h"
-#include "sim/integrator.h"
+#include "sim/springs/integrator.h"
 #include "sim/petsc/petsc_solver.h"
-#include "sim/spring_model.h"
+#include "sim/springs/spring_model.h"
 
 namespace incise {
 

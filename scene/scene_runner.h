@@ -23,9 +23,9 @@
 #include "cut/blade.h"
 #include "cut/cutter.h"
 #include "scene/scene.h"
-#include "sim/fem_simulation.h"
-#include "sim/integrator.h"
-#include "sim/spring_model.h"
+#include "sim/fem/fem_simulation.h"
+#include "sim/springs/integrator.h"
+#include "sim/springs/spring_model.h"
 
 namespace incise {
 

@@ -14,8 +14,8 @@
 
 #include "mesh/errors.h"
 #include "scene/trade_reference.h"
-#include "sim/fem_model.h"
-#include "sim/mixed_solver.h"
+#include "sim/fem/fem_model.h"
+#include "sim/fem/mixed_solver.h"
 
 namespace incise {
 

@@ -33,7 +33,7 @@
 #include <string>
 #include <vector>
 
-#include "sim/formulation.h"
+#include "sim/fem/formulation.h"
 #include "scene/run_scene.h"
 
 namespace incise {

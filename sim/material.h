@@ -10,7 +10,7 @@ struct Material {
   double young = 1e6;     // Young's modulus E [Pa], > 0
   double poisson = 0.3;   // Poisson's ratio nu, in [0, 0.5]: 0.5 (incompressible) only for the mixed formulation
   double density = 1000;  // [kg/m^3], > 0
-  // Springs only (sim/spring_model.h, docs/solver.md#spring-options); 0: SpringOptions' value.
+  // Springs only (sim/springs/spring_model.h, docs/solver.md#spring-options); 0: SpringOptions' value.
   double viscosity = 0;   // Kelvin-Voigt time constant [s], >= 0
   double stiffening = 0;  // exponential strain-stiffening exponent, in [0, 100]
 

@@ -10,8 +10,8 @@
 
 #include "mesh/generate.h"
 #include "mesh/tet_mesh.h"
-#include "sim/fem_simulation.h"
-#include "sim/mixed_solver.h"
+#include "sim/fem/fem_simulation.h"
+#include "sim/fem/mixed_solver.h"
 
 namespace incise::testing {
 

@@ -1,5 +1,5 @@
 #pragma once
-// The mixed formulations' saddle-point system on PETSc (sim/mixed_solver.h with
+// The mixed formulations' saddle-point system on PETSc (sim/fem/mixed_solver.h with
 // MixedOptions::petsc): the free block [A_uu A_up; A_pu A_pp] x = b, unknowns u first, solved in
 // this process by MINRES with a block-diagonal field split, the SPD preconditioner MixedSolver's
 // own MINRES uses: GAMG on A_uu, Jacobi on the pressure diagonal `p_diagonal` (lumped mass x

@@ -11,7 +11,7 @@
 
 #include "mesh/clock.h"
 #include "mesh/errors.h"
-#include "sim/fem_model.h"
+#include "sim/fem/fem_model.h"
 #include "sim/petsc/petsc_internal.h"
 #include "sim/petsc/petsc_session.h"
 #include "sim/petsc/rank_messages.h"

@@ -8,7 +8,7 @@
 
 #include <Eigen/Core>
 
-#include "sim/fem_model.h"
+#include "sim/fem/fem_model.h"
 #include "sim/petsc/petsc_internal.h"
 
 namespace incise::petsc_detail {

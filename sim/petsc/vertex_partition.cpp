@@ -6,7 +6,7 @@
 
 #include <petscmat.h>
 
-#include "sim/fem_model.h"
+#include "sim/fem/fem_model.h"
 #include "sim/petsc/petsc_internal.h"
 
 namespace incise {

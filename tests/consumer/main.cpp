@@ -11,7 +11,7 @@
 #include "quality/report.h"
 #include "quality/report_json.h"
 #include "scene/scene_runner.h"
-#include "sim/fem_simulation.h"
+#include "sim/fem/fem_simulation.h"
 #ifdef CONSUMER_HAVE_TETRA
 #include "mesh/tetrahedralize/tetrahedralize.h"
 #endif

@@ -7,7 +7,7 @@
 
 #include "cut/cutter.h"
 #include "mesh/generate.h"
-#include "sim/fem_simulation.h"
+#include "sim/fem/fem_simulation.h"
 
 using namespace incise;
 

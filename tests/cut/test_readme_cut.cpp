@@ -6,7 +6,7 @@
 // README cut example begins
 #include "cut/cutter.h"
 #include "mesh/generate.h"
-#include "sim/fem_simulation.h"
+#include "sim/fem/fem_simulation.h"
 
 incise::TetMesh readme_cut_example() {
   using namespace incise;

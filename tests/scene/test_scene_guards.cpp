@@ -16,7 +16,7 @@
 
 #include "mesh/errors.h"
 #include "mesh/generate.h"
-#include "sim/fem_simulation.h"
+#include "sim/fem/fem_simulation.h"
 #include "scene/run_scene.h"
 #include "scene/scene_runner.h"
 

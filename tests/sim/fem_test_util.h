@@ -11,7 +11,7 @@
 
 #include "mesh/generate.h"
 #include "mesh/tet_mesh.h"
-#include "sim/fem_simulation.h"
+#include "sim/fem/fem_simulation.h"
 #include "testing/mesh_edits.h"
 
 namespace incise::testing {

@@ -6,9 +6,9 @@
 #include <random>
 
 #include "mesh/generate.h"
-#include "sim/aggregation_amg.h"
-#include "sim/fem_simulation.h"
-#include "sim/vertex_aggregation.h"
+#include "sim/fem/aggregation_amg.h"
+#include "sim/fem/fem_simulation.h"
+#include "sim/linalg/vertex_aggregation.h"
 #include "tests/sim/fem_test_util.h"
 
 using namespace incise;

@@ -1,4 +1,4 @@
-// The multigrid's coarse factor (sim/block_cholesky.h) against a dense LL^T of the same matrix:
+// The multigrid's coarse factor (sim/linalg/block_cholesky.h) against a dense LL^T of the same matrix:
 // random sparse block graphs with blocks of 0 to 6 unknowns, both triangles or the lower one
 // given, duplicates summed; indefinite and singular matrices refused.
 #include <catch2/catch.hpp>
@@ -8,7 +8,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Dense>
 
-#include "sim/block_cholesky.h"
+#include "sim/linalg/block_cholesky.h"
 
 using namespace incise;
 

@@ -1,4 +1,4 @@
-// The measured solver estimate (sim/cg_spectrum.h): Lanczos extremes from CG's coefficients
+// The measured solver estimate (sim/fem/cg_spectrum.h): Lanczos extremes from CG's coefficients
 // against the eigenvalues of the assembled stiffness computed directly, and the predicted
 // iteration count against full solves on a generated and a jittered (sliver-laden) mesh.
 #include <catch2/catch.hpp>
@@ -13,7 +13,7 @@
 #include "mesh/generate.h"
 #include "quality/conditioning.h"
 #include "quality/metrics.h"
-#include "sim/cg_spectrum.h"
+#include "sim/fem/cg_spectrum.h"
 #include "testing/mesh_edits.h"
 
 using namespace incise;

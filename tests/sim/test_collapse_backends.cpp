@@ -8,8 +8,8 @@
 
 #include "mesh/generate.h"
 #include "quality/multi_face_removal.h"
-#include "sim/fem_model.h"
-#include "sim/spring_model.h"
+#include "sim/fem/fem_model.h"
+#include "sim/springs/spring_model.h"
 #include "tests/sim/fem_test_util.h"
 
 using namespace incise;

@@ -9,10 +9,10 @@
 
 #include "mesh/errors.h"
 #include "mesh/generate.h"
-#include "sim/assembled_stiffness.h"
-#include "sim/fem_model.h"
-#include "sim/fem_simulation.h"
-#include "sim/spring_model.h"
+#include "sim/fem/assembled_stiffness.h"
+#include "sim/fem/fem_model.h"
+#include "sim/fem/fem_simulation.h"
+#include "sim/springs/spring_model.h"
 #include "tests/sim/fem_test_util.h"
 
 using namespace incise;

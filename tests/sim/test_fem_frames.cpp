@@ -5,9 +5,9 @@
 #include <cmath>
 
 #include "mesh/generate.h"
-#include "sim/cg_solver.h"
-#include "sim/fem_model.h"
-#include "sim/fem_simulation.h"
+#include "sim/linalg/cg_solver.h"
+#include "sim/fem/fem_model.h"
+#include "sim/fem/fem_simulation.h"
 #include "tests/sim/fem_test_util.h"
 
 using namespace incise;

@@ -6,8 +6,8 @@
 #include <random>
 
 #include "mesh/generate.h"
-#include "sim/fem_model.h"
-#include "sim/fem_simulation.h"
+#include "sim/fem/fem_model.h"
+#include "sim/fem/fem_simulation.h"
 #include "tests/sim/fem_test_util.h"
 #include "testing/draws.h"
 

@@ -6,8 +6,8 @@
 
 #include "mesh/generate.h"
 #include "quality/improve.h"
-#include "sim/fem_simulation.h"
-#include "sim/spring_model.h"
+#include "sim/fem/fem_simulation.h"
+#include "sim/springs/spring_model.h"
 #include "testing/mesh_edits.h"
 
 using namespace incise;

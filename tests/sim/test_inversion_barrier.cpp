@@ -1,4 +1,4 @@
-// The inversion barrier (sim/inversion_barrier.h): its terms against finite differences of its
+// The inversion barrier (sim/fem/inversion_barrier.h): its terms against finite differences of its
 // energy, the matrix-free product against the assembled matrix, and a frame that keeps a tet
 // from inverting where the plain corotational element lets it.
 #include <catch2/catch.hpp>
@@ -6,8 +6,8 @@
 #include <random>
 
 #include "mesh/generate.h"
-#include "sim/fem_model.h"
-#include "sim/fem_simulation.h"
+#include "sim/fem/fem_model.h"
+#include "sim/fem/fem_simulation.h"
 #include "tests/sim/fem_test_util.h"
 
 using namespace incise;

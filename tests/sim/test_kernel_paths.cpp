@@ -7,7 +7,7 @@
 #include <random>
 
 #include "mesh/generate.h"
-#include "sim/stiffness_kernel.h"
+#include "sim/fem/stiffness_kernel.h"
 #include "testing/mesh_edits.h"
 #include "testing/draws.h"
 

@@ -8,7 +8,7 @@
 
 #include "mesh/generate.h"
 #include "scene/run_scene.h"
-#include "sim/mixed_solver.h"
+#include "sim/fem/mixed_solver.h"
 #include "testing/elasticity_cases.h"
 #include "testing/mesh_edits.h"
 

@@ -1,4 +1,4 @@
-// Mixed displacement-pressure solver (sim/mixed_solver.h): Lame's cylinder from nu = 0.3 to 0.5,
+// Mixed displacement-pressure solver (sim/fem/mixed_solver.h): Lame's cylinder from nu = 0.3 to 0.5,
 // MINRES = direct (also through budgeted, resumed calls), incompressibility, the patch test,
 // and local updates after mesh edits equal a solver built from scratch.
 #include <catch2/catch.hpp>
@@ -6,7 +6,7 @@
 #include <random>
 
 #include "mesh/generate.h"
-#include "sim/mixed_solver.h"
+#include "sim/fem/mixed_solver.h"
 #include "testing/elasticity_cases.h"
 #include "testing/mesh_edits.h"
 

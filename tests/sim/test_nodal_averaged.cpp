@@ -10,8 +10,8 @@
 
 #include "mesh/errors.h"
 #include "mesh/generate.h"
-#include "sim/fem_model.h"
-#include "sim/fem_simulation.h"
+#include "sim/fem/fem_model.h"
+#include "sim/fem/fem_simulation.h"
 #include "tests/sim/fem_test_util.h"
 
 using namespace incise;

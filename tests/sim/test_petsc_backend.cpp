@@ -8,7 +8,7 @@
 
 #include "mesh/errors.h"
 #include "mesh/generate.h"
-#include "sim/fem_simulation.h"
+#include "sim/fem/fem_simulation.h"
 #include "sim/petsc/petsc_solver.h"
 #include "tests/sim/fem_test_util.h"
 

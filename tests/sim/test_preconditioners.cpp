@@ -11,8 +11,8 @@
 #include <tbb/global_control.h>
 
 #include "mesh/generate.h"
-#include "sim/async_cholesky.h"
-#include "sim/fem_simulation.h"
+#include "sim/fem/async_cholesky.h"
+#include "sim/fem/fem_simulation.h"
 #include "tests/sim/fem_test_util.h"
 
 using namespace incise;

@@ -1,4 +1,4 @@
-// Quadratic tets (10 nodes, sim/quadratic_solver.h) and Taylor-Hood against answers computed
+// Quadratic tets (10 nodes, sim/fem/quadratic_solver.h) and Taylor-Hood against answers computed
 // another way: the exact integrals of the element, the patch test (P2 reproduces a quadratic
 // displacement field exactly), beam theory, and the linear path's own solvers.
 #include <catch2/catch.hpp>
@@ -6,9 +6,9 @@
 #include <cmath>
 
 #include "mesh/generate.h"
-#include "sim/fem_simulation.h"
-#include "sim/p2_element.h"
-#include "sim/quadratic_solver.h"
+#include "sim/fem/fem_simulation.h"
+#include "sim/fem/p2_element.h"
+#include "sim/fem/quadratic_solver.h"
 #include "testing/mesh_edits.h"
 
 using namespace incise;

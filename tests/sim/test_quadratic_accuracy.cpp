@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "mesh/generate.h"
-#include "sim/fem_simulation.h"
-#include "sim/quadratic_solver.h"
+#include "sim/fem/fem_simulation.h"
+#include "sim/fem/quadratic_solver.h"
 #include "testing/elasticity_cases.h"
 
 using namespace incise;

@@ -9,8 +9,8 @@
 #include <sstream>
 
 #include "mesh/generate.h"
-#include "sim/fem_simulation.h"
-#include "sim/quadratic_solver.h"
+#include "sim/fem/fem_simulation.h"
+#include "sim/fem/quadratic_solver.h"
 #include "tests/io/io_test_util.h"
 #include "testing/mesh_edits.h"
 

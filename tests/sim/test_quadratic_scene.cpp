@@ -10,7 +10,7 @@
 #include "scene/run_scene.h"
 #include "scene/scene.h"
 #include "scene/scene_runner.h"
-#include "sim/quadratic_solver.h"
+#include "sim/fem/quadratic_solver.h"
 #include "tests/io/io_test_util.h"
 
 using namespace incise;

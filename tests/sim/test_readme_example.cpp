@@ -6,7 +6,7 @@
 // README example begins
 #include "mesh/generate.h"
 #include "mesh/io/tet_io.h"
-#include "sim/fem_simulation.h"
+#include "sim/fem/fem_simulation.h"
 
 double readme_example(const std::string& path) {
   using namespace incise;

@@ -1,4 +1,4 @@
-// Warm-started rotation extraction (sim/rotation_extraction.h) against the exact polar
+// Warm-started rotation extraction (sim/fem/rotation_extraction.h) against the exact polar
 // decomposition: random deformations with large rotations, near-inverted and inverted
 // elements, sequences of frames, and the corotational model and simulation built on it.
 #include <catch2/catch.hpp>
@@ -10,9 +10,9 @@
 #include <tbb/global_control.h>
 
 #include "mesh/generate.h"
-#include "sim/fem_model.h"
-#include "sim/fem_simulation.h"
-#include "sim/rotation_extraction.h"
+#include "sim/fem/fem_model.h"
+#include "sim/fem/fem_simulation.h"
+#include "sim/fem/rotation_extraction.h"
 #include "tests/sim/fem_test_util.h"
 #include "testing/draws.h"
 
@@ -215,7 +215,7 @@ TEST_CASE("warm-started and exact rotation updates give the same corotational mo
 }
 
 // The whole-mesh pass scatters each packet's corner terms into its vertices (slabs three apart
-// on different threads, sim/stiffness_kernel.h); checked against what does not share its code: the
+// on different threads, sim/fem/stiffness_kernel.h); checked against what does not share its code: the
 // assembled K_R's diagonal blocks, b_R summed per tet, each tet's exact polar rotation of F.
 TEST_CASE("the relinearization's diagonal blocks and b_R equal the assembled ones, on any thread count, through edits",
           "[fem][rotation]") {

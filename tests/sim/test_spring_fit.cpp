@@ -1,4 +1,4 @@
-// The per-tet spring fit (sim/spring_fit.h) against a least-squares solve written independently
+// The per-tet spring fit (sim/springs/spring_fit.h) against a least-squares solve written independently
 // on the 12x12 nodal stiffness matrices (Lloyd, Székely & Harders 2007): the FEM tet's
 // V B^T C B, each edge spring's d d^T, the volume term's V g g^T, vectorized and solved by QR.
 #include <Eigen/Dense>
@@ -7,8 +7,8 @@
 #include <random>
 
 #include "mesh/generate.h"
-#include "sim/spring_fit.h"
-#include "sim/spring_model.h"
+#include "sim/springs/spring_fit.h"
+#include "sim/springs/spring_model.h"
 
 using namespace incise;
 

@@ -12,8 +12,8 @@
 #include "mesh/errors.h"
 #include "mesh/generate.h"
 #include "mesh/tet_mesh.h"
-#include "sim/integrator.h"
-#include "sim/spring_model.h"
+#include "sim/springs/integrator.h"
+#include "sim/springs/spring_model.h"
 #include "testing/mesh_edits.h"
 #include "testing/draws.h"
 

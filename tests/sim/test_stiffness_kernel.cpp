@@ -5,8 +5,8 @@
 #include <random>
 
 #include "mesh/generate.h"
-#include "sim/assembled_stiffness.h"
-#include "sim/fem_model.h"
+#include "sim/fem/assembled_stiffness.h"
+#include "sim/fem/fem_model.h"
 #include "tests/sim/fem_test_util.h"
 
 using namespace incise;

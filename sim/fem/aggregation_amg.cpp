@@ -1,0 +1,641 @@
+#include "sim/fem/aggregation_amg.h"
+
+#include "mesh/clock.h"
+#include "sim/linalg/blas_threads.h"
+#include "sim/linalg/block_cholesky.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <random>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SparseCore>
+#ifdef INCISE_HAVE_CHOLMOD
+#include <Eigen/CholmodSupport>
+#else
+#include <Eigen/SparseCholesky>
+#endif
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+namespace incise {
+
+namespace {
+
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+constexpr Eigen::Index kParallelFrom = 6000;  // unknowns: below, one thread applies the coarse correction
+
+Eigen::Matrix3d cross_matrix(const Eigen::Vector3d& p) {
+  Eigen::Matrix3d m;
+  m << 0, -p.z(), p.y(), p.z(), 0, -p.x(), -p.y(), p.x(), 0;
+  return m;
+}
+
+// B_v^T B_w = [[I, -[q]x], [[p]x, (p.q) I - q p^T]] for B_v at p and B_w at q.
+Mat6 modes_tt(const Eigen::Vector3d& p, const Eigen::Vector3d& q) {
+  Mat6 m;
+  m.topLeftCorner<3, 3>().setIdentity();
+  m.topRightCorner<3, 3>() = -cross_matrix(q);
+  m.bottomLeftCorner<3, 3>() = cross_matrix(p);
+  m.bottomRightCorner<3, 3>() = p.dot(q) * Eigen::Matrix3d::Identity() - q * p.transpose();
+  return m;
+}
+
+Eigen::Vector3d shape_gradient(const Eigen::Matrix3d& bm, int j) {
+  if (j == 0) return -(bm.row(0) + bm.row(1) + bm.row(2)).transpose();
+  return bm.row(j - 1).transpose();
+}
+
+}  // namespace
+
+// The coarse factor. Up to AggregationAmgOptions::block_factor_aggregates aggregates of
+// (mostly) six modes: the block Cholesky of sim/linalg/block_cholesky.h, faster than CHOLMOD's
+// simplicial LL^T there. Larger ones, or translations only (three modes padded to six), go to
+// a general sparse factor: CHOLMOD (simplicial LL^T up to kSupernodalFrom unknowns,
+// supernodal with one BLAS thread above; AMD ordering) or Eigen's SimplicialLDLT without it.
+// Figures: docs/solver.md#behind-the-constants (bench_fem_precond --only amg-build).
+struct AggregationAmg::Coarse {
+  bool block = true;  // which factor holds the matrix
+  BlockCholesky6 factor;
+#ifdef INCISE_HAVE_CHOLMOD
+  static constexpr Eigen::Index kSupernodalFrom = 1200;
+  Coarse() {
+    single_threaded_blas();
+    ldlt.cholmod().print = 0;  // a failure (not positive definite) is reported by ok, not on stdout
+    ldlt.cholmod().nmethods = 1;
+    ldlt.cholmod().method[0].ordering = CHOLMOD_AMD;
+  }
+  void compute(const Eigen::SparseMatrix<double>& a) {
+    ldlt.setMode(a.rows() < kSupernodalFrom ? Eigen::CholmodSimplicialLLt : Eigen::CholmodSupernodalLLt);
+    ldlt.compute(a);
+  }
+  Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Lower> ldlt;
+#else
+  void compute(const Eigen::SparseMatrix<double>& a) { ldlt.compute(a); }
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> ldlt;
+#endif
+  std::vector<Eigen::Index> offset;  // general factor: each aggregate's first coarse unknown
+  Eigen::VectorXd rc, ec;            // general factor: the packed coarse vectors
+  bool ok = false;
+};
+
+AggregationAmg::AggregationAmg(const FemModel& model, const AggregationAmgOptions& options)
+    : model_(&model), opt_(options) {}
+
+AggregationAmg::~AggregationAmg() = default;
+
+void AggregationAmg::frame(double a, double c, int last_iterations) {
+  if (a != mass_coeff_ || c != stiffness_coeff_) stale_ = true;
+  mass_coeff_ = a;
+  stiffness_coeff_ = c;
+  if (model_->kind() == FemKind::Corotational && last_iterations > opt_.rebuild_iterations) stale_ = true;
+  if (topology_changed_ && last_iterations > opt_.topology_rebuild_iterations) stale_ = true;
+}
+
+void AggregationAmg::apply(const TopologyChange& change) {
+  if (change.empty()) return;
+  if (!coarse_ || stale_) {
+    stale_ = true;
+    return;
+  }
+  if (opt_.topology_rebuild_iterations > 0) {
+    topology_changed_ = true;
+    return;
+  }
+  // Patched at the next setup(): the aggregates of these vertices are dissolved and redone.
+  for (const auto* list : {&change.touched_vertices, &change.removed_vertices})
+    for (VertexId v : *list) pending_.push_back(v.idx());
+  for (const VertexOrigin& o : change.added_vertices) pending_.push_back(o.vertex.idx());
+  for (const VertexOrigin& o : change.moved_vertices) pending_.push_back(o.vertex.idx());
+  // A tet's corners couple through it: a new tet changes blocks between its corners even where
+  // a corner's set of incident tets did not change.
+  for (TetId t : change.added_tets)
+    if (model_->tet_alive(t))
+      for (std::uint32_t v : model_->tet_vertex_ids(t)) pending_.push_back(v);
+}
+
+void AggregationAmg::mark_stale() { stale_ = true; }
+
+void AggregationAmg::setup(const LinearOperator& a, const std::vector<std::uint8_t>* free) {
+  a_ = &a;
+  free_ = free;
+  const double t0 = now_ms();
+  smoother_.setup(a, free);
+  smoother_ms_ = now_ms() - t0;
+  if (!stale_ && coarse_ && !pending_.empty()) {
+    patch(a, free);
+    // Rows computed with this frame's rotations beside rows of an earlier build can make A_c
+    // indefinite (once in 30 patches on the organ cut scene); smoothing alone then cost 140
+    // iterations in that frame, a rebuild costs a few patches.
+    if (!coarse_->ok) ++failed_patches_;
+  }
+  if (stale_ || !coarse_) build(a, free);
+}
+
+double AggregationAmg::next_setup_ms() const {
+  // Before the first build: an estimate per tet (docs/solver.md#behind-the-constants), so that a budgeted frame
+  // does not find out by building.
+  if (stale_ || !coarse_) return build_ms_ > 0 ? smoother_ms_ + build_ms_ : 2.5e-3 * double(model_->mesh().num_tets());
+  if (!pending_.empty() && patch_ms_ > 0) return smoother_ms_ + patch_ms_;
+  return smoother_ms_ > 0 ? smoother_ms_ : -1;
+}
+
+void AggregationAmg::project(Eigen::VectorXd& v) const {
+  if (!free_) return;
+  for (Eigen::Index i = 0; i < v.size(); ++i)
+    if (!(*free_)[std::size_t(i)]) v[i] = 0;
+}
+
+namespace {
+// Vertices with all three unknowns free are aggregated; the others are left to the smoother.
+bool all_free(const std::vector<std::uint8_t>* free, std::size_t v) {
+  return !free || (v * 3 + 2 < free->size() && (*free)[3 * v] && (*free)[3 * v + 1] && (*free)[3 * v + 2]);
+}
+}  // namespace
+
+void AggregationAmg::build(const LinearOperator& a, const std::vector<std::uint8_t>* free) {
+  const double t0 = now_ms();
+  stats_ = {};
+  const std::size_t nv = std::size_t(a.rows() / 3);
+  std::vector<std::uint8_t> eligible(nv, 0);
+  for (std::size_t v = 0; v < nv; ++v) eligible[v] = all_free(free, v);
+  agg_ = aggregate_vertices(model_->mesh(), eligible, opt_.ring);
+  agg_.of.resize(nv, -1);
+  const double t1 = now_ms();
+  const std::size_t na = agg_.count();
+  centre_.assign(na, Eigen::Vector3d::Zero());
+  scale_.assign(na, 1.0);
+  t_.assign(na, Mat6::Zero());
+  modes_.assign(na, 0);
+  p_.assign(nv, Eigen::Matrix<double, 3, 6>::Zero());
+  pos_.assign(nv, Eigen::Vector3d::Zero());
+  rows_.assign(na, {});
+  std::vector<std::uint32_t> all(na);
+  for (std::uint32_t k = 0; k < na; ++k) all[k] = k;
+  prolongator(all);
+  const double t2 = now_ms();
+  coarse_rows(all);
+  const double t3 = now_ms();
+  factor();
+  if (opt_.smoother_weight > 0) weight_ = opt_.smoother_weight;
+  else if (weight_ == 0) weight_ = (4.0 / 3.0) / (1.1 * estimate_lambda_max(a, free));
+  stats_.aggregate_ms = t1 - t0;
+  stats_.prolongator_ms = t2 - t1;
+  stats_.coarse_ms = t3 - t2;
+  stats_.total_ms = build_ms_ = now_ms() - t0;
+  pending_.clear();
+  stale_ = topology_changed_ = false;
+  ++builds_;
+  ++version_;
+}
+
+// The local update after cuts: dissolve the aggregates of the vertices the changes named,
+// re-aggregate their members and the new vertices on the current connectivity, redo P for
+// the new aggregates and their rows of A_c (the neighbouring rows get the transposed blocks;
+// blocks between two untouched aggregates keep their values, since a tet whose corners lie in
+// untouched aggregates was not changed), then refactor the coarse matrix. Rows computed now
+// use the current rotations, the others those of their build: close, and the pivots are
+// checked (a failure means a full rebuild).
+void AggregationAmg::patch(const LinearOperator& a, const std::vector<std::uint8_t>* free) {
+  const double t0 = now_ms();
+  stats_ = {};
+  const std::size_t nv = std::size_t(a.rows() / 3);
+  if (agg_.of.size() < nv) {
+    agg_.of.resize(nv, -1);
+    p_.resize(nv, Eigen::Matrix<double, 3, 6>::Zero());
+    pos_.resize(nv, Eigen::Vector3d::Zero());
+  }
+  std::sort(pending_.begin(), pending_.end());
+  pending_.erase(std::unique(pending_.begin(), pending_.end()), pending_.end());
+  std::vector<std::int32_t> dissolved;
+  for (std::uint32_t v : pending_)
+    if (v < nv && agg_.of[v] >= 0) dissolved.push_back(agg_.of[v]);
+  std::sort(dissolved.begin(), dissolved.end());
+  dissolved.erase(std::unique(dissolved.begin(), dissolved.end()), dissolved.end());
+  std::vector<std::uint32_t> pool;
+  for (std::int32_t d : dissolved) {
+    for (auto& [b, m] : rows_[std::size_t(d)])  // neighbours forget d
+      if (b != d) {
+        auto& rb = rows_[std::size_t(b)];
+        rb.erase(std::remove_if(rb.begin(), rb.end(), [&](const auto& e) { return e.first == d; }), rb.end());
+      }
+    for (std::uint32_t v : agg_.members[std::size_t(d)]) {
+      agg_.of[v] = -1;
+      p_[v].setZero();
+      pool.push_back(v);
+    }
+    agg_.members[std::size_t(d)].clear();
+    rows_[std::size_t(d)].clear();
+    modes_[std::size_t(d)] = 0;
+  }
+  for (std::uint32_t v : pending_)
+    if (v < nv && agg_.of[v] < 0) pool.push_back(v);
+  std::sort(pool.begin(), pool.end());
+  pool.erase(std::unique(pool.begin(), pool.end()), pool.end());
+  std::vector<std::uint8_t> eligible(nv, 0);  // read only at pool vertices and their neighbours
+  for (std::uint32_t v : pool) {
+    eligible[v] = all_free(free, v);
+    for (TetId t : model_->mesh().incident_tets(VertexId(v)))
+      for (VertexId w : model_->mesh().tet_vertices(t)) eligible[w.idx()] = all_free(free, w.idx());
+  }
+  const std::size_t first = agg_.count();
+  aggregate_more(model_->mesh(), eligible, opt_.ring, pool, agg_);
+  const std::size_t na = agg_.count();
+  centre_.resize(na, Eigen::Vector3d::Zero());
+  scale_.resize(na, 1.0);
+  t_.resize(na, Mat6::Zero());
+  modes_.resize(na, 0);
+  rows_.resize(na);
+  std::vector<std::uint32_t> fresh;
+  for (std::size_t k = first; k < na; ++k) fresh.push_back(std::uint32_t(k));
+  const double t1 = now_ms();
+  prolongator(fresh);
+  const double t2 = now_ms();
+  coarse_rows(fresh);
+  for (std::uint32_t k : fresh)  // the untouched neighbours' blocks towards the new aggregates
+    for (const auto& [b, m] : rows_[k])
+      if (std::size_t(b) < first) rows_[std::size_t(b)].emplace_back(std::int32_t(k), m.transpose());
+  if (model_->nodal_averaged()) refresh_halo(first);
+  const double t3 = now_ms();
+  factor();
+  if (!coarse_->ok) stale_ = true;  // setup() rebuilds at once
+  stats_.aggregate_ms = t1 - t0;
+  stats_.prolongator_ms = t2 - t1;
+  stats_.coarse_ms = t3 - t2;
+  stats_.total_ms = patch_ms_ = now_ms() - t0;
+  stats_.patched_aggregates = fresh.size();
+  pending_.clear();
+  ++patches_;
+  ++version_;
+}
+
+// Nodal-averaged K reaches the 2-ring: a changed vertex's V_a enters the rows of its whole
+// 1-ring. The surviving aggregates (ids below `first`) holding that 1-ring get their rows of
+// A_c recomputed, and their other neighbours the transposed blocks, so the patched A_c is the
+// Galerkin product of the current K, as after a rebuild. O(change): the 1-ring of the pending
+// vertices, an aggregate each.
+void AggregationAmg::refresh_halo(std::size_t first) {
+  const TetMesh& mesh = model_->mesh();
+  std::vector<std::uint32_t> halo;
+  for (std::uint32_t v : pending_) {
+    if (v >= mesh.vertex_capacity() || !mesh.is_alive(VertexId(v))) continue;
+    for (TetId t : mesh.incident_tets(VertexId(v)))
+      for (VertexId w : mesh.tet_vertices(t)) {
+        const std::int32_t a = w.idx() < agg_.of.size() ? agg_.of[w.idx()] : -1;
+        if (a >= 0 && std::size_t(a) < first) halo.push_back(std::uint32_t(a));
+      }
+  }
+  std::sort(halo.begin(), halo.end());
+  halo.erase(std::unique(halo.begin(), halo.end()), halo.end());
+  if (halo.empty()) return;
+  auto in_halo = [&](std::int32_t b) { return std::binary_search(halo.begin(), halo.end(), std::uint32_t(b)); };
+  // The other rows' blocks towards the halo go first (a cut may have ended a coupling); the
+  // fresh aggregates' rows are current already.
+  auto outside = [&](std::int32_t b, std::uint32_t h) { return b != std::int32_t(h) && std::size_t(b) < first && !in_halo(b); };
+  for (std::uint32_t h : halo)
+    for (const auto& [b, m] : rows_[h])
+      if (outside(b, h)) {
+        auto& rb = rows_[std::size_t(b)];
+        rb.erase(std::remove_if(rb.begin(), rb.end(), [&](const auto& e) { return e.first == std::int32_t(h); }), rb.end());
+      }
+  coarse_rows(halo);
+  for (std::uint32_t h : halo)
+    for (const auto& [b, m] : rows_[h])
+      if (outside(b, h)) rows_[std::size_t(b)].emplace_back(std::int32_t(h), m.transpose());
+}
+
+void AggregationAmg::prolongator(const std::vector<std::uint32_t>& which) {
+  const TetMesh& mesh = model_->mesh();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, which.size(), 64), [&](const tbb::blocked_range<std::size_t>& range) {
+    for (std::size_t wi = range.begin(); wi != range.end(); ++wi) {
+      const std::size_t ai = which[wi];
+      const auto& m = agg_.members[ai];
+      Eigen::Vector3d c = Eigen::Vector3d::Zero();
+      for (std::uint32_t v : m) c += mesh.rest(VertexId(v));
+      c /= double(m.size());
+      double h = 0;
+      for (std::uint32_t v : m) h = std::max(h, (mesh.rest(VertexId(v)) - c).norm());
+      if (!(h > 0)) h = 1;
+      centre_[ai] = c;
+      scale_[ai] = h;
+      Mat6& t = t_[ai];
+      int k = 3;
+      if (opt_.rotations) {
+        // Gram matrix of the aggregate's modes, G = sum B_v^T B_v; T = V_k L_k^-1/2 over the
+        // eigenpairs G can carry, so that Q = B T is orthonormal.
+        Mat6 g = Mat6::Zero();
+        for (std::uint32_t v : m) {
+          const Eigen::Vector3d p = (mesh.rest(VertexId(v)) - c) / h;
+          g += modes_tt(p, p);
+        }
+        Eigen::SelfAdjointEigenSolver<Mat6> es(g);
+        const Vec6 l = es.eigenvalues();
+        const double top = l[5];
+        k = 0;
+        for (int i = 5; i >= 0; --i)
+          if (l[i] > 1e-3 * top) t.col(k++) = es.eigenvectors().col(i) / std::sqrt(l[i]);
+      } else {
+        t.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() / std::sqrt(double(m.size()));
+      }
+      modes_[ai] = k;
+      for (std::uint32_t v : m) {
+        const Eigen::Vector3d p = pos_[v] = (mesh.rest(VertexId(v)) - c) / h;
+        Eigen::Matrix<double, 3, 6> b;
+        b << Eigen::Matrix3d::Identity(), -cross_matrix(p);
+        p_[v] = b * t;
+      }
+    }
+  });
+}
+
+// A_c = P^T (a M + c K) P, one row of aggregates per task. For each member v, its row of
+// 3x3 blocks of a M + c K is summed first from its corners in its incident tets (element block
+// (i, j) with h = R grad N: V (mu (g_i . g_j) I + mu h_j h_i^T + lambda h_i h_j^T), as the
+// matrix-free K x uses it), then each block A_vw enters the aggregates' 6x6 block of B^T A B
+// (rigid modes before the per-aggregate orthonormalization T) as B_v^T A_vw B_w, and finally
+// T_a^T (.) T_b. Summing the fine blocks first does the 6x6 work once per vertex pair instead
+// of once per tet corner pair (about 5 tets share an edge).
+void AggregationAmg::coarse_rows(const std::vector<std::uint32_t>& which) {
+  const TetMesh& mesh = model_->mesh();
+  const double c = stiffness_coeff_, am = mass_coeff_;
+  const Eigen::VectorXd& mass = model_->lumped_mass();
+  const bool nodal = model_->nodal_averaged();
+
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, which.size(), 8), [&](const tbb::blocked_range<std::size_t>& range) {
+    std::vector<std::pair<std::uint32_t, Eigen::Matrix3d>> fine;  // v's row: (w, A_vw)
+    std::vector<std::pair<std::uint32_t, Eigen::Vector3d>> brow;  // a row of B
+    std::vector<std::uint32_t> arows;                             // nodal: the B rows reaching ai
+    std::vector<std::pair<std::int32_t, Vec6>> coarse_b;          // nodal: a B row times P
+    for (std::size_t wi = range.begin(); wi != range.end(); ++wi) {
+      const std::size_t ai = which[wi];
+      auto& row = rows_[ai];
+      row.clear();
+      auto block = [&](std::int32_t b) -> Mat6& {
+        for (auto& [id, m] : row)
+          if (id == b) return m;
+        row.emplace_back(b, Mat6::Zero());
+        return row.back().second;
+      };
+      block(std::int32_t(ai));  // the diagonal block first
+      for (std::uint32_t v : agg_.members[ai]) {
+        fine.clear();
+        fine.emplace_back(v, (am * mass[Eigen::Index(3 * v)]) * Eigen::Matrix3d::Identity());
+        auto fine_block = [&](std::uint32_t w) -> Eigen::Matrix3d& {
+          for (auto& [id, m] : fine)
+            if (id == w) return m;
+          fine.emplace_back(w, Eigen::Matrix3d::Zero());
+          return fine.back().second;
+        };
+        for (TetId t : mesh.incident_tets(VertexId(v))) {
+          if (!model_->tet_alive(t)) continue;
+          const auto& ids = model_->tet_vertex_ids(t);
+          int i = 0;
+          while (ids[std::size_t(i)] != v) ++i;
+          const Eigen::Matrix3d r = model_->tet_quaternion(t).toRotationMatrix();
+          const Eigen::Matrix3d& bm = model_->tet_shape_matrix(t);
+          const double vol = model_->tet_volume(t), vmu = c * vol * model_->tet_mu(t),
+                       vlam = c * vol * model_->tet_lambda(t);
+          Eigen::Vector3d g[4], hr[4];
+          for (int j = 0; j < 4; ++j) {
+            g[j] = shape_gradient(bm, j);
+            hr[j] = r * g[j];
+          }
+          for (int j = 0; j < 4; ++j) {
+            const std::uint32_t w = ids[std::size_t(j)];
+            if (agg_.of[w] < 0) continue;
+            Eigen::Matrix3d& a = fine_block(w);
+            a.diagonal().array() += vmu * g[i].dot(g[j]);
+            a.noalias() += (vmu * hr[j]) * hr[i].transpose();
+            a.noalias() += (vlam * hr[i]) * hr[j].transpose();
+          }
+        }
+        const Eigen::Vector3d& pv = pos_[v];
+        for (const auto& [w, a] : fine) {
+          // B_v^T A B_w with B = [I | -[p]x]: M = A B_w = [A | -A [p_w]x], then (M; p_v x M).
+          Eigen::Matrix<double, 3, 6> m;
+          m.leftCols<3>() = a;
+          m.rightCols<3>().noalias() = -a * cross_matrix(pos_[w]);
+          Mat6& blk = block(agg_.of[w]);
+          blk.topRows<3>() += m;
+          for (int k = 0; k < 6; ++k) blk.block<3, 1>(3, k) += pv.cross(Eigen::Vector3d(m.col(k)));
+        }
+      }
+  // Into the orthonormal coarse basis.
+      for (auto& [b, m] : row) m = t_[ai].transpose() * m * t_[std::size_t(b)];
+      if (nodal) volumetric_rows(ai, row, arows, brow, coarse_b);
+    }
+  });
+}
+
+// Nodal-averaged K's volumetric part, c B^T B, straight into aggregate ai's coarse row:
+// P^T B^T B P = sum over vertices a of (B_a P)^T (B_a P), B_a P a row of 6-vectors, one per
+// aggregate a's B row reaches. Only the a whose B row reaches ai's members count: the 1-rings
+// of the members. Each B row is made once per aggregate (not once per member whose ring holds
+// it) and no 2-ring of fine blocks is built.
+void AggregationAmg::volumetric_rows(std::size_t ai, std::vector<std::pair<std::int32_t, Mat6>>& row,
+                                     std::vector<std::uint32_t>& arows,
+                                     std::vector<std::pair<std::uint32_t, Eigen::Vector3d>>& brow,
+                                     std::vector<std::pair<std::int32_t, Vec6>>& coarse_b) const {
+  const TetMesh& mesh = model_->mesh();
+  const double c = stiffness_coeff_;
+  arows.clear();
+  for (std::uint32_t v : agg_.members[ai])
+    for (TetId t : mesh.incident_tets(VertexId(v)))
+      if (model_->tet_alive(t))
+        for (std::uint32_t a : model_->tet_vertex_ids(t)) arows.push_back(a);
+  std::sort(arows.begin(), arows.end());
+  arows.erase(std::unique(arows.begin(), arows.end()), arows.end());
+  auto block = [&](std::int32_t b) -> Mat6& {
+    for (auto& [id, m] : row)
+      if (id == b) return m;
+    row.emplace_back(b, Mat6::Zero());
+    return row.back().second;
+  };
+  for (std::uint32_t a : arows) {
+    model_->nodal_b_row(a, brow);
+    coarse_b.clear();
+    const Vec6* mine = nullptr;
+    for (const auto& [w, d] : brow) {
+      const std::int32_t b = agg_.of[w];
+      if (b < 0) continue;
+      const Vec6 r = p_[w].transpose() * d;  // d^T P_w, P_w = B_w T_b
+      auto it = std::find_if(coarse_b.begin(), coarse_b.end(), [&](const auto& e) { return e.first == b; });
+      if (it == coarse_b.end())
+        coarse_b.emplace_back(b, r);
+      else
+        it->second += r;
+    }
+    for (const auto& [b, r] : coarse_b)
+      if (std::size_t(b) == ai) mine = &r;
+    if (!mine) continue;
+    for (const auto& [b, r] : coarse_b) block(b).noalias() += (c * *mine) * r.transpose();
+  }
+}
+
+// The coarse matrix from the rows (lower triangle; aggregates left empty by a patch have no
+// unknowns), factored by the block Cholesky or, for large or translations-only coarse
+// levels, the general sparse factor (Coarse, above).
+void AggregationAmg::factor() {
+  const double tf = now_ms();
+  const std::size_t na = agg_.count();
+  stats_.coarse_unknowns = stats_.aggregates = stats_.coarse_nonzeros = 0;
+  for (std::size_t ai = 0; ai < na; ++ai) {
+    const int ka = modes_[ai];
+    if (ka == 0) continue;
+    ++stats_.aggregates;
+    stats_.coarse_unknowns += std::size_t(ka);
+    for (const auto& [b, m] : rows_[ai])
+      if (std::size_t(b) < ai) stats_.coarse_nonzeros += std::size_t(ka * modes_[std::size_t(b)]);
+      else if (std::size_t(b) == ai) stats_.coarse_nonzeros += std::size_t(ka * (ka + 1) / 2);
+  }
+  if (!coarse_) coarse_ = std::make_unique<Coarse>();
+  Coarse& co = *coarse_;
+  // No coarse unknowns (no vertex is wholly free, e.g. rollers on every vertex of a plane-strain
+  // slab): the cycle is the smoother alone. A part the cut set free makes A_c singular: the
+  // factor refuses it (pivot check), and without a coarse level M^-1 stays SPD.
+  co.ok = false;
+  stats_.factor_nonzeros = 0;
+  co.block = stats_.aggregates <= std::size_t(std::max(0, opt_.block_factor_aggregates)) &&
+             double(stats_.coarse_unknowns) >= 4.5 * double(stats_.aggregates);
+  if (stats_.coarse_unknowns == 0) {
+  } else if (co.block) {
+    co.ok = co.factor.compute(rows_, modes_);
+    if (co.ok) stats_.factor_nonzeros = co.factor.nonzeros();
+  } else {
+    co.offset.assign(na + 1, 0);
+    for (std::size_t ai = 0; ai < na; ++ai) co.offset[ai + 1] = co.offset[ai] + modes_[ai];
+    std::vector<Eigen::Triplet<double>> lower;
+    for (std::size_t ai = 0; ai < na; ++ai)
+      for (const auto& [b, m] : rows_[ai]) {
+        if (std::size_t(b) > ai) continue;
+        const int ka = modes_[ai], kb = modes_[std::size_t(b)];
+        for (int p = 0; p < ka; ++p)
+          for (int q = 0; q < kb; ++q) {
+            const Eigen::Index row = co.offset[ai] + p, col = co.offset[std::size_t(b)] + q;
+            if (row >= col) lower.emplace_back(row, col, m(p, q));
+          }
+      }
+    const Eigen::Index n = co.offset[na];
+    Eigen::SparseMatrix<double> ac(n, n);
+    ac.setFromTriplets(lower.begin(), lower.end());
+    co.compute(ac);
+    co.ok = co.ldlt.info() == Eigen::Success;
+#ifdef INCISE_HAVE_CHOLMOD
+    if (co.ok) stats_.factor_nonzeros = std::size_t(co.ldlt.cholmod().lnz);
+#else
+    if (co.ok) {
+      // SimplicialLDLT does not fail on an indefinite or singular matrix: check the pivots.
+      const auto d = co.ldlt.vectorD();
+      const double dmax = d.cwiseAbs().maxCoeff();
+      for (Eigen::Index i = 0; i < d.size() && co.ok; ++i) co.ok = d[i] > 1e-12 * dmax;
+    }
+    if (co.ok) stats_.factor_nonzeros = std::size_t(co.ldlt.matrixL().nestedExpression().nonZeros());
+#endif
+  }
+  stats_.factor_ok = co.ok;
+  stats_.block_factor = co.block;
+  stats_.factor_ms = now_ms() - tf;
+}
+
+double AggregationAmg::estimate_lambda_max(const LinearOperator& a, const std::vector<std::uint8_t>* free) const {
+  // Power iteration on S A (similar to S^1/2 A S^1/2, so its eigenvalues are real): a lower
+  // estimate, hence the margin where the weight is chosen.
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> u(-1, 1);
+  Eigen::VectorXd x(a.rows()), y, z;
+  for (Eigen::Index i = 0; i < x.size(); ++i) x[i] = (!free || (*free)[std::size_t(i)]) ? u(rng) : 0.0;
+  double lambda = 1;
+  for (int it = 0; it < 12; ++it) {
+    const double n = x.norm();
+    if (!(n > 0)) break;
+    x /= n;
+    a.multiply(x, y);
+    if (free)
+      for (Eigen::Index i = 0; i < y.size(); ++i)
+        if (!(*free)[std::size_t(i)]) y[i] = 0;
+    smoother_.apply(y, z);
+    lambda = z.norm();
+    x.swap(z);
+  }
+  return std::max(lambda, 1e-3);
+}
+
+void AggregationAmg::apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
+  const bool coarse = coarse_ && coarse_->ok;
+  // A stale hierarchy (topology_rebuild_iterations) may hold vertices a cut has since removed
+  // or fixed: they take no coarse correction, so z stays zero on kept unknowns.
+  const bool check = topology_changed_ && free_;
+  auto covered = [&](std::uint32_t v) { return !check || (*free_)[3 * std::size_t(v)]; };
+  // z += P A_c^-1 P^T x
+  auto coarse_correct = [&](const Eigen::VectorXd& x, Eigen::VectorXd& out) {
+    if (!coarse) return;
+    // Fixed-size 6-vectors per aggregate (P's columns beyond k are zero, and the factor
+    // returns zero there).
+    // Aggregates own disjoint vertices: both passes split over them on large meshes (serial,
+    // the application was a large share of a CG iteration beside a parallel K x).
+    const std::size_t na = agg_.count();
+    rc_.resize(na);
+    auto over_aggregates = [&](auto&& f) {
+      if (x.size() < kParallelFrom) {
+        for (std::size_t ai = 0; ai < na; ++ai) f(ai);
+        return;
+      }
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, na, 8), [&](const tbb::blocked_range<std::size_t>& rg) {
+        for (std::size_t ai = rg.begin(); ai != rg.end(); ++ai) f(ai);
+      });
+    };
+    over_aggregates([&](std::size_t ai) {
+      Vec6& acc = rc_[ai];
+      acc.setZero();
+      if (modes_[ai] == 0) return;
+      for (std::uint32_t v : agg_.members[ai])
+        if (covered(v)) acc.noalias() += p_[v].transpose() * x.segment<3>(3 * Eigen::Index(v));
+    });
+    Coarse& co = *coarse_;
+    if (co.block) {
+      co.factor.solve_in_place(rc_);
+    } else {
+      co.rc.resize(co.offset.back());
+      for (std::size_t ai = 0; ai < na; ++ai) co.rc.segment(co.offset[ai], modes_[ai]) = rc_[ai].head(modes_[ai]);
+      co.ec = co.ldlt.solve(co.rc);
+      for (std::size_t ai = 0; ai < na; ++ai) {
+        rc_[ai].setZero();
+        rc_[ai].head(modes_[ai]) = co.ec.segment(co.offset[ai], modes_[ai]);
+      }
+    }
+    over_aggregates([&](std::size_t ai) {
+      if (modes_[ai] == 0) return;
+      for (std::uint32_t v : agg_.members[ai])
+        if (covered(v)) out.segment<3>(3 * Eigen::Index(v)).noalias() += p_[v] * rc_[ai];
+    });
+  };
+  if (opt_.cycle == AggregationAmgOptions::Cycle::Additive) {
+    smoother_.apply(r, z);
+    coarse_correct(r, z);
+    return;
+  }
+  smoother_.apply(r, z);
+  z *= weight_;
+  if (!coarse) {  // S-only symmetric cycle: z = w S r + w S (r - A w S r)
+    a_->multiply(z, t1_);
+    t1_ = r - t1_;
+    project(t1_);
+    smoother_.apply(t1_, t2_);
+    z.noalias() += weight_ * t2_;
+    return;
+  }
+  a_->multiply(z, t1_);
+  t1_ = r - t1_;
+  project(t1_);
+  coarse_correct(t1_, z);
+  a_->multiply(z, t1_);
+  t1_ = r - t1_;
+  project(t1_);
+  smoother_.apply(t1_, t2_);
+  z.noalias() += weight_ * t2_;
+}
+
+}  // namespace incise

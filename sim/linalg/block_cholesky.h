@@ -1,0 +1,53 @@
+#pragma once
+// Sparse Cholesky factorization L L^T of a symmetric positive definite matrix made of 6x6
+// blocks: the multigrid's coarse matrix (sim/fem/aggregation_amg.h), one block row per aggregate
+// (its rigid-body modes), a few hundred blocks, refactored at every cut step.
+//
+// Why not CHOLMOD: on the organ's coarse matrix its simplicial LL^T with the AMD ordering and
+// the triplet assembly took a sixth of a cut frame (docs/solver.md, "The coarse factor"); this
+// one works on the block graph (a node per aggregate, not one per unknown), orders it by exact minimum degree (the graph is small enough for dense bit
+// rows), gets L's pattern from that same elimination, and does the numeric work as
+// fixed-size 6x6 products (bench_fem_precond --only amg-build prints both).
+//
+// Blocks with fewer than 6 unknowns (an aggregate whose modes were dropped) carry zeros in
+// their unused rows and columns; their unused diagonal entries are taken as 1, so those
+// unknowns decouple and solve to 0.
+#include <cstddef>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace incise {
+
+class BlockCholesky6 {
+public:
+  using Block = Eigen::Matrix<double, 6, 6>;
+  using Vec = Eigen::Matrix<double, 6, 1>;
+  // One block row per node: (column node, block). Only blocks with column <= row are read
+  // (the lower triangle; the diagonal block's upper triangle is ignored); dims[i] in 0..6 is
+  // the number of unknowns of node i, and a node with 0 has no row or column.
+  using Rows = std::vector<std::vector<std::pair<std::int32_t, Block>>>;
+
+  // False when a pivot is not positive, or below 1e-12 of the largest diagonal entry (the
+  // matrix is not SPD, or numerically singular); the factor is unusable then.
+  bool compute(const Rows& rows, const std::vector<int>& dims);
+  bool ok() const { return ok_; }
+  // x: one 6-vector per node, overwritten with A^-1 x (entries beyond a node's dims are 0).
+  void solve_in_place(std::vector<Vec>& x) const;
+  std::size_t nonzeros() const { return nonzeros_; }  // scalar entries of L, lower triangle
+
+private:
+  void order(const Rows& rows, const std::vector<int>& dims);  // perm_, pattern_
+
+  bool ok_ = false;
+  std::size_t nonzeros_ = 0;
+  std::vector<std::int32_t> perm_;                  // elimination position -> node
+  std::vector<std::int32_t> where_;                 // node -> position (-1: no unknowns)
+  std::vector<std::vector<std::int32_t>> pattern_;  // per position: rows below (positions, ascending)
+  std::vector<Block> diag_;                         // per position: L_kk (lower)
+  std::vector<std::vector<Block>> below_;           // per position: L_ik, i in pattern_[k]
+};
+
+}  // namespace incise
