@@ -8,9 +8,9 @@ namespace incise {
 
 // How make_box splits each cube into 6 tets. Kuhn: around the main diagonal, every cube alike.
 // Mirrored: the same split reflected along each axis where the cube's index is odd, so the
-// diagonals alternate (face diagonals still match: conforming). On the 80x8x8 cantilever the
-// mirrored pattern locks far less with standard tets (tip error -7.7% instead of -97% at
-// nu = 0.4999, bench_fem_locking --split mirrored) and moves nodal-averaged tets by < 0.4 points.
+// diagonals alternate (face diagonals still match: conforming). Standard tets lock far less
+// on the mirrored pattern (docs/solver.md#formulations-which-to-pick-formulation-in-scenes,
+// bench_fem_locking --split mirrored).
 enum class BoxSplit { Kuhn, Mirrored };
 
 // Box [0,size.x] x [0,size.y] x [0,size.z] with cells.x*cells.y*cells.z cubes, each split

@@ -34,11 +34,10 @@
 //    exactly the uniform lattice around it and the uniform [10.7, 164.8] deg argument applies
 //    to it; every other output tet is an unchanged lattice tet (45 to 120 deg). That rule is
 //    stricter than the paper's graded octree, whose own graded alphas and bounds are not
-//    reproduced here. Measured, 300 random shapes, placements and h: 12.9 .. 155.0 deg
-//    (uniform on the same inputs: 10.9 .. 158.0). Near the surface the lattice is the uniform
-//    one, so boundary and volume match the uniform mesh's (up to the warping order); the
-//    interior costs O(area / h^2) tets and sdf calls instead of O(volume / h^3): on a sphere
-//    0.51, 0.29, 0.16 of the uniform tet count at r/h = 16, 32, 64. A level set saturating
+//    reproduced here (the angles measured on random shapes: docs/tetra.md#graded-stuffing).
+//    Near the surface the lattice is the uniform one, so boundary and volume match the uniform
+//    mesh's (up to the warping order); the interior costs O(area / h^2) tets and sdf calls
+//    instead of O(volume / h^3). A level set saturating
 //    within ~3h of its surface makes the graded build sample every lattice point (in blocks
 //    whose value is below the saturation), as the uniform build does.
 // Throws InvalidArgument for bad options, a box that is empty or not finite, a sdf returning

@@ -115,7 +115,7 @@ struct Scene {
   // stiffness (SpringOptions::stiffness; docs/solver.md#spring-stiffness).
   std::string springs_stiffness = "van-gelder";
   double springs_viscosity = 0, springs_stiffening = 0;  // SpringOptions::viscosity, ::stiffening
-  // fem-corotational: hold tets near inversion (docs/solver.md#inversion-barrier); off by default.
+  // fem-corotational: hold tets near inversion (docs/solver.md#inversion-barrier-inversion_barrier-in-scenes); off by default.
   InversionBarrierOptions inversion_barrier;
   Formulation formulation = Formulation::Standard;  // FEM: how the volumetric strain is treated
   MaterialTable materials;

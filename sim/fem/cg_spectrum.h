@@ -107,7 +107,7 @@ struct MeasuredSolverEstimate {
 };
 
 // Builds the model and the problem and runs the two short solves (unpreconditioned and
-// Jacobi). O(mesh * iterations): about 5% of a full solve on the sample liver.
+// Jacobi). O(mesh * iterations), a small share of a full solve (docs/quality-report.md).
 // Unavailable (with the reason) for a mesh without tets, degenerate tets, no vertex to clamp,
 // a negative Poisson ratio, or a solve that breaks down. Throws InvalidArgument for
 // out-of-range options (tolerance outside (0, 1), nu outside (-1, 0.5), iterations < 1).

@@ -10,51 +10,11 @@
 // by TetId that grow with tet_capacity(); dead slots are skipped. apply(change) recomputes only
 // what a TopologyChange names (the added tets, the touched vertices' diagonal and mass).
 //
-// K x: per tet P_t = V R sigma(R^T H_t(x)) and corner forces P_t g_{t,v}, scattered colour by
-// colour (sim/fem/stiffness_kernel.h). The other per-tet passes (right-hand side, internal forces)
-// use two conflict-free passes: per-corner forces, then a per-vertex gather. The mesh must
-// outlive the model and every edit batch must be fed to apply() before the next product.
-//
-// Corotational: R_t is the rotation of the polar decomposition of the deformation gradient
-// F = I + H_t(u), refreshed by update_rotations(u); with R fixed, K_R = R K R^T and the
-// internal force is f_int(u) = -(K_R u - b_R) (see rotation_rhs). Inverted elements (det F <= 0)
-// get the closest proper rotation (the SVD column of the smallest singular value is flipped),
-// never NaN (sim/fem/rotation_extraction.h). Each frame's rotations are Newton steps from the
-// previous frame's (kept as quaternions), the exact decomposition where they do not converge;
-// the diagonal blocks and b_R are then per-vertex sums of per-corner terms, which the same pass
-// (over the kernel's packets, colour by colour) adds straight into the vertices (the
-// rotation-free part of each vertex's block is kept from the last apply()). For Linear, R = I
-// and b_R = 0.
-//
-// Formulation::NodalAveraged (sim/fem/formulation.h): sigma = 2 mu dev(eps) + kappa tr(eps) I with
-// kappa = lambda + 2 mu / 3, the deviatoric part per tet (the standard element with lambda
-// replaced by -2 mu / 3, so the kernel, corner terms and element blocks are reused unchanged)
-// and the volumetric part averaged at the vertices: V_a = sum_{t∋a} V_t / 4,
-// theta_a = (1 / V_a) sum_{t∋a} (V_t / 4) div_t with div_t = sum_j (R_t grad N_j) . x_j, energy
-// sum_a (kappa_a / 2) V_a theta_a^2. kappa_a is the volume-weighted mean of the kappa of the
-// tets around a: kappa_a V_a = sum_{t∋a} kappa_t V_t / 4, so each tet's quarter volume carries its
-// own material's bulk modulus and a uniform dilatation stores exactly sum_t kappa_t V_t theta^2/2,
-// also at label interfaces (there the interface vertex's constraint mixes both sides: a soft
-// near-incompressible part next to a stiff one shares the interface vertices' pressure).
-// In matrix form K = K_dev + B^T B, B with one row per vertex a: sqrt(kappa_a V_a) d theta_a / dx
-// (nodal_b()); its stencil is the 2-ring. K x adds three parallel passes (div per tet, theta per
-// vertex, mean pressure per tet and corner forces V_t pbar_t R_t grad N_j, gathered).
-// apply() stays local: the touched vertices' V_a, then the diagonal blocks of their 1-ring.
-//
-// Formulation::EdgeSmoothed: the volumetric part as NodalAveraged, and the deviatoric strain
-// smoothed over edge domains (ES-FEM): each tet gives V_t / 6 to each of its six edges,
-// V_e = sum_{t∋e} V_t / 6, eps_e = (1 / V_e) sum_{t∋e} (V_t / 6) eps_t, energy
-// sum_e (V_e / 2) sigma_e : eps_e with sigma_e the tet element's law (mu, lambda = -2 mu / 3,
-// volume-weighted over the edge's tets) at eps_e. Its force on a tet's corners is the standard
-// element's with the stress sigma_bar_t = (1/6) sum_{e∈t} sigma_e, so K x is three passes again
-// (eps per tet, sigma per edge, forces per tet), with per-tet rotations (eps_t = sym(R^T H_t)).
-// The smoothed stiffness is never larger than the per-tet one (averaging lowers a quadratic
-// energy), so the per-tet deviatoric element is a close SPD stand-in where exact blocks would
-// cost the edge domains of every vertex: the diagonal blocks (Jacobi, block-Jacobi) and the
-// multigrid's coarse operator are NodalAveraged's. assemble() (the direct solver, the assembled
-// backend) and elements() (the background factor) are the exact smoothed K: nodal_b() holds the
-// smoothed rows under the vertex rows, K = B^T B, and the per-tet blocks of elements() are zero.
-// The edge table is kept locally by apply() (O(change)).
+// K x is matrix-free, colour by colour over slabs of tets (sim/fem/stiffness_kernel.h); the
+// mesh must outlive the model and every edit batch must be fed to apply() before the next
+// product. Corotational rotations, the NodalAveraged volumetric rows (nodal_b()) and the
+// EdgeSmoothed edge table, with their equations and what apply() keeps local:
+// docs/solver.md#the-model-in-equations.
 #include <cstdint>
 #include <unordered_map>
 #include <vector>

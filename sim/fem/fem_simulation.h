@@ -85,7 +85,7 @@ struct FemSimulationOptions {
   // in turn (FemModel::update_rotations_partial; docs/solver.md#behind-the-constants).
   double relinearize_share = 0.5;
   // Corotational: hold tets whose volume ratio falls below inversion_barrier.j_min (0: off;
-  // sim/fem/inversion_barrier.h, docs/solver.md#inversion-barrier).
+  // sim/fem/inversion_barrier.h, docs/solver.md#inversion-barrier-inversion_barrier-in-scenes).
   InversionBarrierOptions inversion_barrier;
   Vec3 gravity = Vec3::Zero();                          // body acceleration [m/s^2]
   bool check_rigid_modes = true;                        // refuse under-constrained static solves

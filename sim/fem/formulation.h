@@ -11,8 +11,8 @@
 //                  deviatoric strain smoothed over the tets around each edge (edge-based
 //                  smoothed FEM, Liu, Nguyen-Thoi & Lam 2009; with the nodal volumetric part the
 //                  "selective ES/NS-FEM-T4"): removes most of linear tets' bending stiffness
-//                  as well (10x1x1 cantilever at 80x8x8: -0.03 to -2.7% against Timoshenko for
-//                  nu 0.3 to 0.4999, against -4.0 to -7.0% nodal-averaged). Same SPD system.
+//                  as well (docs/solver.md#bending-as-well-edge-smoothed-tets-formulationedgesmoothed).
+//                  Same SPD system.
 //   Mixed          displacement and a vertex pressure as unknowns (stabilized P1-P1), a
 //                  symmetric saddle-point system; valid at Poisson's ratio 0.5.
 //   MixedEdgeSmoothed  Mixed with the displacement block's strain smoothed over edge domains

@@ -1,5 +1,5 @@
 #pragma once
-// An inversion barrier for corotational tets (docs/solver.md#inversion-barrier), off unless
+// An inversion barrier for corotational tets (docs/solver.md#inversion-barrier-inversion_barrier-in-scenes), off unless
 // asked for. The corotational element already pushes an inverted tet back (its rotation is the
 // closest proper one, Irving, Teran & Fedkiw 2004), but with a force of its own size: a small
 // tet on a cut face, or one whose strain a smoothed formulation averages with its neighbours',
@@ -33,7 +33,7 @@ constexpr double kDefaultBarrierJMin = 0.2;
 
 struct InversionBarrierOptions {
   double j_min = 0;       // volume ratio below which a tet is held; 0: off
-  double stiffness = 100;  // k over the tet's P-wave modulus (docs/solver.md#inversion-barrier)
+  double stiffness = 100;  // k over the tet's P-wave modulus (docs/solver.md#inversion-barrier-inversion_barrier-in-scenes)
 };
 
 class InversionBarrier {

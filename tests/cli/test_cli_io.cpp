@@ -296,8 +296,8 @@ TEST_CASE("first hour: a user's cut scene runs to the end, every frame reads bac
   const std::string expect = std::to_string(with) + " frames with inverted tets (at most " + std::to_string(most) + ")";
   CHECK(r.out.find(expect) != std::string::npos);
 
-  // The inversion barrier with two relinearizations a frame (docs/solver.md#inversion-barrier):
-  // at most the frame a cut step inverts a tet first (docs/solver.md#inversion-barrier).
+  // The inversion barrier with two relinearizations a frame (docs/solver.md#inversion-barrier-inversion_barrier-in-scenes):
+  // at most the frame a cut step inverts a tet first (docs/solver.md#inversion-barrier-inversion_barrier-in-scenes).
   {
     std::string text = slurp(d / "scene.json");
     text.insert(text.rfind('}'), R"(, "inversion_barrier": true, "solver": {"nonlinear_iterations": 2})");

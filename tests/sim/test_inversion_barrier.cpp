@@ -90,7 +90,7 @@ TEST_CASE("inversion barrier: terms, product and assembly agree with its energy"
 
 TEST_CASE("inversion barrier: a pressed tet stays the right way out", "[sim][barrier]") {
   // A box fixed at its base, its top's middle vertex pushed down by a point force: the tets
-  // under it invert at the plain corotational equilibrium (docs/solver.md#inversion-barrier);
+  // under it invert at the plain corotational equilibrium (docs/solver.md#inversion-barrier-inversion_barrier-in-scenes);
   // held, none does, and the smallest volume ratio is near j_min.
   TetMesh mesh = make_box(Vec3(2, 2, 2), {2, 2, 2});
   const double force = 2000;  // twice E on cells of 1: far past what the plain tets resist
