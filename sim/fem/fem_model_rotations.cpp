@@ -56,10 +56,8 @@ INCISE_SIMD_CLONES void deformation_gradients(const TetLanes& __restrict t, Rota
 INCISE_SIMD_CLONES void corner_terms(const RotationLanes& __restrict l, TetLanes& __restrict t) {
   for (std::size_t k = 0; k < kLanes; ++k) {
     const double w = l.q[0][k], x = l.q[1][k], y = l.q[2][k], z = l.q[3][k];
-    const double x2 = x + x, y2 = y + y, z2 = z + z;
-    const double xx = x * x2, yy = y * y2, zz = z * z2, xy = x * y2, xz = x * z2, yz = y * z2;
-    const double wx = w * x2, wy = w * y2, wz = w * z2;
-    const double r[9] = {1 - (yy + zz), xy - wz, xz + wy, xy + wz, 1 - (xx + zz), yz - wx, xz - wy, yz + wx, 1 - (xx + yy)};
+    double r[9];
+    rotation_from_quaternion(w, x, y, z, r);
     const double s = std::sqrt(t.vmu[k] + t.vlam[k]);
     const double mu = t.vmu[k], diag = 2 * mu + t.vlam[k] * (3 - (r[0] + r[4] + r[8]));
     double sig[9], pm[9];

@@ -50,10 +50,8 @@ INCISE_SIMD_CLONES void newton_step(RotationLanes& __restrict l) {
   for (std::size_t k = 0; k < kLanes; ++k) {
     const double w = l.q[0][k], x = l.q[1][k], y = l.q[2][k], z = l.q[3][k];
     // R of the unit quaternion, r[3a+c] = R(a, c).
-    const double x2 = x + x, y2 = y + y, z2 = z + z;
-    const double xx = x * x2, yy = y * y2, zz = z * z2, xy = x * y2, xz = x * z2, yz = y * z2;
-    const double wx = w * x2, wy = w * y2, wz = w * z2;
-    const double r[9] = {1 - (yy + zz), xy - wz, xz + wy, xy + wz, 1 - (xx + zz), yz - wx, xz - wy, yz + wx, 1 - (xx + yy)};
+    double r[9];
+    rotation_from_quaternion(w, x, y, z, r);
     // S = R^T F.
     double s[9];
     for (int i = 0; i < 3; ++i)

@@ -30,6 +30,24 @@ namespace incise {
 
 Eigen::Matrix3d polar_rotation(const Eigen::Matrix3d& f);
 
+// R of the unit quaternion (w, x, y, z), row-major: r[3a+c] = R(a, c). Inline, so that the lane
+// loops that call it (the Newton step here, the corotational corner terms, the K x kernel)
+// still vectorize.
+inline void rotation_from_quaternion(double w, double x, double y, double z, double* r) {
+  const double x2 = x + x, y2 = y + y, z2 = z + z;
+  const double xx = x * x2, yy = y * y2, zz = z * z2, xy = x * y2, xz = x * z2, yz = y * z2;
+  const double wx = w * x2, wy = w * y2, wz = w * z2;
+  r[0] = 1 - (yy + zz);
+  r[1] = xy - wz;
+  r[2] = xz + wy;
+  r[3] = xy + wz;
+  r[4] = 1 - (xx + zz);
+  r[5] = yz - wx;
+  r[6] = xz - wy;
+  r[7] = yz + wx;
+  r[8] = 1 - (xx + yy);
+}
+
 struct RotationLanes {
   static constexpr std::size_t kLanes = 8;
   alignas(64) double f[9][kLanes];  // f[3r+c][k]: F(r, c) of lane k

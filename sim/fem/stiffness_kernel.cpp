@@ -9,6 +9,7 @@
 #include <tbb/parallel_for.h>
 
 #include "mesh/rest_bounds.h"
+#include "sim/fem/rotation_extraction.h"
 #include "sim/linalg/simd_clones.h"
 
 #if defined(__GNUC__) && defined(__x86_64__)
@@ -29,24 +30,6 @@ struct Scratch {
   alignas(64) double d[9][kLanes];   // d[3c+j][k]: component c of x_{j+1} - x_0 of lane k
   alignas(64) double f[12][kLanes];  // f[3j+c][k]: component c of the force on corner j of lane k
 };
-
-// R (row-major, r[3a+c] = R(a, c)) of the unit quaternion (w, x, y, z).
-inline void rotation_from_quaternion(double w, double x, double y, double z, double* r) {
-  using T = double;
-  const T x2 = x + x, y2 = y + y, z2 = z + z;
-  const T xx = x * x2, yy = y * y2, zz = z * z2, xy = x * y2, xz = x * z2, yz = y * z2;
-  const T wx = w * x2, wy = w * y2, wz = w * z2;
-  const T one = T(1.0);
-  r[0] = one - (yy + zz);
-  r[1] = xy - wz;
-  r[2] = xz + wy;
-  r[3] = xy + wz;
-  r[4] = one - (xx + zz);
-  r[5] = yz - wx;
-  r[6] = xz - wy;
-  r[7] = yz + wx;
-  r[8] = one - (xx + yy);
-}
 
 // Corner forces of one packet: H = D B, (corotational: H = R^T H), P = V sigma(H),
 // (corotational: P = R P), force on corner j+1 = P grad N_{j+1}, corner 0 the negated sum.
