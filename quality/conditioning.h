@@ -15,7 +15,7 @@
 // On quasi-uniform meshes kappa_laplace lies within a small factor (about 1-4x, above) of
 // the true value; the tests compare it with eigenvalues of the assembled Laplacian.
 // A Jacobi preconditioner removes most of the effect of mesh grading, not of bad shapes.
-// Against full solves it overshoots 1.6-4x (docs/quality-report.md); sim/fem/cg_spectrum.h has a
+// Against full solves it overshoots (docs/quality-report.md has the figures); sim/fem/cg_spectrum.h has a
 // measured estimate (Lanczos from a short CG solve), which `incise quality` shows beside this.
 #include <span>
 #include <string>

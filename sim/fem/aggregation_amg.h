@@ -58,9 +58,9 @@ namespace incise {
 struct AggregationAmgOptions {
   enum class Cycle { Multiplicative, Additive };
   Cycle cycle = Cycle::Additive;
-  // Phase-1 aggregates: the root and `ring` rings of neighbours. 2: about 50 vertices an
-  // aggregate, a coarse level of ~700 unknowns on the 27k-tet organ (ring 1: ~1,600), whose
-  // factor costs 3-4x less for ~30% more iterations (docs/solver.md).
+  // Phase-1 aggregates: the root and `ring` rings of neighbours. 2: larger aggregates and a
+  // coarse level a few times smaller than ring 1's, whose factor costs less than the extra
+  // iterations it brings (figures: docs/solver.md#the-aggregation-multigrid-amg).
   int ring = 2;
   bool rotations = true;            // rotational modes in the coarse space (false: translations only)
   double smoother_weight = 0;       // w of the damped block-Jacobi; 0: 4/3 / lambda_max estimated

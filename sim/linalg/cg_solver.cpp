@@ -421,7 +421,7 @@ void ConjugateGradient::iterate(Eigen::VectorXd& x, double t0) {
       break;
     }
     // Converged: stop before the preconditioner, whose application would only serve a next
-    // iteration (with a Cholesky factor, one application costs 20x a block-Jacobi iteration).
+    // iteration (with a Cholesky factor, one application costs many block-Jacobi iterations).
     if (rnorm <= target) {
       stats_.relative_residual = rnorm / bnorm_;
       stats_.info = SolveInfo::Success;
