@@ -24,7 +24,7 @@ std::unique_ptr<PyCutter> make_cutter(const py::object& mesh_obj, const std::str
                                       double improve_budget_ms, int improve_work, const py::object& frozen,
                                       std::size_t fragment_search_limit, double finish_insert, int finish_work,
                                       int finish_slice, double path_tolerance, bool exact_volumes,
-                                      bool provisional) {
+                                      bool provisional, bool material_frame) {
   if (!py::isinstance<TetMesh>(mesh_obj))
     throw InvalidArgument("Cutter: mesh: expected an incise.TetMesh, got " +
                           py::str(py::type::of(mesh_obj).attr("__name__")).cast<std::string>());
@@ -54,6 +54,7 @@ std::unique_ptr<PyCutter> make_cutter(const py::object& mesh_obj, const std::str
   o.path_tolerance = path_tolerance;
   o.exact_volumes = exact_volumes;
   o.provisional = provisional;
+  o.material_frame = material_frame;
   if (!frozen.is_none()) o.frozen = to_vertices(mesh, frozen);
   o.fragment_search_limit = fragment_search_limit;
   return std::unique_ptr<PyCutter>(new PyCutter{mesh_obj, mesh, Cutter(mesh, std::move(o))});
@@ -121,7 +122,8 @@ void bind_cut(py::module_& m) {
            py::arg("finish_insert") = CutOptions{}.finish_insertion_below_deg,
            py::arg("finish_work") = CutOptions{}.finish_improve_work, py::arg("finish_slice") = 0,
            py::arg("path_tolerance") = CutOptions{}.path_tolerance, py::arg("exact_volumes") = false,
-           py::arg("provisional") = CutOptions{}.provisional)
+           py::arg("provisional") = CutOptions{}.provisional,
+           py::arg("material_frame") = CutOptions{}.material_frame)
       .def(
           "start", [](PyCutter& c, const py::object& a, const py::object& b) {
             c.cutter.start({to_vec3(a, "blade a"), to_vec3(b, "blade b")});

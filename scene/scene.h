@@ -73,6 +73,7 @@ struct SceneCut {
   bool improve = true;
   bool exact_volumes = false;  // CutOptions::exact_volumes
   bool provisional = false;    // CutOptions::provisional
+  bool material_frame = false;  // CutOptions::material_frame
 };
 
 // Input from outside the scene, as a viewer's blade and probe give it between frames (scene

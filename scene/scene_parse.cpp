@@ -546,7 +546,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
       const std::string key = "cuts[" + std::to_string(i) + "]";
       const json& c = jc[i];
       rd.keys(c, key, {"blade", "sweep", "from_frame", "to_frame", "path", "mode", "snap", "improve", "exact_volumes",
-                       "provisional"});
+                       "provisional", "material_frame"});
       SceneCut cut;
       cut.key = key;
       if (c.contains("path")) {
@@ -556,6 +556,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
         read_blade_options(rd, c, key, cut.mode, cut.snap, cut.improve);
         if (c.contains("exact_volumes")) cut.exact_volumes = rd.boolean(c["exact_volumes"], key + ".exact_volumes");
         if (c.contains("provisional")) cut.provisional = rd.boolean(c["provisional"], key + ".provisional");
+        if (c.contains("material_frame")) cut.material_frame = rd.boolean(c["material_frame"], key + ".material_frame");
         s.cuts.push_back(cut);
         continue;
       }
@@ -577,6 +578,7 @@ Scene parse_scene(const std::string& text, const std::string& path) {
       read_blade_options(rd, c, key, cut.mode, cut.snap, cut.improve);
       if (c.contains("exact_volumes")) cut.exact_volumes = rd.boolean(c["exact_volumes"], key + ".exact_volumes");
       if (c.contains("provisional")) cut.provisional = rd.boolean(c["provisional"], key + ".provisional");
+      if (c.contains("material_frame")) cut.material_frame = rd.boolean(c["material_frame"], key + ".material_frame");
       s.cuts.push_back(cut);
     }
   }

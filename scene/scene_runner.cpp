@@ -252,6 +252,7 @@ SceneRunner::SceneRunner(const Scene& scene, const TetMesh* mesh) : scene_(scene
     o.improve = c.improve;
     o.exact_volumes = c.exact_volumes;
     o.provisional = c.provisional;
+    o.material_frame = c.material_frame;
     o.finish_improve_slice = kFinishImproveSlice;
     o.improve_budget_ms = improve_time_cap();
     cutters_.push_back(std::make_unique<Cutter>(mesh_, o));

@@ -272,3 +272,37 @@ def test_the_opening_reaches_the_blade_with_provisional_pieces(provisional):
     mesh.validate(check_manifold_boundary=True)
     assert _cut_area(mesh) == pytest.approx(0.5, rel=0.01)
     assert (worst >= 0.9) == provisional
+
+
+@pytest.mark.parametrize("material_frame", [True, False])
+def test_a_blade_held_still_in_turning_tissue(material_frame):
+    # docs/cut.md#moving-tissue: the body turns about z by 2 degrees a step and drifts; the blade
+    # follows the tissue, across it at rest x = 1.03, going down. In the material frame the cut
+    # lies in that plane of the rest shape; cut in the current shape at each step, it turns away.
+    mesh = incise.generate_box((2.0, 1.0, 1.0), (8, 4, 4))
+    mesh.take_change()
+    c = np.array([1.0, 0.5, 0.5])
+
+    def at(k, x):
+        t = np.radians(2.0 * k)
+        rot = np.array([[np.cos(t), -np.sin(t), 0], [np.sin(t), np.cos(t), 0], [0, 0, 1]])
+        return (np.atleast_2d(x) - c) @ rot.T + c + np.array([0.1 * k, 0, 0])
+
+    def blade(k):
+        z = 1.3 - 1.6 * k / 10
+        return at(k, [1.03, -0.5, z])[0], at(k, [1.03, 1.5, z])[0]
+
+    cutter = incise.Cutter(mesh, material_frame=material_frame)
+    cutter.start(*blade(0))
+    for k in range(1, 11):
+        cutter.advance(*blade(k), positions=at(k, mesh.points))
+    cutter.finish(positions=at(10, mesh.points))
+    mesh.validate(check_manifold_boundary=True)
+    faces, tags = mesh.boundary_faces()
+    off = np.abs(mesh.points[faces[tags == incise.TAG_CUT]][..., 0] - 1.03).max()
+    assert len(faces[tags == incise.TAG_CUT]) > 0
+    # On the plane up to the snap distance (0.05 of an edge of 0.25-0.5), as test_cut_moving.
+    if material_frame:
+        assert off <= 0.05 * 0.5
+    else:
+        assert off > 0.05

@@ -112,6 +112,27 @@ TEST_CASE("mid-cut, the provisional pieces open the cut up to the blade: the bea
                     Catch::Contains("cuts[0].provisional"));
 }
 
+TEST_CASE("a scene cut in the material frame detaches the beam's end as one in the current frame does", "[cut][scene]") {
+  // docs/scene.md cuts[].material_frame: the beam sags under gravity while the blade goes through
+  // it over frames 1-10; in either frame the free end comes off (the fragments policy removes it).
+  // (tests/python/test_cut.py checks where the material frame puts the cut.)
+  auto run = [](const char* frame) {
+    std::string scene = beam_scene(std::string(R"({"blade": [[2.03, -0.5, 1.3], [2.03, 1.5, 1.3]], "sweep": [0, 0, -1.6], )") +
+                                   R"("from_frame": 1, "to_frame": 10, "material_frame": )" + frame + "}");
+    scene.replace(scene.find(R"("frames": 6)"), 11, R"("frames": 12)");
+    SceneRunOptions ro;
+    return run_scene(parse_scene(scene, "scene.json"), ro);
+  };
+  const SceneRunSummary rest = run("true"), current = run("false");
+  CHECK(rest.fragments_handled == 1);
+  CHECK(current.fragments_handled == 1);
+  CHECK(rest.frames_not_converged == 0);
+  CHECK(rest.max_displacement == Approx(current.max_displacement).epsilon(0.05));
+  CHECK_THROWS_WITH(parse_scene(beam_scene(R"({"blade": [[0, 0, 0], [1, 0, 0]], "sweep": [0, 0, 1], "material_frame": 1})"),
+                                "s.json"),
+                    Catch::Contains("cuts[0].material_frame"));
+}
+
 TEST_CASE("a through-cut frees the beam's end: the fragments policy decides", "[cut][scene]") {
   const std::string cut = R"({"blade": [[2.03, -0.5, 1.3], [2.03, 1.5, 1.3]], "sweep": [0, 0, -1.6], "from_frame": 2, "to_frame": 2})";
   SceneRunOptions ro;
