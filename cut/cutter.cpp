@@ -591,70 +591,101 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
     seeds = front_;
     frozen = front_vertices_;
   } else if (!pr.sheet) {
-    // The quad is not planar (the blade turned out of its plane within the step): it is cut in
-    // full like a one-shot surface, its front embedded for the next step to continue from.
-    std::vector<Piece> pieces = make_pieces(local.triangles);
-    if (pr.back_known) mark_inner_segment(pieces, pr.back.a, pr.back.b);
-    CutStep step(*mesh_, positions, opt_.snap);
-    step.set_fixed(opt_.frozen);
-    if (pr.back_known) step.add_known_segment(pr.back.a, pr.back.b, pr.back_vertices);
-    seeds = front_;
-    for (const Piece& p : pieces) {
-      step.collect(p, seeds, scan);
-      step.embed_boundary(p);
-      step.split_crossings(p);
-      seeds = step.live_candidates();
-    }
-    open_faces(step, step.cut_faces(pieces), rep, positions);
-    set_front(step, to);
-    frozen = front_vertices_;
-    if (mesh_->has_pending_change()) seeds = front_;
+    cut_quad(rep, local, scan, positions, to, seeds, frozen);
   } else {
-    const Piece& sp = pr.sheet->piece();
-    CutStep step(*mesh_, positions, opt_.snap, &pr.memory, true);
-    step.set_fixed(opt_.frozen);
-    step.add_candidates(pr.waiting);
-    step.add_candidates(pr.closed);
-    step.collect(local, front_, scan);
-    step.split_crossings(sp);
-    const std::vector<CutFacePair> faces = step.cut_faces(std::span<const Piece>(&sp, 1));
-    const SeparationResult sep = open_faces(step, faces, rep, positions, false);
-    for (const SeparationResult::Split& s : sep.splits) pr.memory.side[s.mid.idx()] = 0;  // on the sheet
-    for (const auto& [v, copy] : sep.duplicates) {
-      auto it = pr.memory.side.find(v.idx());
-      if (it != pr.memory.side.end()) pr.memory.side[copy.idx()] = it->second;
-    }
-    front_ = step.live_candidates();
-    // Closed cut faces wait: those this step left closed, and earlier ones it did not list (a
-    // tet beside one may have an apex whose side waits for the blade).
-    for (const CutFacePair& f : sep.shut) {
-      pr.closed.push_back(f.a.tet);
-      pr.closed.push_back(f.b.tet);
-    }
-    keep_shut(pr.closed);
-    refresh_waiting(positions, front_);
-    // The improvement works on what was cut; the tets still waiting (and the closed faces)
-    // keep their vertices, whose sides are decided or about to be.
-    std::unordered_set<std::uint32_t> wait;
-    for (const auto* list : {&pr.waiting, &pr.closed})
-      for (TetId t : *list) {
-        wait.insert(t.idx());
-        for (VertexId v : mesh_->tet_vertices(t)) frozen.push_back(v);
-      }
-    ++pr.step;
-    if (mesh_->has_pending_change())
-      for (TetId t : front_)
-        if (!wait.count(t.idx()) && needs_improving(t)) pr.improve_queue.emplace_back(t, pr.step);
-    std::erase_if(pr.improve_queue, [&](const auto& e) {
-      return !mesh_->is_alive(e.first) || wait.count(e.first.idx()) || e.second + kImproveSteps < pr.step;
-    });
-    std::unordered_set<std::uint32_t> in;
-    for (const auto& e : pr.improve_queue)
-      if (in.insert(e.first.idx()).second) seeds.push_back(e.first);
+    step_sheet(rep, local, scan, positions, seeds, frozen);
   }
   if (mesh_->has_pending_change()) pr.edited = true;
   improve_after(rep, seeds, frozen);
   if (pr.sheet && opt_.improve && !seeds.empty() && !rep.improve.budget_exhausted) pr.improve_queue.clear();
+  keep_sheet_lists(positions);
+  // Parts the committed cut detached are found before the provisional pieces are made (those
+  // are taken back: a part they alone cut off is not detached). A step that detached one makes
+  // none: the scene may remove the part.
+  find_detached(rep, mesh_->pending_added_tets());
+  keep_made(pr);
+  if (rep.fragments.empty()) cut_provisional(rep, positions);
+  take_record(rep, grid_stale);
+  rep.ms = ms_since(t0);
+  return rep;
+}
+
+// A step whose quad is not planar (the blade turned out of its plane within the step): cut in
+// full like a one-shot surface, its front embedded for the next step to continue from.
+void Cutter::cut_quad(CutStepReport& rep, const Piece& local, const std::function<std::vector<TetId>()>& scan,
+                      const PositionFn& positions, const BladeSegment& to, std::vector<TetId>& seeds,
+                      std::vector<VertexId>& frozen) {
+  Progress& pr = *progress_;
+  std::vector<Piece> pieces = make_pieces(local.triangles);
+  if (pr.back_known) mark_inner_segment(pieces, pr.back.a, pr.back.b);
+  CutStep step(*mesh_, positions, opt_.snap);
+  step.set_fixed(opt_.frozen);
+  if (pr.back_known) step.add_known_segment(pr.back.a, pr.back.b, pr.back_vertices);
+  seeds = front_;
+  for (const Piece& p : pieces) {
+    step.collect(p, seeds, scan);
+    step.embed_boundary(p);
+    step.split_crossings(p);
+    seeds = step.live_candidates();
+  }
+  open_faces(step, step.cut_faces(pieces), rep, positions);
+  set_front(step, to);
+  frozen = front_vertices_;
+  if (mesh_->has_pending_change()) seeds = front_;
+}
+
+// A step of the current sheet: the tets its quad reached are cut against the sheet, the faces
+// that can open open, and the rest wait; `seeds` and `frozen` say what the step's improvement
+// works on and must hold.
+void Cutter::step_sheet(CutStepReport& rep, const Piece& local, const std::function<std::vector<TetId>()>& scan,
+                        const PositionFn& positions, std::vector<TetId>& seeds, std::vector<VertexId>& frozen) {
+  Progress& pr = *progress_;
+  const Piece& sp = pr.sheet->piece();
+  CutStep step(*mesh_, positions, opt_.snap, &pr.memory, true);
+  step.set_fixed(opt_.frozen);
+  step.add_candidates(pr.waiting);
+  step.add_candidates(pr.closed);
+  step.collect(local, front_, scan);
+  step.split_crossings(sp);
+  const std::vector<CutFacePair> faces = step.cut_faces(std::span<const Piece>(&sp, 1));
+  const SeparationResult sep = open_faces(step, faces, rep, positions, false);
+  for (const SeparationResult::Split& s : sep.splits) pr.memory.side[s.mid.idx()] = 0;  // on the sheet
+  for (const auto& [v, copy] : sep.duplicates) {
+    auto it = pr.memory.side.find(v.idx());
+    if (it != pr.memory.side.end()) pr.memory.side[copy.idx()] = it->second;
+  }
+  front_ = step.live_candidates();
+  // Closed cut faces wait: those this step left closed, and earlier ones it did not list (a
+  // tet beside one may have an apex whose side waits for the blade).
+  for (const CutFacePair& f : sep.shut) {
+    pr.closed.push_back(f.a.tet);
+    pr.closed.push_back(f.b.tet);
+  }
+  keep_shut(pr.closed);
+  refresh_waiting(positions, front_);
+  // The improvement works on what was cut; the tets still waiting (and the closed faces)
+  // keep their vertices, whose sides are decided or about to be.
+  std::unordered_set<std::uint32_t> wait;
+  for (const auto* list : {&pr.waiting, &pr.closed})
+    for (TetId t : *list) {
+      wait.insert(t.idx());
+      for (VertexId v : mesh_->tet_vertices(t)) frozen.push_back(v);
+    }
+  ++pr.step;
+  if (mesh_->has_pending_change())
+    for (TetId t : front_)
+      if (!wait.count(t.idx()) && needs_improving(t)) pr.improve_queue.emplace_back(t, pr.step);
+  std::erase_if(pr.improve_queue, [&](const auto& e) {
+    return !mesh_->is_alive(e.first) || wait.count(e.first.idx()) || e.second + kImproveSteps < pr.step;
+  });
+  std::unordered_set<std::uint32_t> in;
+  for (const auto& e : pr.improve_queue)
+    if (in.insert(e.first.idx()).second) seeds.push_back(e.first);
+}
+
+// After a step's improvement: the sheet's lists and the front follow the step's edits.
+void Cutter::keep_sheet_lists(const PositionFn& positions) {
+  Progress& pr = *progress_;
   // The sheet's bookkeeping, on this step's edits so far (the provisional pieces come after it
   // and are taken back before the next step: the sheet's lists keep the tets they came from).
   // Decisions about vertices the improvement moved off the cut surface or removed are void.
@@ -683,15 +714,6 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
       if (in.insert(t.idx()).second) live.push_back(t);
     front_ = std::move(live);
   }
-  // Parts the committed cut detached are found before the provisional pieces are made (those
-  // are taken back: a part they alone cut off is not detached). A step that detached one makes
-  // none: the scene may remove the part.
-  find_detached(rep, mesh_->pending_added_tets());
-  keep_made(pr);
-  if (rep.fragments.empty()) cut_provisional(rep, positions);
-  take_record(rep, grid_stale);
-  rep.ms = ms_since(t0);
-  return rep;
 }
 
 CutStepReport Cutter::cut_plane(const Vec3& point, const Vec3& normal, const PositionFn& caller_positions,

@@ -52,6 +52,7 @@ namespace incise {
 
 namespace cut_detail {
 class CutStep;
+struct Piece;
 struct CutFacePair;
 struct SeparationResult;
 struct FragmentScratch;
@@ -243,6 +244,14 @@ private:
                       double max_displacement);
   // Cuts what the current sheet still has waiting, embedding its boundary; forgets the sheet.
   void finish_sheet(CutStepReport& rep, const PositionFn& positions);
+  // sweep()'s parts (cut/cutter.cpp): a non-planar quad cut in full, a step of the current sheet,
+  // and the sheet's lists after the step's improvement.
+  void cut_quad(CutStepReport& rep, const cut_detail::Piece& local, const std::function<std::vector<TetId>()>& scan,
+                const PositionFn& positions, const BladeSegment& to, std::vector<TetId>& seeds,
+                std::vector<VertexId>& frozen);
+  void step_sheet(CutStepReport& rep, const cut_detail::Piece& local, const std::function<std::vector<TetId>()>& scan,
+                  const PositionFn& positions, std::vector<TetId>& seeds, std::vector<VertexId>& frozen);
+  void keep_sheet_lists(const PositionFn& positions);
   // A new sheet from `from` (a finished sheet's front, or the blade's last position) to `to`.
   void start_sheet(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions);
   // Cut faces an earlier sheet's finish left shut (their opening would have pinched the
