@@ -475,22 +475,11 @@ bool CutStep::move_snapped(const Piece& piece, std::size_t k, VertexId v) {
   return true;
 }
 
-void CutStep::split_crossings(const Piece& piece) {
+// Snapping must not flatten a whole tet into the plane: the cut surface could then not say
+// which side the tet is on, and would leave a hole there. Such a tet gets its farthest snapped
+// vertex back on its exact side.
+void CutStep::pin_flattened(const Piece& piece, std::unordered_set<std::uint32_t>& pinned) {
   const std::size_t k = current_piece_;
-  struct EdgeSplit {
-    VertexId a, b;
-    double s;
-  };
-  std::map<std::pair<std::uint32_t, std::uint32_t>, EdgeSplit> edges;
-  // Vertices whose side one of the two corrections below set; each vertex changes at most
-  // once, so the passes end.
-  std::unordered_set<std::uint32_t> pinned;
-  for (bool changed = true; changed;) {
-  changed = false;
-  edges.clear();
-  // Snapping must not flatten a whole tet into the plane: the cut surface could then not say
-  // which side the tet is on, and would leave a hole there. Such a tet gets its farthest
-  // snapped vertex back on its exact side.
   for (std::size_t i = 0; i < cand_.size(); ++i) {
     const TetId t = cand_[i];
     if (!mesh_.is_alive(t)) continue;
@@ -508,6 +497,16 @@ void CutStep::split_crossings(const Piece& piece) {
     }
     if (far >= 0 && pinned.insert(tv[far].idx()).second) decide(k, tv[far], piece.side(position(tv[far])));
   }
+}
+
+// The edges of the candidate tets that cross the piece, where each tet's section lies inside
+// it; a crossing too close to an endpoint (or one whose split would make a flat tet) puts that
+// endpoint on the plane instead. Returns whether such a decision changed a side (the caller
+// then collects again).
+bool CutStep::collect_crossings(const Piece& piece, std::unordered_set<std::uint32_t>& pinned,
+                                std::map<std::pair<std::uint32_t, std::uint32_t>, EdgeSplit>& edges) {
+  const std::size_t k = current_piece_;
+  bool changed = false;
   for (std::size_t i = 0; i < cand_.size(); ++i) {
     const TetId t = cand_[i];
     if (!mesh_.is_alive(t)) continue;
@@ -571,35 +570,51 @@ void CutStep::split_crossings(const Piece& piece) {
       edges.emplace(std::make_pair(std::min(e.a.idx(), e.b.idx()), std::max(e.a.idx(), e.b.idx())), e);
     }
   }
+  return changed;
+}
+
+// Whether tet t's section with the piece lies wholly inside it (every side decided).
+bool CutStep::section_inside(const Piece& piece, TetId t) {
+  const std::size_t k = current_piece_;
+  const auto& tv = mesh_.tet_vertices(t);
+  int sd[4];
+  for (int j = 0; j < 4; ++j)
+    if ((sd[j] = side(piece, k, tv[j])) == kUndecided) return false;
+  for (int a = 0; a < 4; ++a) {
+    if (sd[a] == 0 && !piece.contains(position(tv[a]), kInsideTol)) return false;
+    for (int b = a + 1; b < 4; ++b) {
+      if (sd[a] * sd[b] >= 0) continue;
+      const Vec3 xa = position(tv[a]), xb = position(tv[b]);
+      const double da = piece.distance(xa), db = piece.distance(xb);
+      const double u = std::clamp((da - db) != 0 ? da / (da - db) : 0.5, 0.0, 1.0);
+      if (!piece.contains((1 - u) * xa + u * xb, kInsideTol)) return false;
+    }
+  }
+  return true;
+}
+
+void CutStep::split_crossings(const Piece& piece) {
+  const std::size_t k = current_piece_;
+  std::map<std::pair<std::uint32_t, std::uint32_t>, EdgeSplit> edges;
+  // Vertices whose side one of the two corrections set; each vertex changes at most once, so
+  // the passes end.
+  std::unordered_set<std::uint32_t> pinned;
+  for (bool changed = true; changed;) {
+    edges.clear();
+    pin_flattened(piece, pinned);
+    changed = collect_crossings(piece, pinned, edges);
   }
   // A provisional step splits an edge only when every tet around it is committable: a split
   // point made for one tet lands in all the others, and one near the sheet's rim, in a tet that
   // still straddles the rim, keeps a single star component there for good (its cut faces then
   // pinch and stay shut; a single step over the motion splits such edges only after the rim
   // is embedded).
-  auto section_inside = [&](TetId t) {
-    const auto& tv = mesh_.tet_vertices(t);
-    int sd[4];
-    for (int j = 0; j < 4; ++j)
-      if ((sd[j] = side(piece, k, tv[j])) == kUndecided) return false;
-    for (int a = 0; a < 4; ++a) {
-      if (sd[a] == 0 && !piece.contains(position(tv[a]), kInsideTol)) return false;
-      for (int b = a + 1; b < 4; ++b) {
-        if (sd[a] * sd[b] >= 0) continue;
-        const Vec3 xa = position(tv[a]), xb = position(tv[b]);
-        const double da = piece.distance(xa), db = piece.distance(xb);
-        const double u = std::clamp((da - db) != 0 ? da / (da - db) : 0.5, 0.0, 1.0);
-        if (!piece.contains((1 - u) * xa + u * xb, kInsideTol)) return false;
-      }
-    }
-    return true;
-  };
   for (const auto& [key, e] : edges) {
     if (!mesh_.is_alive(e.a) || !mesh_.is_alive(e.b)) continue;
     if (provisional_) {
       bool all = true;
       for (TetId x : mesh_.incident_tets(e.a))
-        if (mesh_.local_index(x, e.b) >= 0) all = all && section_inside(x);
+        if (mesh_.local_index(x, e.b) >= 0) all = all && section_inside(piece, x);
       if (!all) continue;
     }
     bool exists = false;

@@ -4,9 +4,11 @@
 // vertices it creates, the side of each vertex w.r.t. each piece), all sized by the region the
 // blade touches, never by the mesh.
 #include <functional>
+#include <map>
 #include <span>
 #include <unordered_map>
 #include <unordered_set>
+#include <utility>
 #include <vector>
 
 #include "cut/cut_piece.h"
@@ -90,6 +92,15 @@ public:
   void set_position(VertexId v, const Vec3& x) { created_pos_[v.idx()] = x; }
 
 private:
+  // split_crossings()'s parts (cut_step.cpp).
+  struct EdgeSplit {
+    VertexId a, b;
+    double s;
+  };
+  void pin_flattened(const Piece& piece, std::unordered_set<std::uint32_t>& pinned);
+  bool collect_crossings(const Piece& piece, std::unordered_set<std::uint32_t>& pinned,
+                         std::map<std::pair<std::uint32_t, std::uint32_t>, EdgeSplit>& edges);
+  bool section_inside(const Piece& piece, TetId t);
   int side(const Piece& piece, std::size_t piece_index, VertexId v);
   double snap_length(VertexId v);
   // Moves a snapped vertex onto the piece's plane (cut/snap_move.h); false where it may not.
