@@ -39,6 +39,7 @@
 #include "cut/cutter.h"
 #include "mesh/generate.h"
 #include "mesh/io/tet_io.h"
+#include "mesh/rest_bounds.h"
 #include "quality/boundary_angle.h"
 #include "quality/components.h"
 #include "quality/metrics.h"
@@ -304,11 +305,8 @@ void snap_trade(const TetMesh& organ) {
       for (int j = i + 1; j < 4; ++j, ++ne) edge += (organ.rest(tv[i]) - organ.rest(tv[j])).norm();
   }
   edge /= double(ne);
-  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
-  for (VertexId v : organ.vertices()) {
-    lo = lo.cwiseMin(organ.rest(v));
-    hi = hi.cwiseMax(organ.rest(v));
-  }
+  const RestBounds box = rest_bounds(organ);
+  const Vec3 lo = box.lo, hi = box.hi;
   const Vec3 c = 0.5 * (lo + hi);
   const std::pair<Vec3, Vec3> planes[] = {{c + 0.013 * (hi - lo), Vec3(1, 0.1, 0.05)},
                                           {c - 0.11 * (hi - lo), Vec3(0.2, 1, -0.3)},
@@ -675,11 +673,8 @@ void curved_offsets(double tolerance) {
 // through its low-y side, and an S across it in y, each against the straight sweep across the
 // middle in the same step size. Step times (cut + default improvement), tets, parts.
 void curved_organ(const TetMesh& organ, const std::string& name, double tolerance) {
-  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
-  for (VertexId v : organ.vertices()) {
-    lo = lo.cwiseMin(organ.rest(v));
-    hi = hi.cwiseMax(organ.rest(v));
-  }
+  const RestBounds box = rest_bounds(organ);
+  const Vec3 lo = box.lo, hi = box.hi;
   const Vec3 ext = hi - lo, c = 0.5 * (lo + hi);
   const double h = mean_edge(organ), pi = std::acos(-1.0);
   std::printf("# curved paths on %s (%zu tets, mean edge %.3g): a vertical blade at a tenth of an edge per step, "
@@ -747,11 +742,8 @@ void deformed(const TetMesh& organ_in, const std::string& name, bool quick, doub
     organ.compact();
   }
   organ.discard_change();
-  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
-  for (VertexId v : organ.vertices()) {
-    lo = lo.cwiseMin(organ.rest(v));
-    hi = hi.cwiseMax(organ.rest(v));
-  }
+  const RestBounds box = rest_bounds(organ);
+  const Vec3 lo = box.lo, hi = box.hi;
   const Vec3 size = hi - lo, c = 0.5 * (lo + hi);
   const auto b0 = smallest_boundary_angle(organ);
   const QualityRange q0 = quality_range(organ, 10.0);
@@ -827,11 +819,8 @@ void progressive(const TetMesh& organ, const std::string& name, bool quick, cons
                    Vec3(0.9, -1.2, -13)});
   {
     // Through the organ's middle, top to bottom, across its whole width.
-    Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
-    for (VertexId v : organ.vertices()) {
-      lo = lo.cwiseMin(organ.rest(v));
-      hi = hi.cwiseMax(organ.rest(v));
-    }
+    const RestBounds box = rest_bounds(organ);
+    const Vec3 lo = box.lo, hi = box.hi;
     const Vec3 ext = hi - lo, c = 0.5 * (lo + hi);
     const double x = c.x() + 0.013 * ext.x();
     cases.push_back({name + " through", organ, Vec3(x, lo.y() - 0.1 * ext.y(), hi.z() + 0.05 * ext.z()),

@@ -33,6 +33,7 @@
 
 #include "bench/bench_common.h"
 #include "mesh/generate.h"
+#include "mesh/rest_bounds.h"
 #include "mesh/io/tet_io.h"
 #include <tbb/global_control.h>
 
@@ -60,9 +61,11 @@ MaterialTable material(double e, double nu) {
 }
 
 struct Box {
-  Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
+  Vec3 lo, hi;
   explicit Box(const TetMesh& m) {
-    for (VertexId v : m.vertices()) lo = lo.cwiseMin(m.rest(v)), hi = hi.cwiseMax(m.rest(v));
+    const RestBounds b = rest_bounds(m);
+    lo = b.lo;
+    hi = b.hi;
   }
   Vec3 size() const { return hi - lo; }
 };

@@ -13,6 +13,7 @@
 #include "bench/bench_common.h"
 #include "mesh/generate.h"
 #include "mesh/io/tet_io.h"
+#include "mesh/rest_bounds.h"
 #include "sim/fem/fem_simulation.h"
 #include "sim/petsc/petsc_session.h"
 #include "sim/linalg/preconditioner.h"
@@ -44,11 +45,8 @@ int main(int argc, char** argv) {
   // collective, every rank must have done it when PETSc finalizes.
   auto sim_ptr = std::make_unique<FemSimulation>(m, MaterialTable(Material{1e5, 0.3, 1000}), o);
   FemSimulation& sim = *sim_ptr;
-  Vec3 lo = m.rest(*m.vertices().begin()), hi = lo;
-  for (VertexId v : m.vertices()) {
-    lo = lo.cwiseMin(m.rest(v));
-    hi = hi.cwiseMax(m.rest(v));
-  }
+  const RestBounds box = rest_bounds(m);
+  const Vec3 lo = box.lo, hi = box.hi;
   for (VertexId v : m.vertices()) {
     const Vec3 p = m.rest(v);
     if (mesh_arg == "cantilever" ? p.x() < lo.x() + 1e-9 : p.z() < lo.z() + 0.15 * (hi.z() - lo.z())) sim.fix(v);
