@@ -310,7 +310,7 @@ void CutStep::embed_boundary(const Piece& piece) {
       if ((e.a == g[0] && e.b == g[1]) || (e.a == g[1] && e.b == g[0])) {
         known[i] = true;
         for (VertexId v : e.vertices)
-          if (mesh_.is_alive(v)) mark(v, 1u << i);
+          if (this->on_segment(v, e.a, e.b)) mark(v, 1u << i);
         break;
       }
     }
@@ -670,18 +670,103 @@ std::vector<CutFacePair> CutStep::cut_faces(std::span<const Piece> pieces) {
   return out;
 }
 
+std::vector<CutFacePair> CutStep::crease_faces(const CreaseSides& prev, const CreaseSides& next, const Vec3& fa,
+                                               const Vec3& fb, std::span<const TetId> around) const {
+  // Across the crease, in-plane: away from the previous sheet and into the next one. Their sum
+  // is the normal of the plane that halves the angle between the two sheets at the crease: a
+  // point on the previous sheet's side of it takes that sheet's side, the others the next's.
+  const Vec3 f = (fb - fa).normalized();
+  Vec3 u_prev = prev.piece.normal.cross(f), u_next = next.piece.normal.cross(f);
+  auto inner = [](const Piece& p) {
+    Vec3 c = Vec3::Zero();
+    for (const CutTriangle& t : p.triangles) c += (t.p[0] + t.p[1] + t.p[2]) / 3;
+    return Vec3(c / double(std::max<std::size_t>(p.triangles.size(), 1)));
+  };
+  if (u_prev.dot(inner(prev.piece) - fa) > 0) u_prev = -u_prev;
+  if (u_next.dot(inner(next.piece) - fa) < 0) u_next = -u_next;
+  const Vec3 w = u_prev + u_next;
+  auto behind = [&](const Vec3& x) { return w.dot(x - fa) < 0; };
+  // A vertex a sheet decided keeps that side (snapped: 0); one it did not decide is on the side
+  // its position says (exact).
+  auto side = [&](VertexId v) {
+    const Vec3 x = position(v);
+    const CreaseSides& s = behind(x) ? prev : next;
+    auto it = s.sides.find(v.idx());
+    return it != s.sides.end() ? it->second : s.piece.side(x);
+  };
+  // The side of a tet beside a face on the union: its apex's; where the apex is on the union
+  // too, another vertex's; where all four are (a wedge between the two sheets at the crease),
+  // its centroid's.
+  auto tet_side = [&](TetId t, VertexId apex) {
+    int s = side(apex);
+    if (s != 0) return s;
+    for (VertexId v : mesh_.tet_vertices(t)) {
+      const int o = side(v);
+      if (o == kUndecided || (o != 0 && s != 0 && o != s)) return kUndecided;
+      if (o != 0) s = o;
+    }
+    if (s != 0) return s;
+    const auto x = tet_positions(t);
+    const Vec3 c = (x[0] + x[1] + x[2] + x[3]) / 4;
+    return (behind(c) ? prev : next).piece.side(c);
+  };
+  std::vector<CutFacePair> out;
+  std::unordered_set<std::uint32_t> done;
+  auto scan = [&](TetId t) {
+    if (!mesh_.is_alive(t)) return;
+    const auto& tv = mesh_.tet_vertices(t);
+    for (int f = 0; f < 4; ++f) {
+      const TetId n = mesh_.neighbor(t, f);
+      if (!n.is_valid() || done.count(face_key(t, f))) continue;
+      const auto fv = mesh_.face_vertices(t, f);
+      if (side(fv[0]) != 0 || side(fv[1]) != 0 || side(fv[2]) != 0) continue;
+      int g = 0;
+      while (g < 4 && mesh_.neighbor(n, g) != t) ++g;
+      if (g == 4) continue;
+      const int sa = tet_side(t, tv[f]), sb = tet_side(n, mesh_.tet_vertices(n)[g]);
+      if (sa == kUndecided || sb == kUndecided || sa * sb >= 0) continue;
+      const Vec3 c = (position(fv[0]) + position(fv[1]) + position(fv[2])) / 3;
+      if (!(behind(c) ? prev : next).piece.contains(c, kInsideTol)) continue;
+      done.insert(face_key(t, f));
+      done.insert(face_key(n, g));
+      out.push_back({{t, f}, {n, g}});
+    }
+  };
+  for (TetId t : around) scan(t);
+  return out;
+}
+
 void CutStep::add_known_segment(const Vec3& a, const Vec3& b, std::vector<VertexId> vertices) {
   embedded_.push_back({a, b, std::move(vertices)});
 }
 
+bool CutStep::on_segment(VertexId v, const Vec3& a, const Vec3& b) const {
+  if (!mesh_.is_alive(v)) return false;
+  // A point embedded on the segment lies on it up to rounding, or up to the snap distance
+  // where it snapped onto a vertex; an id the mesh has given to another vertex since does not.
+  const Vec3 x = position(v), d = b - a;
+  const double t = std::clamp((x - a).dot(d) / d.squaredNorm(), 0.0, 1.0);
+  double sum = 0;
+  int n = 0;
+  for (TetId u : mesh_.incident_tets(v))
+    for (VertexId w : mesh_.tet_vertices(u))
+      if (w != v) {
+        sum += (position(w) - x).norm();
+        ++n;
+      }
+  return (x - (a + t * d)).norm() <= 2 * snap_ * (n ? sum / n : 0.0) + 1e-9 * d.norm();
+}
+
+std::vector<VertexId> CutStep::on_segment(std::span<const VertexId> vertices, const Vec3& a, const Vec3& b) const {
+  std::vector<VertexId> out;
+  for (VertexId v : vertices)
+    if (on_segment(v, a, b)) out.push_back(v);
+  return out;
+}
+
 std::vector<VertexId> CutStep::segment_vertices(const Vec3& a, const Vec3& b) const {
   for (const EmbeddedSegment& e : embedded_)
-    if ((e.a == a && e.b == b) || (e.a == b && e.b == a)) {
-      std::vector<VertexId> out;
-      for (VertexId v : e.vertices)
-        if (mesh_.is_alive(v)) out.push_back(v);
-      return out;
-    }
+    if ((e.a == a && e.b == b) || (e.a == b && e.b == a)) return on_segment(e.vertices, a, b);
   return {};
 }
 

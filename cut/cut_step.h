@@ -73,6 +73,18 @@ public:
   // After all pieces: the interior faces lying on a piece, with the two tets on its two sides.
   std::vector<CutFacePair> cut_faces(std::span<const Piece> pieces);
 
+  // At a crease (fa, fb) between the drag's previous sheet and this one: the faces of the tets
+  // `around` it that lie on the two sheets' union and have its two sides on their two sides,
+  // each vertex's side taken from the sheet on its side of the plane halving the angle at the
+  // crease. Each sheet alone judges a face by its own plane, and near the crease the two need
+  // not agree: a face on the previous sheet beside a tet the next one cut (or left whole
+  // beyond the crease) is a cut face that neither opens (docs/cut.md#curved-paths).
+  struct CreaseSides {
+    const Piece& piece;
+    const std::unordered_map<std::uint32_t, int>& sides;  // the sheet's decided vertices
+  };
+  std::vector<CutFacePair> crease_faces(const CreaseSides& prev, const CreaseSides& next, const Vec3& fa, const Vec3& fb,
+                                        std::span<const TetId> around) const;
   // Live candidate tets (where the next step's walk starts, and the improvement seeds).
   std::vector<TetId> live_candidates() const;
   // Adds tets to the candidates (a sheet's waiting tets and closed cut faces).
@@ -86,6 +98,9 @@ public:
   void add_known_segment(const Vec3& a, const Vec3& b, std::vector<VertexId> vertices);
   // Vertices on an embedded boundary segment (e.g. this step's front).
   std::vector<VertexId> segment_vertices(const Vec3& a, const Vec3& b) const;
+  // Those of `vertices` that are alive and on the segment (a, b): a list of a segment's
+  // vertices kept across steps may name ids the mesh has given to other vertices since.
+  std::vector<VertexId> on_segment(std::span<const VertexId> vertices, const Vec3& a, const Vec3& b) const;
   // Current positions of the vertices this step created.
   const std::unordered_map<std::uint32_t, Vec3>& created_positions() const { return created_pos_; }
   // Records the current position of a vertex created outside (duplicates).
@@ -107,6 +122,7 @@ private:
   bool move_snapped(const Piece& piece, std::size_t k, VertexId v);
   double vertex_radius(VertexId v);
   double star_radius(VertexId v) const;  // longest edge at v
+  bool on_segment(VertexId v, const Vec3& a, const Vec3& b) const;
   bool edge_split_ok(VertexId a, VertexId b, double s) const;
   // Inserts the point with barycentric w in t, snapping small weights to zero; returns the
   // vertex now at that point (existing or new).

@@ -126,6 +126,14 @@ SeparationResult Cutter::open_faces(const CutStep& step, std::span<const CutFace
                                     const PositionFn& positions, bool split_chords) {
   SeparationResult sep = separate(*mesh_, faces, split_chords);
   remember_fresh(step, sep, positions);
+  if (progress_->previous) {  // a copy of a vertex is where the vertex is, for that sheet too
+    auto& prev = *progress_->previous;
+    for (const auto& [v, copy] : sep.duplicates) {
+      auto it = prev.sides.find(v.idx());
+      if (it != prev.sides.end()) prev.sides[copy.idx()] = it->second;
+      if (std::find(prev.crease.begin(), prev.crease.end(), v) != prev.crease.end()) prev.crease.push_back(copy);
+    }
+  }
   add_separation(rep, sep);
   rep.tets_cut += step.tets_cut();
   fragment_starts_.insert(fragment_starts_.end(), sep.opened_tets.begin(), sep.opened_tets.end());
@@ -226,6 +234,31 @@ std::vector<TetId> Cutter::first_contact(const Vec3& lo, const Vec3& hi, const P
   return grid_.query(*mesh_, lo, hi, grow + margin);
 }
 
+std::vector<TetId> Cutter::quad_contact(const Piece& local, const PositionFn& positions, double max_displacement) {
+  // Boxes of a few grid cells along the quad (a blade across the body has a box as large as
+  // the body, a thin quad does not): the cost follows the quad's area, like the cut's.
+  std::vector<TetId> out;
+  const double cell = grid_.cell_size(), grow = positions ? max_displacement : 0.0;
+  std::vector<CutTriangle> todo(local.triangles.begin(), local.triangles.end());
+  while (!todo.empty()) {
+    const CutTriangle t = todo.back();
+    todo.pop_back();
+    const Vec3 lo = t.p[0].cwiseMin(t.p[1]).cwiseMin(t.p[2]), hi = t.p[0].cwiseMax(t.p[1]).cwiseMax(t.p[2]);
+    if ((hi - lo).maxCoeff() > 4 * cell) {  // split at the longest edge's midpoint
+      int e = 0;
+      for (int i = 1; i < 3; ++i)
+        if ((t.p[(i + 1) % 3] - t.p[i]).squaredNorm() > (t.p[(e + 1) % 3] - t.p[e]).squaredNorm()) e = i;
+      const Vec3 m = 0.5 * (t.p[e] + t.p[(e + 1) % 3]);
+      todo.push_back({{t.p[e], m, t.p[(e + 2) % 3]}});
+      todo.push_back({{m, t.p[(e + 1) % 3], t.p[(e + 2) % 3]}});
+      continue;
+    }
+    const double margin = 1e-9 * ((hi - lo).norm() + grow);
+    for (TetId x : grid_.query(*mesh_, lo, hi, grow + margin)) out.push_back(x);
+  }
+  return out;
+}
+
 void Cutter::start(const BladeSegment& blade) {
   if (!finite(blade.a) || !finite(blade.b)) throw InvalidArgument("cut: blade endpoints must be finite");
   if (!((blade.b - blade.a).norm() > 0)) throw InvalidArgument("cut: the blade's two ends are the same point");
@@ -280,6 +313,23 @@ void Cutter::improve_after(CutStepReport& rep, std::vector<TetId> seeds, std::ve
   io.time_budget_ms = opt_.improve_budget_ms;
   rep.improve = improve_local(*mesh_, seeds, io);
   rep.ms_improve += ms_since(ti);
+}
+
+void Cutter::add_crease_faces(const CutStep& step, std::vector<CutFacePair>& faces) const {
+  const Progress& pr = *progress_;
+  if (!pr.previous || !pr.back_known || pr.previous->crease.empty()) return;  // no crease in the body
+  std::vector<TetId> around;  // the tets at the crease, cut by either sheet or by none
+  std::unordered_set<std::uint32_t> at_crease;
+  for (VertexId v : step.on_segment(pr.previous->crease, pr.back.a, pr.back.b))
+    for (TetId t : mesh_->incident_tets(v))
+      if (at_crease.insert(t.idx()).second) around.push_back(t);
+  std::unordered_set<std::uint32_t> listed;
+  for (const CutFacePair& f : faces) listed.insert(4 * f.a.tet.idx() + std::uint32_t(f.a.local));
+  for (const CutFacePair& f : step.crease_faces({pr.previous->piece, pr.previous->sides},
+                                                {pr.sheet->piece(), pr.memory.side}, pr.back.a, pr.back.b, around))
+    if (!listed.count(4 * f.a.tet.idx() + std::uint32_t(f.a.local)) &&
+        !listed.count(4 * f.b.tet.idx() + std::uint32_t(f.b.local)))
+      faces.push_back(f);
 }
 
 void Cutter::keep_shut(std::vector<TetId>& tets) const {
@@ -564,11 +614,12 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
     pr.reach = h;
   }
   bool waits = false;  // the blade left the plane and is not yet far enough from the front
+  bool from_crease = false;  // this step starts a sheet at the last one's front
   if (!(pr.sheet && pr.sheet->extend(to, pr.tol))) {
     // A new plane (the first step, or the blade turned): the old sheet is cut in full, its
     // front becoming a crease the new sheet starts from.
     if (pr.sheet && pr.tol > 0) pr.resume = pr.sheet->front();
-    finish_sheet(rep, positions);
+    finish_sheet(rep, positions, true);
     const BladeSegment back = pr.resume ? *pr.resume : from;
     auto far = [&](const BladeSegment& b) {
       return std::max((b.a - to.a).norm(), (b.b - to.b).norm()) >= pr.reach;
@@ -578,6 +629,7 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
     } else {
       pr.resume.reset();
       start_sheet(back, to, positions);
+      from_crease = pr.back_known;
       if (!(back.a == from.a && back.b == from.b)) {
         local.triangles = swept_triangles(back, to);
         if (local.triangles.empty()) local.triangles = tris;
@@ -590,10 +642,18 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
     // the old sheet swept, and the next sheet sweeps from that front.
     seeds = front_;
     frozen = front_vertices_;
-  } else if (!pr.sheet) {
-    cut_quad(rep, local, scan, positions, to, seeds, frozen);
   } else {
-    step_sheet(rep, local, scan, positions, seeds, frozen);
+    // The walk starts from where the last step was. A sheet starting at a crease sweeps a
+    // quad from the last front to the blade, which may reach tets no walk over it from the
+    // front's tets reaches (through another lobe of the body): it also starts from every tet
+    // the grid says the quad may touch. Not where the tissue has moved by more than a grid
+    // cell (the query would grow to the whole region the tissue came from; the walk alone then).
+    std::vector<TetId> walk_from = front_;
+    if (from_crease && !grid_stale && grid_.built() &&
+        (!positions || (max_displacement >= 0 && max_displacement <= grid_.cell_size())))
+      for (TetId t : quad_contact(local, positions, max_displacement)) walk_from.push_back(t);
+    if (!pr.sheet) cut_quad(rep, local, scan, walk_from, positions, to, seeds, frozen);
+    else step_sheet(rep, local, scan, walk_from, positions, seeds, frozen);
   }
   if (mesh_->has_pending_change()) pr.edited = true;
   improve_after(rep, seeds, frozen);
@@ -613,7 +673,7 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
 // A step whose quad is not planar (the blade turned out of its plane within the step): cut in
 // full like a one-shot surface, its front embedded for the next step to continue from.
 void Cutter::cut_quad(CutStepReport& rep, const Piece& local, const std::function<std::vector<TetId>()>& scan,
-                      const PositionFn& positions, const BladeSegment& to, std::vector<TetId>& seeds,
+                      std::span<const TetId> walk_from, const PositionFn& positions, const BladeSegment& to, std::vector<TetId>& seeds,
                       std::vector<VertexId>& frozen) {
   Progress& pr = *progress_;
   std::vector<Piece> pieces = make_pieces(local.triangles);
@@ -621,7 +681,7 @@ void Cutter::cut_quad(CutStepReport& rep, const Piece& local, const std::functio
   CutStep step(*mesh_, positions, opt_.snap);
   step.set_fixed(opt_.frozen);
   if (pr.back_known) step.add_known_segment(pr.back.a, pr.back.b, pr.back_vertices);
-  seeds = front_;
+  seeds.assign(walk_from.begin(), walk_from.end());
   for (const Piece& p : pieces) {
     step.collect(p, seeds, scan);
     step.embed_boundary(p);
@@ -638,16 +698,17 @@ void Cutter::cut_quad(CutStepReport& rep, const Piece& local, const std::functio
 // that can open open, and the rest wait; `seeds` and `frozen` say what the step's improvement
 // works on and must hold.
 void Cutter::step_sheet(CutStepReport& rep, const Piece& local, const std::function<std::vector<TetId>()>& scan,
-                        const PositionFn& positions, std::vector<TetId>& seeds, std::vector<VertexId>& frozen) {
+                        std::span<const TetId> walk_from, const PositionFn& positions, std::vector<TetId>& seeds, std::vector<VertexId>& frozen) {
   Progress& pr = *progress_;
   const Piece& sp = pr.sheet->piece();
   CutStep step(*mesh_, positions, opt_.snap, &pr.memory, true);
   step.set_fixed(opt_.frozen);
   step.add_candidates(pr.waiting);
   step.add_candidates(pr.closed);
-  step.collect(local, front_, scan);
+  step.collect(local, walk_from, scan);
   step.split_crossings(sp);
-  const std::vector<CutFacePair> faces = step.cut_faces(std::span<const Piece>(&sp, 1));
+  std::vector<CutFacePair> faces = step.cut_faces(std::span<const Piece>(&sp, 1));
+  add_crease_faces(step, faces);
   const SeparationResult sep = open_faces(step, faces, rep, positions, false);
   for (const SeparationResult::Split& s : sep.splits) pr.memory.side[s.mid.idx()] = 0;  // on the sheet
   for (const auto& [v, copy] : sep.duplicates) {
@@ -671,6 +732,12 @@ void Cutter::step_sheet(CutStepReport& rep, const Piece& local, const std::funct
       wait.insert(t.idx());
       for (VertexId v : mesh_->tet_vertices(t)) frozen.push_back(v);
     }
+  // So does the crease the sheet started from: its vertices are where both sheets meet (on
+  // the previous sheet's faces only, until this one is finished, they would slide off it).
+  if (pr.back_known)
+    for (const auto* list : {&pr.back_vertices, pr.previous ? &pr.previous->crease : nullptr})
+      if (list)
+        for (VertexId v : step.on_segment(*list, pr.back.a, pr.back.b)) frozen.push_back(v);
   ++pr.step;
   if (mesh_->has_pending_change())
     for (TetId t : front_)
@@ -689,10 +756,20 @@ void Cutter::keep_sheet_lists(const PositionFn& positions) {
   // The sheet's bookkeeping, on this step's edits so far (the provisional pieces come after it
   // and are taken back before the next step: the sheet's lists keep the tets they came from).
   // Decisions about vertices the improvement moved off the cut surface or removed are void.
-  for (VertexId v : mesh_->pending_removed_vertices()) pr.memory.forget(v);
+  for (VertexId v : mesh_->pending_removed_vertices()) {
+    pr.memory.forget(v);
+    if (pr.previous) {  // its id may come back as another vertex
+      pr.previous->sides.erase(v.idx());
+      std::erase(pr.previous->crease, v);
+    }
+  }
   for (const VertexOrigin& o : mesh_->pending_moved_vertices()) {
     auto it = pr.memory.side.find(o.vertex.idx());
     if (it != pr.memory.side.end() && it->second != 0) pr.memory.forget(o.vertex);
+    if (pr.previous) {
+      auto p = pr.previous->sides.find(o.vertex.idx());
+      if (p != pr.previous->sides.end() && p->second != 0) pr.previous->sides.erase(p);
+    }
   }
   if (pr.sheet) {
     const std::vector<TetId> added = mesh_->pending_added_tets();

@@ -243,14 +243,16 @@ private:
   CutStepReport sweep(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions,
                       double max_displacement);
   // Cuts what the current sheet still has waiting, embedding its boundary; forgets the sheet.
-  void finish_sheet(CutStepReport& rep, const PositionFn& positions);
+  // next_follows: the blade turned and the next sheet starts at this one's front (a crease).
+  void finish_sheet(CutStepReport& rep, const PositionFn& positions, bool next_follows = false);
   // sweep()'s parts (cut/cutter.cpp): a non-planar quad cut in full, a step of the current sheet,
   // and the sheet's lists after the step's improvement.
+  // walk_from: where the walk over the step's quad starts (the last front, and the grid's hits).
   void cut_quad(CutStepReport& rep, const cut_detail::Piece& local, const std::function<std::vector<TetId>()>& scan,
-                const PositionFn& positions, const BladeSegment& to, std::vector<TetId>& seeds,
+                std::span<const TetId> walk_from, const PositionFn& positions, const BladeSegment& to, std::vector<TetId>& seeds,
                 std::vector<VertexId>& frozen);
   void step_sheet(CutStepReport& rep, const cut_detail::Piece& local, const std::function<std::vector<TetId>()>& scan,
-                  const PositionFn& positions, std::vector<TetId>& seeds, std::vector<VertexId>& frozen);
+                  std::span<const TetId> walk_from, const PositionFn& positions, std::vector<TetId>& seeds, std::vector<VertexId>& frozen);
   void keep_sheet_lists(const PositionFn& positions);
   // A new sheet from `from` (a finished sheet's front, or the blade's last position) to `to`.
   void start_sheet(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions);
@@ -273,6 +275,9 @@ private:
   void resume_to_blade(const PositionFn& positions, const BladeSegment& blade);
   // Mean edge length of (a sample of) the tets the blade is in; 0 when it is in none.
   double local_edge(const PositionFn& positions) const;
+  // The cut faces at the crease this sheet started from (CutStep::crease_faces), added to
+  // `faces`: those neither sheet's own test finds.
+  void add_crease_faces(const cut_detail::CutStep& step, std::vector<cut_detail::CutFacePair>& faces) const;
   // Local improvement of the region just cut; the waiting tets' vertices stay put.
   void improve_after(CutStepReport& rep, std::vector<TetId> seeds, std::vector<VertexId> frozen);
   // A cut start() left unfinished is completed before the next edit (cut/cutter.cpp).
@@ -284,6 +289,8 @@ private:
   void refresh_waiting(const PositionFn& positions, std::span<const TetId> more);
   CutStepReport run(std::span<const CutTriangle> triangles, const PositionFn& positions, double max_displacement,
                     bool use_front);
+  // Tets the grid says a step's quad may touch (its triangles cut into boxes of a few cells).
+  std::vector<TetId> quad_contact(const cut_detail::Piece& local, const PositionFn& positions, double max_displacement);
   // Tets that may touch the pieces' box in the current configuration (first contact).
   std::vector<TetId> first_contact(const Vec3& lo, const Vec3& hi, const PositionFn& positions,
                                    double max_displacement, bool grid_stale);

@@ -15,7 +15,7 @@ namespace incise {
 
 using namespace cut_detail;
 
-void Cutter::finish_sheet(CutStepReport& rep, const PositionFn& positions) {
+void Cutter::finish_sheet(CutStepReport& rep, const PositionFn& positions, bool next_follows) {
   Progress& pr = *progress_;
   if (!pr.sheet) {
     open_stale(rep, positions);
@@ -50,12 +50,15 @@ void Cutter::finish_sheet(CutStepReport& rep, const PositionFn& positions) {
   step.embed_boundary(sp);
   step.split_crossings(sp);
   std::vector<CutFacePair> faces = step.cut_faces(std::span<const Piece>(&sp, 1));
+  add_crease_faces(step, faces);
   revive_shut(faces);
   keep_shut_faces(open_faces(step, faces, rep, positions).shut);
   set_front(step, front);
   pr.sheet.reset();
   pr.waiting.clear();
   pr.closed.clear();
+  if (next_follows) pr.previous = Progress::PreviousSheet{sp, std::move(pr.memory.side), front_vertices_};
+  else pr.previous.reset();
   pr.memory = CutMemory{};
   if (mesh_->has_pending_change()) pr.edited = true;
 }

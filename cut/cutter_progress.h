@@ -2,6 +2,7 @@
 // The Cutter's progressive state, shared by cutter.cpp (the steps) and cutter_finish.cpp
 // (withdrawing the blade): internal to cut/, not part of the API.
 #include <optional>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -47,6 +48,14 @@ struct Cutter::Progress {
   std::vector<TetId> made;
   std::size_t made_compacted = 0;
   int step = 0;
+  // The sheet finished last when the blade turned, while the next one (starting at its front,
+  // the crease) is cut: its polygon and its vertices' decided sides (CutStep::crease_faces).
+  struct PreviousSheet {
+    cut_detail::Piece piece;
+    std::unordered_map<std::uint32_t, int> sides;
+    std::vector<VertexId> crease;  // the vertices along the crease, and their copies since
+  };
+  std::optional<PreviousSheet> previous;
 };
 
 namespace cut_detail {
