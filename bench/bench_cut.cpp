@@ -395,7 +395,8 @@ void beam_ratio(bool quick) {
 
 // ---- 5 -------------------------------------------------------------------------------------
 // Volumes of the parts that share no vertex.
-std::vector<double> part_volumes(const TetMesh& m) {
+// The part (tets sharing vertices) of each tet, as a representative vertex id.
+std::unordered_map<std::uint32_t, std::uint32_t> tet_parts(const TetMesh& m) {
   std::vector<std::uint32_t> parent(m.vertex_capacity());
   for (std::uint32_t i = 0; i < parent.size(); ++i) parent[i] = i;
   auto find = [&](std::uint32_t x) {
@@ -404,8 +405,14 @@ std::vector<double> part_volumes(const TetMesh& m) {
   };
   for (TetId t : m.tets())
     for (int k = 1; k < 4; ++k) parent[find(m.tet_vertices(t)[k].idx())] = find(m.tet_vertices(t)[0].idx());
+  std::unordered_map<std::uint32_t, std::uint32_t> out;
+  for (TetId t : m.tets()) out[t.idx()] = find(m.tet_vertices(t)[0].idx());
+  return out;
+}
+
+std::vector<double> part_volumes(const TetMesh& m) {
   std::unordered_map<std::uint32_t, double> vol;
-  for (TetId t : m.tets()) vol[find(m.tet_vertices(t)[0].idx())] += m.volume(t);
+  for (const auto& [t, part] : tet_parts(m)) vol[part] += m.volume(TetId(t));
   std::vector<double> out;
   for (const auto& [r, v] : vol) out.push_back(v);
   std::sort(out.begin(), out.end());
@@ -422,14 +429,7 @@ struct PathParts {
   std::size_t joined = 0, specks = 0;
 };
 PathParts path_parts(const TetMesh& m, const std::function<double(const Vec3&)>& side, double reach) {
-  std::vector<std::uint32_t> parent(m.vertex_capacity());
-  for (std::uint32_t i = 0; i < parent.size(); ++i) parent[i] = i;
-  auto find = [&](std::uint32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  };
-  for (TetId t : m.tets())
-    for (int k = 1; k < 4; ++k) parent[find(m.tet_vertices(t)[k].idx())] = find(m.tet_vertices(t)[0].idx());
+  const auto part_of = tet_parts(m);
   struct Part {
     double volume = 0;
     bool below = false, above = false;
@@ -439,7 +439,7 @@ PathParts path_parts(const TetMesh& m, const std::function<double(const Vec3&)>&
   for (TetId t : m.tets()) {
     Vec3 c = Vec3::Zero();
     for (VertexId v : m.tet_vertices(t)) c += m.rest(v) / 4;
-    Part& p = parts[find(m.tet_vertices(t)[0].idx())];
+    Part& p = parts[part_of.at(t.idx())];
     p.volume += m.volume(t);
     total += m.volume(t);
     const double s = side(c);

@@ -100,18 +100,9 @@ double CutStep::snap_length(VertexId v) {
   auto& cache = memory_ ? memory_->snap_len : snap_len_;
   auto it = cache.find(v.idx());
   if (it != cache.end()) return it->second;
-  const Vec3 x = position(v);
   // Relative to the mean incident edge: after earlier cuts the shortest edge can be tiny, and
   // a threshold relative to it would stop snapping exactly where slivers pile up.
-  double sum = 0;
-  int n = 0;
-  for (TetId t : mesh_.incident_tets(v))
-    for (VertexId w : mesh_.tet_vertices(t))
-      if (w != v) {
-        sum += (position(w) - x).norm();
-        ++n;
-      }
-  const double len = snap_ * (n ? sum / n : 0.0);
+  const double len = snap_ * mean_incident_edge(v);
   cache[v.idx()] = len;
   return len;
 }
@@ -746,15 +737,20 @@ bool CutStep::on_segment(VertexId v, const Vec3& a, const Vec3& b) const {
   // where it snapped onto a vertex; an id the mesh has given to another vertex since does not.
   const Vec3 x = position(v), d = b - a;
   const double t = std::clamp((x - a).dot(d) / d.squaredNorm(), 0.0, 1.0);
+  return (x - (a + t * d)).norm() <= 2 * snap_ * mean_incident_edge(v) + 1e-9 * d.norm();
+}
+
+double CutStep::mean_incident_edge(VertexId v) const {
+  const Vec3 x = position(v);
   double sum = 0;
   int n = 0;
-  for (TetId u : mesh_.incident_tets(v))
-    for (VertexId w : mesh_.tet_vertices(u))
+  for (TetId t : mesh_.incident_tets(v))
+    for (VertexId w : mesh_.tet_vertices(t))
       if (w != v) {
         sum += (position(w) - x).norm();
         ++n;
       }
-  return (x - (a + t * d)).norm() <= 2 * snap_ * (n ? sum / n : 0.0) + 1e-9 * d.norm();
+  return n ? sum / n : 0.0;
 }
 
 std::vector<VertexId> CutStep::on_segment(std::span<const VertexId> vertices, const Vec3& a, const Vec3& b) const {

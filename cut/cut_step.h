@@ -123,6 +123,7 @@ private:
   double vertex_radius(VertexId v);
   double star_radius(VertexId v) const;  // longest edge at v
   bool on_segment(VertexId v, const Vec3& a, const Vec3& b) const;
+  double mean_incident_edge(VertexId v) const;
   bool edge_split_ok(VertexId a, VertexId b, double s) const;
   // Inserts the point with barycentric w in t, snapping small weights to zero; returns the
   // vertex now at that point (existing or new).
