@@ -443,7 +443,7 @@ void Cutter::cut_provisional(CutStepReport& rep, const PositionFn& positions) {
                                 step.live_candidates()};
 }
 
-void Cutter::take_back_provisional(CutStepReport& rep, const PositionFn& positions) {
+void Cutter::take_back_provisional(CutStepReport& rep) {
   if (!provisional_) return;
   ProvisionalCut prov = std::move(*provisional_);
   provisional_.reset();
@@ -593,7 +593,7 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
   if (tris.empty()) return rep;
   if (mesh_->has_pending_change())
     throw InvalidArgument("cut: the mesh has edits not yet taken (call take_change() before cutting)");
-  take_back_provisional(rep, positions);
+  take_back_provisional(rep);
   complete_previous(rep, positions);
   Progress& pr = *progress_;
   bool grid_stale = mesh_->counters().edits != grid_edits_;
@@ -828,7 +828,7 @@ CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const Position
   if (triangles.empty()) return rep;
   if (mesh_->has_pending_change())
     throw InvalidArgument("cut: the mesh has edits not yet taken (call take_change() before cutting)");
-  take_back_provisional(rep, positions);
+  take_back_provisional(rep);
   complete_previous(rep, positions);
   std::vector<Piece> pieces = make_pieces(triangles);
   // The previous step's front is where this step's cut continues, not a rim.

@@ -314,7 +314,7 @@ private:
   };
   std::optional<ProvisionalCut> provisional_;
   void cut_provisional(CutStepReport& rep, const PositionFn& positions);
-  void take_back_provisional(CutStepReport& rep, const PositionFn& positions);
+  void take_back_provisional(CutStepReport& rep);
   TetGrid grid_;
   std::uint64_t grid_edits_ = 0;  // the mesh's edit counter when the grid was last in sync
   std::unique_ptr<cut_detail::FragmentScratch> fragment_scratch_;  // the fragment search's marks

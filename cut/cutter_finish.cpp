@@ -71,7 +71,7 @@ CutStepReport Cutter::finish(const PositionFn& caller_positions) {
   if (mesh_->has_pending_change())
     throw InvalidArgument("cut: the mesh has edits not yet taken (call take_change() before finishing a cut)");
   const bool grid_stale = mesh_->counters().edits != grid_edits_;
-  take_back_provisional(rep, positions);
+  take_back_provisional(rep);
   std::vector<TetId> live;
   for (const auto& e : progress_->improve_queue) live.push_back(e.first);
   resume_to_blade(positions, blade_);
