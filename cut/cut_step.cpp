@@ -37,6 +37,13 @@ bool on_cut_only(const TetMesh& m, VertexId v) {
 
 std::uint32_t face_key(TetId t, int f) { return 4 * t.idx() + std::uint32_t(f); }
 
+// The local index, in neighbour n, of the face it shares with t; -1 when they share none.
+int shared_face(const TetMesh& m, TetId n, TetId t) {
+  for (int j = 0; j < 4; ++j)
+    if (m.neighbor(n, j) == t) return j;
+  return -1;
+}
+
 // Whether splitting tet t at rest point p (barycentric w, slots with w > 0 get a child) gives
 // children of clearly positive rest volume. Repeated cuts in one place make small tets; a
 // split of an already flat one could round to a zero volume, so the cutter snaps instead.
@@ -642,11 +649,7 @@ std::vector<CutFacePair> CutStep::cut_faces(std::span<const Piece> pieces) {
                               piece.contains(position(fv[1]), kInsideTol) &&
                               piece.contains(position(fv[2]), kInsideTol)))
           continue;
-        const int g = [&] {
-          for (int j = 0; j < 4; ++j)
-            if (mesh_.neighbor(n, j) == t) return j;
-          return -1;
-        }();
+        const int g = shared_face(mesh_, n, t);
         if (g < 0) continue;
         const int sa = side(piece, k, tv[f]), sb = side(piece, k, mesh_.tet_vertices(n)[g]);
         if (sa == kUndecided || sb == kUndecided || sa * sb >= 0) continue;  // a flat tet lying in the plane: the cut goes around it
@@ -711,9 +714,8 @@ std::vector<CutFacePair> CutStep::crease_faces(const CreaseSides& prev, const Cr
       if (!n.is_valid() || done.count(face_key(t, f))) continue;
       const auto fv = mesh_.face_vertices(t, f);
       if (side(fv[0]) != 0 || side(fv[1]) != 0 || side(fv[2]) != 0) continue;
-      int g = 0;
-      while (g < 4 && mesh_.neighbor(n, g) != t) ++g;
-      if (g == 4) continue;
+      const int g = shared_face(mesh_, n, t);
+      if (g < 0) continue;
       const int sa = tet_side(t, tv[f]), sb = tet_side(n, mesh_.tet_vertices(n)[g]);
       if (sa == kUndecided || sb == kUndecided || sa * sb >= 0) continue;
       const Vec3 c = (position(fv[0]) + position(fv[1]) + position(fv[2])) / 3;
