@@ -253,7 +253,7 @@ VertexId CutStep::insert_point(TetId t, std::array<double, 4> w) {
 }
 
 void CutStep::collect(const Piece& piece, std::span<const TetId> seeds,
-                      const std::function<std::vector<TetId>()>& fallback) {
+                      const std::function<std::vector<TetId>()>& fallback, std::span<const TetId> more) {
   current_piece_ = on_piece_.size();
   on_piece_.emplace_back();
   side_cache_.emplace_back();
@@ -272,17 +272,23 @@ void CutStep::collect(const Piece& piece, std::span<const TetId> seeds,
     if (!mesh_.is_alive(t) || !seen.insert(t.idx()).second) return;
     if (touches(t)) queue.push_back(t);
   };
+  std::size_t walked = 0;
+  auto walk = [&] {
+    for (; walked < queue.size(); ++walked) {
+      const TetId t = queue[walked];
+      if (in_cand_.insert(t.idx()).second) cand_.push_back(t);
+      for (int f = 0; f < 4; ++f) {
+        const TetId n = mesh_.neighbor(t, f);
+        if (n.is_valid() && seen.insert(n.idx()).second && touches(n)) queue.push_back(n);
+      }
+    }
+  };
   for (TetId t : seeds) try_seed(t);
   if (queue.empty() && fallback)
     for (TetId t : fallback()) try_seed(t);
-  for (std::size_t i = 0; i < queue.size(); ++i) {
-    const TetId t = queue[i];
-    if (in_cand_.insert(t.idx()).second) cand_.push_back(t);
-    for (int f = 0; f < 4; ++f) {
-      const TetId n = mesh_.neighbor(t, f);
-      if (n.is_valid() && seen.insert(n.idx()).second && touches(n)) queue.push_back(n);
-    }
-  }
+  walk();
+  for (TetId t : more) try_seed(t);
+  walk();
 }
 
 void CutStep::embed_boundary(const Piece& piece) {

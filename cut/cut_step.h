@@ -64,8 +64,11 @@ public:
   void set_no_moves() { no_moves_ = true; }
 
   // Tets that may touch the piece, found by a walk from `seeds` through face neighbours;
-  // when no seed touches it, `fallback` is called for seeds (the first contact).
-  void collect(const Piece& piece, std::span<const TetId> seeds, const std::function<std::vector<TetId>()>& fallback);
+  // when no seed touches it, `fallback` is called for seeds (the first contact). Then the walk
+  // goes on from those of `more` it did not reach (parts of the body the piece reaches apart
+  // from the seeds'); a walk that reached them all is the walk from `seeds` alone.
+  void collect(const Piece& piece, std::span<const TetId> seeds, const std::function<std::vector<TetId>()>& fallback,
+               std::span<const TetId> more = {});
   // Makes the piece's boundary segments unions of mesh edges (tet, face, edge splits).
   void embed_boundary(const Piece& piece);
   // Splits every edge crossing the piece inside its region.

@@ -614,7 +614,6 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
     pr.reach = h;
   }
   bool waits = false;  // the blade left the plane and is not yet far enough from the front
-  bool from_crease = false;  // this step starts a sheet at the last one's front
   if (!(pr.sheet && pr.sheet->extend(to, pr.tol))) {
     // A new plane (the first step, or the blade turned): the old sheet is cut in full, its
     // front becoming a crease the new sheet starts from.
@@ -629,7 +628,6 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
     } else {
       pr.resume.reset();
       start_sheet(back, to, positions);
-      from_crease = pr.back_known;
       if (!(back.a == from.a && back.b == from.b)) {
         local.triangles = swept_triangles(back, to);
         if (local.triangles.empty()) local.triangles = tris;
@@ -643,17 +641,18 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
     seeds = front_;
     frozen = front_vertices_;
   } else {
-    // The walk starts from where the last step was. A sheet starting at a crease sweeps a
-    // quad from the last front to the blade, which may reach tets no walk over it from the
-    // front's tets reaches (through another lobe of the body): it also starts from every tet
-    // the grid says the quad may touch. Not where the tissue has moved by more than a grid
-    // cell (the query would grow to the whole region the tissue came from; the walk alone then).
-    std::vector<TetId> walk_from = front_;
-    if (from_crease && !grid_stale && grid_.built() &&
+    // The walk starts from where the last step was, then goes on from the tets the grid says
+    // the step's quad may touch that it did not reach: a quad may reach tets no walk over it
+    // from the front's tets reaches (another lobe of the body met mid-sheet, or beyond a notch
+    // where a sheet starts at a crease). Missed, they would stay whole across the cut and the
+    // parts joined. Not where the tissue has moved by more than a grid cell (the query would
+    // grow to the whole region the tissue came from; the walk alone then).
+    std::vector<TetId> contact;
+    if (!grid_stale && grid_.built() &&
         (!positions || (max_displacement >= 0 && max_displacement <= grid_.cell_size())))
-      for (TetId t : quad_contact(local, positions, max_displacement)) walk_from.push_back(t);
-    if (!pr.sheet) cut_quad(rep, local, scan, walk_from, positions, to, seeds, frozen);
-    else step_sheet(rep, local, scan, walk_from, positions, seeds, frozen);
+      contact = quad_contact(local, positions, max_displacement);
+    if (!pr.sheet) cut_quad(rep, local, scan, {front_, contact}, positions, to, seeds, frozen);
+    else step_sheet(rep, local, scan, {front_, contact}, positions, seeds, frozen);
   }
   if (mesh_->has_pending_change()) pr.edited = true;
   improve_after(rep, seeds, frozen);
@@ -673,7 +672,7 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
 // A step whose quad is not planar (the blade turned out of its plane within the step): cut in
 // full like a one-shot surface, its front embedded for the next step to continue from.
 void Cutter::cut_quad(CutStepReport& rep, const Piece& local, const std::function<std::vector<TetId>()>& scan,
-                      std::span<const TetId> walk_from, const PositionFn& positions, const BladeSegment& to, std::vector<TetId>& seeds,
+                      const Walk& walk, const PositionFn& positions, const BladeSegment& to, std::vector<TetId>& seeds,
                       std::vector<VertexId>& frozen) {
   Progress& pr = *progress_;
   std::vector<Piece> pieces = make_pieces(local.triangles);
@@ -681,9 +680,9 @@ void Cutter::cut_quad(CutStepReport& rep, const Piece& local, const std::functio
   CutStep step(*mesh_, positions, opt_.snap);
   step.set_fixed(opt_.frozen);
   if (pr.back_known) step.add_known_segment(pr.back.a, pr.back.b, pr.back_vertices);
-  seeds.assign(walk_from.begin(), walk_from.end());
+  seeds.assign(walk.from.begin(), walk.from.end());
   for (const Piece& p : pieces) {
-    step.collect(p, seeds, scan);
+    step.collect(p, seeds, scan, walk.then);
     step.embed_boundary(p);
     step.split_crossings(p);
     seeds = step.live_candidates();
@@ -698,14 +697,14 @@ void Cutter::cut_quad(CutStepReport& rep, const Piece& local, const std::functio
 // that can open open, and the rest wait; `seeds` and `frozen` say what the step's improvement
 // works on and must hold.
 void Cutter::step_sheet(CutStepReport& rep, const Piece& local, const std::function<std::vector<TetId>()>& scan,
-                        std::span<const TetId> walk_from, const PositionFn& positions, std::vector<TetId>& seeds, std::vector<VertexId>& frozen) {
+                        const Walk& walk, const PositionFn& positions, std::vector<TetId>& seeds, std::vector<VertexId>& frozen) {
   Progress& pr = *progress_;
   const Piece& sp = pr.sheet->piece();
   CutStep step(*mesh_, positions, opt_.snap, &pr.memory, true);
   step.set_fixed(opt_.frozen);
   step.add_candidates(pr.waiting);
   step.add_candidates(pr.closed);
-  step.collect(local, walk_from, scan);
+  step.collect(local, walk.from, scan, walk.then);
   step.split_crossings(sp);
   std::vector<CutFacePair> faces = step.cut_faces(std::span<const Piece>(&sp, 1));
   add_crease_faces(step, faces);

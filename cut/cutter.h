@@ -247,12 +247,16 @@ private:
   void finish_sheet(CutStepReport& rep, const PositionFn& positions, bool next_follows = false);
   // sweep()'s parts (cut/cutter.cpp): a non-planar quad cut in full, a step of the current sheet,
   // and the sheet's lists after the step's improvement.
-  // walk_from: where the walk over the step's quad starts (the last front, and the grid's hits).
+  // The walk over the step's quad starts from `from` (the last front) and goes on from those
+  // of `then` (the tets the grid says the quad may touch) it did not reach.
+  struct Walk {
+    std::span<const TetId> from, then;
+  };
   void cut_quad(CutStepReport& rep, const cut_detail::Piece& local, const std::function<std::vector<TetId>()>& scan,
-                std::span<const TetId> walk_from, const PositionFn& positions, const BladeSegment& to, std::vector<TetId>& seeds,
+                const Walk& walk, const PositionFn& positions, const BladeSegment& to, std::vector<TetId>& seeds,
                 std::vector<VertexId>& frozen);
   void step_sheet(CutStepReport& rep, const cut_detail::Piece& local, const std::function<std::vector<TetId>()>& scan,
-                  std::span<const TetId> walk_from, const PositionFn& positions, std::vector<TetId>& seeds, std::vector<VertexId>& frozen);
+                  const Walk& walk, const PositionFn& positions, std::vector<TetId>& seeds, std::vector<VertexId>& frozen);
   void keep_sheet_lists(const PositionFn& positions);
   // A new sheet from `from` (a finished sheet's front, or the blade's last position) to `to`.
   void start_sheet(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions);

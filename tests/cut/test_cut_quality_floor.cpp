@@ -108,29 +108,31 @@ TEST_CASE("quality floor: a cut finished beside an earlier cut bends through its
 }
 
 TEST_CASE("quality floor: contracting along bent cut sheets and rims leaves fewer bad tets", "[cut][quality][long][scale]") {
-  // bench_cut's 100 random steps on the liver (seed 2026), with the cutter's default
-  // contraction along curved and bent surfaces (ImproveOptions::collapse_deviation 0.05) and
-  // without it: the short edges finish() leaves on bent cut sheets and along rims go
-  // (406 -> 348 tets below 10 deg when this test was written; fewer since contractions may no
-  // longer push a cut face into the tissue across the cut, which made the body overlap itself),
-  // every cut invariant holds, and the label volumes move only by what the contractions report.
+  // bench_cut's 100 random steps on the liver (seed 2026) and two more draws, with the
+  // cutter's default contraction along curved and bent surfaces
+  // (ImproveOptions::collapse_deviation 0.05) and without it: the short edges finish() leaves
+  // on bent cut sheets and along rims go, every cut invariant holds, and the label volumes move
+  // only by what the contractions report. The count of bad tets after one draw is chaotic (a
+  // change anywhere in the cut moves it either way), so the test sums three draws.
   const TetMesh liver = read_tet_mesh(std::string(INCISE_SOURCE_DIR) + "/samples/liver.msh");
-  const auto blades = random_blades(liver, 20, 2026);
   std::size_t below[2] = {0, 0};
-  for (int with : {0, 1}) {
-    TetMesh m = liver;
-    m.discard_change();
-    const auto vol0 = label_volumes(m);
-    CutOptions opt;
-    if (!with) opt.improve_options.collapse_deviation = 0;
-    REQUIRE(CutOptions{}.improve_options.collapse_deviation > 0);
-    Cutter cutter(m, opt);
-    const double moved = cut_with(cutter, blades, [](const CutStepReport&, bool) {});
-    check_cut_invariants(m, vol0, 1e-9, moved);
-    CHECK_FALSE(find_overlapping_tets(m));  // the body does not overlap itself: it reads back
-    below[with] = quality_range(m, 10.0).below;
+  for (unsigned seed : {2026u, 2027u, 2028u}) {
+    const auto blades = random_blades(liver, 20, seed);
+    for (int with : {0, 1}) {
+      TetMesh m = liver;
+      m.discard_change();
+      const auto vol0 = label_volumes(m);
+      CutOptions opt;
+      if (!with) opt.improve_options.collapse_deviation = 0;
+      REQUIRE(CutOptions{}.improve_options.collapse_deviation > 0);
+      Cutter cutter(m, opt);
+      const double moved = cut_with(cutter, blades, [](const CutStepReport&, bool) {});
+      check_cut_invariants(m, vol0, 1e-9, moved);
+      CHECK_FALSE(find_overlapping_tets(m));  // the body does not overlap itself: it reads back
+      below[with] += quality_range(m, 10.0).below;
+    }
   }
-  INFO(below[0] << " tets below 10 deg without contraction along bent surfaces, " << below[1] << " with");
+  INFO(below[0] << " tets below 10 deg without contraction along bent surfaces, " << below[1] << " with (three draws)");
   CHECK(below[1] < below[0]);
 }
 
