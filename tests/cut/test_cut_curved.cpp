@@ -124,8 +124,8 @@ TEST_CASE("curved paths: an arc detaches the half disc it closes off, growing th
     // Issue 16's quality floor, its share: under 1% of tets below 10 degrees (the creases
     // between sheets left 2% before finish() repaired every sliver the drag made).
     CHECK(double(c.quality.below) < 0.01 * double(box.num_tets() + c.added));
-    // Not yet the floor's 10 degrees: a cut vertex a hair past a crease, on the next sheet, can
-    // keep tets of both sides (docs/cut.md#known-gaps); 0.79 deg at 400 steps.
+    // Not yet the floor's 10 degrees: the next sheet can cross an edge a hair past a crease
+    // vertex, leaving a sliver no contraction may take (docs/cut.md#known-gaps).
     CHECK(c.quality.min_dihedral > 0.5);
   }
 }
