@@ -22,8 +22,8 @@ namespace {
 
 const double kPi = std::acos(-1.0);
 
-// Volumes of the parts that share no vertex, smallest first.
-std::vector<double> part_volumes(const TetMesh& m) {
+// The part each tet is in (parts share no vertex), by tet id: a vertex id naming the part.
+std::vector<std::uint32_t> tet_parts(const TetMesh& m) {
   std::vector<std::uint32_t> parent(m.vertex_capacity());
   std::iota(parent.begin(), parent.end(), 0u);
   auto find = [&](std::uint32_t x) {
@@ -32,8 +32,16 @@ std::vector<double> part_volumes(const TetMesh& m) {
   };
   for (TetId t : m.tets())
     for (int k = 1; k < 4; ++k) parent[find(m.tet_vertices(t)[std::size_t(k)].idx())] = find(m.tet_vertices(t)[0].idx());
+  std::vector<std::uint32_t> part(m.tet_capacity());
+  for (TetId t : m.tets()) part[t.idx()] = find(m.tet_vertices(t)[0].idx());
+  return part;
+}
+
+// Volumes of the parts that share no vertex, smallest first.
+std::vector<double> part_volumes(const TetMesh& m) {
+  const auto part = tet_parts(m);
   std::unordered_map<std::uint32_t, double> vol;
-  for (TetId t : m.tets()) vol[find(m.tet_vertices(t)[0].idx())] += m.volume(t);
+  for (TetId t : m.tets()) vol[part[t.idx()]] += m.volume(t);
   std::vector<double> out;
   for (const auto& [root, v] : vol) out.push_back(v);
   std::sort(out.begin(), out.end());
@@ -258,20 +266,13 @@ TEST_CASE("curved paths: an S across the liver cuts through the lobes the blade 
     moved += cutter.finish().improve.volume_change;
     check_cut_invariants(m, vol0, 1e-9, moved);
     // Parts (sharing no vertex) holding a tet more than an edge on each side of the path.
-    std::vector<std::uint32_t> parent(m.vertex_capacity());
-    std::iota(parent.begin(), parent.end(), 0u);
-    auto find = [&](std::uint32_t x) {
-      while (parent[x] != x) x = parent[x] = parent[parent[x]];
-      return x;
-    };
-    for (TetId t : m.tets())
-      for (int k = 1; k < 4; ++k) parent[find(m.tet_vertices(t)[std::size_t(k)].idx())] = find(m.tet_vertices(t)[0].idx());
+    const auto part = tet_parts(m);
     std::unordered_map<std::uint32_t, int> sides;  // bit 0: a tet beyond -edge, bit 1: beyond +edge
     for (TetId t : m.tets()) {
       Vec3 x = Vec3::Zero();
       for (VertexId v : m.tet_vertices(t)) x += m.rest(v) / 4;
       const double side = x.x() - s_x(x.y());
-      int& b = sides[find(m.tet_vertices(t)[0].idx())];
+      int& b = sides[part[t.idx()]];
       if (side < -edge) b |= 1;
       if (side > edge) b |= 2;
     }
