@@ -63,9 +63,12 @@ enum class CutMode { Subdivide, Remove };
 struct CutOptions {
   CutMode mode = CutMode::Subdivide;
   // Snap threshold relative to the local (mean incident) edge length: vertices closer
-  // than this to a cut plane are treated as on it; blade-boundary points this close to an edge
-  // or vertex go onto it. Larger: fewer, better-shaped new tets, cut surface further from the
-  // blade. A floor of 1e-6 always applies (points of earlier splits are floating point).
+  // than this to a cut plane are treated as on it; a blade-boundary point within half of it
+  // (relative to its element) of a point made in the same step goes onto that point (existing
+  // vertices and edges take it only within the floor: the blade's boundary must stay a chain of
+  // edges along its segment, CutStep::vertex_radius). Larger: fewer, better-shaped new tets,
+  // cut surface further from the blade. A floor of 1e-6 always applies (points of earlier
+  // splits are floating point).
   double snap = 0.05;
   bool improve = true;             // local flips + smoothing after each step
   // A progressive cut's sheet stays one plane while the blade stays within this distance of

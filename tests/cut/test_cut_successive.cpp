@@ -4,7 +4,7 @@
 // rectangle. Each step's walk over its quad goes through face neighbours, which end at an
 // earlier cut's faces; the tissue beyond them is reached through the first-contact grid
 // (docs/cut.md#curved-paths, "Lobes"). Before that, these cuts stopped at the earlier ones and
-// opened as little as 55% of what they swept.
+// opened a part of what they swept (docs/cut.md has the figures).
 #include <catch2/catch.hpp>
 
 #include <algorithm>
