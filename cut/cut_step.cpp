@@ -464,10 +464,34 @@ int CutStep::side(const Piece& piece, std::size_t k, VertexId v) {
   } else if (near && piece.contains(x, 0) && piece.boundary_distance(x) > star_radius(v)) {
     s = 0;
   }
+  // A boundary vertex whose boundary neighbours all lie clearly on one side of the plane: the
+  // plane only touches the surface there. Put on it, the vertex would be the one point where
+  // the sheet meets the surface, and opening the cut would pinch the boundary there: its faces
+  // would stay shut, a hole in the cut the size of its star (separate.cpp). It keeps its side.
+  if (s == 0 && exact != 0 && !on_piece_[k].count(v.idx()) && touches_surface_only(piece, v)) s = exact;
   // Snapped: moved onto the plane where it may (cut/snap_move.h), so the cut surface stays flat.
   if (s == 0 && exact != 0 && !on_piece_[k].count(v.idx())) move_snapped(piece, k, v);
   decide(k, v, s);
   return s;
+}
+
+bool CutStep::touches_surface_only(const Piece& piece, VertexId v) {
+  int sign = 0;
+  bool boundary = false;
+  for (TetId t : mesh_.incident_tets(v))
+    for (int f = 0; f < 4; ++f) {
+      if (mesh_.tet_vertices(t)[f] == v || mesh_.neighbor(t, f).is_valid()) continue;
+      boundary = true;
+      for (VertexId w : mesh_.face_vertices(t, f)) {
+        if (w == v) continue;
+        const double d = piece.distance(position(w));
+        if (!(std::abs(d) > snap_length(w))) return false;  // may be on the plane: the sheet crosses the surface
+        const int o = d > 0 ? 1 : -1;
+        if (sign != 0 && o != sign) return false;
+        sign = o;
+      }
+    }
+  return boundary;
 }
 
 bool CutStep::move_snapped(const Piece& piece, std::size_t k, VertexId v) {

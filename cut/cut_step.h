@@ -123,6 +123,9 @@ private:
   double snap_length(VertexId v);
   // Moves a snapped vertex onto the piece's plane (cut/snap_move.h); false where it may not.
   bool move_snapped(const Piece& piece, std::size_t k, VertexId v);
+  // Whether v is on the boundary and every other vertex of its boundary faces lies beyond the
+  // snap distance on one side of the piece's plane (the plane would only touch the surface at v).
+  bool touches_surface_only(const Piece& piece, VertexId v);
   double vertex_radius(VertexId v);
   double star_radius(VertexId v) const;  // longest edge at v
   bool on_segment(VertexId v, const Vec3& a, const Vec3& b) const;
