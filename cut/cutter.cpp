@@ -643,9 +643,9 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
   } else {
     // The walk starts from where the last step was, then goes on from the tets the grid says
     // the step's quad may touch that it did not reach: a quad may reach tets no walk over it
-    // from the front's tets reaches (another lobe of the body met mid-sheet, or beyond a notch
-    // where a sheet starts at a crease). Missed, they would stay whole across the cut and the
-    // parts joined. Not where the tissue has moved by more than a grid cell (the query would
+    // from the front's tets reaches (another lobe of the body met mid-sheet, tissue beyond an
+    // earlier cut's open faces, or beyond a notch where a sheet starts at a crease). Missed, they
+    // would stay whole: the parts joined across a curved path, a cut stopped at an earlier one. Not where the tissue has moved by more than a grid cell (the query would
     // grow to the whole region the tissue came from; the walk alone then).
     std::vector<TetId> contact;
     if (!grid_stale && grid_.built() &&
