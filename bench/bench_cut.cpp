@@ -18,7 +18,7 @@
 //  4. beam_ratio: a beam clamped at both ends under gravity, cut through at midspan: midspan
 //     sag after / before, against beam theory: 3 (Euler-Bernoulli: two cantilevers of half
 //     the length), 2.78 with shear (Timoshenko) for this beam's L/h = 10.
-// Usage: bench_cut [--quick] [--no-1m] [--only step|quality|snap|beam|progressive|curved|curved-organ|deformed] [--case NAME_PART] [--steps N]
+// Usage: bench_cut [--quick] [--no-1m] [--provisional] [--no-exact-volumes] [--only step|quality|snap|beam|progressive|curved|curved-organ|deformed] [--case NAME_PART] [--steps N]
 //                  [ORGAN]   (default samples/liver.msh; --case, --steps: only the progressive rows whose case
 //                  name contains NAME_PART, with N steps, for profiling)
 #include <algorithm>
@@ -55,6 +55,7 @@ using incise::testing::RandomBlade;
 namespace {
 // --provisional: every row with CutOptions::provisional (a paired run against the default).
 bool g_provisional = false;
+bool g_exact_volumes = CutOptions{}.exact_volumes;  // --no-exact-volumes: cuts may move label volumes by a hair
 
 
 double now_ms() {
@@ -105,6 +106,7 @@ void step_to_solver_ready(bool quick, bool with_1m) {
     SpringModel springs(mesh, mat);
     CutOptions opt;  // the defaults: the improvement's budget counts operations
     opt.provisional = g_provisional;
+    opt.exact_volumes = g_exact_volumes;
     const double tg = now_ms();
     Cutter cutter(mesh, opt);
     const double grid_ms = now_ms() - tg;
@@ -254,6 +256,7 @@ void quality_after_cuts(const TetMesh& organ, const std::string& name, bool quic
     TetMesh m = organ;
     CutOptions opt;
     opt.provisional = g_provisional;
+    opt.exact_volumes = g_exact_volumes;
     opt.mode = v.mode;
     opt.improve = v.improve;
     opt.improve_options.max_work = v.work;
@@ -319,6 +322,7 @@ void snap_trade(const TetMesh& organ) {
       TetMesh m = organ;
       CutOptions opt;
       opt.provisional = g_provisional;
+      opt.exact_volumes = g_exact_volumes;
       opt.snap = snap;
       opt.improve = false;  // the trade of snapping alone
       Cutter cutter(m, opt);
@@ -382,6 +386,7 @@ void beam_ratio(bool quick) {
     const double before = sag_at(mesh, fem, 0.5 * L, h);
     CutOptions opt;
     opt.provisional = g_provisional;
+    opt.exact_volumes = g_exact_volumes;
     Cutter cutter(mesh, opt);
     const CutStepReport r = cutter.cut_plane(Vec3(0.5 * L + 0.03 * h, 0, 0), Vec3(1, 0, 0));
     fem.apply(r.change);
@@ -587,6 +592,7 @@ void curved(bool quick, const std::string& only_case, int only_steps, double tol
     const std::size_t crossed = crossed_by_path(m, pts);
     CutOptions opt;
     opt.provisional = g_provisional;
+    opt.exact_volumes = g_exact_volumes;
     opt.path_tolerance = tolerance;
     Cutter cutter(m, opt);
     auto blade = [](const Vec3& p) { return BladeSegment{Vec3(p.x(), p.y(), -0.5), Vec3(p.x(), p.y(), 1.5)}; };
@@ -684,6 +690,7 @@ void curved_offsets(double tolerance) {
         TetMesh m = box;
         CutOptions opt;
         opt.provisional = g_provisional;
+        opt.exact_volumes = g_exact_volumes;
         opt.path_tolerance = tolerance;
         Cutter cutter(m, opt);
         auto blade = [](const Vec3& p) { return BladeSegment{Vec3(p.x(), p.y(), -0.5), Vec3(p.x(), p.y(), 1.5)}; };
@@ -758,6 +765,7 @@ void curved_organ(const TetMesh& organ, const std::string& name, double toleranc
     m.discard_change();
     CutOptions opt;
     opt.provisional = g_provisional;
+    opt.exact_volumes = g_exact_volumes;
     opt.path_tolerance = tolerance;
     Cutter cutter(m, opt);
     Drag d;
@@ -851,6 +859,7 @@ void deformed(const TetMesh& organ_in, const std::string& name, bool quick, doub
       }
       CutOptions opt;
       opt.provisional = g_provisional;
+      opt.exact_volumes = g_exact_volumes;
       opt.material_frame = material;
       opt.path_tolerance = path_tolerance;
       Cutter cutter(m, opt);
@@ -935,8 +944,10 @@ void progressive(const TetMesh& organ, const std::string& name, bool quick, cons
       TetMesh m = s.mesh;
       CutOptions opt;
       opt.provisional = g_provisional;
+      opt.exact_volumes = g_exact_volumes;
       opt.improve = improve;
       opt.provisional = provisional || g_provisional;
+      opt.exact_volumes = g_exact_volumes;
       Cutter cutter(m, opt);
       cutter.start({s.a, s.b});
       std::vector<double> ms, ms_imp;
@@ -979,12 +990,13 @@ int main(int argc, char** argv) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
     else if (!std::strcmp(argv[i], "--no-1m")) with_1m = false;
     else if (!std::strcmp(argv[i], "--provisional")) g_provisional = true;
+    else if (!std::strcmp(argv[i], "--no-exact-volumes")) g_exact_volumes = false;
     else if (!std::strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
     else if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only_case = argv[++i];
     else if (!std::strcmp(argv[i], "--steps") && i + 1 < argc) only_steps = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--path-tolerance") && i + 1 < argc) path_tolerance = std::atof(argv[++i]);
     else if (argv[i][0] == '-') {
-      std::fprintf(stderr, "usage: bench_cut [--quick] [--no-1m] [--provisional] [--only step|quality|snap|beam|progressive|curved|curved-organ|deformed] "
+      std::fprintf(stderr, "usage: bench_cut [--quick] [--no-1m] [--provisional] [--no-exact-volumes] [--only step|quality|snap|beam|progressive|curved|curved-organ|deformed] "
                            "[--case NAME_PART] [--steps N] [--path-tolerance X] [ORGAN]\n");
       return 1;
     } else organ_path = argv[i];

@@ -28,7 +28,7 @@ void add_cut(CLI::App& app) {
     int steps = 1;
     double snap = 0.05, budget_ms = 0, finish_insert = CutOptions{}.finish_insertion_below_deg;
     int work = CutOptions::kDefaultImproveWork, finish_work = CutOptions{}.finish_improve_work;
-    bool no_improve = false, quiet = false, exact_volumes = false;
+    bool no_improve = false, quiet = false, exact_volumes = CutOptions{}.exact_volumes;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("cut", "Cut a tet mesh with a swept blade, a plane or a surface");
@@ -60,9 +60,10 @@ void add_cut(CLI::App& app) {
           "in [0, 0.5)"))
       ->capture_default_str();
   cmd->add_flag("--no-improve", o->no_improve, "No local flips and smoothing after each step");
-  cmd->add_flag("--exact-volumes", o->exact_volumes,
-                "Keep every label's volume (and the body's) to rounding: the improvement may not contract "
-                "edges that move the surface, a cut or a label interface (docs/cut.md#label-volumes)");
+  cmd->add_flag("--exact-volumes,!--no-exact-volumes", o->exact_volumes,
+                "Keep every label's volume (and the body's) to rounding (the default): the improvement may not "
+                "contract edges that move the surface, a cut or a label interface. --no-exact-volumes lets it, "
+                "moving each by a hair (docs/cut.md#label-volumes)");
   cmd->add_option("--improve-work", o->work,
                   "Operations the local improvement may attempt per step (0: no cap). The default result is "
                   "reproducible: the same command gives the same mesh on every run")

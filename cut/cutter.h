@@ -94,14 +94,15 @@ struct CutOptions {
   // simulation the pieces' flaps close and open again every frame, and the frame through a cut
   // costs more (docs/cut.md#the-opening).
   bool provisional = false;
-  // true: the cut and its improvement keep every label's volume, and the body's, to rounding:
-  // the improvement's contractions may not move the body's surface, a cut or a label
-  // interface (improve_options' collapse_tolerance and collapse_deviation set to 0). The cut
-  // itself never moves those (snapping moves only interior vertices of one label). Off by
-  // default: those contractions are what removes the slivers along curved rims and bent
-  // sheets (docs/cut.md#label-volumes).
-  bool exact_volumes = false;
-  // Used when improve (rings, budget, ...); frozen is set per step. Contraction tolerance 0.01:
+  // true (the default): the cut and its improvement keep every label's volume, and the body's,
+  // to rounding: the improvement's contractions may not move the body's surface, a cut or a
+  // label interface (improve_options' collapse_tolerance and collapse_deviation, and curved
+  // slides, are off). The cut itself never moves those (snapping moves only interior vertices
+  // of one label). false lets those contractions remove slivers along curved rims and bent
+  // sheets, moving volume by a hair each (docs/cut.md#label-volumes says what each way costs).
+  bool exact_volumes = true;
+  // Used when improve (rings, budget, ...); frozen is set per step. With exact_volumes off,
+  // contraction tolerance 0.01:
   // where the rim passes within a hair of a surface vertex, the edge between them may go even
   // on the curved surface (moving it by at most that hair, well inside the snap threshold).
   // Contraction deviation 0.05 (the default snap): short edges on bent cut sheets and along the

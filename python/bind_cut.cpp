@@ -121,7 +121,7 @@ void bind_cut(py::module_& m) {
            py::arg("frozen") = py::none(), py::arg("fragment_search_limit") = std::size_t(20000),
            py::arg("finish_insert") = CutOptions{}.finish_insertion_below_deg,
            py::arg("finish_work") = CutOptions{}.finish_improve_work, py::arg("finish_slice") = 0,
-           py::arg("path_tolerance") = CutOptions{}.path_tolerance, py::arg("exact_volumes") = false,
+           py::arg("path_tolerance") = CutOptions{}.path_tolerance, py::arg("exact_volumes") = CutOptions{}.exact_volumes,
            py::arg("provisional") = CutOptions{}.provisional,
            py::arg("material_frame") = CutOptions{}.material_frame)
       .def(

@@ -71,7 +71,7 @@ struct SceneCut {
   std::string mode = "subdivide";  // or "remove"
   double snap = 0.05;
   bool improve = true;
-  bool exact_volumes = false;  // CutOptions::exact_volumes
+  bool exact_volumes = true;  // CutOptions::exact_volumes
   bool provisional = false;    // CutOptions::provisional
   bool material_frame = false;  // CutOptions::material_frame
 };

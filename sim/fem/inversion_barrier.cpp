@@ -38,6 +38,7 @@ void InversionBarrier::update(const FemModel& model, const Eigen::VectorXd& u) {
       cof.col(1) = f.col(2).cross(f.col(0));
       cof.col(2) = f.col(0).cross(f.col(1));
       Term term;
+      term.tet = t.idx();
       term.v = v;
       Eigen::Vector3d g0 = Eigen::Vector3d::Zero();
       for (int j = 1; j < 4; ++j) {
@@ -55,6 +56,9 @@ void InversionBarrier::update(const FemModel& model, const Eigen::VectorXd& u) {
     }
   });
   for (auto& part : found) terms_.insert(terms_.end(), part.begin(), part.end());
+  // In tet order, not in the order the threads found them: the product sums the terms in this
+  // order, and a scene must give the same frames on every run, however busy the machine.
+  std::sort(terms_.begin(), terms_.end(), [](const Term& a, const Term& b) { return a.tet < b.tet; });
 }
 
 void InversionBarrier::apply(const TopologyChange& change) {

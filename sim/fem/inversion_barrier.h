@@ -55,6 +55,7 @@ public:
 
 private:
   struct Term {
+    std::uint32_t tet = 0;
     std::array<std::uint32_t, 4> v;
     Eigen::Matrix<double, 12, 1> g;  // dJ/du at the corners
     double w = 0;                    // 2 k V
