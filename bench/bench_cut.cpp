@@ -20,7 +20,8 @@
 //     the length), 2.78 with shear (Timoshenko) for this beam's L/h = 10.
 // Usage: bench_cut [--quick] [--no-1m] [--provisional] [--no-exact-volumes] [--only step|quality|snap|beam|progressive|curved|curved-organ|deformed] [--case NAME_PART] [--steps N]
 //                  [ORGAN]   (default samples/liver.msh; --case, --steps: only the progressive rows whose case
-//                  name contains NAME_PART, with N steps, for profiling)
+//                  name contains NAME_PART, with N steps, for profiling; INCISE_BENCH_DEFORMED_OUT=DIR: --only
+//                  deformed writes each cut mesh there)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -886,6 +887,11 @@ void deformed(const TetMesh& organ_in, const std::string& name, bool quick, doub
       for (VertexId v : m.vertices()) max_disp = std::max(max_disp, fem.displacement().segment<3>(3 * v.idx()).norm());
       const QualityRange q = quality_range(m, 10.0);
       const auto b1 = smallest_boundary_angle(m);
+      if (const char* dir = std::getenv("INCISE_BENCH_DEFORMED_OUT")) {  // the cut meshes, to look at
+        char file[64];
+        std::snprintf(file, sizeof file, "/deformed-%02d-%s.vtu", int(std::lround(100 * push)), material ? "rest" : "current");
+        write_tet_mesh(m, std::string(dir) + file);
+      }
       std::printf("%.2f,%s,%zu,%.3f,%.3f,%.2f,%.4g,%.3f,%.3f,%.4g\n", push, material ? "rest" : "current", m.num_tets(),
                   q.min_dihedral, 100.0 * double(q.below) / double(m.num_tets()), b1 ? b1->degrees : 0.0,
                   tagged_area(m), percentile(ms, 0.5), percentile(ms, 0.95), max_disp);
