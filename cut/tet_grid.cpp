@@ -56,6 +56,7 @@ void TetGrid::build(const TetMesh& mesh) {
       dims_[std::size_t(a)] = std::max<std::int64_t>(1, std::int64_t(std::ceil(size[a] / cell_)));
   }
   cells_.assign(std::size_t(dims_[0] * dims_[1] * dims_[2]), {});
+  range_.assign(mesh.tet_capacity(), {});
   for (TetId t : tets) insert(mesh, t);
   const std::size_t room = mesh.tet_capacity() + mesh.tet_capacity() / 8 + 1024;
   in_cell_.assign(room, 0);
@@ -67,6 +68,9 @@ void TetGrid::insert(const TetMesh& mesh, TetId t) {
   Vec3 a, b;
   rest_box(mesh, t, a, b);
   const auto c0 = cell_of(a), c1 = cell_of(b);
+  if (range_.size() <= t.idx()) range_.resize(std::max<std::size_t>(t.idx() + 1, range_.size() + range_.size() / 2));
+  range_[t.idx()] = {std::int32_t(c0[0]), std::int32_t(c0[1]), std::int32_t(c0[2]),
+                     std::int32_t(c1[0]), std::int32_t(c1[1]), std::int32_t(c1[2])};
   for (std::int64_t k = c0[2]; k <= c1[2]; ++k)
     for (std::int64_t j = c0[1]; j <= c1[1]; ++j)
       for (std::int64_t i = c0[0]; i <= c1[0]; ++i) cells_[index(i, j, k)].push_back(t.idx());
@@ -103,22 +107,21 @@ std::vector<TetId> TetGrid::query(const TetMesh& mesh, const Vec3& lo, const Vec
           cell_stamp_ = 1;
         }
         // Clean the cell while reading it: drop dead tets, repeats (a tet re-added under the
-        // same id after a vertex move), and tets whose box left this cell.
+        // same id after a vertex move), and tets whose box left this cell (re-inserted since
+        // with another box, or a new tet under a removed one's id).
         std::size_t keep = 0;
         for (std::uint32_t id : list) {
           const TetId t(id);
           if (!mesh.is_alive(t) || in_cell_[id] == cell_stamp_) continue;
-          Vec3 a, b;
-          rest_box(mesh, t, a, b);
-          const auto d0 = cell_of(a), d1 = cell_of(b);
-          if (i < d0[0] || i > d1[0] || j < d0[1] || j > d1[1] || k < d0[2] || k > d1[2]) continue;
+          const auto& r = range_[id];
+          if (i < r[0] || i > r[3] || j < r[1] || j > r[4] || k < r[2] || k > r[5]) continue;
           in_cell_[id] = cell_stamp_;
           list[keep++] = id;
           if (in_query_[id] == query_stamp_) continue;
-          if ((a.array() <= qhi.array()).all() && (b.array() >= qlo.array()).all()) {
-            in_query_[id] = query_stamp_;
-            out.push_back(t);
-          }
+          in_query_[id] = query_stamp_;
+          Vec3 a, b;
+          rest_box(mesh, t, a, b);
+          if ((a.array() <= qhi.array()).all() && (b.array() >= qlo.array()).all()) out.push_back(t);
         }
         list.resize(keep);
       }

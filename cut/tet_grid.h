@@ -12,6 +12,7 @@
 // the cutter's exact tests decide. The cost of a query is the number of tets listed in the
 // cells of the grown region, which depends on the blade and the deformation, not on the
 // mesh's size.
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -48,6 +49,10 @@ private:
   // By tet id, stamps that dedupe without a hash set: within one cell (cleaning) and within
   // one query (a tet spans several cells).
   std::vector<std::uint32_t> in_cell_, in_query_;
+  // By tet id, the cells its rest box covered when it was last inserted (lo i, j, k, hi i, j,
+  // k): a query drops a listing outside them (the id's tet was removed or re-inserted since)
+  // with no look at the mesh, and computes a tet's box once, not once per cell it lists.
+  std::vector<std::array<std::int32_t, 6>> range_;
   std::uint32_t cell_stamp_ = 0, query_stamp_ = 0;
 };
 

@@ -364,7 +364,9 @@ void AggregationAmg::coarse_rows(const std::vector<std::uint32_t>& which) {
   const Eigen::VectorXd& mass = model_->lumped_mass();
   const bool nodal = model_->nodal_averaged();
 
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, which.size(), 8), [&](const tbb::blocked_range<std::size_t>& range) {
+  // One aggregate a task: a patch redoes a few dozen rows, each worth a core (a grain of 8 left
+  // a patch's rows on one).
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, which.size(), 1), [&](const tbb::blocked_range<std::size_t>& range) {
     std::vector<std::pair<std::uint32_t, Eigen::Matrix3d>> fine;  // v's row: (w, A_vw)
     std::vector<std::pair<std::uint32_t, Eigen::Vector3d>> brow;  // a row of B
     std::vector<std::uint32_t> arows;                             // nodal: the B rows reaching ai
