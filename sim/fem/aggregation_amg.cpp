@@ -443,13 +443,24 @@ void AggregationAmg::volumetric_rows(std::size_t ai, std::vector<std::pair<std::
                                      std::vector<std::pair<std::int32_t, Vec6>>& coarse_b) const {
   const TetMesh& mesh = model_->mesh();
   const double c = stiffness_coeff_;
+  // The members' 1-rings, each vertex once (stamps per thread, not a sort: a row reads a few
+  // thousand corners).
+  thread_local std::vector<std::uint32_t> seen;
+  thread_local std::uint32_t stamp = 0;
+  if (seen.size() < mesh.vertex_capacity()) seen.resize(mesh.vertex_capacity(), 0);
+  if (++stamp == 0) {  // wrapped: forget old stamps
+    std::fill(seen.begin(), seen.end(), 0);
+    stamp = 1;
+  }
   arows.clear();
   for (std::uint32_t v : agg_.members[ai])
     for (TetId t : mesh.incident_tets(VertexId(v)))
       if (model_->tet_alive(t))
-        for (std::uint32_t a : model_->tet_vertex_ids(t)) arows.push_back(a);
-  std::sort(arows.begin(), arows.end());
-  arows.erase(std::unique(arows.begin(), arows.end()), arows.end());
+        for (std::uint32_t a : model_->tet_vertex_ids(t))
+          if (seen[a] != stamp) {
+            seen[a] = stamp;
+            arows.push_back(a);
+          }
   auto block = [&](std::int32_t b) -> Mat6& {
     for (auto& [id, m] : row)
       if (id == b) return m;
