@@ -600,12 +600,24 @@ void AggregationAmg::apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
         for (std::size_t ai = rg.begin(); ai != rg.end(); ++ai) f(ai);
       });
     };
+    // P_v = B_v T_a with B_v = [I | -[p_v]x] (p_v the vertex's scaled position): applied from
+    // the positions and T_a, not from the stored 3x6 blocks, so an application streams 3
+    // numbers a vertex instead of 18 (it runs between two products, its data out of cache).
+    // P^T x over a's vertices: T_a^T sum_v (x_v, p_v x x_v).
     over_aggregates([&](std::size_t ai) {
       Vec6& acc = rc_[ai];
       acc.setZero();
       if (modes_[ai] == 0) return;
+      Eigen::Vector3d f = Eigen::Vector3d::Zero(), m = Eigen::Vector3d::Zero();
       for (std::uint32_t v : agg_.members[ai])
-        if (covered(v)) acc.noalias() += p_[v].transpose() * x.segment<3>(3 * Eigen::Index(v));
+        if (covered(v)) {
+          const Eigen::Vector3d xv = x.segment<3>(3 * Eigen::Index(v));
+          f += xv;
+          m += pos_[v].cross(xv);
+        }
+      Vec6 y;
+      y << f, m;
+      acc.noalias() = t_[ai].transpose() * y;
     });
     Coarse& co = *coarse_;
     if (co.block) {
@@ -619,10 +631,13 @@ void AggregationAmg::apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
         rc_[ai].head(modes_[ai]) = co.ec.segment(co.offset[ai], modes_[ai]);
       }
     }
+    // P c over a's vertices: with (t, r) = T_a c, t + r x p_v at each.
     over_aggregates([&](std::size_t ai) {
       if (modes_[ai] == 0) return;
+      const Vec6 c = t_[ai] * rc_[ai];
+      const Eigen::Vector3d t = c.head<3>(), r = c.tail<3>();
       for (std::uint32_t v : agg_.members[ai])
-        if (covered(v)) out.segment<3>(3 * Eigen::Index(v)).noalias() += p_[v] * rc_[ai];
+        if (covered(v)) out.segment<3>(3 * Eigen::Index(v)) += t + r.cross(pos_[v]);
     });
   };
   if (opt_.cycle == AggregationAmgOptions::Cycle::Additive) {
