@@ -6,6 +6,7 @@
 #include <iostream>
 #include <map>
 #include <unordered_set>
+#include <cmath>
 #include <vector>
 
 #include "cut/cutter.h"
@@ -21,6 +22,19 @@ inline double tagged_area(const TetMesh& m, std::uint16_t tag) {
     if (f.tag == tag)
       a += 0.5 * (m.rest(f.vertices[1]) - m.rest(f.vertices[0])).cross(m.rest(f.vertices[2]) - m.rest(f.vertices[0])).norm();
   return a;
+}
+
+// Area a closed polygon encloses in its points' x-y plane (the shoelace formula); the points
+// are anything with x() and y() (Vec3, Eigen::Vector2d).
+template <class Point>
+double polygon_area_xy(const std::vector<Point>& p) {
+  double a = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const Point& u = p[i];
+    const Point& v = p[(i + 1) % p.size()];
+    a += u.x() * v.y() - v.x() * u.y();
+  }
+  return 0.5 * std::abs(a);
 }
 
 // validate() with orientation and a closed manifold boundary, and every label's volume

@@ -78,17 +78,6 @@ std::vector<Vec3> sample(const std::function<Vec3(double)>& at, int steps) {
   return out;
 }
 
-// Area the polygon (closed) encloses in the xy-plane.
-double shoelace(const std::vector<Vec3>& poly) {
-  double a = 0;
-  for (std::size_t k = 0; k < poly.size(); ++k) {
-    const Vec3& p = poly[k];
-    const Vec3& q = poly[(k + 1) % poly.size()];
-    a += p.x() * q.y() - q.x() * p.y();
-  }
-  return 0.5 * std::abs(a);
-}
-
 // A half circle of radius 1 about (2.03, 0) entering and leaving a 4 x 2 x 1 box through y = 0
 // (the same path as bench_cut --only curved).
 Vec3 arc(double t) {
@@ -103,7 +92,7 @@ double arc_region(const std::vector<Vec3>& path) {
   std::vector<Vec3> in;
   for (const Vec3& p : path)
     if (p.y() >= 0) in.push_back(p);
-  return shoelace(in);
+  return polygon_area_xy(in);
 }
 
 }  // namespace
@@ -166,7 +155,7 @@ TEST_CASE("curved paths: an S and a 90-degree turn give one sheet with corners, 
       if (p.y() >= 0 && p.x() <= 4) region.push_back(p);
     region.push_back(Vec3(4, 1.03, 0));
     region.push_back(Vec3(4, 0, 0));
-    CHECK(ct.parts[0] == Approx(shoelace(region)).epsilon(0.01));
+    CHECK(ct.parts[0] == Approx(polygon_area_xy(region)).epsilon(0.01));
     CHECK(double(ct.quality.below) < 0.01 * double(box.num_tets() + ct.added));
   }
 }

@@ -31,16 +31,6 @@ namespace {
 
 using P2 = Eigen::Vector2d;
 
-double polygon_area(const std::vector<P2>& p) {
-  double a = 0;
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    const P2& u = p[i];
-    const P2& v = p[(i + 1) % p.size()];
-    a += u.x() * v.y() - v.x() * u.y();
-  }
-  return 0.5 * std::abs(a);
-}
-
 // The convex polygon p clipped to lo <= coordinate `axis` <= hi (Sutherland-Hodgman).
 std::vector<P2> clip(std::vector<P2> p, int axis, double lo, double hi) {
   for (int side = 0; side < 2; ++side) {
@@ -86,7 +76,7 @@ double swept_area_inside(const TetMesh& m, const Vec3& a, const Vec3& b, const V
       return std::atan2(p.y() - c.y(), p.x() - c.x()) < std::atan2(q.y() - c.y(), q.x() - c.x());
     });
     const auto inside = clip(clip(section, 0, 0, len), 1, 0, travel);
-    if (inside.size() >= 3) area += polygon_area(inside);
+    if (inside.size() >= 3) area += polygon_area_xy(inside);
   }
   return area;
 }
