@@ -71,8 +71,9 @@ struct AggregationAmgOptions {
   int topology_rebuild_iterations = 0;
   // The coarse factor: the block Cholesky (sim/linalg/block_cholesky.h) up to this many aggregates
   // when they carry about six modes each, a general sparse factor (CHOLMOD) otherwise; the
-  // block one was faster at 137 and 465 aggregates, slower at 1,086 and more (the .cpp).
-  int block_factor_aggregates = 700;
+  // bound is the largest coarse level where the block one was measured faster
+  // (docs/solver.md#behind-the-constants).
+  int block_factor_aggregates = 1100;
 };
 
 struct AmgBuildStats {

@@ -157,3 +157,58 @@ TEST_CASE("block Cholesky: the factor does not depend on the order of the rows' 
   CHECK(diff <= 1e-12 * scale);
   CHECK(f.nonzeros() == g.nonzeros());
 }
+
+TEST_CASE("block Cholesky: a 3D grid of aggregates, its cliques in dense panels", "[fem][amg]") {
+  // A 7x7x7 grid of nodes coupled to their 26 neighbours, as aggregates are: minimum degree
+  // ends in cliques, which become supernodes (fewer than the nodes), and the solve still
+  // matches a dense LL^T.
+  const int g = 7, n = g * g * g;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  auto id = [&](int x, int y, int z) { return (z * g + y) * g + x; };
+  BlockCholesky6::Rows rows(static_cast<std::size_t>(n));
+  std::vector<int> dims(std::size_t(n), 6);
+  dims[5] = 3;  // one aggregate that dropped its rotations
+  Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(6 * n, 6 * n);
+  for (int z = 0; z < g; ++z)
+    for (int y = 0; y < g; ++y)
+      for (int x = 0; x < g; ++x)
+        for (int dz = -1; dz <= 1; ++dz)
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+              const int X = x + dx, Y = y + dy, Z = z + dz;
+              if (X < 0 || Y < 0 || Z < 0 || X >= g || Y >= g || Z >= g) continue;
+              const int i = id(x, y, z), j = id(X, Y, Z);
+              if (j >= i) continue;
+              Block b = Block::Zero();
+              b.topLeftCorner(dims[std::size_t(i)], dims[std::size_t(j)]).setRandom();
+              b *= 0.1;
+              rows[std::size_t(i)].emplace_back(j, b);
+              dense.block(6 * i, 6 * j, 6, 6) = b;
+              dense.block(6 * j, 6 * i, 6, 6) = b.transpose();
+            }
+  for (int i = 0; i < n; ++i) {  // diagonally dominant: SPD
+    Block d = Block::Zero();
+    const int di = dims[std::size_t(i)];
+    d.topLeftCorner(di, di).setIdentity();
+    d *= 30;
+    rows[std::size_t(i)].emplace_back(i, d);
+    dense.block(6 * i, 6 * i, 6, 6) = d;
+    for (int p = di; p < 6; ++p) dense(6 * i + p, 6 * i + p) = 1;
+  }
+  BlockCholesky6 f;
+  REQUIRE(f.compute(rows, dims));
+  CHECK(f.supernodes() < std::size_t(n) * 2 / 3);
+  std::vector<Vec> x(static_cast<std::size_t>(n));
+  Eigen::VectorXd b = Eigen::VectorXd::Zero(6 * n);
+  for (int i = 0; i < n; ++i)
+    for (int p = 0; p < dims[std::size_t(i)]; ++p) b[6 * i + p] = x[std::size_t(i)][p] = u(rng);
+  for (int i = 0; i < n; ++i)
+    for (int p = dims[std::size_t(i)]; p < 6; ++p) x[std::size_t(i)][p] = 0;
+  f.solve_in_place(x);
+  const Eigen::VectorXd ref = dense.llt().solve(b);
+  double err = 0;
+  for (int i = 0; i < n; ++i)
+    for (int p = 0; p < 6; ++p) err = std::max(err, std::abs(x[std::size_t(i)][p] - ref[6 * i + p]));
+  CHECK(err <= 1e-10 * ref.cwiseAbs().maxCoeff());
+}
