@@ -21,7 +21,8 @@
 // Usage: bench_cut [--quick] [--no-1m] [--provisional] [--no-exact-volumes] [--only step|quality|snap|beam|progressive|curved|curved-organ|deformed] [--case NAME_PART] [--steps N]
 //                  [ORGAN]   (default samples/liver.msh; --case, --steps: only the progressive rows whose case
 //                  name contains NAME_PART, with N steps, for profiling; INCISE_BENCH_DEFORMED_OUT=DIR: --only
-//                  deformed writes each cut mesh there)
+//                  deformed writes each cut mesh there; INCISE_BENCH_CURVED_OUT=DIR: --only curved writes each
+//                  path's cut mesh there)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -603,6 +604,11 @@ void curved(bool quick, const std::string& only_case, int only_steps, double tol
     const double fin = cutter.finish().ms;
     const QualityRange q = quality_range(m, 10.0);
     const auto vols = part_volumes(m);
+    if (const char* dir = std::getenv("INCISE_BENCH_CURVED_OUT")) {  // the cut meshes, to look at
+      char file[96];
+      std::snprintf(file, sizeof file, "/curved-%s-%zu%s.vtu", name.c_str(), pts.size() - 1, tolerance > 0 ? "" : "-exact");
+      write_tet_mesh(m, std::string(dir) + file);
+    }
     const double added = double(m.num_tets() - box.num_tets()) / double(std::max<std::size_t>(crossed, 1));
     // The area the blade swept inside the box: the polyline's length inside it times the height.
     double swept = 0;

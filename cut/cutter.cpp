@@ -585,6 +585,48 @@ double Cutter::local_edge(const PositionFn& positions) const {
   return n ? sum / double(n) : 0.0;
 }
 
+bool Cutter::in_body(const Vec3& p, const PositionFn& positions, double max_displacement) {
+  auto pos = [&](VertexId v) { return positions ? positions(v) : mesh_->rest(v); };
+  for (TetId t : first_contact(p, p, positions, max_displacement, false)) {
+    const auto& tv = mesh_->tet_vertices(t);
+    const Vec3 a = pos(tv[0]), b = pos(tv[1]), c = pos(tv[2]), d = pos(tv[3]);
+    const double v = (b - a).cross(c - a).dot(d - a);
+    if (!(std::abs(v) > 0)) continue;
+    const double w1 = (p - a).cross(c - a).dot(d - a) / v, w2 = (b - a).cross(p - a).dot(d - a) / v,
+                 w3 = (b - a).cross(c - a).dot(p - a) / v;
+    if (w1 >= 0 && w2 >= 0 && w3 >= 0 && w1 + w2 + w3 <= 1) return true;
+  }
+  return false;
+}
+
+// A sheet that ends a hair inside the body, the blade about to leave it, would leave its front
+// there as the next sheet's crease: the wedge of tissue between the two sheets and the surface
+// is then a row of slivers no improvement can take (their short edges join the crease to the
+// surface). When the sheet's own plane carries the front out of the body within
+// kFrontExitReach of an edge, the sheet is grown to there first: the crease is outside, and
+// the next sheet starts where the tissue ends.
+void Cutter::carry_front_out(const BladeSegment& to, const PositionFn& positions, double max_displacement) {
+  Progress& pr = *progress_;
+  const BladeSegment f = pr.sheet->front();
+  const Vec3 n = pr.sheet->normal(), along = f.b - f.a;
+  const double len = along.norm();
+  if (!(len > 0) || !(pr.reach > 0)) return;
+  const Vec3 e = along / len;
+  Vec3 d = 0.5 * ((to.a + to.b) - (f.a + f.b));  // the blade's motion, in the plane, across the front
+  d -= d.dot(e) * e;
+  d -= d.dot(n) * n;
+  if (!(d.norm() > 1e-12 * len)) return;
+  d *= kFrontExitReach * pr.reach / d.norm();
+  const int samples = std::min(64, 2 + int(std::ceil(len / (0.5 * pr.reach))));
+  bool front_in = false;
+  for (int i = 0; i < samples; ++i) {
+    const Vec3 p = f.a + (double(i) / (samples - 1)) * along;
+    if (in_body(p + d, positions, max_displacement)) return;  // the plane stays in tissue
+    front_in = front_in || in_body(p, positions, max_displacement);
+  }
+  if (front_in) pr.sheet->extend({f.a + d, f.b + d}, 0);
+}
+
 CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions,
                             double max_displacement) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -617,7 +659,11 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
   if (!(pr.sheet && pr.sheet->extend(to, pr.tol))) {
     // A new plane (the first step, or the blade turned): the old sheet is cut in full, its
     // front becoming a crease the new sheet starts from.
-    if (pr.sheet && pr.tol > 0) pr.resume = pr.sheet->front();
+    if (pr.sheet && pr.tol > 0) {
+      if (!grid_stale && grid_.built() && (!positions || (max_displacement >= 0 && max_displacement <= grid_.cell_size())))
+        carry_front_out(to, positions, max_displacement);
+      pr.resume = pr.sheet->front();
+    }
     finish_sheet(rep, positions, true);
     const BladeSegment back = pr.resume ? *pr.resume : from;
     auto far = [&](const BladeSegment& b) {

@@ -181,6 +181,9 @@ public:
   using PositionFn = std::function<Vec3(VertexId)>;
 
   static constexpr double kUnknownDisplacement = -1.0;
+  // How far (in edges) a sheet may be grown in its plane at its end to carry its front out of
+  // the body (carry_front_out).
+  static constexpr double kFrontExitReach = 0.25;
 
   // Builds the first-contact grid over the mesh (O(mesh), once).
   explicit Cutter(TetMesh& mesh, CutOptions options = {});
@@ -299,6 +302,11 @@ private:
                     bool use_front);
   // Tets the grid says a step's quad may touch (its triangles cut into boxes of a few cells).
   std::vector<TetId> quad_contact(const cut_detail::Piece& local, const PositionFn& positions, double max_displacement);
+  // Whether p lies in a live tet (current positions; the grid must be up to date).
+  bool in_body(const Vec3& p, const PositionFn& positions, double max_displacement);
+  // At a sheet's end: grows it in its plane out of the body when the blade is within
+  // kFrontExitReach of an edge of leaving it (the .cpp).
+  void carry_front_out(const BladeSegment& to, const PositionFn& positions, double max_displacement);
   // Tets that may touch the pieces' box in the current configuration (first contact).
   std::vector<TetId> first_contact(const Vec3& lo, const Vec3& hi, const PositionFn& positions,
                                    double max_displacement, bool grid_stale);

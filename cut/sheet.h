@@ -36,6 +36,7 @@ public:
   // the plane fixed at the first step's triangle.
   const Piece& piece() const { return piece_; }
   BladeSegment front() const;
+  const Vec3& normal() const { return normal_; }
   // The back edge (where the sheet started) is a crease shared with an earlier sheet: not a rim.
   void set_back_is_crease(bool crease);
 

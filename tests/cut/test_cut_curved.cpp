@@ -296,3 +296,25 @@ TEST_CASE("curved paths: no split within rounding of a vertex pinned to its side
   CHECK(part_volumes(m).size() == 2);
   CHECK(quality_range(m, 10.0).min_dihedral > 0.1);
 }
+
+TEST_CASE("curved paths: a sheet that ends a hair inside the surface is carried out of the body",
+          "[cut][curved]") {
+  // The S leaves the box through y = 2 at about 33 degrees to it. With these path tolerances a
+  // sheet ended 0.0013-0.0018 below that face (a hundredth of an edge), and its front, the next
+  // sheet's crease, left a row of slivers along the face (1.05 and 1.24 deg, 83 and 96 tets below
+  // 10 deg). The front is now carried out along the sheet's plane first.
+  const TetMesh box = make_box(Vec3(4, 2, 1), {32, 16, 8});
+  const auto s = [](double t) {
+    const double y = -0.2 + 2.4 * t;
+    return Vec3(2.03 + 0.5 * std::sin(kPi * y), y, 0);
+  };
+  for (double tol : {0.25, 0.28}) {
+    CAPTURE(tol);
+    CutOptions opt;
+    opt.path_tolerance = tol;
+    const PathCut cs = cut_along(box, sample(s, 400), false, opt);
+    REQUIRE(cs.parts.size() == 2);
+    CHECK(cs.parts[0] == Approx(8 - 2.03 * 2).epsilon(0.01));
+    CHECK(cs.quality.min_dihedral >= 10.0);
+  }
+}
