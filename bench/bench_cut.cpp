@@ -22,7 +22,7 @@
 //                  [ORGAN]   (default samples/liver.msh; --case, --steps: only the progressive rows whose case
 //                  name contains NAME_PART, with N steps, for profiling; INCISE_BENCH_DEFORMED_OUT=DIR: --only
 //                  deformed writes each cut mesh there; INCISE_BENCH_CURVED_OUT=DIR: --only curved writes each
-//                  path's cut mesh there)
+//                  path's cut mesh there, and the offset drags' below 10 deg)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -712,6 +712,11 @@ void curved_offsets(double tolerance) {
         worst = std::min(worst, q.min_dihedral);
         below.push_back(100.0 * double(q.below) / double(m.num_tets()));
         tets.push_back(double(m.num_tets()));
+        if (const char* dir = std::getenv("INCISE_BENCH_CURVED_OUT"); dir && q.min_dihedral < 10) {
+          char file[128];
+          std::snprintf(file, sizeof file, "/offset-%s-%d-%+.4f.vtu", paths[std::size_t(shape)].name.c_str(), steps, dx.x());
+          write_tet_mesh(m, std::string(dir) + file);
+        }
         if (std::getenv("INCISE_BENCH_DRAGS"))  // each drag on stderr, to trace one
           std::fprintf(stderr, "%s steps %d dx %.17g: parts %d (specks %d), min dihedral %.4f, %zu below 10 deg\n",
                        paths[std::size_t(shape)].name.c_str(), steps, dx.x(), large, small, q.min_dihedral, q.below);
