@@ -87,6 +87,12 @@ Vec3 arc(double t) {
   return Vec3(2.03 + std::cos(a), std::sin(a), 0);
 }
 
+// An S: x = 2.03 + 0.5 sin(pi y) from y = -0.2 to 2.2 (the part right of it has area 3.94).
+Vec3 s_curve(double t) {
+  const double y = -0.2 + 2.4 * t;
+  return Vec3(2.03 + 0.5 * std::sin(kPi * y), y, 0);
+}
+
 // The arc's polyline inside the box, closed along y = 0: the region it detaches.
 double arc_region(const std::vector<Vec3>& path) {
   std::vector<Vec3> in;
@@ -130,11 +136,8 @@ TEST_CASE("curved paths: an arc detaches the half disc it closes off, growing th
 TEST_CASE("curved paths: an S and a 90-degree turn give one sheet with corners, the parts the polygon says",
           "[cut][curved][scale]") {
   const TetMesh box = make_box(Vec3(4, 2, 1), {32, 16, 8});
-  // S: x = 2.03 + 0.5 sin(pi y) from y = -0.2 to 2.2: the part right of it has area 4 - 2.03 * 2.
-  const auto s = [](double t) {
-    const double y = -0.2 + 2.4 * t;
-    return Vec3(2.03 + 0.5 * std::sin(kPi * y), y, 0);
-  };
+  // S: the part right of it has area 4 - 2.03 * 2.
+  const auto s = s_curve;
   // Turn: up x = 1.53 to y = 1.03, then along y = 1.03 out through x = 4: the corner
   // [1.53, 4] x [0, 1.03] comes off.
   const auto turn = [](double t) {
@@ -304,15 +307,11 @@ TEST_CASE("curved paths: a sheet that ends a hair inside the surface is carried 
   // sheet's crease, left a row of slivers along the face (1.05 and 1.24 deg, 83 and 96 tets below
   // 10 deg). The front is now carried out along the sheet's plane first.
   const TetMesh box = make_box(Vec3(4, 2, 1), {32, 16, 8});
-  const auto s = [](double t) {
-    const double y = -0.2 + 2.4 * t;
-    return Vec3(2.03 + 0.5 * std::sin(kPi * y), y, 0);
-  };
   for (double tol : {0.25, 0.28}) {
     CAPTURE(tol);
     CutOptions opt;
     opt.path_tolerance = tol;
-    const PathCut cs = cut_along(box, sample(s, 400), false, opt);
+    const PathCut cs = cut_along(box, sample(s_curve, 400), false, opt);
     REQUIRE(cs.parts.size() == 2);
     CHECK(cs.parts[0] == Approx(8 - 2.03 * 2).epsilon(0.01));
     CHECK(cs.quality.min_dihedral >= 10.0);
