@@ -303,9 +303,9 @@ TEST_CASE("curved paths: no split within rounding of a vertex pinned to its side
 TEST_CASE("curved paths: a sheet that ends a hair inside the surface is carried out of the body",
           "[cut][curved]") {
   // The S leaves the box through y = 2 at about 33 degrees to it. With these path tolerances a
-  // sheet ended 0.0013-0.0018 below that face (a hundredth of an edge), and its front, the next
-  // sheet's crease, left a row of slivers along the face (1.05 and 1.24 deg, 83 and 96 tets below
-  // 10 deg). The front is now carried out along the sheet's plane first.
+  // sheet ended a hundredth of an edge below that face, and its front, the next sheet's crease,
+  // left a row of slivers along the face (docs/cut.md, "A sheet that ends at the surface"). The
+  // front is now carried out along the sheet's plane first.
   const TetMesh box = make_box(Vec3(4, 2, 1), {32, 16, 8});
   for (double tol : {0.25, 0.28}) {
     CAPTURE(tol);
