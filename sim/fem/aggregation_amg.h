@@ -70,9 +70,8 @@ struct AggregationAmgOptions {
   // added to the smoother, and its A_c still couples across the cut: SPD all the same.
   int topology_rebuild_iterations = 0;
   // The coarse factor: the block Cholesky (sim/linalg/block_cholesky.h) up to this many aggregates
-  // when they carry about six modes each, a general sparse factor (CHOLMOD) otherwise; the
-  // bound is the largest coarse level where the block one was measured faster
-  // (docs/solver.md#behind-the-constants).
+  // when they carry about six modes each, a general sparse factor (CHOLMOD) otherwise; why
+  // this bound: docs/solver.md#behind-the-constants.
   int block_factor_aggregates = 1100;
 };
 
