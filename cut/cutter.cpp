@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <unordered_set>
 
@@ -10,6 +11,7 @@
 #include "cut/cut_step.h"
 #include "cut/fragments.h"
 #include "cut/separate.h"
+#include "cut/specks.h"
 #include "cut/sheet.h"
 #include "mesh/clock.h"
 #include "mesh/errors.h"
@@ -122,8 +124,10 @@ void Cutter::remember_fresh(const CutStep& step, const SeparationResult& sep, co
   for (const auto& [v, copy] : sep.duplicates) fresh_[copy.idx()] = positions(v);
 }
 
-SeparationResult Cutter::open_faces(const CutStep& step, std::span<const CutFacePair> faces, CutStepReport& rep,
+SeparationResult Cutter::open_faces(const CutStep& step, std::span<const CutFacePair> listed, CutStepReport& rep,
                                     const PositionFn& positions, bool split_chords) {
+  std::vector<CutFacePair> faces(listed.begin(), listed.end());
+  if (progress_->previous) keep_specks_attached(*mesh_, faces, progress_->previous->crease);
   SeparationResult sep = separate(*mesh_, faces, split_chords);
   remember_fresh(step, sep, positions);
   if (progress_->previous) {  // a copy of a vertex is where the vertex is, for that sheet too
@@ -599,13 +603,75 @@ bool Cutter::in_body(const Vec3& p, const PositionFn& positions, double max_disp
   return false;
 }
 
-// A sheet that ends a hair inside the body, the blade about to leave it, would leave its front
-// there as the next sheet's crease: the wedge of tissue between the two sheets and the surface
-// is then a row of slivers no improvement can take (their short edges join the crease to the
-// surface). When the sheet's own plane carries the front out of the body within
-// kFrontExitReach of an edge, the sheet is grown to there first: the crease is outside, and
-// the next sheet starts where the tissue ends.
-void Cutter::carry_front_out(const BladeSegment& to, const PositionFn& positions, double max_displacement) {
+namespace {
+
+// The distance between segments [p0, p1] and [q0, q1] (closest points by clamped parameters).
+double segment_distance(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1) {
+  const Vec3 d1 = p1 - p0, d2 = q1 - q0, r = p0 - q0;
+  const double a = d1.squaredNorm(), e = d2.squaredNorm(), f = d2.dot(r);
+  double s = 0, t = 0;
+  if (a <= 0 && e <= 0) return r.norm();
+  if (a <= 0) {
+    t = std::clamp(f / e, 0.0, 1.0);
+  } else {
+    const double c = d1.dot(r);
+    if (e <= 0) {
+      s = std::clamp(-c / a, 0.0, 1.0);
+    } else {
+      const double b = d1.dot(d2), den = a * e - b * b;
+      s = den > 0 ? std::clamp((b * f - c * e) / den, 0.0, 1.0) : 0.0;
+      t = (b * s + f) / e;
+      if (t < 0) {
+        t = 0;
+        s = std::clamp(-c / a, 0.0, 1.0);
+      } else if (t > 1) {
+        t = 1;
+        s = std::clamp((b - c) / a, 0.0, 1.0);
+      }
+    }
+  }
+  return ((p0 + s * d1) - (q0 + t * d2)).norm();
+}
+
+}  // namespace
+
+double Cutter::clearance(const Vec3& a, const Vec3& b, const Vec3& normal, double reach, const PositionFn& positions,
+                         double max_displacement) {
+  auto pos = [&](VertexId v) { return positions ? positions(v) : mesh_->rest(v); };
+  const double len = (b - a).norm(), exact = 1e-9 * reach, in_plane = 1e-7 * reach;
+  const int pieces = std::max(1, std::min(256, int(std::ceil(len / (2 * grid_.cell_size())))));
+  const Vec3 margin = Vec3::Constant(kCreaseClearance * reach);
+  double nearest = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < pieces; ++k) {
+    const Vec3 p = a + (double(k) / pieces) * (b - a), q = a + (double(k + 1) / pieces) * (b - a);
+    for (TetId t : first_contact(p.cwiseMin(q) - margin, p.cwiseMax(q) + margin, positions, max_displacement, false)) {
+      const auto& tv = mesh_->tet_vertices(t);
+      for (int i = 0; i < 4; ++i)
+        for (int j = i + 1; j < 4; ++j) {
+          const Vec3 u = pos(tv[i]), w = pos(tv[j]);
+          // Edges in the sheet's plane are cut along, not across.
+          if (std::abs(normal.dot(u - a)) <= in_plane && std::abs(normal.dot(w - a)) <= in_plane) continue;
+          const double dist = segment_distance(a, b, u, w);
+          if (dist > exact) nearest = std::min(nearest, dist);  // through an edge exactly: no sliver
+        }
+    }
+  }
+  return nearest;
+}
+
+// Where a sheet ends inside the body, its front becomes the next sheet's crease, embedded as a
+// chain of vertices where it crosses the mesh's faces; those vertices lie on both sheets, so no
+// contraction takes a sliver that holds one. Two placements leave such slivers: a front a hair
+// inside the surface with the blade about to leave the body (the wedge between the two sheets
+// and the surface), and a front a hair from a mesh edge (its crossings that close to the edge).
+// The sheet may be grown in its own plane, the way the blade went, by up to kFrontExitReach of
+// an edge (the path tolerance lets a sheet stray that far from the blade anyway): to the
+// nearest place out of the body when that is within reach; else, when the front passes closer
+// than kCreaseClearance of an edge to some edge, to the nearest place that clears every edge
+// by that much, or that clears them most when that is at least kCreaseClearanceMin. Else the
+// front stays where the blade left it (moving a corner a quarter edge for little gain cost
+// more of the turn's shape than it bought; docs/cut.md#curved-paths).
+void Cutter::place_front(const BladeSegment& to, const PositionFn& positions, double max_displacement) {
   Progress& pr = *progress_;
   const BladeSegment f = pr.sheet->front();
   const Vec3 n = pr.sheet->normal(), along = f.b - f.a;
@@ -617,14 +683,31 @@ void Cutter::carry_front_out(const BladeSegment& to, const PositionFn& positions
   d -= d.dot(n) * n;
   if (!(d.norm() > 1e-12 * len)) return;
   d *= kFrontExitReach * pr.reach / d.norm();
+  constexpr int kPlaces = 8;  // candidate places, d / kPlaces apart
+  auto shift = [&](int k) { return (double(k) / kPlaces) * d; };
+  auto grow_to = [&](int k) { pr.sheet->extend({f.a + shift(k), f.b + shift(k)}, 0); };
   const int samples = std::min(64, 2 + int(std::ceil(len / (0.5 * pr.reach))));
-  bool front_in = false;
-  for (int i = 0; i < samples; ++i) {
-    const Vec3 p = f.a + (double(i) / (samples - 1)) * along;
-    if (in_body(p + d, positions, max_displacement)) return;  // the plane stays in tissue
-    front_in = front_in || in_body(p, positions, max_displacement);
+  auto outside = [&](const Vec3& s) {
+    for (int i = 0; i < samples; ++i)
+      if (in_body(f.a + (double(i) / (samples - 1)) * along + s, positions, max_displacement)) return false;
+    return true;
+  };
+  if (outside(Vec3::Zero())) return;  // the sheet ended outside the body: no crease in it
+  if (outside(d)) {
+    int k = 1;
+    while (k < kPlaces && !outside(shift(k))) ++k;
+    grow_to(k);
+    return;
   }
-  if (front_in) pr.sheet->extend({f.a + d, f.b + d}, 0);
+  int best = 0;
+  double most = clearance(f.a, f.b, n, pr.reach, positions, max_displacement);
+  if (most >= kCreaseClearance * pr.reach) return;
+  for (int k = 1; k <= kPlaces; ++k) {
+    const double c = clearance(f.a + shift(k), f.b + shift(k), n, pr.reach, positions, max_displacement);
+    if (c > most) most = c, best = k;
+    if (c >= kCreaseClearance * pr.reach) break;
+  }
+  if (best > 0 && most >= kCreaseClearanceMin * pr.reach) grow_to(best);
 }
 
 CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions,
@@ -661,7 +744,7 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
     // front becoming a crease the new sheet starts from.
     if (pr.sheet && pr.tol > 0) {
       if (!grid_stale && grid_.built() && (!positions || (max_displacement >= 0 && max_displacement <= grid_.cell_size())))
-        carry_front_out(to, positions, max_displacement);
+        place_front(to, positions, max_displacement);
       pr.resume = pr.sheet->front();
     }
     finish_sheet(rep, positions, true);

@@ -181,9 +181,13 @@ public:
   using PositionFn = std::function<Vec3(VertexId)>;
 
   static constexpr double kUnknownDisplacement = -1.0;
-  // How far (in edges) a sheet may be grown in its plane at its end to carry its front out of
-  // the body (carry_front_out).
+  // How far (in edges) a sheet may be grown in its plane at its end to place its front, the
+  // next crease, out of the body or clear of the mesh's edges (place_front): by
+  // kCreaseClearance of an edge, or at least kCreaseClearanceMin when no place within reach
+  // clears them by that much.
   static constexpr double kFrontExitReach = 0.25;
+  static constexpr double kCreaseClearance = 0.1;
+  static constexpr double kCreaseClearanceMin = 0.05;
 
   // Builds the first-contact grid over the mesh (O(mesh), once).
   explicit Cutter(TetMesh& mesh, CutOptions options = {});
@@ -304,9 +308,13 @@ private:
   std::vector<TetId> quad_contact(const cut_detail::Piece& local, const PositionFn& positions, double max_displacement);
   // Whether p lies in a live tet (current positions; the grid must be up to date).
   bool in_body(const Vec3& p, const PositionFn& positions, double max_displacement);
-  // At a sheet's end: grows it in its plane out of the body when the blade is within
-  // kFrontExitReach of an edge of leaving it (the .cpp).
-  void carry_front_out(const BladeSegment& to, const PositionFn& positions, double max_displacement);
+  // At a sheet's end: grows it in its plane (up to kFrontExitReach of an edge) so that its
+  // front, the next crease, is out of the body or clear of the mesh's edges (the .cpp).
+  void place_front(const BladeSegment& to, const PositionFn& positions, double max_displacement);
+  // The smallest distance from the segment [a, b] to an edge of the tets near it (edges it
+  // passes through exactly, and edges in the plane with this normal, do not count).
+  double clearance(const Vec3& a, const Vec3& b, const Vec3& normal, double reach, const PositionFn& positions,
+                   double max_displacement);
   // Tets that may touch the pieces' box in the current configuration (first contact).
   std::vector<TetId> first_contact(const Vec3& lo, const Vec3& hi, const PositionFn& positions,
                                    double max_displacement, bool grid_stale);
