@@ -22,7 +22,7 @@
 //                  [ORGAN]   (default samples/liver.msh; --case, --steps: only the progressive rows whose case
 //                  name contains NAME_PART, with N steps, for profiling; INCISE_BENCH_DEFORMED_OUT=DIR: --only
 //                  deformed writes each cut mesh there; INCISE_BENCH_CURVED_OUT=DIR: --only curved writes each
-//                  path's cut mesh there, and the offset drags' below 10 deg)
+//                  path's cut mesh there, and the offset drags' below 10 deg; --only curved-organ each drag's)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -789,6 +789,8 @@ void curved_organ(const TetMesh& organ, const std::string& name, double toleranc
     for (int k = 1; k <= d.steps; ++k) d.ms.push_back(cutter.advance(blade(p.at(double(k) / d.steps))).ms);
     d.finish_ms = cutter.finish().ms;
     d.tets = m.num_tets();
+    if (const char* dir = std::getenv("INCISE_BENCH_CURVED_OUT"))  // the organ's cut meshes too
+      write_tet_mesh(m, std::string(dir) + "/organ-" + p.name + "-" + std::to_string(d.steps) + ".vtu");
     d.parts = vertex_parts(m);
     d.pp = path_parts(m, p.side, h);
     d.q = quality_range(m, 10.0);
