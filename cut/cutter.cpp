@@ -635,13 +635,14 @@ double segment_distance(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Ve
 
 }  // namespace
 
-double Cutter::clearance(const Vec3& a, const Vec3& b, const Vec3& normal, double reach, const PositionFn& positions,
-                         double max_displacement) {
+Cutter::Clearance Cutter::clearance(const Vec3& a, const Vec3& b, const Vec3& normal, double reach,
+                                    const PositionFn& positions, double max_displacement) {
   auto pos = [&](VertexId v) { return positions ? positions(v) : mesh_->rest(v); };
-  const double len = (b - a).norm(), exact = 1e-9 * reach, in_plane = 1e-7 * reach;
+  const double len = (b - a).norm(), exact = 1e-9 * reach, in_plane = 1e-7 * reach, close = kCreaseClearance * reach;
   const int pieces = std::max(1, std::min(256, int(std::ceil(len / (2 * grid_.cell_size())))));
-  const Vec3 margin = Vec3::Constant(kCreaseClearance * reach);
-  double nearest = std::numeric_limits<double>::infinity();
+  const Vec3 margin = Vec3::Constant(close);
+  Clearance out;
+  std::unordered_set<std::uint64_t> near;  // edges closer than `close`, once each
   for (int k = 0; k < pieces; ++k) {
     const Vec3 p = a + (double(k) / pieces) * (b - a), q = a + (double(k + 1) / pieces) * (b - a);
     for (TetId t : first_contact(p.cwiseMin(q) - margin, p.cwiseMax(q) + margin, positions, max_displacement, false)) {
@@ -652,11 +653,14 @@ double Cutter::clearance(const Vec3& a, const Vec3& b, const Vec3& normal, doubl
           // Edges in the sheet's plane are cut along, not across.
           if (std::abs(normal.dot(u - a)) <= in_plane && std::abs(normal.dot(w - a)) <= in_plane) continue;
           const double dist = segment_distance(a, b, u, w);
-          if (dist > exact) nearest = std::min(nearest, dist);  // through an edge exactly: no sliver
+          if (!(dist > exact)) continue;  // through an edge exactly: no sliver
+          out.nearest = std::min(out.nearest, dist);
+          if (dist < close) near.insert(std::uint64_t(std::min(tv[i].idx(), tv[j].idx())) << 32 | std::max(tv[i].idx(), tv[j].idx()));
         }
     }
   }
-  return nearest;
+  out.near_edges = near.size();
+  return out;
 }
 
 // Where a sheet ends inside the body, its front becomes the next sheet's crease, embedded as a
@@ -666,11 +670,11 @@ double Cutter::clearance(const Vec3& a, const Vec3& b, const Vec3& normal, doubl
 // and the surface), and a front a hair from a mesh edge (its crossings that close to the edge).
 // The sheet may be grown in its own plane, the way the blade went, by up to kFrontExitReach of
 // an edge (the path tolerance lets a sheet stray that far from the blade anyway): to the
-// nearest place out of the body when that is within reach; else, when the front passes closer
-// than kCreaseClearance of an edge to some edge, to the nearest place that clears every edge
-// by that much, or that clears them most when that is at least kCreaseClearanceMin. Else the
-// front stays where the blade left it (moving a corner a quarter edge for little gain cost
-// more of the turn's shape than it bought; docs/cut.md#curved-paths).
+// nearest place out of the body when that is within reach; else, when edges pass the front
+// closer than kCreaseClearance of an edge, to the place with the fewest such edges (ties: the
+// one that clears them most), provided it clears every edge by kCreaseClearanceMin. Else the
+// front stays where the blade left it: a move to a place that is no clearer only shuffles
+// which tets are slivers, and moves a corner for nothing (docs/cut.md#curved-paths).
 void Cutter::place_front(const BladeSegment& to, const PositionFn& positions, double max_displacement) {
   Progress& pr = *progress_;
   const BladeSegment f = pr.sheet->front();
@@ -699,15 +703,16 @@ void Cutter::place_front(const BladeSegment& to, const PositionFn& positions, do
     grow_to(k);
     return;
   }
+  const Clearance here = clearance(f.a, f.b, n, pr.reach, positions, max_displacement);
+  if (here.near_edges == 0) return;
   int best = 0;
-  double most = clearance(f.a, f.b, n, pr.reach, positions, max_displacement);
-  if (most >= kCreaseClearance * pr.reach) return;
-  for (int k = 1; k <= kPlaces; ++k) {
-    const double c = clearance(f.a + shift(k), f.b + shift(k), n, pr.reach, positions, max_displacement);
-    if (c > most) most = c, best = k;
-    if (c >= kCreaseClearance * pr.reach) break;
+  Clearance chosen = here;
+  for (int k = 1; k <= kPlaces && chosen.near_edges > 0; ++k) {
+    const Clearance c = clearance(f.a + shift(k), f.b + shift(k), n, pr.reach, positions, max_displacement);
+    if (c.near_edges < chosen.near_edges || (c.near_edges == chosen.near_edges && c.nearest > chosen.nearest))
+      chosen = c, best = k;
   }
-  if (best > 0 && most >= kCreaseClearanceMin * pr.reach) grow_to(best);
+  if (best > 0 && chosen.nearest >= kCreaseClearanceMin * pr.reach) grow_to(best);
 }
 
 CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions,

@@ -35,6 +35,7 @@
 // exact in O(change), or the next first contact rebuilds it (O(mesh)).
 #include <chrono>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <unordered_map>
@@ -182,9 +183,9 @@ public:
 
   static constexpr double kUnknownDisplacement = -1.0;
   // How far (in edges) a sheet may be grown in its plane at its end to place its front, the
-  // next crease, out of the body or clear of the mesh's edges (place_front): by
-  // kCreaseClearance of an edge, or at least kCreaseClearanceMin when no place within reach
-  // clears them by that much.
+  // next crease, out of the body or clear of the mesh's edges (place_front): where the fewest
+  // edges pass closer than kCreaseClearance of an edge, if every edge clears it by
+  // kCreaseClearanceMin.
   static constexpr double kFrontExitReach = 0.25;
   static constexpr double kCreaseClearance = 0.1;
   static constexpr double kCreaseClearanceMin = 0.05;
@@ -311,10 +312,15 @@ private:
   // At a sheet's end: grows it in its plane (up to kFrontExitReach of an edge) so that its
   // front, the next crease, is out of the body or clear of the mesh's edges (the .cpp).
   void place_front(const BladeSegment& to, const PositionFn& positions, double max_displacement);
-  // The smallest distance from the segment [a, b] to an edge of the tets near it (edges it
-  // passes through exactly, and edges in the plane with this normal, do not count).
-  double clearance(const Vec3& a, const Vec3& b, const Vec3& normal, double reach, const PositionFn& positions,
-                   double max_displacement);
+  // How clear the segment [a, b] is of the edges of the tets near it (edges it passes through
+  // exactly, and edges in the plane with this normal, do not count): the smallest distance, and
+  // how many edges are closer than kCreaseClearance * reach.
+  struct Clearance {
+    double nearest = std::numeric_limits<double>::infinity();
+    std::size_t near_edges = 0;
+  };
+  Clearance clearance(const Vec3& a, const Vec3& b, const Vec3& normal, double reach, const PositionFn& positions,
+                      double max_displacement);
   // Tets that may touch the pieces' box in the current configuration (first contact).
   std::vector<TetId> first_contact(const Vec3& lo, const Vec3& hi, const PositionFn& positions,
                                    double max_displacement, bool grid_stale);
