@@ -316,7 +316,11 @@ QuadraticStats QuadraticSolver::solve(double a, double c, const Eigen::VectorXd&
   for (Eigen::Index i = 0; i < dofs; ++i)
     if (free[std::size_t(i)]) xk[i] = 0;
   if (!opt_.taylor_hood) {
-    if (opt_.direct) {
+    if (opt_.direct && kind_ == FemKind::Linear) {
+      // a M + c K does not change while a, c and the constraints stay: one factor serves
+      // every step of a dynamic run (the same cache as the factor preconditioner's).
+      factor(k, free, free, a, c).solver.solve(rhs, x);
+    } else if (opt_.direct) {
       DirectSolver ds(true);
       ds.compute(k, free);
       ds.solve(rhs, x);

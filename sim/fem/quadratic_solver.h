@@ -20,7 +20,9 @@
 // assembled matrix as preconditioner) and preconditioned MINRES for Taylor-Hood (its displacement
 // block preconditioned the same way, the pressure by the lumped P1 mass times (1/mu + 1/lambda)/c).
 // The factor preconditioner is kept between solves (see factor()): the frames of a corotational
-// run then cost an assembly and a few iterations each, not a factorization.
+// run then cost an assembly and a few iterations each, not a factorization. The direct solver
+// keeps its factor the same way for linear tets, whose matrix changes only with a, c and the
+// constraints.
 // Constraints per displacement unknown: `free` (1 solved for, 0 kept at the value x holds).
 // The mesh must not change while the solver lives (FemSimulation rebuilds it after a change).
 #include <cstdint>
