@@ -119,6 +119,12 @@ struct QuadraticSolver::CachedFactor {
   int fresh_iterations = -1;  // of the first solve with it (-1: none yet)
 };
 
+struct QuadraticSolver::CachedLu {
+  Eigen::SparseLU<Eigen::SparseMatrix<double>> lu;
+  std::vector<std::uint8_t> free;
+  double a = -1, c = -1;
+};
+
 QuadraticSolver::~QuadraticSolver() = default;
 
 bool QuadraticSolver::reusable(const std::vector<std::uint8_t>& key, double a, double c) const {
@@ -406,12 +412,20 @@ QuadraticStats QuadraticSolver::solve(double a, double c, const Eigen::VectorXd&
     s.setFromTriplets(st_t.begin(), st_t.end());
     Eigen::VectorXd y = Eigen::VectorXd::Zero(n);
     if (opt_.direct) {
-      Eigen::SparseLU<Eigen::SparseMatrix<double>> lu;
-      lu.compute(s);
-      if (lu.info() != Eigen::Success)
-        throw Error("quadratic tets (Taylor-Hood): the saddle-point system is singular (too few constraints, or a "
-                    "pressure free to float under fully prescribed displacements?)");
-      y = lu.solve(rb);
+      // Kept like the displacement block's factor: linear tets, the same a, c and constraints.
+      if (kind_ != FemKind::Linear || !lu_ || lu_->free != free || lu_->a != a || lu_->c != c) {
+        lu_ = std::make_unique<CachedLu>();
+        lu_->lu.compute(s);
+        if (lu_->lu.info() != Eigen::Success) {
+          lu_.reset();
+          throw Error("quadratic tets (Taylor-Hood): the saddle-point system is singular (too few constraints, or a "
+                      "pressure free to float under fully prescribed displacements?)");
+        }
+        lu_->free = free;
+        lu_->a = a;
+        lu_->c = c;
+      }
+      y = lu_->lu.solve(rb);
     } else {
       // Start from the last pressure and the given displacement.
       for (Eigen::Index i = 0; i < dofs; ++i)

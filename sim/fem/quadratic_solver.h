@@ -21,8 +21,8 @@
 // block preconditioned the same way, the pressure by the lumped P1 mass times (1/mu + 1/lambda)/c).
 // The factor preconditioner is kept between solves (see factor()): the frames of a corotational
 // run then cost an assembly and a few iterations each, not a factorization. The direct solver
-// keeps its factor the same way for linear tets, whose matrix changes only with a, c and the
-// constraints.
+// keeps its factor (and Taylor-Hood's LU) the same way for linear tets, whose matrix changes
+// only with a, c and the constraints.
 // Constraints per displacement unknown: `free` (1 solved for, 0 kept at the value x holds).
 // The mesh must not change while the solver lives (FemSimulation rebuilds it after a change).
 #include <cstdint>
@@ -104,6 +104,7 @@ private:
   const CachedFactor& factor(const Eigen::SparseMatrix<double>& k, const std::vector<std::uint8_t>& free,
                              const std::vector<std::uint8_t>& key, double a, double c);
   bool reusable(const std::vector<std::uint8_t>& key, double a, double c) const;
+  struct CachedLu;  // Taylor-Hood's LU for the direct solver, kept like factor_ (linear tets)
   int stale_limit() const;
   void assemble(double a, double c, Eigen::SparseMatrix<double>& k, Eigen::SparseMatrix<double>& d,
                 Eigen::VectorXd& b_r, Eigen::VectorXd& c_r) const;
@@ -120,6 +121,7 @@ private:
   Eigen::SparseMatrix<double> mass_;
   Eigen::VectorXd pressure_;
   std::unique_ptr<CachedFactor> factor_;
+  std::unique_ptr<CachedLu> lu_;
 };
 
 }  // namespace incise
