@@ -128,8 +128,9 @@ TEST_CASE("curved paths: an arc detaches the half disc it closes off, growing th
     // between sheets left 2% before finish() repaired every sliver the drag made).
     CHECK(double(c.quality.below) < 0.01 * double(box.num_tets() + c.added));
     // The floor's 10 degrees. A crease a hair from a mesh edge left slivers no contraction may
-    // take (the 20-step arc's worst tet was 3 degrees); the front is now placed clear of the
-    // edges around it where that is within a quarter edge (Cutter::place_front).
+    // take (the 20-step arc fell short of it); the front is now placed clear of the edges
+    // around it where that is within a quarter edge (Cutter::place_front,
+    // docs/cut.md#curved-paths).
     CHECK(c.quality.min_dihedral >= 10.0);
   }
 }
@@ -223,7 +224,7 @@ TEST_CASE("curved paths: arcs and S-curves at any offset against the mesh detach
   // x = 1, and random offsets left about one in fifteen attached: docs/cut.md#curved-paths.)
   CHECK(attached == 0);
   // And no crumbs: a tet or two in the wedge between two sheets at a crease, every face on one
-  // of them or the surface, stays attached (cut/specks.h); two fell off here before.
+  // of them or the surface, stays attached (cut/specks.h); some fell off here before.
   CHECK(specks == 0);
   CHECK(worst >= 1.0);
 }
