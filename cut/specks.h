@@ -20,7 +20,7 @@ inline constexpr std::size_t kSpeckTets = 6;
 // Drops from `faces` (the pairs about to be opened) the largest face of each speck: a group of
 // at most kSpeckTets tets, holding a vertex of `crease`, that opening `faces` would close off
 // from the rest of the mesh. Returns how many specks stay attached. Local: walks at most
-// kSpeckTets + 1 tets from each face.
+// kSpeckTets tets from each face (and reads the crease once).
 std::size_t keep_specks_attached(const TetMesh& mesh, std::vector<CutFacePair>& faces, std::span<const VertexId> crease);
 
 }  // namespace incise::cut_detail
