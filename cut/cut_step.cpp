@@ -714,9 +714,17 @@ std::vector<CutFacePair> CutStep::crease_faces(const CreaseSides& prev, const Cr
   // its position says (exact).
   auto side = [&](VertexId v) {
     const Vec3 x = position(v);
-    const CreaseSides& s = behind(x) ? prev : next;
+    const bool b = behind(x);
+    const CreaseSides& s = b ? prev : next;
     auto it = s.sides.find(v.idx());
-    return it != s.sides.end() ? it->second : s.piece.side(x);
+    if (it != s.sides.end()) return it->second;
+    // A vertex the other sheet put on itself, within this sheet's snap distance of it, is on
+    // the union: near the crease the two sheets are that close, and a hair's side of this
+    // one would leave a flat tet between them joined to both sides.
+    const CreaseSides& o = b ? next : prev;
+    auto jt = o.sides.find(v.idx());
+    if (jt != o.sides.end() && jt->second == 0 && std::abs(s.piece.distance(x)) <= snap_ * mean_incident_edge(v)) return 0;
+    return s.piece.side(x);
   };
   // The side of a tet beside a face on the union: its apex's; where the apex is on the union
   // too, another vertex's; where all four are (a wedge between the two sheets at the crease),

@@ -294,3 +294,69 @@ TEST_CASE("incise cut keeps every label's volume to rounding unless --no-exact-v
   CHECK(plain < 1e-12);
   CHECK(loose > 1e-9);
 }
+
+TEST_CASE("incise cut --path: a half circle through the imaged organ in 732 steps cuts it through", "[cli][cut][scale]") {
+  // bench_cut --only curved-organ's half circle at a twentieth of an edge per step, on the
+  // organ meshed from the sample image. The drag makes a few hundred creases; at one of them a
+  // vertex the next sheet cut lay a hair (within the snap distance) off the previous sheet on
+  // the far side of it, so a flat tet between the two sheets stayed joined to both sides and
+  // the organ stayed in one piece (CutStep::crease_faces; docs/cut.md#curved-paths).
+  const fs::path dir = scratch_dir("cli_cut_organ_arc");
+  const std::string organ = (dir / "organ.vtu").string(), out = (dir / "cut.vtu").string();
+  const fs::path image = fs::path(INCISE_SOURCE_DIR) / "samples" / "liver.inr.gz";
+  REQUIRE(run_incise("tetra " + incise::testing::q(image) + " -o '" + organ + "' --size 1.7% -q", dir).code == 0);
+  const incise::TetMesh body = incise::read_tet_mesh(organ);
+  incise::Vec3 lo = incise::Vec3::Constant(1e300), hi = -lo;
+  for (incise::VertexId v : body.vertices()) {
+    lo = lo.cwiseMin(body.rest(v));
+    hi = hi.cwiseMax(body.rest(v));
+  }
+  double edge = 0;
+  std::size_t edges = 0;
+  for (incise::TetId t : body.tets())
+    for (int i = 0; i < 4; ++i)
+      for (int k = i + 1; k < 4; ++k, ++edges)
+        edge += (body.rest(body.tet_vertices(t)[std::size_t(i)]) - body.rest(body.tet_vertices(t)[std::size_t(k)])).norm();
+  edge /= double(edges);
+  const incise::Vec3 ext = hi - lo, c = 0.5 * (lo + hi);
+  const double pi = std::acos(-1.0), r = 0.6 * ext.y(), y0 = lo.y() - 0.1 * ext.y();
+  const int steps = 732;
+  {
+    std::ofstream p(dir / "arc.path");
+    p.precision(17);
+    for (int k = 0; k <= steps; ++k) {
+      const double a = pi * (1 - double(k) / steps), x = c.x() + r * std::cos(a), y = y0 + r * std::sin(a);
+      p << x << " " << y << " " << lo.z() - 0.1 * ext.z() << " " << x << " " << y << " " << hi.z() + 0.1 * ext.z() << "\n";
+    }
+  }
+  Run run = run_incise("cut '" + organ + "' -o '" + out + "' --path '" + (dir / "arc.path").string() + "' -q", dir);
+  INFO(run.err);
+  REQUIRE(run.code == 0);
+  const incise::TetMesh m = incise::read_tet_mesh(out);
+  REQUIRE_NOTHROW(m.validate({true, true}));
+  // Parts (sharing no vertex) holding a tet more than an edge inside and outside the circle.
+  std::vector<std::uint32_t> parent(m.vertex_capacity());
+  for (std::uint32_t i = 0; i < parent.size(); ++i) parent[i] = i;
+  auto find = [&](std::uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (incise::TetId t : m.tets())
+    for (int k = 1; k < 4; ++k) parent[find(m.tet_vertices(t)[std::size_t(k)].idx())] = find(m.tet_vertices(t)[0].idx());
+  std::map<std::uint32_t, int> sides;  // bit 0: a tet inside by more than an edge, bit 1: outside
+  for (incise::TetId t : m.tets()) {
+    incise::Vec3 x = incise::Vec3::Zero();
+    for (incise::VertexId v : m.tet_vertices(t)) x += m.rest(v) / 4;
+    const double side = std::hypot(x.x() - c.x(), x.y() - y0) - r;
+    int& b = sides[find(m.tet_vertices(t)[0].idx())];
+    if (side < -edge) b |= 1;
+    if (side > edge) b |= 2;
+  }
+  int joined = 0, apart = 0;
+  for (const auto& [root, b] : sides) {
+    joined += b == 3;
+    apart += b == 1 || b == 2;
+  }
+  CHECK(joined == 0);
+  CHECK(apart >= 2);
+}
