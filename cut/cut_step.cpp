@@ -149,8 +149,26 @@ double CutStep::vertex_radius(VertexId v) {
 }
 
 VertexId CutStep::insert_point(TetId t, std::array<double, 4> w) {
-  const auto tv = mesh_.tet_vertices(t);
   for (double& x : w) x = std::max(x, 0.0);
+  if (const auto v = snap_to_vertex(t, w)) return *v;
+  for (double& x : w)
+    if (x < kSnapFloor) x = 0;
+  const double sum = w[0] + w[1] + w[2] + w[3];
+  const auto tv = mesh_.tet_vertices(t);
+  if (!(sum > 0))  // every weight snapped: the nearest vertex
+    return tv[std::size_t(std::max_element(w.begin(), w.end()) - w.begin())];
+  for (double& x : w) x /= sum;
+  int nz = 0;
+  for (double x : w) nz += x > 0;
+  if (nz == 1) return tv[std::size_t(std::max_element(w.begin(), w.end()) - w.begin())];
+  const std::optional<VertexId> p = nz == 2 ? split_on_edge(t, w) : nz == 3 ? split_on_face(t, w) : split_in_tet(t, w);
+  // Splits whose children would be flat snap to the nearest vertex instead.
+  if (!p) return tv[std::size_t(std::max_element(w.begin(), w.end()) - w.begin())];
+  note_new_vertex(*p);
+  return *p;
+}
+
+std::optional<VertexId> CutStep::snap_to_vertex(TetId t, const std::array<double, 4>& w) {
   // A point within a vertex's snap radius is that vertex. Vertices made this step get a radius
   // of half the snap threshold times the element they were made in: a blade segment passes
   // within that distance of a point snapped onto an edge, and must not then refine the
@@ -159,96 +177,86 @@ VertexId CutStep::insert_point(TetId t, std::array<double, 4> w) {
   // on one spot (a cascade of face splits leaving tets with radius ratio 1e-13). Snapping onto
   // a point made this step keeps the blade's boundary a chain of mesh edges: that point lies on
   // the blade's boundary or surface.
-  {
-    const double sum = w[0] + w[1] + w[2] + w[3];
-    Vec3 x = Vec3::Zero();
-    double longest = 0;
-    for (int k = 0; k < 4; ++k) {
-      x += w[k] / sum * position(tv[k]);
-      for (int j = k + 1; j < 4; ++j) longest = std::max(longest, (position(tv[k]) - position(tv[j])).norm());
-    }
-    // A point in a face of the body's surface (where the blade's boundary leaves the body)
-    // stays in it: snapped onto the tet's fourth vertex, the chain of edges would end inside
-    // the body, and the sliver of tissue between it and the surface would hold the two sides
-    // of a through-cut together.
-    int off_surface = -1;
-    for (int k = 0; k < 4; ++k)
-      if (w[k] == 0 && !mesh_.neighbor(t, k).is_valid()) off_surface = k;
-    int best = -1;
-    double best_d = 1e300;
-    for (int k = 0; k < 4; ++k) {
-      if (k == off_surface) continue;
-      const double d = (x - position(tv[k])).norm();
-      if (d <= vertex_radius(tv[k]) && d < best_d) {
-        best = k;
-        best_d = d;
-      }
-    }
-    if (best >= 0) return tv[best];
-    pending_radius_ = std::max(kSnapFloor, 0.5 * snap_) * longest;
+  const auto tv = mesh_.tet_vertices(t);
+  const double sum = w[0] + w[1] + w[2] + w[3];
+  Vec3 x = Vec3::Zero();
+  double longest = 0;
+  for (int k = 0; k < 4; ++k) {
+    x += w[k] / sum * position(tv[k]);
+    for (int j = k + 1; j < 4; ++j) longest = std::max(longest, (position(tv[k]) - position(tv[j])).norm());
   }
-  for (double& x : w)
-    if (x < kSnapFloor) x = 0;
-  double sum = w[0] + w[1] + w[2] + w[3];
-  if (!(sum > 0)) {  // every weight snapped: the nearest vertex
-    const int k = int(std::max_element(w.begin(), w.end()) - w.begin());
-    return tv[k];
-  }
-  for (double& x : w) x /= sum;
-  int nz = 0;
-  for (double x : w) nz += x > 0;
-  VertexId p;
-  if (nz == 1) {
-    for (int k = 0; k < 4; ++k)
-      if (w[k] > 0) return tv[k];
-  }
-  // Splits whose children would be flat snap to the nearest vertex instead.
-  auto nearest = [&] { return tv[int(std::max_element(w.begin(), w.end()) - w.begin())]; };
-  if (nz == 2) {
-    int a = -1, b = -1;
-    for (int k = 0; k < 4; ++k)
-      if (w[k] > 0) (a < 0 ? a : b) = k;
-    if (!edge_split_ok(tv[a], tv[b], w[b])) return nearest();
-    for (TetId x : mesh_.incident_tets(tv[a]))
-      if (mesh_.local_index(x, tv[b]) >= 0) note_destroyed(x);
-    p = mesh_.split_edge(tv[a], tv[b], w[b]);
-    created_pos_[p.idx()] = w[a] * position(tv[a]) + w[b] * position(tv[b]);
-  } else if (nz == 3) {
-    int f = 0;
-    while (w[f] > 0) ++f;
-    const auto fv = mesh_.face_vertices(t, f);
-    std::array<double, 3> w3;
-    Vec3 x = Vec3::Zero();
-    for (int k = 0; k < 3; ++k) {
-      w3[k] = w[mesh_.local_index(t, fv[k])];
-      x += w3[k] * position(fv[k]);
+  // A point in a face of the body's surface (where the blade's boundary leaves the body)
+  // stays in it: snapped onto the tet's fourth vertex, the chain of edges would end inside
+  // the body, and the sliver of tissue between it and the surface would hold the two sides
+  // of a through-cut together.
+  int off_surface = -1;
+  for (int k = 0; k < 4; ++k)
+    if (w[k] == 0 && !mesh_.neighbor(t, k).is_valid()) off_surface = k;
+  int best = -1;
+  double best_d = 1e300;
+  for (int k = 0; k < 4; ++k) {
+    if (k == off_surface) continue;
+    const double d = (x - position(tv[k])).norm();
+    if (d <= vertex_radius(tv[k]) && d < best_d) {
+      best = k;
+      best_d = d;
     }
-    Vec3 pr = Vec3::Zero();
-    for (int q = 0; q < 3; ++q) pr += w3[q] * mesh_.rest(fv[q]);
-    const TetId u = mesh_.neighbor(t, f);
-    bool ok = children_ok(mesh_, t, pr, w);
-    if (ok && u.is_valid()) {
-      std::array<double, 4> wu{0, 0, 0, 0};
-      for (int q = 0; q < 3; ++q) wu[mesh_.local_index(u, fv[q])] = w3[q];
-      ok = children_ok(mesh_, u, pr, wu);
-    }
-    if (!ok) return nearest();
-    note_destroyed(t);
-    if (u.is_valid()) note_destroyed(u);
-    p = mesh_.split_face(t, f, w3);
-    created_pos_[p.idx()] = x;
-  } else {
-    Vec3 x = Vec3::Zero(), pr = Vec3::Zero();
-    for (int k = 0; k < 4; ++k) {
-      x += w[k] * position(tv[k]);
-      pr += w[k] * mesh_.rest(tv[k]);
-    }
-    if (!children_ok(mesh_, t, pr, w)) return nearest();
-    note_destroyed(t);
-    p = mesh_.split_tet(t, w);
-    created_pos_[p.idx()] = x;
   }
-  note_new_vertex(p);
+  if (best >= 0) return tv[best];
+  pending_radius_ = std::max(kSnapFloor, 0.5 * snap_) * longest;
+  return std::nullopt;
+}
+
+std::optional<VertexId> CutStep::split_on_edge(TetId t, const std::array<double, 4>& w) {
+  const auto tv = mesh_.tet_vertices(t);
+  int a = -1, b = -1;
+  for (int k = 0; k < 4; ++k)
+    if (w[k] > 0) (a < 0 ? a : b) = k;
+  if (!edge_split_ok(tv[a], tv[b], w[b])) return std::nullopt;
+  for (TetId x : mesh_.incident_tets(tv[a]))
+    if (mesh_.local_index(x, tv[b]) >= 0) note_destroyed(x);
+  const VertexId p = mesh_.split_edge(tv[a], tv[b], w[b]);
+  created_pos_[p.idx()] = w[a] * position(tv[a]) + w[b] * position(tv[b]);
+  return p;
+}
+
+std::optional<VertexId> CutStep::split_on_face(TetId t, const std::array<double, 4>& w) {
+  int f = 0;
+  while (w[f] > 0) ++f;
+  const auto fv = mesh_.face_vertices(t, f);
+  std::array<double, 3> w3;
+  Vec3 x = Vec3::Zero(), rest = Vec3::Zero();
+  for (int k = 0; k < 3; ++k) {
+    w3[k] = w[mesh_.local_index(t, fv[k])];
+    x += w3[k] * position(fv[k]);
+    rest += w3[k] * mesh_.rest(fv[k]);
+  }
+  const TetId u = mesh_.neighbor(t, f);
+  bool ok = children_ok(mesh_, t, rest, w);
+  if (ok && u.is_valid()) {
+    std::array<double, 4> wu{0, 0, 0, 0};
+    for (int q = 0; q < 3; ++q) wu[mesh_.local_index(u, fv[q])] = w3[q];
+    ok = children_ok(mesh_, u, rest, wu);
+  }
+  if (!ok) return std::nullopt;
+  note_destroyed(t);
+  if (u.is_valid()) note_destroyed(u);
+  const VertexId p = mesh_.split_face(t, f, w3);
+  created_pos_[p.idx()] = x;
+  return p;
+}
+
+std::optional<VertexId> CutStep::split_in_tet(TetId t, const std::array<double, 4>& w) {
+  const auto tv = mesh_.tet_vertices(t);
+  Vec3 x = Vec3::Zero(), rest = Vec3::Zero();
+  for (int k = 0; k < 4; ++k) {
+    x += w[k] * position(tv[k]);
+    rest += w[k] * mesh_.rest(tv[k]);
+  }
+  if (!children_ok(mesh_, t, rest, w)) return std::nullopt;
+  note_destroyed(t);
+  const VertexId p = mesh_.split_tet(t, w);
+  created_pos_[p.idx()] = x;
   return p;
 }
 
@@ -292,21 +300,41 @@ void CutStep::collect(const Piece& piece, std::span<const TetId> seeds,
 }
 
 void CutStep::embed_boundary(const Piece& piece) {
-  auto& on = on_piece_[current_piece_];
   // Which boundary segments each vertex lies on (bit i: segment i). A line through a vertex of
   // a face meets the face's plane only there (or lies in it), so a face with a vertex on the
   // segment has nothing to insert; testing it anyway would intersect the segment with planes
   // it lies in up to rounding, and refine without end.
-  std::unordered_map<std::uint32_t, std::uint32_t> on_segment;
-  auto mark = [&](VertexId v, std::uint32_t segments) {
-    on_segment[v.idx()] |= segments;
-    if (on.insert(v.idx()).second) boundary_vertices_.push_back(v);
-    if (memory_) memory_->side[v.idx()] = 0;
-  };
-  const std::size_t ns = piece.boundary.size();
+  SegmentMarks marks;
+  const std::vector<bool> known = reuse_known_segments(piece, marks);
+  embed_corners(piece, known, marks);
+  // Then the segments, one at a time: every face a segment crosses gets the crossing point.
+  // One at a time is what makes this end. A split for segment i makes only faces through the
+  // new point, which segment i skips, so each of its splits uses up one crossing of the mesh
+  // as it was. Interleaving two segments broke that: near a shared corner each one's split
+  // made fresh faces for the other, whose crossing then lay on a flatter child of the same
+  // tet, without end (a cascade of slivers with radius ratio 1e-21 on the liver).
+  for (std::size_t si = 0; si < piece.boundary.size(); ++si)
+    if (!known[si]) embed_segment(piece, si, marks);
+  for (std::size_t i = 0; i < piece.boundary.size(); ++i) {
+    if (known[i]) continue;
+    EmbeddedSegment e{piece.boundary[i][0], piece.boundary[i][1], {}};
+    for (const auto& [v, bits] : marks)
+      if (bits & (1u << i)) e.vertices.emplace_back(v);
+    embedded_.push_back(std::move(e));
+  }
+}
+
+void CutStep::mark_on_segments(SegmentMarks& marks, VertexId v, std::uint32_t segments) {
+  marks[v.idx()] |= segments;
+  if (on_piece_[current_piece_].insert(v.idx()).second) boundary_vertices_.push_back(v);
+  if (memory_) memory_->side[v.idx()] = 0;
+}
+
+std::vector<bool> CutStep::reuse_known_segments(const Piece& piece, SegmentMarks& marks) {
   // Segments embedded before (by an earlier piece of this step, or the previous step's front)
   // are reused as they are: embedding the same segment twice would snap differently and
   // leave a strip between the two cut surfaces.
+  const std::size_t ns = piece.boundary.size();
   std::vector<bool> known(ns, false);
   for (std::size_t i = 0; i < ns; ++i)
     for (const EmbeddedSegment& e : embedded_) {
@@ -314,18 +342,23 @@ void CutStep::embed_boundary(const Piece& piece) {
       if ((e.a == g[0] && e.b == g[1]) || (e.a == g[1] && e.b == g[0])) {
         known[i] = true;
         for (VertexId v : e.vertices)
-          if (this->on_segment(v, e.a, e.b)) mark(v, 1u << i);
+          if (on_segment(v, e.a, e.b)) mark_on_segments(marks, v, 1u << i);
         break;
       }
     }
-  // Corners first: each inside the body becomes a vertex (or snaps to one). Corner i starts
-  // segment i and ends segment i-1 (the boundary is a closed loop).
+  return known;
+}
+
+void CutStep::embed_corners(const Piece& piece, const std::vector<bool>& known, SegmentMarks& marks) {
+  // Each corner inside the body becomes a vertex (or snaps to one). Corner i starts segment i
+  // and ends segment i-1 (the boundary is a closed loop).
+  const std::size_t ns = piece.boundary.size();
   for (std::size_t i = 0; i < ns; ++i) {
     if (known[i] || known[(i + ns - 1) % ns]) continue;
     const Vec3 c = piece.boundary[i][0];
     const std::uint32_t bits = (1u << i) | (1u << ((i + ns - 1) % ns));
-    for (std::size_t i = 0; i < cand_.size(); ++i) {
-      const TetId t = cand_[i];
+    for (std::size_t j = 0; j < cand_.size(); ++j) {
+      const TetId t = cand_[j];
       if (!mesh_.is_alive(t)) continue;
       const auto x = tet_positions(t);
       const double vol = (x[1] - x[0]).dot((x[2] - x[0]).cross(x[3] - x[0]));
@@ -338,67 +371,54 @@ void CutStep::embed_boundary(const Piece& piece) {
         inside = w[f] >= -1e-12;
       }
       if (!inside) continue;
-      mark(insert_point(t, w), bits);
+      mark_on_segments(marks, insert_point(t, w), bits);
       break;
     }
   }
-  // Then the segments, one at a time: every face a segment crosses gets the crossing point.
-  // One at a time is what makes this end. A split for segment i makes only faces through the
-  // new point, which segment i skips, so each of its splits uses up one crossing of the mesh
-  // as it was. Interleaving two segments broke that: near a shared corner each one's split
-  // made fresh faces for the other, whose crossing then lay on a flatter child of the same
-  // tet, without end (a cascade of slivers with radius ratio 1e-21 on the liver).
-  for (std::size_t si = 0; si < ns; ++si) {
-    if (known[si]) continue;
-    const auto& seg = piece.boundary[si];
-    std::vector<TetId> work(cand_.begin(), cand_.end());
-    std::unordered_set<std::uint32_t> queued(in_cand_);
-    // The cap only guards against degenerate input (the cut is then less exact, never
-    // invalid); each real crossing makes one vertex.
-    std::size_t splits = 0;
-    const std::size_t max_splits = 64 + 2 * cand_.size();
-    while (!work.empty() && splits < max_splits) {
-      const TetId t = work.back();
-      work.pop_back();
-      queued.erase(t.idx());
-      if (!mesh_.is_alive(t)) continue;
-      for (int f = 0; f < 4; ++f) {
-        const auto fv = mesh_.face_vertices(t, f);
-        bool on_face = false;
-        for (VertexId v : fv) {
-          auto it = on_segment.find(v.idx());
-          on_face |= it != on_segment.end() && (it->second & (1u << si));
-        }
-        if (on_face) continue;
-        const Vec3 a = position(fv[0]), b = position(fv[1]), c = position(fv[2]);
-        const int sp = orient3d(a, b, c, seg[0]), sq = orient3d(a, b, c, seg[1]);
-        if (sp * sq >= 0) continue;
-        const Vec3 n = (b - a).cross(c - a);
-        const double vp = n.dot(seg[0] - a), vq = n.dot(seg[1] - a);
-        const double s = std::clamp(vp / (vp - vq), 0.0, 1.0);
-        const Vec3 x = seg[0] + s * (seg[1] - seg[0]);
-        const auto w3 = triangle_barycentric(a, b, c, x);
-        if (w3[0] < -1e-12 || w3[1] < -1e-12 || w3[2] < -1e-12) continue;
-        std::array<double, 4> w{0, 0, 0, 0};
-        for (int k = 0; k < 3; ++k) w[mesh_.local_index(t, fv[k])] = w3[k];
-        const std::size_t before = mesh_.vertex_capacity(), alive_before = mesh_.num_vertices();
-        const VertexId p = insert_point(t, w);
-        mark(p, 1u << si);
-        if (mesh_.num_vertices() != alive_before || mesh_.vertex_capacity() != before) {
-          for (TetId x2 : mesh_.incident_tets(p))
-            if (queued.insert(x2.idx()).second) work.push_back(x2);
-          ++splits;
-          break;
-        }
+}
+
+void CutStep::embed_segment(const Piece& piece, std::size_t si, SegmentMarks& marks) {
+  const auto& seg = piece.boundary[si];
+  std::vector<TetId> work(cand_.begin(), cand_.end());
+  std::unordered_set<std::uint32_t> queued(in_cand_);
+  // The cap only guards against degenerate input (the cut is then less exact, never
+  // invalid); each real crossing makes one vertex.
+  std::size_t splits = 0;
+  const std::size_t max_splits = 64 + 2 * cand_.size();
+  while (!work.empty() && splits < max_splits) {
+    const TetId t = work.back();
+    work.pop_back();
+    queued.erase(t.idx());
+    if (!mesh_.is_alive(t)) continue;
+    for (int f = 0; f < 4; ++f) {
+      const auto fv = mesh_.face_vertices(t, f);
+      bool on_face = false;
+      for (VertexId v : fv) {
+        auto it = marks.find(v.idx());
+        on_face |= it != marks.end() && (it->second & (1u << si));
+      }
+      if (on_face) continue;
+      const Vec3 a = position(fv[0]), b = position(fv[1]), c = position(fv[2]);
+      const int sp = orient3d(a, b, c, seg[0]), sq = orient3d(a, b, c, seg[1]);
+      if (sp * sq >= 0) continue;
+      const Vec3 n = (b - a).cross(c - a);
+      const double vp = n.dot(seg[0] - a), vq = n.dot(seg[1] - a);
+      const double s = std::clamp(vp / (vp - vq), 0.0, 1.0);
+      const Vec3 x = seg[0] + s * (seg[1] - seg[0]);
+      const auto w3 = triangle_barycentric(a, b, c, x);
+      if (w3[0] < -1e-12 || w3[1] < -1e-12 || w3[2] < -1e-12) continue;
+      std::array<double, 4> w{0, 0, 0, 0};
+      for (int k = 0; k < 3; ++k) w[mesh_.local_index(t, fv[k])] = w3[k];
+      const std::size_t before = mesh_.vertex_capacity(), alive_before = mesh_.num_vertices();
+      const VertexId p = insert_point(t, w);
+      mark_on_segments(marks, p, 1u << si);
+      if (mesh_.num_vertices() != alive_before || mesh_.vertex_capacity() != before) {
+        for (TetId x2 : mesh_.incident_tets(p))
+          if (queued.insert(x2.idx()).second) work.push_back(x2);
+        ++splits;
+        break;
       }
     }
-  }
-  for (std::size_t i = 0; i < ns; ++i) {
-    if (known[i]) continue;
-    EmbeddedSegment e{piece.boundary[i][0], piece.boundary[i][1], {}};
-    for (const auto& [v, bits] : on_segment)
-      if (bits & (1u << i)) e.vertices.emplace_back(v);
-    embedded_.push_back(std::move(e));
   }
 }
 

@@ -5,6 +5,7 @@
 // blade touches, never by the mesh.
 #include <functional>
 #include <map>
+#include <optional>
 #include <span>
 #include <unordered_map>
 #include <unordered_set>
@@ -119,6 +120,13 @@ private:
   bool collect_crossings(const Piece& piece, std::unordered_set<std::uint32_t>& pinned,
                          std::map<std::pair<std::uint32_t, std::uint32_t>, EdgeSplit>& edges);
   bool section_inside(const Piece& piece, TetId t);
+  // embed_boundary()'s parts (cut_step.cpp): vertex -> the piece's boundary segments it lies on
+  // (bit i: segment i).
+  using SegmentMarks = std::unordered_map<std::uint32_t, std::uint32_t>;
+  void mark_on_segments(SegmentMarks& marks, VertexId v, std::uint32_t segments);
+  std::vector<bool> reuse_known_segments(const Piece& piece, SegmentMarks& marks);
+  void embed_corners(const Piece& piece, const std::vector<bool>& known, SegmentMarks& marks);
+  void embed_segment(const Piece& piece, std::size_t si, SegmentMarks& marks);
   int side(const Piece& piece, std::size_t piece_index, VertexId v);
   double snap_length(VertexId v);
   // Moves a snapped vertex onto the piece's plane (cut/snap_move.h); false where it may not.
@@ -134,6 +142,13 @@ private:
   // Inserts the point with barycentric w in t, snapping small weights to zero; returns the
   // vertex now at that point (existing or new).
   VertexId insert_point(TetId t, std::array<double, 4> w);
+  // insert_point()'s parts: the vertex within its snap radius of the point, if any (else the
+  // radius the new vertex will get); the point put on an edge, a face or inside t (nullopt
+  // where a child would be flat).
+  std::optional<VertexId> snap_to_vertex(TetId t, const std::array<double, 4>& w);
+  std::optional<VertexId> split_on_edge(TetId t, const std::array<double, 4>& w);
+  std::optional<VertexId> split_on_face(TetId t, const std::array<double, 4>& w);
+  std::optional<VertexId> split_in_tet(TetId t, const std::array<double, 4>& w);
   void note_destroyed(TetId t);
   void note_new_vertex(VertexId p);
   std::array<Vec3, 4> tet_positions(TetId t) const;

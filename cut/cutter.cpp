@@ -979,58 +979,9 @@ CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const Position
     grid_stale = false;
     return hits;
   };
-  std::vector<TetId> seeds = use_front ? front_ : std::vector<TetId>{};
-
-  if (opt_.mode == CutMode::Remove) {
-    CarveResult c = carve(*mesh_, pieces, seeds, scan, positions);
-    rep.tets_cut = c.removed;
-    rep.cut_faces = c.faces_exposed;
-    rep.cut_area = c.area / 2;
-    rep.exposed_area = c.area;
-    front_ = std::move(c.neighbours);
-    fragment_starts_.insert(fragment_starts_.end(), front_.begin(), front_.end());
-  } else {
-    CutStep step(*mesh_, positions, opt_.snap);
-    step.set_fixed(opt_.frozen);
-    if (use_front && has_front_) step.add_known_segment(front_segment_.a, front_segment_.b, front_vertices_);
-    for (const Piece& p : pieces) {
-      step.collect(p, seeds, scan);
-      step.embed_boundary(p);
-      step.split_crossings(p);
-      auto live = step.live_candidates();
-      seeds = std::move(live);
-    }
-    const std::vector<CutFacePair> faces = step.cut_faces(pieces);
-    const SeparationResult sep = separate(*mesh_, faces);
-    rep.tets_cut = step.tets_cut();
-    rep.vertices_duplicated = sep.vertices_duplicated;
-    rep.cut_faces = sep.faces_opened;
-    rep.cut_area = sep.area;
-    rep.exposed_area = 2 * sep.area;
-    front_ = step.live_candidates();
-    front_vertices_ = step.segment_vertices(blade_.a, blade_.b);
-    front_segment_ = blade_;
-    has_front_ = use_front;
-    fragment_starts_.insert(fragment_starts_.end(), sep.opened_tets.begin(), sep.opened_tets.end());
-    if (opt_.improve && !front_.empty()) {
-      const auto ti = std::chrono::steady_clock::now();
-      ImproveOptions io = opt_.improve_options;
-      // Only the front must stay exactly where it is (the next step continues from that
-      // line). The rest of the cut surface is boundary the pass treats like any other: cut
-      // faces stay in their plane, rims (straight creases) slide along their line.
-      std::vector<VertexId> frozen = opt_.frozen;
-      frozen.insert(frozen.end(), front_vertices_.begin(), front_vertices_.end());
-      io.frozen = frozen;
-      io.time_budget_ms = opt_.improve_budget_ms;
-      rep.improve = improve_local(*mesh_, front_, io);
-      rep.ms_improve = ms_since(ti);
-      // Flips replace tets: keep the live ones and the improved region as the next walk's start.
-      std::vector<TetId> live;
-      for (TetId t : front_)
-        if (mesh_->is_alive(t)) live.push_back(t);
-      front_ = std::move(live);
-    }
-  }
+  const std::vector<TetId> seeds = use_front ? front_ : std::vector<TetId>{};
+  if (opt_.mode == CutMode::Remove) carve_pieces(pieces, seeds, scan, positions, rep);
+  else subdivide_pieces(pieces, seeds, scan, positions, use_front, rep);
   take_record(rep, grid_stale);
   find_detached(rep);
   if (opt_.mode == CutMode::Subdivide) {
@@ -1042,6 +993,62 @@ CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const Position
   }
   rep.ms = ms_since(t0);
   return rep;
+}
+
+void Cutter::carve_pieces(std::span<const Piece> pieces, std::span<const TetId> seeds, const ContactFn& scan,
+                          const PositionFn& positions, CutStepReport& rep) {
+  CarveResult c = carve(*mesh_, pieces, seeds, scan, positions);
+  rep.tets_cut = c.removed;
+  rep.cut_faces = c.faces_exposed;
+  rep.cut_area = c.area / 2;
+  rep.exposed_area = c.area;
+  front_ = std::move(c.neighbours);
+  fragment_starts_.insert(fragment_starts_.end(), front_.begin(), front_.end());
+}
+
+void Cutter::subdivide_pieces(std::span<const Piece> pieces, std::vector<TetId> seeds, const ContactFn& scan,
+                              const PositionFn& positions, bool use_front, CutStepReport& rep) {
+  CutStep step(*mesh_, positions, opt_.snap);
+  step.set_fixed(opt_.frozen);
+  if (use_front && has_front_) step.add_known_segment(front_segment_.a, front_segment_.b, front_vertices_);
+  for (const Piece& p : pieces) {
+    step.collect(p, seeds, scan);
+    step.embed_boundary(p);
+    step.split_crossings(p);
+    seeds = step.live_candidates();
+  }
+  const std::vector<CutFacePair> faces = step.cut_faces(pieces);
+  const SeparationResult sep = separate(*mesh_, faces);
+  rep.tets_cut = step.tets_cut();
+  rep.vertices_duplicated = sep.vertices_duplicated;
+  rep.cut_faces = sep.faces_opened;
+  rep.cut_area = sep.area;
+  rep.exposed_area = 2 * sep.area;
+  front_ = step.live_candidates();
+  front_vertices_ = step.segment_vertices(blade_.a, blade_.b);
+  front_segment_ = blade_;
+  has_front_ = use_front;
+  fragment_starts_.insert(fragment_starts_.end(), sep.opened_tets.begin(), sep.opened_tets.end());
+  if (opt_.improve && !front_.empty()) improve_around_front(rep);
+}
+
+void Cutter::improve_around_front(CutStepReport& rep) {
+  const auto ti = std::chrono::steady_clock::now();
+  ImproveOptions io = opt_.improve_options;
+  // Only the front must stay exactly where it is (the next step continues from that line).
+  // The rest of the cut surface is boundary the pass treats like any other: cut faces stay in
+  // their plane, rims (straight creases) slide along their line.
+  std::vector<VertexId> frozen = opt_.frozen;
+  frozen.insert(frozen.end(), front_vertices_.begin(), front_vertices_.end());
+  io.frozen = frozen;
+  io.time_budget_ms = opt_.improve_budget_ms;
+  rep.improve = improve_local(*mesh_, front_, io);
+  rep.ms_improve = ms_since(ti);
+  // Flips replace tets: keep the live ones and the improved region as the next walk's start.
+  std::vector<TetId> live;
+  for (TetId t : front_)
+    if (mesh_->is_alive(t)) live.push_back(t);
+  front_ = std::move(live);
 }
 
 }  // namespace incise

@@ -305,6 +305,14 @@ private:
   void refresh_waiting(const PositionFn& positions, std::span<const TetId> more);
   CutStepReport run(std::span<const CutTriangle> triangles, const PositionFn& positions, double max_displacement,
                     bool use_front);
+  // run()'s two modes (the tets the pieces touch removed, or split and opened) and the
+  // improvement around a subdivided step's front; `scan` finds the first contact.
+  using ContactFn = std::function<std::vector<TetId>()>;
+  void carve_pieces(std::span<const cut_detail::Piece> pieces, std::span<const TetId> seeds, const ContactFn& scan,
+                    const PositionFn& positions, CutStepReport& rep);
+  void subdivide_pieces(std::span<const cut_detail::Piece> pieces, std::vector<TetId> seeds, const ContactFn& scan,
+                        const PositionFn& positions, bool use_front, CutStepReport& rep);
+  void improve_around_front(CutStepReport& rep);
   // Tets the grid says a step's quad may touch (its triangles cut into boxes of a few cells).
   std::vector<TetId> quad_contact(const cut_detail::Piece& local, const PositionFn& positions, double max_displacement);
   // Whether p lies in a live tet (current positions; the grid must be up to date).
