@@ -7,7 +7,7 @@
 #include <unordered_set>
 
 #include "cut/carve.h"
-#include "cut/cutter_progress.h"
+#include "cut/cutter_impl.h"
 #include "cut/cut_step.h"
 #include "cut/fragments.h"
 #include "cut/separate.h"
@@ -32,7 +32,7 @@ void add_separation(CutStepReport& rep, const SeparationResult& sep) {
 }
 }  // namespace
 
-void Cutter::keep_made(Progress& pr) const {
+void Cutter::Impl::keep_made(Progress& pr) const {
   const std::vector<TetId> added = mesh_->pending_added_tets();
   pr.made.insert(pr.made.end(), added.begin(), added.end());
   // Smoothing reshapes tets without making new ones.
@@ -48,7 +48,7 @@ void Cutter::keep_made(Progress& pr) const {
   }
 }
 
-bool Cutter::needs_improving(TetId t) const {
+bool Cutter::Impl::needs_improving(TetId t) const {
   const auto& tv = mesh_->tet_vertices(t);
   const Vec3 &p0 = mesh_->rest(tv[0]), &p1 = mesh_->rest(tv[1]), &p2 = mesh_->rest(tv[2]), &p3 = mesh_->rest(tv[3]);
   // Most tets are clearly inside both bounds: their dihedral cosines say so without the six
@@ -79,7 +79,7 @@ bool Cutter::needs_improving(TetId t) const {
 }
 
 
-Cutter::Cutter(TetMesh& mesh, CutOptions options)
+Cutter::Impl::Impl(TetMesh& mesh, CutOptions options)
     : mesh_(&mesh), opt_(std::move(options)), progress_(std::make_unique<Progress>()),
       fragment_scratch_(std::make_unique<FragmentScratch>()) {
   if (const std::string e = snap_error(opt_.snap); !e.empty()) throw InvalidArgument("cut: snap: " + e);
@@ -96,17 +96,41 @@ Cutter::Cutter(TetMesh& mesh, CutOptions options)
   grid_edits_ = mesh.counters().edits;
 }
 
+Cutter::Cutter(TetMesh& mesh, CutOptions options) : impl_(std::make_unique<Impl>(mesh, std::move(options))) {}
 Cutter::~Cutter() = default;
 Cutter::Cutter(Cutter&&) noexcept = default;
 Cutter& Cutter::operator=(Cutter&&) noexcept = default;
 
-std::size_t Cutter::waiting_tets() const {
+void Cutter::start(const BladeSegment& blade) { impl_->start(blade); }
+CutStepReport Cutter::advance(const BladeSegment& blade, const PositionFn& positions, double max_displacement) {
+  return impl_->advance(blade, positions, max_displacement);
+}
+bool Cutter::in_cut() const { return impl_->started_; }
+CutStepReport Cutter::cut_plane(const Vec3& point, const Vec3& normal, const PositionFn& positions,
+                                double max_displacement) {
+  return impl_->cut_plane(point, normal, positions, max_displacement);
+}
+CutStepReport Cutter::cut_surface(std::span<const CutTriangle> triangles, const PositionFn& positions,
+                                  double max_displacement) {
+  return impl_->cut_surface(triangles, positions, max_displacement);
+}
+CutStepReport Cutter::finish(const PositionFn& positions) { return impl_->finish(positions); }
+bool Cutter::finishing() const { return impl_->finish_left_ > 0; }
+CutStepReport Cutter::finish_more() { return impl_->finish_more(); }
+void Cutter::notify(const TopologyChange& change) { impl_->notify(change); }
+const CutOptions& Cutter::options() const { return impl_->opt_; }
+CutOptions& Cutter::options() { return impl_->opt_; }
+const BladeSegment& Cutter::blade() const { return impl_->blade_; }
+const std::vector<TetId>& Cutter::front_tets() const { return impl_->front_; }
+std::size_t Cutter::waiting_tets() const { return impl_->waiting_tets(); }
+
+std::size_t Cutter::Impl::waiting_tets() const {
   std::size_t n = 0;
   for (TetId t : progress_->waiting) n += mesh_->is_alive(t);
   return n;
 }
 
-Cutter::PositionFn Cutter::with_fresh(const PositionFn& positions) {
+Cutter::PositionFn Cutter::Impl::with_fresh(const PositionFn& positions) {
   fresh_.clear();
   if (!positions) return {};
   // The caller's positions know the vertices of the mesh it has seen; the ones this call
@@ -117,14 +141,14 @@ Cutter::PositionFn Cutter::with_fresh(const PositionFn& positions) {
   };
 }
 
-void Cutter::remember_fresh(const CutStep& step, const SeparationResult& sep, const PositionFn& positions) {
+void Cutter::Impl::remember_fresh(const CutStep& step, const SeparationResult& sep, const PositionFn& positions) {
   if (!positions) return;
   for (const auto& [v, x] : step.created_positions()) fresh_[v] = x;
   for (const SeparationResult::Split& s : sep.splits) fresh_[s.mid.idx()] = 0.5 * (positions(s.a) + positions(s.b));
   for (const auto& [v, copy] : sep.duplicates) fresh_[copy.idx()] = positions(v);
 }
 
-SeparationResult Cutter::open_faces(const CutStep& step, std::span<const CutFacePair> listed, CutStepReport& rep,
+SeparationResult Cutter::Impl::open_faces(const CutStep& step, std::span<const CutFacePair> listed, CutStepReport& rep,
                                     const PositionFn& positions, bool split_chords) {
   std::vector<CutFacePair> faces(listed.begin(), listed.end());
   if (progress_->previous) keep_specks_attached(*mesh_, faces, progress_->previous->crease);
@@ -144,9 +168,9 @@ SeparationResult Cutter::open_faces(const CutStep& step, std::span<const CutFace
   return sep;
 }
 
-void Cutter::find_detached(CutStepReport& rep) { find_detached(rep, rep.change.added_tets); }
+void Cutter::Impl::find_detached(CutStepReport& rep) { find_detached(rep, rep.change.added_tets); }
 
-void Cutter::find_detached(CutStepReport& rep, std::span<const TetId> added) {
+void Cutter::Impl::find_detached(CutStepReport& rep, std::span<const TetId> added) {
   if (fragment_starts_.empty()) return;
   std::vector<TetId> starts;
   for (TetId t : fragment_starts_)
@@ -157,7 +181,7 @@ void Cutter::find_detached(CutStepReport& rep, std::span<const TetId> added) {
   rep.fragments = find_fragments(*mesh_, starts, opt_.fragment_search_limit, *fragment_scratch_);
 }
 
-void Cutter::keep_shut_faces(std::span<const CutFacePair> shut) {
+void Cutter::Impl::keep_shut_faces(std::span<const CutFacePair> shut) {
   for (const CutFacePair& f : shut) {
     if (!mesh_->is_alive(f.a.tet)) continue;
     auto fv = mesh_->face_vertices(f.a.tet, f.a.local);
@@ -166,7 +190,7 @@ void Cutter::keep_shut_faces(std::span<const CutFacePair> shut) {
   }
 }
 
-void Cutter::revive_shut(std::vector<CutFacePair>& faces) {
+void Cutter::Impl::revive_shut(std::vector<CutFacePair>& faces) {
   std::vector<std::array<VertexId, 3>> keys = std::move(shut_faces_);
   shut_faces_.clear();
   std::sort(keys.begin(), keys.end(), [](const auto& x, const auto& y) {
@@ -199,14 +223,14 @@ void Cutter::revive_shut(std::vector<CutFacePair>& faces) {
   }
 }
 
-void Cutter::set_front(const CutStep& step, const BladeSegment& front) {
+void Cutter::Impl::set_front(const CutStep& step, const BladeSegment& front) {
   front_ = step.live_candidates();
   front_vertices_ = step.segment_vertices(front.a, front.b);
   front_segment_ = front;
   has_front_ = true;
 }
 
-void Cutter::take_record(CutStepReport& rep, bool grid_stale) {
+void Cutter::Impl::take_record(CutStepReport& rep, bool grid_stale) {
   rep.change = mesh_->take_change();
   if (!grid_stale) {
     grid_.update(*mesh_, rep.change);
@@ -216,13 +240,13 @@ void Cutter::take_record(CutStepReport& rep, bool grid_stale) {
   rep.vertices_added = rep.change.added_vertices.size();
 }
 
-void Cutter::notify(const TopologyChange& change) {
+void Cutter::Impl::notify(const TopologyChange& change) {
   if (mesh_->counters().edits == grid_edits_) return;  // nothing new (or already taken)
   grid_.update(*mesh_, change);
   grid_edits_ = mesh_->counters().edits;
 }
 
-std::vector<TetId> Cutter::first_contact(const Vec3& lo, const Vec3& hi, const PositionFn& positions,
+std::vector<TetId> Cutter::Impl::first_contact(const Vec3& lo, const Vec3& hi, const PositionFn& positions,
                                          double max_displacement, bool grid_stale) {
   if (grid_stale || !grid_.built()) grid_.build(*mesh_);
   double grow = 0;
@@ -238,7 +262,7 @@ std::vector<TetId> Cutter::first_contact(const Vec3& lo, const Vec3& hi, const P
   return grid_.query(*mesh_, lo, hi, grow + margin);
 }
 
-std::vector<TetId> Cutter::quad_contact(const Piece& local, const PositionFn& positions, double max_displacement) {
+std::vector<TetId> Cutter::Impl::quad_contact(const Piece& local, const PositionFn& positions, double max_displacement) {
   // Boxes of a few grid cells along the quad (a blade across the body has a box as large as
   // the body, a thin quad does not): the cost follows the quad's area, like the cut's.
   std::vector<TetId> out;
@@ -263,7 +287,7 @@ std::vector<TetId> Cutter::quad_contact(const Piece& local, const PositionFn& po
   return out;
 }
 
-void Cutter::start(const BladeSegment& blade) {
+void Cutter::Impl::start(const BladeSegment& blade) {
   if (!finite(blade.a) || !finite(blade.b)) throw InvalidArgument("cut: blade endpoints must be finite");
   if (!((blade.b - blade.a).norm() > 0)) throw InvalidArgument("cut: the blade's two ends are the same point");
   finish_seeds_.clear();  // a new cut: the last one's remaining improvement is dropped
@@ -285,7 +309,7 @@ void Cutter::start(const BladeSegment& blade) {
   has_front_ = false;
 }
 
-void Cutter::resume_to_blade(const PositionFn& positions, const BladeSegment& blade) {
+void Cutter::Impl::resume_to_blade(const PositionFn& positions, const BladeSegment& blade) {
   Progress& pr = *progress_;
   if (!pr.resume) return;
   const BladeSegment back = *pr.resume;
@@ -297,7 +321,7 @@ void Cutter::resume_to_blade(const PositionFn& positions, const BladeSegment& bl
   refresh_waiting(positions, front_);
 }
 
-void Cutter::complete_previous(CutStepReport& rep, const PositionFn& positions) {
+void Cutter::Impl::complete_previous(CutStepReport& rep, const PositionFn& positions) {
   if (!progress_->complete_first) return;
   resume_to_blade(positions, progress_->last_blade);
   finish_sheet(rep, positions);
@@ -308,7 +332,7 @@ void Cutter::complete_previous(CutStepReport& rep, const PositionFn& positions) 
   has_front_ = false;
 }
 
-void Cutter::improve_after(CutStepReport& rep, std::vector<TetId> seeds, std::vector<VertexId> frozen) {
+void Cutter::Impl::improve_after(CutStepReport& rep, std::vector<TetId> seeds, std::vector<VertexId> frozen) {
   if (!opt_.improve || seeds.empty()) return;
   const auto ti = std::chrono::steady_clock::now();
   ImproveOptions io = opt_.improve_options;
@@ -319,7 +343,7 @@ void Cutter::improve_after(CutStepReport& rep, std::vector<TetId> seeds, std::ve
   rep.ms_improve += ms_since(ti);
 }
 
-void Cutter::add_crease_faces(const CutStep& step, std::vector<CutFacePair>& faces) const {
+void Cutter::Impl::add_crease_faces(const CutStep& step, std::vector<CutFacePair>& faces) const {
   const Progress& pr = *progress_;
   if (!pr.previous || !pr.back_known || pr.previous->crease.empty()) return;  // no crease in the body
   std::vector<TetId> around;  // the tets at the crease, cut by either sheet or by none
@@ -336,7 +360,7 @@ void Cutter::add_crease_faces(const CutStep& step, std::vector<CutFacePair>& fac
       faces.push_back(f);
 }
 
-void Cutter::keep_shut(std::vector<TetId>& tets) const {
+void Cutter::Impl::keep_shut(std::vector<TetId>& tets) const {
   const CutMemory& mem = progress_->memory;
   auto on_sheet = [&](VertexId v) {
     auto it = mem.side.find(v.idx());
@@ -358,7 +382,7 @@ void Cutter::keep_shut(std::vector<TetId>& tets) const {
   tets = std::move(out);
 }
 
-void Cutter::refresh_waiting(const PositionFn& positions, std::span<const TetId> more) {
+void Cutter::Impl::refresh_waiting(const PositionFn& positions, std::span<const TetId> more) {
   Progress& pr = *progress_;
   std::vector<TetId> all = std::move(pr.waiting);
   all.insert(all.end(), more.begin(), more.end());
@@ -395,7 +419,7 @@ void Cutter::refresh_waiting(const PositionFn& positions, std::span<const TetId>
   }
 }
 
-void Cutter::open_stale(CutStepReport& rep, const PositionFn& positions) {
+void Cutter::Impl::open_stale(CutStepReport& rep, const PositionFn& positions) {
   if (shut_faces_.empty()) return;
   CutStep step(*mesh_, positions, opt_.snap);
   std::vector<CutFacePair> faces;
@@ -405,7 +429,7 @@ void Cutter::open_stale(CutStepReport& rep, const PositionFn& positions) {
   if (mesh_->has_pending_change()) progress_->edited = true;
 }
 
-void Cutter::cut_provisional(CutStepReport& rep, const PositionFn& positions) {
+void Cutter::Impl::cut_provisional(CutStepReport& rep, const PositionFn& positions) {
   Progress& pr = *progress_;
   if (!opt_.provisional || !pr.sheet) return;
   std::vector<TetId> waiting, closed;
@@ -447,7 +471,7 @@ void Cutter::cut_provisional(CutStepReport& rep, const PositionFn& positions) {
                                 step.live_candidates()};
 }
 
-void Cutter::take_back_provisional(CutStepReport& rep) {
+void Cutter::Impl::take_back_provisional(CutStepReport& rep) {
   if (!provisional_) return;
   ProvisionalCut prov = std::move(*provisional_);
   provisional_.reset();
@@ -495,7 +519,7 @@ void Cutter::take_back_provisional(CutStepReport& rep) {
   std::erase_if(pr.improve_queue, [&](const auto& e) { return !mesh_->is_alive(e.first); });
 }
 
-CutStepReport Cutter::advance(const BladeSegment& blade, const PositionFn& caller_positions, double max_displacement) {
+CutStepReport Cutter::Impl::advance(const BladeSegment& blade, const PositionFn& caller_positions, double max_displacement) {
   // A blade that was never placed (or was withdrawn) has no "from": refuse rather than guess
   // (this once started a cut silently, and a script missing its start() cut nothing).
   if (!started_)
@@ -526,7 +550,7 @@ CutStepReport Cutter::advance(const BladeSegment& blade, const PositionFn& calle
   return run(tris, positions, max_displacement, true);
 }
 
-std::optional<cut_detail::LocalDeformation> Cutter::local_deformation(const BladeSegment& from, const BladeSegment& to,
+std::optional<cut_detail::LocalDeformation> Cutter::Impl::local_deformation(const BladeSegment& from, const BladeSegment& to,
                                                           const PositionFn& positions, double max_displacement) {
   // The tets the blade is in and has not cut yet: whole tissue (the faces behind the blade open
   // as it deforms, and a fit across the gap would follow the opening, not the tissue).
@@ -554,7 +578,7 @@ std::optional<cut_detail::LocalDeformation> Cutter::local_deformation(const Blad
   return fit_local_deformation(*mesh_, support, positions);
 }
 
-void Cutter::start_sheet(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions) {
+void Cutter::Impl::start_sheet(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions) {
   Progress& pr = *progress_;
   pr.sheet = Sheet::start(from, to, pr.tol);
   pr.memory = CutMemory{};
@@ -574,7 +598,7 @@ void Cutter::start_sheet(const BladeSegment& from, const BladeSegment& to, const
   }
 }
 
-double Cutter::local_edge(const PositionFn& positions) const {
+double Cutter::Impl::local_edge(const PositionFn& positions) const {
   auto pos = [&](VertexId v) { return positions ? positions(v) : mesh_->rest(v); };
   double sum = 0;
   std::size_t n = 0;
@@ -589,7 +613,7 @@ double Cutter::local_edge(const PositionFn& positions) const {
   return n ? sum / double(n) : 0.0;
 }
 
-bool Cutter::in_body(const Vec3& p, const PositionFn& positions, double max_displacement) {
+bool Cutter::Impl::in_body(const Vec3& p, const PositionFn& positions, double max_displacement) {
   auto pos = [&](VertexId v) { return positions ? positions(v) : mesh_->rest(v); };
   for (TetId t : first_contact(p, p, positions, max_displacement, false)) {
     const auto& tv = mesh_->tet_vertices(t);
@@ -635,7 +659,7 @@ double segment_distance(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Ve
 
 }  // namespace
 
-Cutter::Clearance Cutter::clearance(const Vec3& a, const Vec3& b, const Vec3& normal, double reach,
+Cutter::Impl::Clearance Cutter::Impl::clearance(const Vec3& a, const Vec3& b, const Vec3& normal, double reach,
                                     const PositionFn& positions, double max_displacement) {
   auto pos = [&](VertexId v) { return positions ? positions(v) : mesh_->rest(v); };
   const double len = (b - a).norm(), exact = 1e-9 * reach, in_plane = 1e-7 * reach, close = kCreaseClearance * reach;
@@ -675,7 +699,7 @@ Cutter::Clearance Cutter::clearance(const Vec3& a, const Vec3& b, const Vec3& no
 // one that clears them most), provided it clears every edge by kCreaseClearanceMin. Else the
 // front stays where the blade left it: a move to a place that is no clearer only shuffles
 // which tets are slivers, and moves a corner for nothing (docs/cut.md#curved-paths).
-void Cutter::place_front(const BladeSegment& to, const PositionFn& positions, double max_displacement) {
+void Cutter::Impl::place_front(const BladeSegment& to, const PositionFn& positions, double max_displacement) {
   Progress& pr = *progress_;
   const BladeSegment f = pr.sheet->front();
   const Vec3 n = pr.sheet->normal(), along = f.b - f.a;
@@ -715,7 +739,7 @@ void Cutter::place_front(const BladeSegment& to, const PositionFn& positions, do
   if (best > 0 && chosen.nearest >= kCreaseClearanceMin * pr.reach) grow_to(best);
 }
 
-CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions,
+CutStepReport Cutter::Impl::sweep(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions,
                             double max_displacement) {
   const auto t0 = std::chrono::steady_clock::now();
   CutStepReport rep;
@@ -805,7 +829,7 @@ CutStepReport Cutter::sweep(const BladeSegment& from, const BladeSegment& to, co
 
 // A step whose quad is not planar (the blade turned out of its plane within the step): cut in
 // full like a one-shot surface, its front embedded for the next step to continue from.
-void Cutter::cut_quad(CutStepReport& rep, const Piece& local, const std::function<std::vector<TetId>()>& scan,
+void Cutter::Impl::cut_quad(CutStepReport& rep, const Piece& local, const std::function<std::vector<TetId>()>& scan,
                       const Walk& walk, const PositionFn& positions, const BladeSegment& to, std::vector<TetId>& seeds,
                       std::vector<VertexId>& frozen) {
   Progress& pr = *progress_;
@@ -830,7 +854,7 @@ void Cutter::cut_quad(CutStepReport& rep, const Piece& local, const std::functio
 // A step of the current sheet: the tets its quad reached are cut against the sheet, the faces
 // that can open open, and the rest wait; `seeds` and `frozen` say what the step's improvement
 // works on and must hold.
-void Cutter::step_sheet(CutStepReport& rep, const Piece& local, const std::function<std::vector<TetId>()>& scan,
+void Cutter::Impl::step_sheet(CutStepReport& rep, const Piece& local, const std::function<std::vector<TetId>()>& scan,
                         const Walk& walk, const PositionFn& positions, std::vector<TetId>& seeds, std::vector<VertexId>& frozen) {
   Progress& pr = *progress_;
   const Piece& sp = pr.sheet->piece();
@@ -884,7 +908,7 @@ void Cutter::step_sheet(CutStepReport& rep, const Piece& local, const std::funct
 }
 
 // After a step's improvement: the sheet's lists and the front follow the step's edits.
-void Cutter::keep_sheet_lists(const PositionFn& positions) {
+void Cutter::Impl::keep_sheet_lists(const PositionFn& positions) {
   Progress& pr = *progress_;
   // The sheet's bookkeeping, on this step's edits so far (the provisional pieces come after it
   // and are taken back before the next step: the sheet's lists keep the tets they came from).
@@ -926,7 +950,7 @@ void Cutter::keep_sheet_lists(const PositionFn& positions) {
   }
 }
 
-CutStepReport Cutter::cut_plane(const Vec3& point, const Vec3& normal, const PositionFn& caller_positions,
+CutStepReport Cutter::Impl::cut_plane(const Vec3& point, const Vec3& normal, const PositionFn& caller_positions,
                                 double max_displacement) {
   const PositionFn positions = with_fresh(caller_positions);
   if (!finite(point) || !finite(normal)) throw InvalidArgument("cut: plane point and normal must be finite");
@@ -942,7 +966,7 @@ CutStepReport Cutter::cut_plane(const Vec3& point, const Vec3& normal, const Pos
   return run(tris, positions, max_displacement, false);
 }
 
-CutStepReport Cutter::cut_surface(std::span<const CutTriangle> triangles, const PositionFn& caller_positions,
+CutStepReport Cutter::Impl::cut_surface(std::span<const CutTriangle> triangles, const PositionFn& caller_positions,
                                   double max_displacement) {
   const PositionFn positions = with_fresh(caller_positions);
   std::vector<CutTriangle> tris;
@@ -954,7 +978,7 @@ CutStepReport Cutter::cut_surface(std::span<const CutTriangle> triangles, const 
   return run(tris, positions, max_displacement, false);
 }
 
-CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const PositionFn& positions,
+CutStepReport Cutter::Impl::run(std::span<const CutTriangle> triangles, const PositionFn& positions,
                           double max_displacement, bool use_front) {
   const auto t0 = std::chrono::steady_clock::now();
   CutStepReport rep;
@@ -995,7 +1019,7 @@ CutStepReport Cutter::run(std::span<const CutTriangle> triangles, const Position
   return rep;
 }
 
-void Cutter::carve_pieces(std::span<const Piece> pieces, std::span<const TetId> seeds, const ContactFn& scan,
+void Cutter::Impl::carve_pieces(std::span<const Piece> pieces, std::span<const TetId> seeds, const ContactFn& scan,
                           const PositionFn& positions, CutStepReport& rep) {
   CarveResult c = carve(*mesh_, pieces, seeds, scan, positions);
   rep.tets_cut = c.removed;
@@ -1006,7 +1030,7 @@ void Cutter::carve_pieces(std::span<const Piece> pieces, std::span<const TetId> 
   fragment_starts_.insert(fragment_starts_.end(), front_.begin(), front_.end());
 }
 
-void Cutter::subdivide_pieces(std::span<const Piece> pieces, std::vector<TetId> seeds, const ContactFn& scan,
+void Cutter::Impl::subdivide_pieces(std::span<const Piece> pieces, std::vector<TetId> seeds, const ContactFn& scan,
                               const PositionFn& positions, bool use_front, CutStepReport& rep) {
   CutStep step(*mesh_, positions, opt_.snap);
   step.set_fixed(opt_.frozen);
@@ -1032,7 +1056,7 @@ void Cutter::subdivide_pieces(std::span<const Piece> pieces, std::vector<TetId> 
   if (opt_.improve && !front_.empty()) improve_around_front(rep);
 }
 
-void Cutter::improve_around_front(CutStepReport& rep) {
+void Cutter::Impl::improve_around_front(CutStepReport& rep) {
   const auto ti = std::chrono::steady_clock::now();
   ImproveOptions io = opt_.improve_options;
   // Only the front must stay exactly where it is (the next step continues from that line).

@@ -33,31 +33,17 @@
 // Edits made to the mesh outside this cutter (another cutter, improve(), fragment removal) are
 // noticed by the mesh's edit counter: pass their TopologyChange to notify() to keep the grid
 // exact in O(change), or the next first contact rebuilds it (O(mesh)).
-#include <chrono>
 #include <functional>
-#include <limits>
 #include <memory>
-#include <optional>
-#include <unordered_map>
 #include <span>
 #include <vector>
 
 #include "cut/blade.h"
-#include "cut/local_deformation.h"
 #include "cut/snap_rule.h"
-#include "cut/tet_grid.h"
 #include "mesh/tet_mesh.h"
 #include "quality/improve.h"
 
 namespace incise {
-
-namespace cut_detail {
-class CutStep;
-struct Piece;
-struct CutFacePair;
-struct SeparationResult;
-struct FragmentScratch;
-}  // namespace cut_detail
 
 enum class CutMode { Subdivide, Remove };
 
@@ -209,7 +195,7 @@ public:
   CutStepReport advance(const BladeSegment& blade, const PositionFn& positions = {},
                         double max_displacement = kUnknownDisplacement);
   // Whether a blade is placed (start() called, finish() not since): advance() may be called.
-  bool in_cut() const { return started_; }
+  bool in_cut() const;
   // One-shot cuts: a plane through the whole mesh, or a triangulated surface.
   CutStepReport cut_plane(const Vec3& point, const Vec3& normal, const PositionFn& positions = {},
                           double max_displacement = kUnknownDisplacement);
@@ -222,7 +208,7 @@ public:
   // Call it when a cut ends; start() alone forgets the front without improving it.
   CutStepReport finish(const PositionFn& positions = {});
   // Whether finish()'s improvement has operations left (finish_improve_slice > 0).
-  bool finishing() const { return finish_left_ > 0; }
+  bool finishing() const;
   // The next slice of that improvement (finish_improve_slice operations at most) around the
   // withdrawn blade's front, its edits in one record; empty when nothing is left. It ends
   // when the operations are spent, the pass has converged or a slice changed nothing (the
@@ -231,152 +217,17 @@ public:
   // Edits of the mesh made elsewhere, taken by the first-contact grid in O(change).
   void notify(const TopologyChange& change);
 
-  const CutOptions& options() const { return opt_; }
-  CutOptions& options() { return opt_; }
-  const BladeSegment& blade() const { return blade_; }
+  const CutOptions& options() const;
+  CutOptions& options();
+  const BladeSegment& blade() const;
   // Tets near the blade after the last step (where the next step's walk starts).
-  const std::vector<TetId>& front_tets() const { return front_; }
+  const std::vector<TetId>& front_tets() const;
   // Tets the blade's current sheet crosses that are not cut yet (the blade is in them).
   std::size_t waiting_tets() const;
 
 private:
-  struct Progress;  // the sheet being swept and its waiting tets (cutter.cpp)
-  // The caller's positions, plus the vertices this call made (cleared at each public call).
-  PositionFn with_fresh(const PositionFn& positions);
-  void remember_fresh(const cut_detail::CutStep& step, const cut_detail::SeparationResult& sep,
-                      const PositionFn& positions);
-  std::unordered_map<std::uint32_t, Vec3> fresh_;
-  // Separates the step's cut faces and adds what it did to the report.
-  cut_detail::SeparationResult open_faces(const cut_detail::CutStep& step, std::span<const cut_detail::CutFacePair> faces,
-                                          CutStepReport& rep, const PositionFn& positions, bool split_chords = true);
-  // The step's tets and its embedded front segment are where the next step continues.
-  void set_front(const cut_detail::CutStep& step, const BladeSegment& front);
-  // Progressive subdivision step from `from` to `to` (advance).
-  CutStepReport sweep(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions,
-                      double max_displacement);
-  // Cuts what the current sheet still has waiting, embedding its boundary; forgets the sheet.
-  // next_follows: the blade turned and the next sheet starts at this one's front (a crease).
-  void finish_sheet(CutStepReport& rep, const PositionFn& positions, bool next_follows = false);
-  // sweep()'s parts (cut/cutter.cpp): a non-planar quad cut in full, a step of the current sheet,
-  // and the sheet's lists after the step's improvement.
-  // The walk over the step's quad starts from `from` (the last front) and goes on from those
-  // of `then` (the tets the grid says the quad may touch) it did not reach.
-  struct Walk {
-    std::span<const TetId> from, then;
-  };
-  void cut_quad(CutStepReport& rep, const cut_detail::Piece& local, const std::function<std::vector<TetId>()>& scan,
-                const Walk& walk, const PositionFn& positions, const BladeSegment& to, std::vector<TetId>& seeds,
-                std::vector<VertexId>& frozen);
-  void step_sheet(CutStepReport& rep, const cut_detail::Piece& local, const std::function<std::vector<TetId>()>& scan,
-                  const Walk& walk, const PositionFn& positions, std::vector<TetId>& seeds, std::vector<VertexId>& frozen);
-  void keep_sheet_lists(const PositionFn& positions);
-  // A new sheet from `from` (a finished sheet's front, or the blade's last position) to `to`.
-  void start_sheet(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions);
-  // Cut faces an earlier sheet's finish left shut (their opening would have pinched the
-  // boundary until the next sheet opened its side): offered again at every later finish of a
-  // sheet, as corner triples (the tets around them may have been replaced since).
-  std::vector<std::array<VertexId, 3>> shut_faces_;
-  void keep_shut_faces(std::span<const cut_detail::CutFacePair> shut);
-  void revive_shut(std::vector<cut_detail::CutFacePair>& faces);
-  void open_stale(CutStepReport& rep, const PositionFn& positions);  // the shut faces alone
-  // Moving tissue (CutOptions::material_frame): the map of this cut's blade into the rest shape
-  // (set once the tissue under the blade is seen to have moved; the cut is then made in the rest
-  // shape to its finish) and where the last step put the blade there.
-  std::optional<cut_detail::LocalDeformation> map_;
-  BladeSegment rest_blade_;
-  bool rest_known_ = false;
-  std::optional<cut_detail::LocalDeformation> local_deformation(const BladeSegment& from, const BladeSegment& to,
-                                                                const PositionFn& positions, double max_displacement);
-  // A curved path's next sheet, from the last front to the blade, when one is due (finish()).
-  void resume_to_blade(const PositionFn& positions, const BladeSegment& blade);
-  // Mean edge length of (a sample of) the tets the blade is in; 0 when it is in none.
-  double local_edge(const PositionFn& positions) const;
-  // The cut faces at the crease this sheet started from (CutStep::crease_faces), added to
-  // `faces`: those neither sheet's own test finds.
-  void add_crease_faces(const cut_detail::CutStep& step, std::vector<cut_detail::CutFacePair>& faces) const;
-  // Local improvement of the region just cut; the waiting tets' vertices stay put.
-  void improve_after(CutStepReport& rep, std::vector<TetId> seeds, std::vector<VertexId> frozen);
-  // A cut start() left unfinished is completed before the next edit (cut/cutter.cpp).
-  void complete_previous(CutStepReport& rep, const PositionFn& positions);
-  bool needs_improving(TetId t) const;  // joins the per-step improvement queue
-  void keep_made(Progress& pr) const;  // adds the pending change's tets to pr.made
-  // Keeps the live tets with a face in the sheet's plane still shut (and adds their partner).
-  void keep_shut(std::vector<TetId>& tets) const;
-  void refresh_waiting(const PositionFn& positions, std::span<const TetId> more);
-  CutStepReport run(std::span<const CutTriangle> triangles, const PositionFn& positions, double max_displacement,
-                    bool use_front);
-  // run()'s two modes (the tets the pieces touch removed, or split and opened) and the
-  // improvement around a subdivided step's front; `scan` finds the first contact.
-  using ContactFn = std::function<std::vector<TetId>()>;
-  void carve_pieces(std::span<const cut_detail::Piece> pieces, std::span<const TetId> seeds, const ContactFn& scan,
-                    const PositionFn& positions, CutStepReport& rep);
-  void subdivide_pieces(std::span<const cut_detail::Piece> pieces, std::vector<TetId> seeds, const ContactFn& scan,
-                        const PositionFn& positions, bool use_front, CutStepReport& rep);
-  void improve_around_front(CutStepReport& rep);
-  // Tets the grid says a step's quad may touch (its triangles cut into boxes of a few cells).
-  std::vector<TetId> quad_contact(const cut_detail::Piece& local, const PositionFn& positions, double max_displacement);
-  // Whether p lies in a live tet (current positions; the grid must be up to date).
-  bool in_body(const Vec3& p, const PositionFn& positions, double max_displacement);
-  // At a sheet's end: grows it in its plane (up to kFrontExitReach of an edge) so that its
-  // front, the next crease, is out of the body or clear of the mesh's edges (the .cpp).
-  void place_front(const BladeSegment& to, const PositionFn& positions, double max_displacement);
-  // How clear the segment [a, b] is of the edges of the tets near it (edges it passes through
-  // exactly, and edges in the plane with this normal, do not count): the smallest distance, and
-  // how many edges are closer than kCreaseClearance * reach.
-  struct Clearance {
-    double nearest = std::numeric_limits<double>::infinity();
-    std::size_t near_edges = 0;
-  };
-  Clearance clearance(const Vec3& a, const Vec3& b, const Vec3& normal, double reach, const PositionFn& positions,
-                      double max_displacement);
-  // Tets that may touch the pieces' box in the current configuration (first contact).
-  std::vector<TetId> first_contact(const Vec3& lo, const Vec3& hi, const PositionFn& positions,
-                                   double max_displacement, bool grid_stale);
-
-  TetMesh* mesh_;
-  CutOptions opt_;
-  BladeSegment blade_;
-  bool started_ = false;
-  std::vector<TetId> front_;
-  BladeSegment front_segment_;          // where the last step's blade stopped ...
-  std::vector<VertexId> front_vertices_;  // ... and the mesh vertices along it
-  bool has_front_ = false;
-  std::unique_ptr<Progress> progress_;
-  // The provisional pieces of the last step (CutOptions::provisional): how to take them back,
-  // and, should the mesh be edited elsewhere before that (no undo then), the front they embedded.
-  struct ProvisionalCut {
-    TetMesh::UndoLog log;
-    BladeSegment front;
-    std::vector<VertexId> front_vertices;
-    std::vector<TetId> tets;
-  };
-  std::optional<ProvisionalCut> provisional_;
-  void cut_provisional(CutStepReport& rep, const PositionFn& positions);
-  void take_back_provisional(CutStepReport& rep);
-  TetGrid grid_;
-  std::uint64_t grid_edits_ = 0;  // the mesh's edit counter when the grid was last in sync
-  std::unique_ptr<cut_detail::FragmentScratch> fragment_scratch_;  // the fragment search's marks
-  // Tets beside the faces this call opened: where detached parts are looked for, once the
-  // call's edits are done (find_detached).
-  std::vector<TetId> fragment_starts_;
-  // The call's improvement replaces tets (flips, contraction, insertion), a detached part's
-  // too: its tets are collected after it, from the live starts and every tet the call added
-  // (so a caller removing or fixing the part gets its current tets). After take_change().
-  void find_detached(CutStepReport& rep);
-  void find_detached(CutStepReport& rep, std::span<const TetId> added);  // before take_change()
-  // finish()'s improvement still to come (finish_more): its region and operations left.
-  std::vector<TetId> finish_seeds_;
-  // Its first phase, the repair: the tets the drag made that are short of the step queue's
-  // bounds (with the region's), to those bounds only; empty once done.
-  std::vector<TetId> repair_seeds_;
-  int finish_left_ = 0;
-  // One slice of the finish improvement on finish_seeds_ (improvement only: no cut).
-  void improve_finish_slice(CutStepReport& rep, int work);
-  void keep_finish_seeds(const TopologyChange& change);  // the slice's new tets join the region
-  void end_finish_record(CutStepReport& rep, bool grid_stale, std::chrono::steady_clock::time_point t0);
-  // The call's edits taken into rep.change and its counts; the grid follows them unless it was
-  // stale before the call (the next first contact rebuilds it).
-  void take_record(CutStepReport& rep, bool grid_stale);
+  struct Impl;  // the cut's state and its steps (cut/cutter_impl.h, internal to cut/)
+  std::unique_ptr<Impl> impl_;
 };
 
 }  // namespace incise

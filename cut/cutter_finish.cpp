@@ -5,7 +5,7 @@
 
 #include "cut/cut_step.h"
 #include "cut/cutter.h"
-#include "cut/cutter_progress.h"
+#include "cut/cutter_impl.h"
 #include "cut/separate.h"
 #include "mesh/clock.h"
 #include "mesh/errors.h"
@@ -15,7 +15,7 @@ namespace incise {
 
 using namespace cut_detail;
 
-void Cutter::finish_sheet(CutStepReport& rep, const PositionFn& positions, bool next_follows) {
+void Cutter::Impl::finish_sheet(CutStepReport& rep, const PositionFn& positions, bool next_follows) {
   Progress& pr = *progress_;
   if (!pr.sheet) {
     open_stale(rep, positions);
@@ -63,7 +63,7 @@ void Cutter::finish_sheet(CutStepReport& rep, const PositionFn& positions, bool 
   if (mesh_->has_pending_change()) pr.edited = true;
 }
 
-CutStepReport Cutter::finish(const PositionFn& caller_positions) {
+CutStepReport Cutter::Impl::finish(const PositionFn& caller_positions) {
   const auto t0 = std::chrono::steady_clock::now();
   // A cut made in the rest shape (moving tissue) is finished there.
   const PositionFn positions = with_fresh(map_ ? PositionFn{} : caller_positions);
@@ -113,14 +113,14 @@ CutStepReport Cutter::finish(const PositionFn& caller_positions) {
 }
 
 // finish() and finish_more(): the record taken, the grid kept exact, the figures filled in.
-void Cutter::end_finish_record(CutStepReport& rep, bool grid_stale, std::chrono::steady_clock::time_point t0) {
+void Cutter::Impl::end_finish_record(CutStepReport& rep, bool grid_stale, std::chrono::steady_clock::time_point t0) {
   take_record(rep, grid_stale);
   find_detached(rep);
   keep_finish_seeds(rep.change);
   rep.ms = ms_since(t0);
 }
 
-void Cutter::improve_finish_slice(CutStepReport& rep, int work) {
+void Cutter::Impl::improve_finish_slice(CutStepReport& rep, int work) {
   work = std::min(work, finish_left_);
   std::erase_if(finish_seeds_, [&](TetId t) { return !mesh_->is_alive(t); });
   std::erase_if(repair_seeds_, [&](TetId t) { return !mesh_->is_alive(t); });
@@ -181,8 +181,8 @@ void Cutter::improve_finish_slice(CutStepReport& rep, int work) {
   }
 }
 
-void Cutter::keep_finish_seeds(const TopologyChange& change) {
-  if (!finishing()) return;
+void Cutter::Impl::keep_finish_seeds(const TopologyChange& change) {
+  if (finish_left_ <= 0) return;
   // A slice that changed nothing leaves the next one the same mesh, seeds and options: it
   // would spend its operations on the same failed attempts, frame after frame
   // (docs/cut.md#the-defaults). The improvement is done. Under
@@ -204,9 +204,9 @@ void Cutter::keep_finish_seeds(const TopologyChange& change) {
   }
 }
 
-CutStepReport Cutter::finish_more() {
+CutStepReport Cutter::Impl::finish_more() {
   CutStepReport rep;
-  if (!finishing()) return rep;
+  if (finish_left_ <= 0) return rep;
   if (mesh_->has_pending_change())
     throw InvalidArgument("cut: the mesh has edits not yet taken (call take_change() before finish_more())");
   const auto t0 = std::chrono::steady_clock::now();

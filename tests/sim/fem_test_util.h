@@ -116,6 +116,16 @@ inline double max_abs(const Eigen::VectorXd& v) { return v.size() ? v.cwiseAbs()
 // Shared by the nodal-averaged and edge-smoothed tests (their own namespace: other FEM tests
 // have helpers of these names).
 namespace smoothed {
+// The jittered 2 x 1 x 1 box (6 x 3 x 3 cells) with every third tet of label 2 (two_materials'
+// hard one): the formulations' consistency checks against their assembled matrices.
+inline TetMesh two_label_box() {
+  TetMesh m = make_box(Vec3(2, 1, 1), {6, 3, 3});
+  jitter(m, 0.25, 5);
+  for (TetId t : m.tets())
+    if (t.idx() % 3 == 0) m.set_label(t, 2);
+  return m;
+}
+
 inline MaterialTable two_materials() {
   Material soft{2e4, 0.49, 900};
   Material hard{5e7, 0.2, 1900};

@@ -24,10 +24,7 @@ constexpr Formulation kEdge = Formulation::EdgeSmoothed;
 
 TEST_CASE("edge-smoothed: K x, b_R and f_int match the assembled matrix, which has the rigid modes as kernel",
           "[fem][edge]") {
-  TetMesh m = make_box(Vec3(2, 1, 1), {6, 3, 3});
-  jitter(m, 0.25, 5);
-  for (TetId t : m.tets())
-    if (t.idx() % 3 == 0) m.set_label(t, 2);
+  TetMesh m = two_label_box();
   std::mt19937 rng(3);
   for (FemKind kind : {FemKind::Linear, FemKind::Corotational}) {
     INFO("kind " << int(kind));
