@@ -5,7 +5,8 @@
 #                                         P/include/incise, so consumers write the project's
 #                                         own includes ("mesh/tet_mesh.h")
 #   P/lib/cmake/incise/                   package config: find_package(incise) gives
-#                                         incise::mesh, ::quality, ::cut, ::sim, ::scene (and ::tetra)
+#                                         incise::mesh, ::quality, ::cut, ::sim, ::scene (and ::tetra);
+#                                         ::sim links ::sim_linalg, ::sim_material, ::sim_springs
 #   P/lib/python3/dist-packages/incise/   the Python module (python/CMakeLists.txt)
 # Everything is relative to P (relocatable). The static libraries carry their private link
 # dependencies (assimp, zlib, CGAL's gmp/mpfr, OpenVDB) as link-only entries; the package
@@ -16,7 +17,8 @@ include(CMakePackageConfigHelpers)
 set(INCISE_INSTALL_CMAKEDIR ${CMAKE_INSTALL_LIBDIR}/cmake/incise)
 set(INCISE_INSTALL_INCLUDEDIR ${CMAKE_INSTALL_INCLUDEDIR}/incise)
 
-set(_incise_targets incise_mesh incise_quality incise_cut incise_sim incise_scene incise_warnings)
+set(_incise_targets incise_mesh incise_quality incise_cut incise_sim_linalg incise_sim_material incise_sim_springs incise_sim
+    incise_scene incise_warnings)
 set(INCISE_PACKAGE_TETRA OFF)
 if(TARGET incise_tetra)
   list(APPEND _incise_targets incise_tetra incise_openvdb)
