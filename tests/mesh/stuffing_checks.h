@@ -252,6 +252,35 @@ void check_dihedral_range(const char* what) {
   CHECK(g_max_dihedral <= kStuffingMaxDihedral);
 }
 
+// A capsule of radius r along `axis` through the origin's lattice line, in a box whose lower
+// corner sits `shift` cells off the lattice (0: the line runs through cube centres, 0.5:
+// through corners): both ends of long lattice edges inside and the opposite long edge outside.
+Shape lattice_capsule(int axis, double r, double shift, double h) {
+  Vec3 a = Vec3::Zero(), b = Vec3::Zero();
+  a[axis] = -0.52;
+  b[axis] = 0.47;
+  Sdf capsule = [=](const Vec3& p) {
+    const Vec3 d = b - a;
+    const double t = std::clamp((p - a).dot(d) / d.squaredNorm(), 0.0, 1.0);
+    return (p - (a + t * d)).norm() - r;
+  };
+  return Shape{"capsule", capsule, 0, Vec3::Constant(-(6.5 - shift) * h), Vec3::Constant(0.8), 1.0, 1, 2};
+}
+
+// The unit sphere in a box that cuts off its upper half: the mesh is the intersection, valid,
+// the half ball's volume within `tol`, nothing above the box.
+void check_clipped_sphere(bool graded, double h, double tol) {
+  StuffingOptions opt;
+  opt.cell_size = h;
+  opt.graded = graded;
+  TetMesh m = isosurface_stuffing(sphere(Vec3::Zero(), 1.0), Vec3(-1.5, -1.5, -1.5), Vec3(1.5, 1.5, 0.0), opt);
+  m.validate({.check_orientation = true, .check_manifold_boundary = true});
+  CHECK(m.total_volume() == Approx(2.0 / 3 * kPi).epsilon(tol));
+  double top = -1e300;
+  for (VertexId v : m.vertices()) top = std::max(top, m.rest(v).z());
+  CHECK(top <= 1e-9);
+}
+
 // A request far over max_tets is refused with an estimate and the option to raise.
 void check_refused_as_too_large(const std::function<void()>& request) {
   try {
@@ -265,3 +294,8 @@ void check_refused_as_too_large(const std::function<void()>& request) {
 }
 
 }  // namespace
+
+// The test cases every mode runs alike, named with the mode's prefix and tags.
+#define INCISE_STUFFING_SHARED_TESTS(prefix, tags)                                                           \
+  TEST_CASE(prefix "analytic shapes at several resolutions and scales", tags "[long]") { check_shapes_converge(); } \
+  TEST_CASE(prefix "extreme scales x1e-8 and x1e8", tags) { check_extreme_scales(); }

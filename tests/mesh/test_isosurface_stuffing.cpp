@@ -2,17 +2,10 @@
 // boundary on the isosurface, topology of the boundary, over analytic shapes and scales.
 #include <catch2/catch.hpp>
 
-#include "mesh/errors.h"
-#include "mesh/isosurface_stuffing.h"
-
 constexpr bool kGraded = false;  // stuff() and check() default to this mode
 #include "tests/mesh/stuffing_checks.h"
 
-using namespace incise;
-
-TEST_CASE("stuffing: analytic shapes at several resolutions and scales", "[stuffing][long]") { check_shapes_converge(); }
-
-TEST_CASE("stuffing: extreme scales x1e-8 and x1e8", "[stuffing]") { check_extreme_scales(); }
+INCISE_STUFFING_SHARED_TESTS("stuffing: ", "[stuffing]")
 
 TEST_CASE("stuffing: sphere at h = r/20 and the same sphere in a huge box", "[stuffing]") {
   Shape s = shapes()[0];
@@ -52,22 +45,9 @@ TEST_CASE("stuffing: thin capsules along lattice lines (inside long edge, outsid
   for (double radius : {0.3, 0.35, 0.4})
     for (int axis = 0; axis < 3; ++axis)
       for (double shift : {0.0, 0.5}) {  // through centres, through corners
-        Vec3 a = Vec3::Zero(), b = Vec3::Zero();
-        a[axis] = -0.52;
-        b[axis] = 0.47;
-        double r = radius * h;
-        Sdf capsule = [=](const Vec3& p) {
-          Vec3 d = b - a;
-          double t = std::clamp((p - a).dot(d) / d.squaredNorm(), 0.0, 1.0);
-          return (p - (a + t * d)).norm() - r;
-        };
-        Vec3 lo = Vec3::Constant(-(6.5 - shift) * h), hi = Vec3::Constant(0.8);
-        Shape s{"capsule", capsule, 0, lo, hi, 1.0, 1, 2};
+        const Shape s = lattice_capsule(axis, radius * h, shift, h);
         INFO("radius/h " << radius << " axis " << axis << " shift " << shift);
-        StuffingOptions opt;
-        opt.cell_size = h;
-        TetMesh m = isosurface_stuffing(capsule, lo, hi, opt);
-        check(m, s, h);
+        check(stuff(s, h), s, h);
       }
 }
 
@@ -84,15 +64,7 @@ TEST_CASE("stuffing: box with faces on lattice planes (exact zeros at lattice po
 }
 
 TEST_CASE("stuffing: object clipped by the domain box", "[stuffing]") {
-  // Half of the sphere sticks out of the box: the mesh is the intersection, still valid.
-  StuffingOptions opt;
-  opt.cell_size = 0.1;
-  TetMesh m = isosurface_stuffing(sphere(Vec3::Zero(), 1.0), Vec3(-1.5, -1.5, -1.5), Vec3(1.5, 1.5, 0.0), opt);
-  m.validate({.check_orientation = true, .check_manifold_boundary = true});
-  CHECK(m.total_volume() == Approx(2.0 / 3 * kPi).epsilon(0.03));
-  double top = -1e300;
-  for (VertexId v : m.vertices()) top = std::max(top, m.rest(v).z());
-  CHECK(top <= 1e-9);
+  check_clipped_sphere(false, 0.1, 0.03);  // half of the sphere sticks out of the box
 }
 
 TEST_CASE("stuffing: bad options and empty results are refused", "[stuffing]") {

@@ -5,17 +5,10 @@
 #include <catch2/catch.hpp>
 #include <cstdlib>
 
-#include "mesh/errors.h"
-#include "mesh/isosurface_stuffing.h"
-
 constexpr bool kGraded = true;  // stuff() and check() default to this mode
 #include "tests/mesh/stuffing_checks.h"
 
-using namespace incise;
-
-TEST_CASE("graded stuffing: analytic shapes at several resolutions and scales", "[stuffing][graded][long]") { check_shapes_converge(); }
-
-TEST_CASE("graded stuffing: extreme scales x1e-8 and x1e8", "[stuffing][graded]") { check_extreme_scales(); }
+INCISE_STUFFING_SHARED_TESTS("graded stuffing: ", "[stuffing][graded]")
 
 TEST_CASE("graded stuffing: far fewer tets than uniform, coarse inside, same boundary", "[stuffing][graded]") {
   Shape s = shapes()[0];
@@ -61,16 +54,7 @@ TEST_CASE("graded stuffing: thin capsules, aligned box, box clipping", "[stuffin
   for (double radius : {0.3, 0.4})
     for (int axis = 0; axis < 3; ++axis)
       for (double shift : {0.0, 0.5}) {
-        Vec3 a = Vec3::Zero(), b = Vec3::Zero();
-        a[axis] = -0.52;
-        b[axis] = 0.47;
-        double r = radius * h;
-        Sdf capsule = [=](const Vec3& p) {
-          Vec3 d = b - a;
-          double t = std::clamp((p - a).dot(d) / d.squaredNorm(), 0.0, 1.0);
-          return (p - (a + t * d)).norm() - r;
-        };
-        Shape s{"capsule", capsule, 0, Vec3::Constant(-(6.5 - shift) * h), Vec3::Constant(0.8), 1.0, 1, 2};
+        const Shape s = lattice_capsule(axis, radius * h, shift, h);
         INFO("radius/h " << radius << " axis " << axis << " shift " << shift);
         check(stuff(s, h), s, h);
       }
@@ -82,15 +66,7 @@ TEST_CASE("graded stuffing: thin capsules, aligned box, box clipping", "[stuffin
     CHECK(c.volume == Approx(aligned.volume).epsilon(1e-9));
   }
 
-  StuffingOptions opt;
-  opt.cell_size = 0.05;
-  opt.graded = true;
-  TetMesh m = isosurface_stuffing(sphere(Vec3::Zero(), 1.0), Vec3(-1.5, -1.5, -1.5), Vec3(1.5, 1.5, 0.0), opt);
-  m.validate({.check_orientation = true, .check_manifold_boundary = true});
-  CHECK(m.total_volume() == Approx(2.0 / 3 * kPi).epsilon(0.02));
-  double top = -1e300;
-  for (VertexId v : m.vertices()) top = std::max(top, m.rest(v).z());
-  CHECK(top <= 1e-9);
+  check_clipped_sphere(true, 0.05, 0.02);
 }
 
 TEST_CASE("graded stuffing: sdf off its contract still gives a valid mesh", "[stuffing][graded]") {
