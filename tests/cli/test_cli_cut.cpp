@@ -297,10 +297,10 @@ TEST_CASE("incise cut keeps every label's volume to rounding unless --no-exact-v
 
 TEST_CASE("incise cut --path: a half circle through the imaged organ in 732 steps cuts it through", "[cli][cut][scale]") {
   // bench_cut --only curved-organ's half circle at a twentieth of an edge per step, on the
-  // organ meshed from the sample image. The drag makes a few hundred creases; at one of them a
-  // vertex the next sheet cut lay a hair (within the snap distance) off the previous sheet on
-  // the far side of it, so a flat tet between the two sheets stayed joined to both sides and
-  // the organ stayed in one piece (CutStep::crease_faces; docs/cut.md#curved-paths).
+  // organ meshed from the sample image. At one of its creases a vertex one sheet made lay
+  // within the other sheet's snap distance of it, on the far side of the crease; judged a hair
+  // off the union, it left a flat tet between the two sheets joined to both sides, and the
+  // organ in one piece (CutStep::crease_faces; docs/cut.md#curved-paths).
   const fs::path dir = scratch_dir("cli_cut_organ_arc");
   const std::string organ = (dir / "organ.vtu").string(), out = (dir / "cut.vtu").string();
   const fs::path image = fs::path(INCISE_SOURCE_DIR) / "samples" / "liver.inr.gz";
