@@ -155,15 +155,14 @@ VertexId CutStep::insert_point(TetId t, std::array<double, 4> w) {
     if (x < kSnapFloor) x = 0;
   const double sum = w[0] + w[1] + w[2] + w[3];
   const auto tv = mesh_.tet_vertices(t);
-  if (!(sum > 0))  // every weight snapped: the nearest vertex
-    return tv[std::size_t(std::max_element(w.begin(), w.end()) - w.begin())];
+  auto nearest = [&] { return tv[std::size_t(std::max_element(w.begin(), w.end()) - w.begin())]; };
+  if (!(sum > 0)) return nearest();  // every weight snapped
   for (double& x : w) x /= sum;
   int nz = 0;
   for (double x : w) nz += x > 0;
-  if (nz == 1) return tv[std::size_t(std::max_element(w.begin(), w.end()) - w.begin())];
+  if (nz == 1) return nearest();
   const std::optional<VertexId> p = nz == 2 ? split_on_edge(t, w) : nz == 3 ? split_on_face(t, w) : split_in_tet(t, w);
-  // Splits whose children would be flat snap to the nearest vertex instead.
-  if (!p) return tv[std::size_t(std::max_element(w.begin(), w.end()) - w.begin())];
+  if (!p) return nearest();  // a child would be flat: the nearest vertex instead
   note_new_vertex(*p);
   return *p;
 }
