@@ -79,6 +79,7 @@ void FemModel::grow() {
     rho_.reserve(room);
     quat_.reserve(room);
     force_.reserve(room);
+    if (nodal_averaged()) vgrad_.reserve(4 * room);
   }
   if (nt > tet_capacity_) {
     alive_.resize(nt, 0);
@@ -94,6 +95,7 @@ void FemModel::grow() {
     if (nodal_averaged()) {
       div_.resize(nt, 0.0);
       pbar_.resize(nt, 0.0);
+      vgrad_.resize(4 * nt, Eigen::Vector3d::Zero());
     }
     if (edge_smoothed()) {
       tet_edges_.resize(nt);
@@ -122,6 +124,8 @@ void FemModel::grow() {
       nkv_.resize(cap, 0.0);
       ptheta_.resize(cap, 0.0);
       ring_mark_.resize(cap, 0);
+      ring_.resize(cap);
+      ring_at_.resize(cap);
     }
     vertex_capacity_ = cap;
   }
@@ -155,6 +159,7 @@ void FemModel::compute_tet(std::uint32_t ti) {
   rho_[ti] = m.density;
   quat_[ti].setIdentity();  // R = I, as the kernel's add() starts
   alive_[ti] = 1;
+  if (nodal_averaged()) volume_gradients(ti);
 }
 
 void FemModel::compute_vertex(std::uint32_t vi) {
@@ -174,6 +179,7 @@ void FemModel::compute_vertex(std::uint32_t vi) {
   }
   iso_[vi] = iso;
   mass_.segment<3>(3 * vi).setConstant(m);
+  if (nodal_averaged()) build_ring(vi);
   vertex_block(vi);
 }
 
@@ -231,7 +237,11 @@ void FemModel::apply(const TopologyChange& change) {
     work_.edges_updated += edges.size();
   }
   for (VertexId v : change.removed_vertices) {
-    if (nodal_averaged()) nvol_[v.idx()] = nkv_[v.idx()] = 0;
+    if (nodal_averaged()) {
+      nvol_[v.idx()] = nkv_[v.idx()] = 0;
+      ring_[v.idx()].clear();
+      ring_at_[v.idx()].clear();
+    }
     corner_slots_[v.idx()].clear();
     iso_[v.idx()] = 0;
     blocks_[v.idx()].setZero();

@@ -202,6 +202,8 @@ private:
   void nodal_volume_of(std::uint32_t v);     // nvol_, nkv_ from the incident tets
   void refresh_ring(const TopologyChange& change);  // diagonal blocks of the touched 1-ring
   void volumetric_block(std::uint32_t v, Eigen::Matrix3d& blk) const;  // adds B^T B's block (v, v)
+  void volume_gradients(std::uint32_t t);  // vgrad_ of a tet from its rotation
+  void build_ring(std::uint32_t v);        // ring_, ring_at_ from the vertex's corner slots
   // The nodal-averaged volumetric term in three passes. Per tet div_t: of x (R^T H_t(x) traced)
   // when x is given, plus tr(R_t) - 3 (the rotation's own volumetric strain) when `rotation`.
   // Leaves per tet pbar_t in pbar_ and adds the corner forces sign V_t pbar_t R_t grad N_j
@@ -256,6 +258,14 @@ private:
   // NodalAveraged, per vertex: V_a and kappa_a V_a; scratch of the volumetric passes.
   std::vector<double> nvol_, nkv_;
   mutable std::vector<double> div_, pbar_;  // per tet
+  // Per corner (slot 4 t + j): (V_t / 4) R_t grad N_j, the terms the volumetric blocks and B's rows
+  // sum (each tet's four once per relinearization, not once per vertex of its 2-ring).
+  std::vector<Eigen::Vector3d> vgrad_;
+  // Per vertex: the vertices of its star (ring_), and per corner slot the positions in ring_ of
+  // the slot's tet's four vertices (ring_at_, four a slot): the volumetric block sums each
+  // corner's gradient by position, with no lookup by vertex id. Rebuilt with the corner slots.
+  std::vector<std::vector<std::uint32_t>> ring_;
+  std::vector<std::vector<std::uint16_t>> ring_at_;
   std::vector<std::uint8_t> vertex_mark_;    // update_rotations_partial: vertices already listed
   mutable std::vector<double> ptheta_;      // per vertex: kappa_a theta_a
   std::vector<std::uint8_t> ring_mark_;     // per vertex, all clear between apply() calls

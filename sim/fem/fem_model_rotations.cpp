@@ -182,6 +182,18 @@ void FemModel::relinearize(const Eigen::VectorXd& u, bool exact) {
       for (int i = 0; i < 4; ++i) rot->q[i][k] = l.q[i][k];
       quat_[tets[k]] = Eigen::Quaterniond(l.q[0][k], l.q[1][k], l.q[2][k], l.q[3][k]);
     }
+    // The volume gradients are the corner terms rescaled: c_j = sqrt(V (mu + lambda)) R grad N_j.
+    if (nodal_averaged())
+      for (std::size_t k = 0; k < n; ++k) {
+        const double s = std::sqrt(t.vmu[k] + t.vlam[k]);
+        if (!(s > 0)) {
+          volume_gradients(tets[k]);
+          continue;
+        }
+        const double scale = vol_[tets[k]] / (4 * s);
+        Eigen::Vector3d* h = &vgrad_[4 * std::size_t(tets[k])];
+        for (int j = 0; j < 4; ++j) h[j] = scale * Eigen::Vector3d(t.c[3 * j][k], t.c[3 * j + 1][k], t.c[3 * j + 2][k]);
+      }
     // Corner by corner: consecutive tets share vertices (as the product's scatter).
     for (int j = 0; j < 4; ++j)
       for (std::size_t k = 0; k < n; ++k) {
@@ -288,6 +300,7 @@ void FemModel::update_rotation_packets(const Eigen::VectorXd& u, bool exact, std
         const Eigen::Quaterniond q(l.q[0][k], l.q[1][k], l.q[2][k], l.q[3][k]);
         quat_[ti] = q;
         kernel_.set_rotation(ti, q);  // no two threads write the same slot
+        if (nodal_averaged()) volume_gradients(ti);
       }
     }
     stats.add(polar, steps);

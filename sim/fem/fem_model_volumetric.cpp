@@ -26,80 +26,66 @@ void FemModel::nodal_volume_of(std::uint32_t vi) {
   nkv_[vi] = kv;
 }
 
-namespace {
-// 3-vectors summed per vertex of one vertex's 1-ring: open addressing (a list searched linearly
-// was most of the volumetric blocks' time: docs/solver.md#nodal-averaged-product), cleared by
-// the slots used.
-class RingSums {
-public:
-  Eigen::Vector3d& at(std::uint32_t w) {
-    if (2 * (used_.size() + 1) > key_.size()) grow();
-    std::size_t i = slot(w);
-    if (key_[i] == kEmpty) {
-      key_[i] = w;
-      val_[i].setZero();
-      used_.push_back(std::uint32_t(i));
-    }
-    return val_[i];
+void FemModel::volume_gradients(std::uint32_t ti) {
+  for (int j = 0; j < 4; ++j) {
+    Eigen::Vector3d h = (vol_[ti] / 4) * shape_gradient(bm_[ti], j);
+    if (kind_ == FemKind::Corotational) h = quat_[ti] * h;
+    vgrad_[4 * std::size_t(ti) + std::size_t(j)] = h;
   }
-  template <class F>
-  void for_each(F&& f) const {
-    for (std::uint32_t i : used_) f(key_[i], val_[i]);
-  }
-  void clear() {
-    for (std::uint32_t i : used_) key_[i] = kEmpty;
-    used_.clear();
-  }
+}
 
-private:
-  static constexpr std::uint32_t kEmpty = 0xffffffffu;
-  std::size_t slot(std::uint32_t w) const {
-    const std::size_t mask = key_.size() - 1;
-    std::size_t i = (w * 2654435761u) & mask;
-    while (key_[i] != kEmpty && key_[i] != w) i = (i + 1) & mask;
-    return i;
-  }
-  void grow() {
-    std::vector<std::pair<std::uint32_t, Eigen::Vector3d>> old;
-    for (std::uint32_t i : used_) old.emplace_back(key_[i], val_[i]);
-    key_.assign(std::max<std::size_t>(64, 2 * key_.size()), kEmpty);
-    val_.resize(key_.size());
-    used_.clear();
-    for (const auto& [w, v] : old) at(w) = v;
-  }
-  std::vector<std::uint32_t> key_, used_;
-  std::vector<Eigen::Vector3d> val_;
-};
-}  // namespace
+void FemModel::build_ring(std::uint32_t vi) {
+  thread_local std::vector<std::uint32_t> pos;  // by vertex id: position in ring_[vi], or none
+  constexpr std::uint32_t kNone = 0xffffffffu;
+  auto& ring = ring_[vi];
+  auto& at = ring_at_[vi];
+  ring.clear();
+  at.clear();
+  for (std::uint32_t slot : corner_slots_[vi])
+    for (std::uint32_t a : verts_[slot / 4]) {
+      if (a >= pos.size()) pos.resize(std::size_t(a) + 1, kNone);
+      if (pos[a] == kNone) {
+        pos[a] = std::uint32_t(ring.size());
+        ring.push_back(a);
+      }
+      if (pos[a] > 0xffffu) throw InvalidMesh("fem: vertex " + std::to_string(vi) + " has over 65,536 neighbours");
+      at.push_back(std::uint16_t(pos[a]));
+    }
+  for (std::uint32_t a : ring) pos[a] = kNone;
+}
 
 // Block (v, v) of B^T B = sum_a kappa_a V_a (d theta_a / dx_v)(d theta_a / dx_v)^T over the
 // vertices a sharing a tet with v, d theta_a / dx_v = (1 / V_a) sum_{t∋a,v} (V_t / 4) R_t grad N_v.
 void FemModel::volumetric_block(std::uint32_t vi, Eigen::Matrix3d& blk) const {
-  thread_local RingSums ring;
-  ring.clear();
-  for (std::uint32_t slot : corner_slots_[vi]) {
-    const std::uint32_t ti = slot / 4;
-    Eigen::Vector3d h = (vol_[ti] / 4) * shape_gradient(bm_[ti], int(slot % 4));
-    if (kind_ == FemKind::Corotational) h = quat_[ti] * h;
-    for (std::uint32_t a : verts_[ti]) ring.at(a) += h;
+  const auto& slots = corner_slots_[vi];
+  const auto& ring = ring_[vi];
+  const std::uint16_t* at = ring_at_[vi].data();
+  thread_local std::vector<Eigen::Vector3d> sums;
+  sums.assign(ring.size(), Eigen::Vector3d::Zero());
+  for (std::size_t k = 0; k < slots.size(); ++k) {
+    const Eigen::Vector3d& h = vgrad_[slots[k]];
+    for (std::size_t j = 0; j < 4; ++j) sums[at[4 * k + j]] += h;
   }
-  ring.for_each([&](std::uint32_t a, const Eigen::Vector3d& s) {
-    if (nvol_[a] > 0) blk.noalias() += (nkv_[a] / (nvol_[a] * nvol_[a])) * s * s.transpose();
-  });
+  for (std::size_t i = 0; i < ring.size(); ++i) {
+    const std::uint32_t a = ring[i];
+    if (nvol_[a] > 0) blk.noalias() += (nkv_[a] / (nvol_[a] * nvol_[a])) * sums[i] * sums[i].transpose();
+  }
 }
 
 void FemModel::nodal_b_row(std::uint32_t a, std::vector<std::pair<std::uint32_t, Eigen::Vector3d>>& row) const {
   row.clear();
   if (!nodal_averaged() || a >= mesh_->vertex_capacity() || !mesh_->is_alive(VertexId(a)) || !(nvol_[a] > 0)) return;
   const double w = std::sqrt(nkv_[a]) / nvol_[a];  // sqrt(kappa_a V_a) / V_a
-  thread_local RingSums sums;
-  sums.clear();
-  for (TetId t : mesh_->incident_tets(VertexId(a))) {
-    const std::uint32_t ti = t.idx();
-    const Eigen::Matrix3d r = quat_[ti].toRotationMatrix();
-    for (int j = 0; j < 4; ++j) sums.at(verts_[ti][std::size_t(j)]) += (w * vol_[ti] / 4) * (r * shape_gradient(bm_[ti], j));
+  const auto& slots = corner_slots_[a];
+  const auto& ring = ring_[a];
+  const std::uint16_t* at = ring_at_[a].data();
+  row.resize(ring.size());
+  for (std::size_t i = 0; i < ring.size(); ++i) row[i] = {ring[i], Eigen::Vector3d::Zero()};
+  for (std::size_t k = 0; k < slots.size(); ++k) {
+    const std::size_t ti = slots[k] / 4;
+    for (std::size_t j = 0; j < 4; ++j) row[at[4 * k + j]].second += vgrad_[4 * ti + j];
   }
-  sums.for_each([&](std::uint32_t v, const Eigen::Vector3d& g) { row.emplace_back(v, g); });
+  for (auto& [v, g] : row) g *= w;
 }
 
 Eigen::SparseMatrix<double, Eigen::RowMajor> FemModel::nodal_b() const {
