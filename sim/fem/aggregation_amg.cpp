@@ -235,14 +235,23 @@ void AggregationAmg::patch(const LinearOperator& a, const std::vector<std::uint8
     if (v < nv && agg_.of[v] < 0) pool.push_back(v);
   std::sort(pool.begin(), pool.end());
   pool.erase(std::unique(pool.begin(), pool.end()), pool.end());
-  std::vector<std::uint8_t> eligible(nv, 0);  // read only at pool vertices and their neighbours
+  // Read only at pool vertices and their neighbours: set there, and cleared there after (kept
+  // between patches, so that a patch does not allocate one entry per vertex of the mesh).
+  std::vector<std::uint8_t>& eligible = eligible_;
+  if (eligible.size() < nv) eligible.resize(nv, 0);
+  std::vector<std::uint32_t> marked;
   for (std::uint32_t v : pool) {
     eligible[v] = all_free(free, v);
+    marked.push_back(v);
     for (TetId t : model_->mesh().incident_tets(VertexId(v)))
-      for (VertexId w : model_->mesh().tet_vertices(t)) eligible[w.idx()] = all_free(free, w.idx());
+      for (VertexId w : model_->mesh().tet_vertices(t)) {
+        eligible[w.idx()] = all_free(free, w.idx());
+        marked.push_back(w.idx());
+      }
   }
   const std::size_t first = agg_.count();
   aggregate_more(model_->mesh(), eligible, opt_.ring, pool, agg_);
+  for (std::uint32_t v : marked) eligible[v] = 0;
   const std::size_t na = agg_.count();
   centre_.resize(na, Eigen::Vector3d::Zero());
   scale_.resize(na, 1.0);

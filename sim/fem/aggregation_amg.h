@@ -154,6 +154,7 @@ private:
   // Per aggregate: its row of A_c, (aggregate, k_a x k_b block in the top-left of a 6x6).
   std::vector<std::vector<std::pair<std::int32_t, Eigen::Matrix<double, 6, 6>>>> rows_;
   std::vector<std::uint32_t> pending_;  // vertices named by changes since the last build/patch
+  std::vector<std::uint8_t> eligible_;   // patch(): per vertex, all zero between patches
   std::unique_ptr<Coarse> coarse_;
 
   mutable Eigen::VectorXd t1_, t2_;

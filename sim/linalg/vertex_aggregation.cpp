@@ -24,14 +24,21 @@ void aggregate_more(const TetMesh& mesh, const std::vector<std::uint8_t>& eligib
           if (w.idx() != v && ok(w.idx())) adj.push_back(w.idx());
     start[k + 1] = std::uint32_t(adj.size());
   }
-  std::vector<std::int32_t> slot_of;  // pool index of a vertex, for the ring growth
+  // Pool index of a vertex, for the ring growth: a table by vertex id kept per thread, set at
+  // the pool's vertices and reset there on return (a patch's pool is a few hundred vertices of
+  // the mesh: no allocation as long as the mesh).
+  thread_local std::vector<std::int32_t> slot_of;
   auto slot = [&](std::uint32_t v) -> std::int32_t { return v < slot_of.size() ? slot_of[v] : -1; };
-  {
-    std::uint32_t top = 0;
-    for (std::uint32_t v : pool) top = std::max(top, v + 1);
-    slot_of.assign(top, -1);
-    for (std::size_t k = 0; k < pool.size(); ++k) slot_of[pool[k]] = std::int32_t(k);
+  for (std::size_t k = 0; k < pool.size(); ++k) {
+    if (pool[k] >= slot_of.size()) slot_of.resize(std::size_t(pool[k]) + 1, -1);
+    slot_of[pool[k]] = std::int32_t(k);
   }
+  struct Reset {
+    std::span<const std::uint32_t> pool;
+    ~Reset() {
+      for (std::uint32_t v : pool) slot_of[v] = -1;
+    }
+  } reset{pool};
   auto nbrs = [&](std::int32_t k) {
     return std::span<const std::uint32_t>(adj.data() + start[std::size_t(k)], adj.data() + start[std::size_t(k) + 1]);
   };
