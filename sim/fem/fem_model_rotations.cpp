@@ -238,8 +238,9 @@ void FemModel::update_rotations_partial(const Eigen::VectorXd& u, std::size_t fi
     stats.exact += rotation_stats_.exact;
     stats.max_steps = std::max(stats.max_steps, rotation_stats_.max_steps);
   }
-  // The diagonal blocks of the vertices of those tets (their corner terms changed). Nodal-
-  // averaged blocks reach the 2-ring: every block then.
+  // The diagonal blocks of the vertices of those tets (their corner terms changed). A nodal-
+  // averaged block reads the gradients of the tets around its own vertex only (and the ring's
+  // V_a, which rotations leave alone), so the same vertices, though K reaches the 2-ring.
   std::vector<std::uint32_t> verts;
   auto mark = [&](std::size_t p0, std::size_t p1) {
     for (std::size_t ti = p0 * kLanes; ti < std::min(p1 * kLanes, tet_capacity_); ++ti)
@@ -250,15 +251,11 @@ void FemModel::update_rotations_partial(const Eigen::VectorXd& u, std::size_t fi
             verts.push_back(v);
           }
   };
-  if (nodal_averaged()) {
-    parallel_range(vertex_capacity_, [&](std::size_t v) { vertex_block(std::uint32_t(v)); });
-  } else {
-    vertex_mark_.resize(vertex_capacity_, 0);
-    mark(first, std::min(end, packets));
-    if (end > packets) mark(0, end - packets);
-    parallel_range(verts.size(), [&](std::size_t i) { vertex_block(verts[i]); });
-    for (std::uint32_t v : verts) vertex_mark_[v] = 0;
-  }
+  vertex_mark_.resize(vertex_capacity_, 0);
+  mark(first, std::min(end, packets));
+  if (end > packets) mark(0, end - packets);
+  parallel_range(verts.size(), [&](std::size_t i) { vertex_block(verts[i]); });
+  for (std::uint32_t v : verts) vertex_mark_[v] = 0;
   rotation_stats_ = stats;
   rotation_stats_.tets = std::min(count * kLanes, mesh_->num_tets());
   barrier_.update(*this, u);
