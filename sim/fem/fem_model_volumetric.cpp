@@ -41,17 +41,23 @@ void FemModel::build_ring(std::uint32_t vi) {
   auto& at = ring_at_[vi];
   ring.clear();
   at.clear();
+  auto forget = [&] {
+    for (std::uint32_t a : ring) pos[a] = kNone;
+  };
   for (std::uint32_t slot : corner_slots_[vi])
     for (std::uint32_t a : verts_[slot / 4]) {
       if (a >= pos.size()) pos.resize(std::size_t(a) + 1, kNone);
       if (pos[a] == kNone) {
+        if (ring.size() > 0xffffu) {  // positions are 16 bits
+          forget();
+          throw InvalidMesh("fem: vertex " + std::to_string(vi) + " has over 65,536 neighbours");
+        }
         pos[a] = std::uint32_t(ring.size());
         ring.push_back(a);
       }
-      if (pos[a] > 0xffffu) throw InvalidMesh("fem: vertex " + std::to_string(vi) + " has over 65,536 neighbours");
       at.push_back(std::uint16_t(pos[a]));
     }
-  for (std::uint32_t a : ring) pos[a] = kNone;
+  forget();
 }
 
 // Block (v, v) of B^T B = sum_a kappa_a V_a (d theta_a / dx_v)(d theta_a / dx_v)^T over the
