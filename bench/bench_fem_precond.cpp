@@ -501,7 +501,8 @@ private:
 // frame, on 1, 2, 4, ... threads up to the machine's (tbb::global_control), with the serial
 // share Amdahl's law gives from the speed-up S on p threads: s = (p / S - 1) / (p - 1).
 // Passes (median of 15, ms): K x, the block-Jacobi and multigrid applications, the
-// relinearization (every tet's rotation and the diagonal blocks), and CG's vector work per
+// relinearization (every tet's rotation and the diagonal blocks) and a tenth of it (what a budget too
+// small for every rotation refreshes a frame), and CG's vector work per
 // iteration (a Jacobi CG of 40 iterations on a diagonal operator, less its products and
 // applications).
 void section_scaling(const std::vector<std::string>& organ_files, long box_tets, Csv& csv) {
@@ -576,13 +577,20 @@ void section_scaling(const std::vector<std::string>& organ_files, long box_tets,
         }
         return pct(t, 0.5);
       };
-      std::vector<double> kx, bja, amga, relin, vec;
+      std::vector<double> kx, bja, amga, relin, partial, vec;
+      const std::size_t tenth = std::max<std::size_t>(1, sim.model().rotation_packets() / 10);
+      std::size_t cursor = 0;
       for (int t : threads) {
         tbb::global_control gc(tbb::global_control::max_allowed_parallelism, std::size_t(t));
         kx.push_back(med15([&] { sim.model().multiply(r, z); }));
         bja.push_back(med15([&] { bj.apply(r, z); }));
         amga.push_back(med15([&] { amg.apply(r, z); }));
         relin.push_back(med15([&] { sim.model().update_rotations(u); }));
+        // What a budget too small for every rotation refreshes a frame: a tenth, in turn.
+        partial.push_back(med15([&] {
+          sim.model().update_rotations_partial(u, cursor, tenth);
+          cursor += tenth;
+        }));
         // CG's own vector work: 40 iterations on a diagonal operator of the model's size (the
         // operator's and Jacobi's passes, timed alone, taken off).
         const double diag_ms = med15([&] { diag.multiply(r, z); });
@@ -603,6 +611,7 @@ void section_scaling(const std::vector<std::string>& organ_files, long box_tets,
       const std::string f = std::string(formulation_name(form));
       row(me.name, "K x, " + f, m.num_tets(), kx);
       row(me.name, "relinearization, " + f, m.num_tets(), relin);
+      row(me.name, "a tenth of it, " + f, m.num_tets(), partial);
       if (form == Formulation::Standard) {
         row(me.name, "block-Jacobi apply", m.num_tets(), bja);
         row(me.name, "multigrid apply", m.num_tets(), amga);
