@@ -768,7 +768,23 @@ CutStepReport Cutter::Impl::sweep(const BladeSegment& from, const BladeSegment& 
     pr.reach = h;
   }
   bool waits = false;  // the blade left the plane and is not yet far enough from the front
-  if (!(pr.sheet && pr.sheet->extend(to, pr.tol))) {
+  // The turn at `from`: how far this step's end leaves the previous step's straight
+  // continuation, across the sheet's plane.
+  const std::optional<BladeSegment> before = pr.step_from;
+  pr.step_from = from;
+  auto corner = [&]() {
+    if (pr.tol <= 0 || !before) return false;
+    const Vec3& n = pr.sheet->normal();
+    auto turn = [&](const Vec3& p0, const Vec3& p1, const Vec3& p2) {
+      const double last = (p1 - p0).norm();
+      if (!(last > 0)) return 0.0;
+      return std::abs(n.dot((p2 - p1) - (p1 - p0) * ((p2 - p1).norm() / last)));
+    };
+    const double t = std::max(turn(before->a, from.a, to.a), turn(before->b, from.b, to.b));
+    return t > kCornerShare * pr.tol;
+  };
+  const bool at_corner = pr.sheet && corner();
+  if (!(pr.sheet && !at_corner && pr.sheet->extend(to, pr.tol))) {
     // A new plane (the first step, or the blade turned): the old sheet is cut in full, its
     // front becoming a crease the new sheet starts from.
     if (pr.sheet && pr.tol > 0) {
@@ -781,7 +797,7 @@ CutStepReport Cutter::Impl::sweep(const BladeSegment& from, const BladeSegment& 
     auto far = [&](const BladeSegment& b) {
       return std::max((b.a - to.a).norm(), (b.b - to.b).norm()) >= pr.reach;
     };
-    if (pr.resume && !far(*pr.resume)) {
+    if (pr.resume && !at_corner && !far(*pr.resume)) {
       waits = true;
     } else {
       pr.resume.reset();

@@ -175,6 +175,12 @@ public:
   static constexpr double kFrontExitReach = 0.25;
   static constexpr double kCreaseClearance = 0.1;
   static constexpr double kCreaseClearanceMin = 0.05;
+  // A curve sampled finely turns a little at every step and leaves the sheet's plane over
+  // several; where the path turns at one point by enough that the next step leaves the
+  // previous step's straight continuation by more than this share of path_tolerance, that
+  // point is a corner: the sheet ends there instead of running straight across it and
+  // cutting off the corner's triangle (docs/cut.md#curved-paths, *Corners*).
+  static constexpr double kCornerShare = 0.65;
 
   // Builds the first-contact grid over the mesh (O(mesh), once).
   explicit Cutter(TetMesh& mesh, CutOptions options = {});

@@ -26,6 +26,7 @@ struct Cutter::Impl {
   static constexpr double kFrontExitReach = Cutter::kFrontExitReach;
   static constexpr double kCreaseClearance = Cutter::kCreaseClearance;
   static constexpr double kCreaseClearanceMin = Cutter::kCreaseClearanceMin;
+  static constexpr double kCornerShare = Cutter::kCornerShare;
 
   Impl(TetMesh& mesh, CutOptions options);
   // Cutter's operations (cutter.h says what each does).
@@ -199,6 +200,7 @@ struct Cutter::Impl::Progress {
   // point across the path, not along it).
   std::optional<BladeSegment> resume;
   BladeSegment last_blade;  // where an unfinished cut's blade was when start() began the next
+  std::optional<BladeSegment> step_from;  // where the last step began (the turn at a corner)
   // start() was called with a sheet unfinished: the next step (or finish) completes it first,
   // in the same record (start() itself hands out no change).
   bool complete_first = false;
