@@ -208,6 +208,7 @@ void FemModel::vertex_block(std::uint32_t vi) {
 void FemModel::apply(const TopologyChange& change) {
   grow();
   ++work_.updates;
+  vrhs_valid_ = false;  // V_a, the slots and the tets changed: the next rhs sums in full
   barrier_.apply(change);
   std::vector<std::uint32_t> edges;  // EdgeSmoothed: edges whose tets changed
   for (TetId t : change.removed_tets) {
@@ -336,9 +337,8 @@ void FemModel::add_rotation_rhs(Eigen::VectorXd& b) const {
   else
     b += rhs_;  // summed per vertex with the diagonal (vertex_block)
   if (nodal_averaged()) {
-    // The volumetric force of the rotations' own strain tr(R^T - I), negated (as rhs_'s); O(mesh)
-    // here rather than kept per vertex, so that apply() stays local.
-    volumetric_pass(nullptr, true, -1.0, &b);
+    // The volumetric force of the rotations' own strain tr(R^T - I), negated (as rhs_'s).
+    rotation_volumetric_rhs(b);
   }
   barrier_.add_rhs(b);
 }

@@ -72,6 +72,10 @@ struct FemWork {
   // whose volumetric block reads the touched vertices' V_a).
   std::uint64_t blocks_updated = 0;
   std::uint64_t edges_updated = 0;  // EdgeSmoothed: smoothing domains whose tets changed
+  // update_rotations_partial: the vertices whose diagonal blocks it refreshed, and (nodal-
+  // averaged, its kept rotation rhs valid) those whose volumetric rhs it summed again.
+  std::uint64_t rotation_blocks = 0;
+  std::uint64_t rotation_rhs_sums = 0;
 };
 
 class FemModel : public LinearOperator {
@@ -209,6 +213,15 @@ private:
   // Leaves per tet pbar_t in pbar_ and adds the corner forces sign V_t pbar_t R_t grad N_j
   // into *y when y is given.
   void volumetric_pass(const Eigen::VectorXd* x, bool rotation, double sign, Eigen::VectorXd* y) const;
+  // The same pass for the rotations' own strain (add_rotation_rhs), kept per vertex in vrhs_:
+  // computed in full when stale (after a full relinearization or an edit), then refreshed
+  // where a partial relinearization changed rotations (refresh_rotation_volumetric), so that a
+  // budgeted frame's right-hand side is not O(mesh). The same operations in the same order as
+  // volumetric_pass, so the sums are the same bit for bit.
+  void rotation_volumetric_rhs(Eigen::VectorXd& b) const;
+  void refresh_rotation_volumetric(const std::vector<std::uint32_t>& tets, const std::vector<std::uint32_t>& verts);
+  void rotation_corner_forces(std::size_t ti) const;  // rforce_ of a tet from rtheta_
+  void rotation_vertex_sum(std::size_t vi) const;     // vrhs_ of a vertex from rforce_
   // EdgeSmoothed: the deviatoric term in three passes (see the header comment), with the stored
   // rotations or `rot` (per tet, by TetId). Per tet (V_t / 6) eps_t of x when x is given, plus
   // sym(R^T - I) when `rotation`; per edge sigma_e; per tet sigma_bar_t (left in tsig_) and the
@@ -268,6 +281,14 @@ private:
   std::vector<std::vector<std::uint16_t>> ring_at_;
   std::vector<std::uint8_t> vertex_mark_;    // update_rotations_partial: vertices already listed
   mutable std::vector<double> ptheta_;      // per vertex: kappa_a theta_a
+  // rotation_volumetric_rhs's state: per tet tr(R) - 3 and the corner forces, per vertex
+  // kappa_a theta_a and the summed force (vrhs_, 3 a vertex); valid until the next full
+  // relinearization or edit.
+  mutable std::vector<double> rdiv_, rtheta_;
+  mutable std::vector<Eigen::Matrix<double, 3, 4>> rforce_;
+  mutable Eigen::VectorXd vrhs_;
+  mutable bool vrhs_valid_ = false;
+  std::vector<std::uint8_t> tet_mark_;  // refresh_rotation_volumetric: tets already listed
   std::vector<std::uint8_t> ring_mark_;     // per vertex, all clear between apply() calls
   // EdgeSmoothed: the edges. Ids are reused (free list); an edge lives while a tet holds it.
   std::unordered_map<std::uint64_t, std::uint32_t> edge_index_;  // (min, max) vertex ids -> edge

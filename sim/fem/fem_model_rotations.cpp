@@ -24,6 +24,7 @@ void FemModel::update_rotations(const Eigen::VectorXd& u) {
   if (u.size() != rows()) throw InvalidArgument("fem: rotations from a vector of the wrong size");
   if (warm_rotations_) update_rotations_warm(u);
   else update_rotations_exact(u);
+  vrhs_valid_ = false;  // every rotation changed: the next rhs sums in full
   barrier_.update(*this, u);
 }
 
@@ -256,6 +257,17 @@ void FemModel::update_rotations_partial(const Eigen::VectorXd& u, std::size_t fi
   if (end > packets) mark(0, end - packets);
   parallel_range(verts.size(), [&](std::size_t i) { vertex_block(verts[i]); });
   for (std::uint32_t v : verts) vertex_mark_[v] = 0;
+  work_.rotation_blocks += verts.size();
+  if (nodal_averaged() && vrhs_valid_) {
+    std::vector<std::uint32_t> tets;
+    auto list = [&](std::size_t p0, std::size_t p1) {
+      for (std::size_t ti = p0 * kLanes; ti < std::min(p1 * kLanes, tet_capacity_); ++ti)
+        if (alive_[ti]) tets.push_back(std::uint32_t(ti));
+    };
+    list(first, std::min(end, packets));
+    if (end > packets) list(0, end - packets);
+    refresh_rotation_volumetric(tets, verts);
+  }
   rotation_stats_ = stats;
   rotation_stats_.tets = std::min(count * kLanes, mesh_->num_tets());
   barrier_.update(*this, u);

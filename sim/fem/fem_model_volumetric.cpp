@@ -195,4 +195,86 @@ void FemModel::volumetric_pass(const Eigen::VectorXd* x, bool rotation, double s
   if (y) gather(*y, true);
 }
 
+// The rotation's own volumetric force, -V_t pbar_t R_t grad N_j per corner with pbar_t from
+// div_t = tr(R_t) - 3: volumetric_pass(nullptr, true, -1, &b)'s expressions, kept.
+void FemModel::rotation_corner_forces(std::size_t ti) const {
+  const auto& v = verts_[ti];
+  const double p = (rtheta_[v[0]] + rtheta_[v[1]] + rtheta_[v[2]] + rtheta_[v[3]]) / 4;
+  const Eigen::Matrix3d g = (-1.0 * vol_[ti] * p) * quat_[ti].toRotationMatrix() * bm_[ti].transpose();
+  rforce_[ti].rightCols<3>() = g;
+  rforce_[ti].col(0) = -g.rowwise().sum();
+}
+
+void FemModel::rotation_vertex_sum(std::size_t vi) const {
+  const double* f = rforce_.data()->data();
+  Eigen::Vector3d s = Eigen::Vector3d::Zero();
+  for (std::uint32_t slot : corner_slots_[vi]) s += Eigen::Map<const Eigen::Vector3d>(f + 3 * std::size_t(slot));
+  vrhs_.segment<3>(3 * vi) = s;
+}
+
+void FemModel::rotation_volumetric_rhs(Eigen::VectorXd& b) const {
+  if (kind_ != FemKind::Corotational) return;
+  if (tet_capacity_ < kVolumetricSerialBelow) {
+    // Small meshes scatter in tet order (volumetric_pass): nothing is kept.
+    volumetric_pass(nullptr, true, -1.0, &b);
+    return;
+  }
+  if (!vrhs_valid_) {
+    rdiv_.assign(tet_capacity_, 0.0);
+    rtheta_.assign(vertex_capacity_, 0.0);
+    rforce_.resize(tet_capacity_);
+    vrhs_.setZero(Eigen::Index(3 * vertex_capacity_));
+    parallel_range(tet_capacity_, [&](std::size_t ti) {
+      if (alive_[ti]) rdiv_[ti] = 0.0 + (quat_[ti].toRotationMatrix().trace() - 3);
+    });
+    parallel_range(vertex_capacity_, [&](std::size_t vi) {
+      double s = 0;
+      for (std::uint32_t slot : corner_slots_[vi]) s += vol_[slot / 4] * rdiv_[slot / 4];
+      rtheta_[vi] = nodal_pressure(vi, s);
+    });
+    parallel_range(tet_capacity_, [&](std::size_t ti) {
+      if (alive_[ti]) rotation_corner_forces(ti);
+    });
+    parallel_range(vertex_capacity_, [&](std::size_t vi) { rotation_vertex_sum(vi); });
+    vrhs_valid_ = true;
+  }
+  b.head(vrhs_.size()) += vrhs_;
+}
+
+// After a partial relinearization of `tets` (alive), whose vertices are `verts`: their div_t,
+// those vertices' theta, the corner forces of every tet around them, and the sums of those
+// tets' vertices; the rest of vrhs_ is unchanged.
+void FemModel::refresh_rotation_volumetric(const std::vector<std::uint32_t>& tets,
+                                           const std::vector<std::uint32_t>& verts) {
+  parallel_range(tets.size(), [&](std::size_t i) {
+    rdiv_[tets[i]] = 0.0 + (quat_[tets[i]].toRotationMatrix().trace() - 3);
+  });
+  parallel_range(verts.size(), [&](std::size_t i) {
+    const std::uint32_t vi = verts[i];
+    double s = 0;
+    for (std::uint32_t slot : corner_slots_[vi]) s += vol_[slot / 4] * rdiv_[slot / 4];
+    rtheta_[vi] = nodal_pressure(vi, s);
+  });
+  tet_mark_.resize(tet_capacity_, 0);
+  vertex_mark_.resize(vertex_capacity_, 0);
+  std::vector<std::uint32_t> around, sums;
+  for (std::uint32_t vi : verts)
+    for (std::uint32_t slot : corner_slots_[vi])
+      if (!tet_mark_[slot / 4]) {
+        tet_mark_[slot / 4] = 1;
+        around.push_back(slot / 4);
+      }
+  for (std::uint32_t ti : around)
+    for (std::uint32_t v : verts_[ti])
+      if (!vertex_mark_[v]) {
+        vertex_mark_[v] = 1;
+        sums.push_back(v);
+      }
+  parallel_range(around.size(), [&](std::size_t i) { rotation_corner_forces(around[i]); });
+  parallel_range(sums.size(), [&](std::size_t i) { rotation_vertex_sum(sums[i]); });
+  for (std::uint32_t ti : around) tet_mark_[ti] = 0;
+  for (std::uint32_t v : sums) vertex_mark_[v] = 0;
+  work_.rotation_rhs_sums += sums.size();
+}
+
 }  // namespace incise

@@ -412,6 +412,51 @@ TEST_CASE("partial rotation updates cover every tet in turn and end equal to a f
   }
 }
 
+TEST_CASE("partial rotation updates refresh the nodal-averaged rotation rhs locally, equal to a full sum",
+          "[fem][rotation]") {
+  // Above the size where the volumetric passes run in parallel and the rhs is kept per vertex.
+  TetMesh m = make_box(Vec3(3, 1, 1), {24, 8, 8});
+  jitter(m, 0.2, 5);
+  REQUIRE(m.num_tets() >= 8000);
+  auto twist = [&](double turns) {
+    Eigen::VectorXd u = Eigen::VectorXd::Zero(Eigen::Index(3 * m.vertex_capacity()));
+    for (VertexId v : m.vertices()) {
+      const Vec3 p = m.rest(v);
+      const Eigen::Matrix3d r = Eigen::AngleAxisd(turns * p.x(), Vec3::UnitX()).toRotationMatrix();
+      u.segment<3>(3 * v.idx()) = r * (p - Vec3(0, 0.5, 0.5)) + Vec3(0, 0.5, 0.5) - p;
+    }
+    return u;
+  };
+  const Eigen::VectorXd u0 = twist(0.3), u1 = twist(0.9);
+  FemModel kept(m, table(1e6, 0.3), FemKind::Corotational, Formulation::NodalAveraged);
+  REQUIRE(Eigen::Index(kept.num_dofs()) == u0.size());
+  kept.update_rotations(u0);
+  Eigen::VectorXd b = Eigen::VectorXd::Zero(kept.rows());
+  kept.add_rotation_rhs(b);  // summed in full, then kept
+  const std::size_t packets = kept.rotation_packets(), n = (packets + 9) / 10;
+  for (int calls = 1; calls <= 4; ++calls) {
+    kept.reset_work();
+    kept.update_rotations_partial(u1, std::size_t(calls - 1) * 3 * n, n);
+    // A tenth of the tets (consecutive ids, near each other in the box): the blocks and rhs
+    // sums of their neighbourhood only, not of the mesh.
+    CHECK(kept.work().rotation_blocks > 0);
+    CHECK(kept.work().rotation_rhs_sums >= kept.work().rotation_blocks);
+    CHECK(kept.work().rotation_rhs_sums < m.num_vertices() / 2);
+    Eigen::VectorXd bk = Eigen::VectorXd::Zero(kept.rows());
+    kept.add_rotation_rhs(bk);
+    // The same rotations in a model that sums the rhs in full: the same operations in the same
+    // order, so the same bits.
+    FemModel summed(m, table(1e6, 0.3), FemKind::Corotational, Formulation::NodalAveraged);
+    summed.update_rotations(u0);
+    for (int c = 1; c <= calls; ++c) summed.update_rotations_partial(u1, std::size_t(c - 1) * 3 * n, n);
+    CHECK(summed.work().rotation_rhs_sums == 0);
+    Eigen::VectorXd bs = Eigen::VectorXd::Zero(summed.rows());
+    summed.add_rotation_rhs(bs);
+    CHECK((bk - bs).cwiseAbs().maxCoeff() == 0.0);
+    CHECK(bs.norm() > 0);
+  }
+}
+
 TEST_CASE("a budget that cannot afford every rotation refreshes a share a frame and still converges", "[fem][rotation]") {
   TetMesh m = make_box(Vec3(4, 1, 1), {8, 2, 2});  // 192 tets: 24 packets, 12 cycles in 300 frames
   auto run = [&](double budget_ms, double share, std::vector<double>* shares) {
