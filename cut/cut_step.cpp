@@ -13,6 +13,10 @@ namespace {
 // The floor of the snap threshold: points made by earlier splits are floating point, so a
 // vertex meant to lie on a blade is only within rounding of it.
 constexpr double kSnapFloor = 1e-6;
+// A point the blade's boundary puts in a face, closer than this share of the snap threshold
+// (times the tet's longest edge) to one of the face's edges, goes onto that edge
+// (CutStep::on_nearby_edge).
+constexpr double kEdgeSnap = 0.03;
 // Relative tolerance of "inside the piece" for points that are on its plane.
 constexpr double kInsideTol = 1e-9;
 // At a sheet's finish, a vertex of the body's surface inside the swept polygon is put on the
@@ -160,11 +164,42 @@ VertexId CutStep::insert_point(TetId t, std::array<double, 4> w) {
   for (double& x : w) x /= sum;
   int nz = 0;
   for (double x : w) nz += x > 0;
+  if (nz == 3) on_nearby_edge(t, w, nz);
   if (nz == 1) return nearest();
   const std::optional<VertexId> p = nz == 2 ? split_on_edge(t, w) : nz == 3 ? split_on_face(t, w) : split_in_tet(t, w);
   if (!p) return nearest();  // a child would be flat: the nearest vertex instead
   note_new_vertex(*p);
   return *p;
+}
+
+void CutStep::on_nearby_edge(TetId t, std::array<double, 4>& w, int& nz) const {
+  const auto tv = mesh_.tet_vertices(t);
+  Vec3 x = Vec3::Zero();
+  double longest = 0;
+  for (int k = 0; k < 4; ++k) {
+    x += w[k] * position(tv[k]);
+    for (int j = k + 1; j < 4; ++j) longest = std::max(longest, (position(tv[k]) - position(tv[j])).norm());
+  }
+  const double reach = kEdgeSnap * snap_ * longest;
+  int best = -1;
+  double best_d = reach;
+  for (int k = 0; k < 4; ++k) {
+    if (!(w[k] > 0)) continue;
+    int a = -1, b = -1;  // the face's edge opposite corner k
+    for (int j = 0; j < 4; ++j)
+      if (j != k && w[j] > 0) (a < 0 ? a : b) = j;
+    const Vec3 pa = position(tv[a]), e = position(tv[b]) - pa;
+    const double len2 = e.squaredNorm();
+    if (!(len2 > 0)) continue;
+    const double s = std::clamp((x - pa).dot(e) / len2, 0.0, 1.0);
+    const double d = (x - (pa + s * e)).norm();
+    if (d < best_d) best = k, best_d = d;
+  }
+  if (best < 0) return;
+  const double rest = 1 - w[best];
+  w[best] = 0;
+  for (double& y : w) y /= rest;
+  --nz;
 }
 
 std::optional<VertexId> CutStep::snap_to_vertex(TetId t, const std::array<double, 4>& w) {

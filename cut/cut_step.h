@@ -142,6 +142,11 @@ private:
   // Inserts the point with barycentric w in t, snapping small weights to zero; returns the
   // vertex now at that point (existing or new).
   VertexId insert_point(TetId t, std::array<double, 4> w);
+  // A face point (three weights) a hair from one of its face's edges (kEdgeSnap) is put on that
+  // edge: kept in the face, the boundary segment crossing the next face a hair beyond the edge and
+  // the sheet crossing the edge itself made three vertices a thousandth of an edge apart, and
+  // flat tets between them that no operation could take once the cut was open.
+  void on_nearby_edge(TetId t, std::array<double, 4>& w, int& nz) const;
   // insert_point()'s parts: the vertex within its snap radius of the point, if any (else the
   // radius the new vertex will get); the point put on an edge, a face or inside t (nullopt
   // where a child would be flat).

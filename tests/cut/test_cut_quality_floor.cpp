@@ -107,15 +107,15 @@ TEST_CASE("quality floor: a cut finished beside an earlier cut bends through its
   CHECK(after_finish <= before_finish);
 }
 
-TEST_CASE("quality floor: contracting along bent cut sheets and rims leaves fewer bad tets", "[cut][quality][long][scale]") {
+TEST_CASE("quality floor: contracting along bent cut sheets and rims removes short edges", "[cut][quality][long][scale]") {
   // bench_cut's 100 random steps on the liver (seed 2026) and two more draws, with the
   // contraction along curved and bent surfaces that exact_volumes = false allows
   // (ImproveOptions::collapse_deviation 0.05) and without it: the short edges finish() leaves
   // on bent cut sheets and along rims go, every cut invariant holds, and the label volumes move
-  // only by what the contractions report. The count of bad tets after one draw is chaotic (a
-  // change anywhere in the cut moves it either way), so the test sums three draws.
+  // only by what the contractions report. Counts after one draw are chaotic (a change anywhere
+  // in the cut moves them either way), so the test sums three draws.
   const TetMesh liver = read_tet_mesh(std::string(INCISE_SOURCE_DIR) + "/samples/liver.msh");
-  std::size_t below[2] = {0, 0};
+  std::size_t below[2] = {0, 0}, short_edged[2] = {0, 0};
   for (unsigned seed : {2026u, 2027u, 2028u}) {
     const auto blades = random_blades(liver, 20, seed);
     for (int with : {0, 1}) {
@@ -131,10 +131,26 @@ TEST_CASE("quality floor: contracting along bent cut sheets and rims leaves fewe
       check_cut_invariants(m, vol0, 1e-9, moved);
       CHECK_FALSE(find_overlapping_tets(m));  // the body does not overlap itself: it reads back
       below[with] += quality_range(m, 10.0).below;
+      for (TetId t : m.tets()) {
+        const auto& tv = m.tet_vertices(t);
+        double lo = 1e300, hi = 0;
+        for (int a = 0; a < 4; ++a)
+          for (int b = a + 1; b < 4; ++b) {
+            const double l = (m.rest(tv[a]) - m.rest(tv[b])).norm();
+            lo = std::min(lo, l);
+            hi = std::max(hi, l);
+          }
+        short_edged[with] += lo < 0.05 * hi;
+      }
     }
   }
-  INFO(below[0] << " tets below 10 deg without contraction along bent surfaces, " << below[1] << " with (three draws)");
-  CHECK(below[1] < below[0]);
+  INFO(below[0] << " tets below 10 deg without contraction along bent surfaces, " << below[1] << " with (three draws); "
+       << short_edged[0] << " and " << short_edged[1] << " with an edge under 5% of their longest");
+  CHECK(short_edged[1] < short_edged[0]);
+  // It also left fewer tets below 10 deg until face points a hair from an edge went onto it
+  // (CutStep::on_nearby_edge): the cut no longer makes most of the short edges it removed, and
+  // both counts fell (docs/cut.md#the-defaults). Now about as many either way.
+  CHECK(double(below[1]) <= 1.05 * double(below[0]));
 }
 
 TEST_CASE("quality floor: finish() refines the wedges where cuts cross", "[cut][quality][scale]") {
