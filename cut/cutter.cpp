@@ -773,7 +773,10 @@ CutStepReport Cutter::Impl::sweep(const BladeSegment& from, const BladeSegment& 
   const std::optional<BladeSegment> before = pr.step_from;
   pr.step_from = from;
   auto corner = [&]() {
-    if (pr.tol <= 0 || !before) return false;
+    // Not in the material frame: there each step is mapped into the rest shape through the
+    // local deformation of its time, and the turns of the mapped path are the tissue's motion,
+    // not the hand's (they ended sheets at every other step of the pushed organ's cut).
+    if (pr.tol <= 0 || !before || map_) return false;
     const Vec3& n = pr.sheet->normal();
     auto turn = [&](const Vec3& p0, const Vec3& p1, const Vec3& p2) {
       const double last = (p1 - p0).norm();

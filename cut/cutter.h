@@ -179,7 +179,8 @@ public:
   // several; where the path turns at one point by enough that the next step leaves the
   // previous step's straight continuation by more than this share of path_tolerance, that
   // point is a corner: the sheet ends there instead of running straight across it and
-  // cutting off the corner's triangle (docs/cut.md#curved-paths, *Corners*).
+  // cutting off the corner's triangle (docs/cut.md#curved-paths, *Corners*). Not with
+  // CutOptions::material_frame, whose mapped path turns with the tissue.
   static constexpr double kCornerShare = 0.65;
 
   // Builds the first-contact grid over the mesh (O(mesh), once).
