@@ -300,11 +300,16 @@ inline Eigen::Matrix3d FemModel::tet_stress(std::uint32_t ti, const Eigen::Vecto
   return stress_of(h, mu_[ti], lambda_[ti]);
 }
 
+Eigen::Vector3d FemModel::corner_sum(const std::vector<Eigen::Matrix<double, 3, 4>>& forces, std::size_t vi) const {
+  const double* f = forces.data()->data();  // Matrix<double,3,4> is column-major: corner j at 3j
+  Eigen::Vector3d s = Eigen::Vector3d::Zero();
+  for (std::uint32_t slot : corner_slots_[vi]) s += Eigen::Map<const Eigen::Vector3d>(f + 3 * std::size_t(slot));
+  return s;
+}
+
 void FemModel::gather(Eigen::VectorXd& y, bool accumulate) const {
-  const double* f = force_.data()->data();  // Matrix<double,3,4> is column-major: corner j at 3j
   parallel_range(vertex_capacity_, [&](std::size_t vi) {
-    Eigen::Vector3d s = Eigen::Vector3d::Zero();
-    for (std::uint32_t slot : corner_slots_[vi]) s += Eigen::Map<const Eigen::Vector3d>(f + 3 * std::size_t(slot));
+    const Eigen::Vector3d s = corner_sum(force_, vi);
     if (accumulate) y.segment<3>(3 * vi) += s;
     else y.segment<3>(3 * vi) = s;
   });

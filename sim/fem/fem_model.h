@@ -203,6 +203,10 @@ private:
   Eigen::Matrix3d tet_stress(std::uint32_t t, const Eigen::VectorXd& x, bool subtract_rotation,
                              const Eigen::Matrix3d& r) const;  // r: the tet's rotation
   void gather(Eigen::VectorXd& y, bool accumulate) const;
+  // The forces of vertex vi's corners summed in slot order (gather's and the kept rhs's sum).
+  Eigen::Vector3d corner_sum(const std::vector<Eigen::Matrix<double, 3, 4>>& forces, std::size_t vi) const;
+  // Columns j = 1..3: sign V_t p R_t grad N_j (corner 0: minus their sum), p a tet's mean pressure.
+  Eigen::Matrix3d volumetric_corner_block(std::size_t ti, double p, double sign) const;
   void nodal_volume_of(std::uint32_t v);     // nvol_, nkv_ from the incident tets
   void refresh_ring(const TopologyChange& change);  // diagonal blocks of the touched 1-ring
   void volumetric_block(std::uint32_t v, Eigen::Matrix3d& blk) const;  // adds B^T B's block (v, v)

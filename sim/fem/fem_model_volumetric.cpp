@@ -156,8 +156,7 @@ void FemModel::volumetric_pass(const Eigen::VectorXd* x, bool rotation, double s
     const auto& v = verts_[ti];
     const double p = (ptheta_[v[0]] + ptheta_[v[1]] + ptheta_[v[2]] + ptheta_[v[3]]) / 4;
     pbar_[ti] = p;
-    if (corot) return Eigen::Matrix3d((sign * vol_[ti] * p) * quat_[ti].toRotationMatrix() * bm_[ti].transpose());
-    return Eigen::Matrix3d((sign * vol_[ti] * p) * bm_[ti].transpose());
+    return volumetric_corner_block(ti, p, sign);
   };
   auto theta = [&](std::size_t vi, double s) { ptheta_[vi] = nodal_pressure(vi, s); };
   if (serial) {
@@ -197,20 +196,21 @@ void FemModel::volumetric_pass(const Eigen::VectorXd* x, bool rotation, double s
 
 // The rotation's own volumetric force, -V_t pbar_t R_t grad N_j per corner with pbar_t from
 // div_t = tr(R_t) - 3: volumetric_pass(nullptr, true, -1, &b)'s expressions, kept.
+Eigen::Matrix3d FemModel::volumetric_corner_block(std::size_t ti, double p, double sign) const {
+  if (kind_ == FemKind::Corotational)
+    return Eigen::Matrix3d((sign * vol_[ti] * p) * quat_[ti].toRotationMatrix() * bm_[ti].transpose());
+  return Eigen::Matrix3d((sign * vol_[ti] * p) * bm_[ti].transpose());
+}
+
 void FemModel::rotation_corner_forces(std::size_t ti) const {
   const auto& v = verts_[ti];
   const double p = (rtheta_[v[0]] + rtheta_[v[1]] + rtheta_[v[2]] + rtheta_[v[3]]) / 4;
-  const Eigen::Matrix3d g = (-1.0 * vol_[ti] * p) * quat_[ti].toRotationMatrix() * bm_[ti].transpose();
+  const Eigen::Matrix3d g = volumetric_corner_block(ti, p, -1.0);
   rforce_[ti].rightCols<3>() = g;
   rforce_[ti].col(0) = -g.rowwise().sum();
 }
 
-void FemModel::rotation_vertex_sum(std::size_t vi) const {
-  const double* f = rforce_.data()->data();
-  Eigen::Vector3d s = Eigen::Vector3d::Zero();
-  for (std::uint32_t slot : corner_slots_[vi]) s += Eigen::Map<const Eigen::Vector3d>(f + 3 * std::size_t(slot));
-  vrhs_.segment<3>(3 * vi) = s;
-}
+void FemModel::rotation_vertex_sum(std::size_t vi) const { vrhs_.segment<3>(3 * vi) = corner_sum(rforce_, vi); }
 
 void FemModel::rotation_volumetric_rhs(Eigen::VectorXd& b) const {
   if (kind_ != FemKind::Corotational) return;
