@@ -269,7 +269,11 @@ void TetMesh::link_faces(TetId t) {
   for (int f = 0; f < 4; ++f) {
     if (tet_n_[t.idx()][f].is_valid()) continue;
     VertexId x = tv[kFaceLocal[f][0]], y = tv[kFaceLocal[f][1]], z = tv[kFaceLocal[f][2]];
-    for (TetId u : vertex_tets_[x.idx()]) {
+    // Every tet with the face is around each of its vertices: look around the one with fewest.
+    const std::vector<TetId>* around = &vertex_tets_[x.idx()];
+    for (VertexId w : {y, z})
+      if (vertex_tets_[w.idx()].size() < around->size()) around = &vertex_tets_[w.idx()];
+    for (TetId u : *around) {
       ++counters_.visits;
       if (u == t) continue;
       const auto& uv = tet_v_[u.idx()];
