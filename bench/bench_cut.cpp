@@ -19,8 +19,9 @@
 //     sag after / before, against beam theory: 3 (Euler-Bernoulli: two cantilevers of half
 //     the length), 2.78 with shear (Timoshenko) for this beam's L/h = 10.
 // Usage: bench_cut [--quick] [--no-1m] [--provisional] [--no-exact-volumes] [--only step|quality|snap|beam|progressive|curved|curved-organ|deformed] [--case NAME_PART] [--steps N]
-//                  [ORGAN]   (default samples/liver.msh; --case, --steps: only the progressive rows whose case
-//                  name contains NAME_PART, with N steps, for profiling; INCISE_BENCH_DEFORMED_OUT=DIR: --only
+//                  [ORGAN]   (default samples/liver.msh; --case, --steps: only the progressive, curved or
+//                  curved-organ rows whose case name contains NAME_PART, with N steps (no offset rows), for
+//                  profiling; INCISE_BENCH_DEFORMED_OUT=DIR: --only
 //                  deformed writes each cut mesh there; INCISE_BENCH_CURVED_OUT=DIR: --only curved writes each
 //                  path's cut mesh there, and the offset drags' below 10 deg; --only curved-organ each drag's)
 #include <algorithm>
@@ -733,7 +734,8 @@ void curved_offsets(double tolerance) {
 // middle in the same step size. Step times (cut + default improvement), tets, parts. Then the
 // half circle and the S at 10 offsets each (moved across the organ), a summary per shape: one
 // drag's outcome at a crease is chance, the count over many is the figure.
-void curved_organ(const TetMesh& organ, const std::string& name, double tolerance) {
+void curved_organ(const TetMesh& organ, const std::string& name, double tolerance, const std::string& only_case,
+                  int only_steps) {
   const RestBounds box = rest_bounds(organ);
   const Vec3 lo = box.lo, hi = box.hi;
   const Vec3 ext = hi - lo, c = 0.5 * (lo + hi);
@@ -803,12 +805,15 @@ void curved_organ(const TetMesh& organ, const std::string& name, double toleranc
   // A tenth of an edge per step, then about a third and twice as many steps.
   for (const P& p : paths_at(0, 0))
     for (double per_step : {0.1, 0.3, 0.05}) {
+      if (!only_case.empty() && p.name.find(only_case) == std::string::npos) continue;
+      if (only_steps > 0 && int(std::ceil(p.length / (per_step * h))) != only_steps) continue;
       const Drag d = drag(organ, p, per_step);
       std::printf("%s,%d,%zu,%zu,%zu,%zu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f\n", p.name.c_str(), d.steps, d.tets, d.parts,
                   d.pp.joined, d.pp.specks, d.q.min_dihedral, 100.0 * double(d.q.below) / double(d.tets),
                   percentile(d.ms, 0.5), percentile(d.ms, 0.95), percentile(d.ms, 1.0), d.finish_ms);
       std::fflush(stdout);
     }
+  if (!only_case.empty() || only_steps > 0) return;
   std::printf("# the half circle and the S at 10 offsets each (centre moved by up to 0.26 of the organ's width and "
               "0.02 of its depth; a quarter and a tenth of an edge per step in turn)\n");
   std::printf("case,drags,joined,specks,min_dihedral_worst,below_10deg_pct_median,max_step_ms_median\n");
@@ -1035,7 +1040,7 @@ int main(int argc, char** argv) {
   if (want("progressive")) progressive(organ, name, quick, only_case, only_steps);
   if (want("curved")) curved(quick, only_case, only_steps, path_tolerance);
   if (want("curved") && only_case.empty() && only_steps == 0) curved_offsets(path_tolerance);
-  if (only == "curved-organ") curved_organ(organ, name, path_tolerance);  // by name: give it an imaged organ
+  if (only == "curved-organ") curved_organ(organ, name, path_tolerance, only_case, only_steps);  // by name: give it an imaged organ
   if (only == "deformed") deformed(organ, name, quick, path_tolerance);  // by name only: it needs an imaged organ (ORGAN)
   return 0;
 }
