@@ -8,7 +8,7 @@
 
 namespace incise::petsc_detail {
 
-enum Command : int { kFinish = 0, kCreate = 1, kAssemble = 2, kSolve = 3, kDestroy = 4, kMemory = 5 };
+enum Command : int { kFinish = 0, kCreate = 1, kAssemble = 2, kSolve = 3, kDestroy = 4, kMemory = 5, kSaddle = 6 };
 
 struct State {
   bool distributed = false;  // started by petsc_start_distributed() with more than one rank
@@ -30,6 +30,8 @@ void check(PetscErrorCode e, const char* what);
 void broadcast_command(Command c, int id);
 // A serving rank: carries out one command of rank 0's.
 void serve_command(Command c, int id);
+// A serving rank's share of a saddle-point solve (kSaddle, sim/petsc/petsc_saddle.cpp).
+void serve_saddle(MPI_Comm comm);
 
 }  // namespace incise::petsc_detail
 

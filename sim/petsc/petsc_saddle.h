@@ -1,10 +1,12 @@
 #pragma once
 // The mixed formulations' saddle-point system on PETSc (sim/fem/mixed_solver.h with
-// MixedOptions::petsc): the free block [A_uu A_up; A_pu A_pp] x = b, unknowns u first, solved in
-// this process by MINRES with a block-diagonal field split, the SPD preconditioner MixedSolver's
-// own MINRES uses: GAMG on A_uu, Jacobi on the pressure diagonal `p_diagonal` (lumped mass x
-// (1/mu + 1/lambda), spectrally like the Schur complement). Options ("-fieldsplit_u_pc_type
-// hypre", "-ksp_rtol 1e-10") as for PetscSolver. docs/solver.md#petsc-more-than-one-machine.
+// MixedOptions::petsc): the free block [A_uu A_up; A_pu A_pp] x = b, unknowns u first, solved by
+// MINRES with a block-diagonal field split, the SPD preconditioner MixedSolver's own MINRES
+// uses: GAMG on A_uu, Jacobi on the pressure diagonal `p_diagonal` (lumped mass x
+// (1/mu + 1/lambda), spectrally like the Schur complement). In this process alone, or on rank 0
+// of a distributed run (sim/petsc/petsc_session.h) over every rank: each takes a contiguous
+// range of the rows, sent by rank 0. Options ("-fieldsplit_u_pc_type hypre", "-ksp_rtol 1e-10")
+// as for PetscSolver. docs/solver.md#petsc-more-than-one-machine.
 #include <string>
 
 #include <Eigen/Core>

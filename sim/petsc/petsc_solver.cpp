@@ -67,6 +67,7 @@ void serve_command(Command c, int id) {
       gather_rows(s.vertex_start(), x, nullptr, comm);
       break;
     }
+    case kSaddle: serve_saddle(comm); break;
     case kDestroy: served().erase(id); break;
     case kFinish: served().clear(); break;
     case kMemory: break;  // petsc_serve answers it

@@ -68,32 +68,48 @@ void receive_part(Part& p, MPI_Comm comm) {
   receive_vector(p.b_val, comm);
 }
 
+void send_saddle_rows(const SaddleRows& r, int dest, MPI_Comm comm) {
+  send_vector(r.ptr, dest, comm);
+  send_vector(r.col, dest, comm);
+  send_vector(r.val, dest, comm);
+  send_vector(r.p_diagonal, dest, comm);
+}
+
+void receive_saddle_rows(SaddleRows& r, MPI_Comm comm) {
+  receive_vector(r.ptr, comm);
+  receive_vector(r.col, comm);
+  receive_vector(r.val, comm);
+  receive_vector(r.p_diagonal, comm);
+}
+
 namespace {
 
 // Counts and offsets (in doubles) of each rank's rows.
-void layout(const std::vector<PetscInt>& vs, std::vector<int>& counts, std::vector<int>& displs) {
+void layout(const std::vector<PetscInt>& vs, int block, std::vector<int>& counts, std::vector<int>& displs) {
   const std::size_t size = vs.size() - 1;
   counts.resize(size);
   displs.resize(size);
   for (std::size_t r = 0; r < size; ++r) {
-    counts[r] = int(3 * (vs[r + 1] - vs[r]));
-    displs[r] = int(3 * vs[r]);
+    counts[r] = int(block * (vs[r + 1] - vs[r]));
+    displs[r] = int(block * vs[r]);
   }
 }
 
 }  // namespace
 
-void scatter_rows(const std::vector<PetscInt>& vs, const double* all, std::vector<double>& mine, MPI_Comm comm) {
+void scatter_rows(const std::vector<PetscInt>& vs, const double* all, std::vector<double>& mine, MPI_Comm comm,
+                  int block) {
   std::vector<int> counts, displs;
-  layout(vs, counts, displs);
+  layout(vs, block, counts, displs);
   int rank = 0;
   MPI_Comm_rank(comm, &rank);
   mine.resize(std::size_t(counts[std::size_t(rank)]));
   MPI_Scatterv(all, counts.data(), displs.data(), MPI_DOUBLE, mine.data(), counts[std::size_t(rank)], MPI_DOUBLE, 0, comm);
 }
-void gather_rows(const std::vector<PetscInt>& vs, const std::vector<double>& mine, double* all, MPI_Comm comm) {
+void gather_rows(const std::vector<PetscInt>& vs, const std::vector<double>& mine, double* all, MPI_Comm comm,
+                 int block) {
   std::vector<int> counts, displs;
-  layout(vs, counts, displs);
+  layout(vs, block, counts, displs);
   MPI_Gatherv(mine.data(), int(mine.size()), MPI_DOUBLE, all, counts.data(), displs.data(), MPI_DOUBLE, 0, comm);
 }
 

@@ -22,6 +22,15 @@ struct Part {
   std::vector<double> b_val;
 };
 
+// One rank's rows of a mixed formulation's saddle-point system (sim/petsc/petsc_saddle.h), in
+// the system's own numbering (displacements first): CSR with global columns, and the pressure
+// diagonal of its pressure rows.
+struct SaddleRows {
+  std::vector<PetscInt> ptr, col;
+  std::vector<double> val;
+  std::vector<double> p_diagonal;
+};
+
 struct Header {
   long long vertices = 0, b_rows = 0;
   double a = 0, c = 1;
@@ -32,11 +41,15 @@ std::vector<PetscInt> split(long long n, int size);
 
 void send_part(const Part& p, int dest, MPI_Comm comm);
 void receive_part(Part& p, MPI_Comm comm);  // from rank 0
+void send_saddle_rows(const SaddleRows& r, int dest, MPI_Comm comm);
+void receive_saddle_rows(SaddleRows& r, MPI_Comm comm);  // from rank 0
 void broadcast_string(std::string& s, MPI_Comm comm);  // from rank 0
 
-// Rank 0's vector of 3 per row block to the ranks (each gets the rows of its blocks
-// [starts[r], starts[r + 1])), and back. `all` is read or written on rank 0 only.
-void scatter_rows(const std::vector<PetscInt>& starts, const double* all, std::vector<double>& mine, MPI_Comm comm);
-void gather_rows(const std::vector<PetscInt>& starts, const std::vector<double>& mine, double* all, MPI_Comm comm);
+// Rank 0's vector of `block` values per row block to the ranks (each gets the rows of its
+// blocks [starts[r], starts[r + 1])), and back. `all` is read or written on rank 0 only.
+void scatter_rows(const std::vector<PetscInt>& starts, const double* all, std::vector<double>& mine, MPI_Comm comm,
+                  int block = 3);
+void gather_rows(const std::vector<PetscInt>& starts, const std::vector<double>& mine, double* all, MPI_Comm comm,
+                 int block = 3);
 
 }  // namespace incise::petsc_detail

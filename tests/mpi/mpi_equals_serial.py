@@ -3,9 +3,10 @@
 displacement: the scene is run once by one process with the direct solver (the reference) and
 once over N ranks with PETSc, both at a tight tolerance, and every written frame is compared.
 
-usage: mpi_equals_serial.py INCISE SCENE RANKS WORKDIR [--frames F] [--extra JSON]
+usage: mpi_equals_serial.py INCISE SCENE RANKS WORKDIR [--frames F] [--extra JSON] [--shared-solve]
        mpi_equals_serial.py INCISE --trade SCENE RANKS WORKDIR (incise trade's table over RANKS)
-Exit 0 when every frame's displacement agrees to 1e-6 of its largest value.
+Exit 0 when every frame's displacement agrees to 1e-6 of its largest value (and, with
+--shared-solve, when PETSc's -ksp_view shows the system's matrix spread over all RANKS).
 Also: mpi_equals_serial.py INCISE --bad-scene RANKS WORKDIR: a bad scene gives one line on
 stderr and exit 1 from every rank, within the timeout (no rank hangs)."""
 import json
@@ -99,8 +100,13 @@ def main(argv):
         return 0 if ok else 1
     extra_args = []
     extra = {}
+    shared = False
     i = 5
     while i < len(argv):
+        if argv[i] == "--shared-solve":
+            shared = True
+            i += 1
+            continue
         if argv[i] == "--frames":
             extra_args += ["--frames", argv[i + 1]]
         elif argv[i] == "--extra":
@@ -113,7 +119,17 @@ def main(argv):
     for d in (ref_out, par_out):
         subprocess.run(["rm", "-rf", d], check=True)
     subprocess.run([exe, "simulate", ref, "-o", ref_out, "-q"] + extra_args, check=True, timeout=300)
-    subprocess.run(cmd + [exe, "simulate", par, "-o", par_out, "-q"] + extra_args, check=True, env=env, timeout=300)
+    if shared:
+        # PETSc prints each solver's set-up: the system's matrix must live on every rank.
+        env = dict(env, PETSC_OPTIONS="-ksp_view")
+        p = subprocess.run(cmd + ["-x", "PETSC_OPTIONS", exe, "simulate", par, "-o", par_out, "-q"] + extra_args,
+                           check=True, env=env, timeout=300, capture_output=True, text=True)
+        want = f"Mat Object: {ranks} MPI process" if ranks > 1 else "Mat Object: 1 MPI process"
+        if not any(line.strip().startswith(want) for line in p.stdout.splitlines()):
+            print("no matrix over", ranks, "ranks in -ksp_view")
+            return 1
+    else:
+        subprocess.run(cmd + [exe, "simulate", par, "-o", par_out, "-q"] + extra_args, check=True, env=env, timeout=300)
     fr, fp = frames(ref_out), frames(par_out)
     if fr != fp or not fr:
         print("frames differ:", fr, fp)
