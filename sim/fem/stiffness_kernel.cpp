@@ -116,6 +116,63 @@ __attribute__((target("avx2,fma"))) inline void transpose_out(double* y, const s
   }
 }
 
+// base[idx[k]] for the four lanes (the masked gather with a zero source: the plain one leaves
+// GCC warning about its undefined source register).
+__attribute__((target("avx2,fma"))) inline __m256d gather4(const double* base, __m128i idx) {
+  return _mm256_mask_i32gather_pd(_mm256_setzero_pd(), base, idx, _mm256_castsi256_pd(_mm256_set1_epi64x(-1)), 8);
+}
+
+// The rotations of lanes base..base+3 (row-major, r[3c+m]) from their quaternions.
+__attribute__((target("avx2,fma"))) inline void rotation_avx2(const StiffnessKernel::Rotations& rot, std::size_t base,
+                                                              __m256d* r) {
+  const auto& q = rot.q;
+  const __m256d w = _mm256_load_pd(&q[0][base]), qx = _mm256_load_pd(&q[1][base]);
+  const __m256d qy = _mm256_load_pd(&q[2][base]), qz = _mm256_load_pd(&q[3][base]);
+  const __m256d x2 = _mm256_add_pd(qx, qx), y2 = _mm256_add_pd(qy, qy), z2 = _mm256_add_pd(qz, qz);
+  const __m256d xx = _mm256_mul_pd(qx, x2), yy = _mm256_mul_pd(qy, y2), zz = _mm256_mul_pd(qz, z2);
+  const __m256d xy = _mm256_mul_pd(qx, y2), xz = _mm256_mul_pd(qx, z2), yz = _mm256_mul_pd(qy, z2);
+  const __m256d wx = _mm256_mul_pd(w, x2), wy = _mm256_mul_pd(w, y2), wz = _mm256_mul_pd(w, z2);
+  const __m256d one = _mm256_set1_pd(1.0);
+  r[0] = _mm256_sub_pd(one, _mm256_add_pd(yy, zz));
+  r[1] = _mm256_sub_pd(xy, wz);
+  r[2] = _mm256_add_pd(xz, wy);
+  r[3] = _mm256_add_pd(xy, wz);
+  r[4] = _mm256_sub_pd(one, _mm256_add_pd(xx, zz));
+  r[5] = _mm256_sub_pd(yz, wx);
+  r[6] = _mm256_sub_pd(xz, wy);
+  r[7] = _mm256_add_pd(yz, wx);
+  r[8] = _mm256_sub_pd(one, _mm256_add_pd(xx, yy));
+}
+
+// The back half of a product over lanes base..base+3: the first Piola stresses sg (row-major;
+// corotational: not yet rotated) taken to R sg, then the corner forces P grad N_{j+1} and
+// corner 0 the negated sum, added into the padded y.
+template <bool Corot>
+__attribute__((target("avx2,fma"))) inline void corner_forces_avx2(const StiffnessKernel::Packet& p, std::size_t base,
+                                                                   std::size_t lanes, const __m256d* b,
+                                                                   const __m256d* r, __m256d* sg, double* y) {
+  if constexpr (Corot) {
+    __m256d t[9];
+    for (int cc = 0; cc < 3; ++cc)
+      for (int m = 0; m < 3; ++m)
+        t[3 * cc + m] = _mm256_fmadd_pd(r[3 * cc + 2], sg[6 + m],
+                                        _mm256_fmadd_pd(r[3 * cc + 1], sg[3 + m], _mm256_mul_pd(r[3 * cc], sg[m])));
+    for (int i = 0; i < 9; ++i) sg[i] = t[i];
+  }
+  __m256d f[4][3];
+  for (int cc = 0; cc < 3; ++cc) {
+    __m256d sum = _mm256_setzero_pd();
+    for (int j = 0; j < 3; ++j) {
+      const __m256d fj = _mm256_fmadd_pd(sg[3 * cc + 2], b[3 * j + 2],
+                                         _mm256_fmadd_pd(sg[3 * cc + 1], b[3 * j + 1], _mm256_mul_pd(sg[3 * cc], b[3 * j])));
+      f[j + 1][cc] = fj;
+      sum = _mm256_add_pd(sum, fj);
+    }
+    f[0][cc] = _mm256_sub_pd(_mm256_setzero_pd(), sum);
+  }
+  for (int j = 0; j < 4; ++j) transpose_out(y, &p.v[j][base], lanes, f[j][0], f[j][1], f[j][2]);
+}
+
 // The front half of a product over lanes base..base+3 of a packet: the edge differences of x,
 // H = D B, and (corotational) R and the rotated H = R^T H. Shared by the product and the
 // divergence sweep.
@@ -135,23 +192,7 @@ __attribute__((target("avx2,fma"))) inline void packet_gradient_avx2(const Stiff
       h[3 * cc + m] = _mm256_fmadd_pd(
           d[3 * cc + 2], b[6 + m], _mm256_fmadd_pd(d[3 * cc + 1], b[3 + m], _mm256_mul_pd(d[3 * cc], b[m])));
   if constexpr (Corot) {
-    const auto& q = rotations->q;
-    const __m256d w = _mm256_load_pd(&q[0][base]), qx = _mm256_load_pd(&q[1][base]);
-    const __m256d qy = _mm256_load_pd(&q[2][base]), qz = _mm256_load_pd(&q[3][base]);
-    const __m256d x2 = _mm256_add_pd(qx, qx), y2 = _mm256_add_pd(qy, qy), z2 = _mm256_add_pd(qz, qz);
-    const __m256d xx = _mm256_mul_pd(qx, x2), yy = _mm256_mul_pd(qy, y2), zz = _mm256_mul_pd(qz, z2);
-    const __m256d xy = _mm256_mul_pd(qx, y2), xz = _mm256_mul_pd(qx, z2), yz = _mm256_mul_pd(qy, z2);
-    const __m256d wx = _mm256_mul_pd(w, x2), wy = _mm256_mul_pd(w, y2), wz = _mm256_mul_pd(w, z2);
-    const __m256d one = _mm256_set1_pd(1.0);
-    r[0] = _mm256_sub_pd(one, _mm256_add_pd(yy, zz));
-    r[1] = _mm256_sub_pd(xy, wz);
-    r[2] = _mm256_add_pd(xz, wy);
-    r[3] = _mm256_add_pd(xy, wz);
-    r[4] = _mm256_sub_pd(one, _mm256_add_pd(xx, zz));
-    r[5] = _mm256_sub_pd(yz, wx);
-    r[6] = _mm256_sub_pd(xz, wy);
-    r[7] = _mm256_add_pd(yz, wx);
-    r[8] = _mm256_sub_pd(one, _mm256_add_pd(xx, yy));
+    rotation_avx2(*rotations, base, r);
     __m256d t[9];
     for (int cc = 0; cc < 3; ++cc)
       for (int m = 0; m < 3; ++m)
@@ -177,7 +218,7 @@ __attribute__((target("avx2,fma"))) void packets_avx2(const StiffnessKernel::Pac
       if (pressure) {  // + V mean(pressure at the corners); empty lanes have V = 0 and vertex 0
         __m256d sum = _mm256_setzero_pd();
         for (int j = 0; j < 4; ++j)
-          sum = _mm256_add_pd(sum, _mm256_i32gather_pd(pressure, _mm_loadu_si128(reinterpret_cast<const __m128i*>(&p.v[j][base])), 8));
+          sum = _mm256_add_pd(sum, gather4(pressure, _mm_loadu_si128(reinterpret_cast<const __m128i*>(&p.v[j][base]))));
         lt = _mm256_fmadd_pd(_mm256_mul_pd(_mm256_load_pd(&p.vol[base]), _mm256_set1_pd(0.25)), sum, lt);
       }
       __m256d sg[9];
@@ -186,27 +227,46 @@ __attribute__((target("avx2,fma"))) void packets_avx2(const StiffnessKernel::Pac
       sg[0] = _mm256_add_pd(sg[0], lt);
       sg[4] = _mm256_add_pd(sg[4], lt);
       sg[8] = _mm256_add_pd(sg[8], lt);
-      if constexpr (Corot) {
-        __m256d t[9];
-        for (int cc = 0; cc < 3; ++cc)
-          for (int m = 0; m < 3; ++m)
-            t[3 * cc + m] = _mm256_fmadd_pd(r[3 * cc + 2], sg[6 + m],
-                                            _mm256_fmadd_pd(r[3 * cc + 1], sg[3 + m], _mm256_mul_pd(r[3 * cc], sg[m])));
-        for (int i = 0; i < 9; ++i) sg[i] = t[i];
-      }
-      __m256d f[4][3];
-      for (int cc = 0; cc < 3; ++cc) {
-        __m256d sum = _mm256_setzero_pd();
-        for (int j = 0; j < 3; ++j) {
-          const __m256d fj = _mm256_fmadd_pd(sg[3 * cc + 2], b[3 * j + 2],
-                                             _mm256_fmadd_pd(sg[3 * cc + 1], b[3 * j + 1], _mm256_mul_pd(sg[3 * cc], b[3 * j])));
-          f[j + 1][cc] = fj;
-          sum = _mm256_add_pd(sum, fj);
-        }
-        f[0][cc] = _mm256_sub_pd(_mm256_setzero_pd(), sum);
-      }
+      corner_forces_avx2<Corot>(p, base, std::min<std::size_t>(4, n - base), b, r, sg, y);
+    }
+  }
+}
+
+// stress_forces over a block's packets (see StiffnessKernel::stress_forces), into the padded y.
+template <bool Corot>
+__attribute__((target("avx2,fma"))) void stresses_avx2(const StiffnessKernel::Packet* packets,
+                                                       const StiffnessKernel::Rotations* rotations, std::size_t count,
+                                                       const std::uint32_t* tet, std::size_t tets, const double* stress,
+                                                       const double* pressure, double* y) {
+  for (std::size_t pi = 0; pi < count; ++pi) {
+    const StiffnessKernel::Packet& p = packets[pi];
+    const std::size_t n = std::min(kLanes, tets - pi * kLanes);
+    for (std::size_t base = 0; base < n; base += 4) {
       const std::size_t lanes = std::min<std::size_t>(4, n - base);
-      for (int j = 0; j < 4; ++j) transpose_out(y, &p.v[j][base], lanes, f[j][0], f[j][1], f[j][2]);
+      // Each lane's six stress components (empty lanes read tet 0's: their V and b are zero).
+      alignas(16) std::int32_t at[4] = {0, 0, 0, 0};
+      for (std::size_t k = 0; k < lanes; ++k) at[k] = std::int32_t(6 * tet[pi * kLanes + base + k]);
+      const __m128i idx = _mm_load_si128(reinterpret_cast<const __m128i*>(at));
+      __m256d st[6];
+      for (int c = 0; c < 6; ++c) st[c] = gather4(stress + c, idx);
+      const __m256d vol = _mm256_load_pd(&p.vol[base]);
+      __m256d diag = _mm256_setzero_pd();
+      if (pressure) {
+        for (int j = 0; j < 4; ++j)
+          diag = _mm256_add_pd(diag, gather4(pressure, _mm_loadu_si128(reinterpret_cast<const __m128i*>(&p.v[j][base]))));
+        diag = _mm256_mul_pd(diag, _mm256_set1_pd(0.25));
+      }
+      __m256d sg[9];
+      sg[0] = _mm256_mul_pd(vol, _mm256_add_pd(st[0], diag));
+      sg[4] = _mm256_mul_pd(vol, _mm256_add_pd(st[1], diag));
+      sg[8] = _mm256_mul_pd(vol, _mm256_add_pd(st[2], diag));
+      sg[1] = sg[3] = _mm256_mul_pd(vol, st[3]);
+      sg[2] = sg[6] = _mm256_mul_pd(vol, st[4]);
+      sg[5] = sg[7] = _mm256_mul_pd(vol, st[5]);
+      __m256d b[9], r[9];
+      for (int i = 0; i < 9; ++i) b[i] = _mm256_load_pd(&p.b[i][base]);
+      if constexpr (Corot) rotation_avx2(rotations[pi], base, r);
+      corner_forces_avx2<Corot>(p, base, lanes, b, r, sg, y);
     }
   }
 }
@@ -514,9 +574,19 @@ void StiffnessKernel::strain_sweep(const Eigen::VectorXd& x, double* out, double
 
 void StiffnessKernel::stress_forces(const double* stress, const double* pressure, Eigen::VectorXd& y,
                                     Eigen::Index rows) const {
-  y.setZero(rows);
-  double* yp = y.data();
-  for_each_block(blocks_, parallel(), [&](const Block& blk) {
+  const bool padded = simd_ && simd_available();
+  sweep_forces(y, rows, padded, [&](const Block& blk, double* yp) {
+#ifdef INCISE_KERNEL_AVX2
+    if (padded) {
+      if (corot_)
+        stresses_avx2<true>(blk.packets.data(), blk.rotations.data(), blk.packets.size(), blk.tet.data(), blk.size(),
+                            stress, pressure, yp);
+      else
+        stresses_avx2<false>(blk.packets.data(), nullptr, blk.packets.size(), blk.tet.data(), blk.size(), stress,
+                             pressure, yp);
+      return;
+    }
+#endif
     for (std::size_t pi = 0; pi < blk.packets.size(); ++pi) {
       const Packet& p = blk.packets[pi];
       const std::size_t n = std::min(kLanes, blk.size() - pi * kLanes);
@@ -552,8 +622,17 @@ void StiffnessKernel::stress_forces(const double* stress, const double* pressure
 
 void StiffnessKernel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y, Eigen::Index rows,
                                const double* pressure) const {
-  const bool parallel = this->parallel();
   const bool padded = simd_ && simd_available();
+  const double* xp = x.data();
+  sweep_forces(y, rows, padded, [&](const Block& blk, double* yp) {
+    if (padded) multiply_padded(blk, xp, yp, pressure);
+    else multiply_block(blk, 0, blk.packets.size(), xp, yp, pressure);
+  });
+}
+
+void StiffnessKernel::sweep_forces(Eigen::VectorXd& y, Eigen::Index rows, bool padded,
+                                   const std::function<void(const Block&, double*)>& run) const {
+  const bool parallel = this->parallel();
   auto for_vertices = [&](std::size_t nv, auto&& f) {
     if (!parallel) {
       for (std::size_t v = 0; v < nv; ++v) f(v);
@@ -563,7 +642,6 @@ void StiffnessKernel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y, Eig
       for (std::size_t v = rg.begin(); v != rg.end(); ++v) f(v);
     });
   };
-  const double* xp = x.data();
   double* yp = nullptr;
   const std::size_t nv = std::size_t(rows) / 3;
   if (padded) {
@@ -576,11 +654,7 @@ void StiffnessKernel::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y, Eig
     y.setZero(rows);
     yp = y.data();
   }
-  auto run = [&](const Block& blk) {
-    if (padded) multiply_padded(blk, xp, yp, pressure);
-    else multiply_block(blk, 0, blk.packets.size(), xp, yp, pressure);
-  };
-  for_each_block(blocks_, parallel, run);
+  for_each_block(blocks_, parallel, [&](const Block& blk) { run(blk, yp); });
   if (padded) {
     y.resize(rows);
     double* yo = y.data();

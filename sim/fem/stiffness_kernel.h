@@ -102,6 +102,11 @@ private:
   void multiply_block(const Block& blk, std::size_t begin, std::size_t end, const double* x, double* y,
                       const double* pressure) const;
   void multiply_padded(const Block& blk, const double* x, double* y, const double* pressure) const;
+  // Every block's corner forces into y over `rows` unknowns (overwritten): run(block, out) adds
+  // them into out, which is y itself, or on the AVX2 path (padded) its copy with 4 doubles per
+  // vertex, unpacked into y afterwards.
+  void sweep_forces(Eigen::VectorXd& y, Eigen::Index rows, bool padded,
+                    const std::function<void(const Block&, double*)>& run) const;
 
   bool corot_;
   std::vector<Block> blocks_;                 // slabs, then the overflow block
