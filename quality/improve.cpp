@@ -374,9 +374,8 @@ private:
   long grown_ = 0;  // net tets added by all operations
 };
 
-// Each label's volume over `tets` (live ones).
-// A mesh has a few labels: they are summed in a short list (the same sums in the same order as
-// a map's), then handed out as a map.
+// Each label's volume over `tets` (live ones). A mesh has a few labels: they are summed in a
+// short list (the same sums in the same order as a map's), then handed out as a map.
 template <class Tets>
 std::unordered_map<int, double> label_volumes(const TetMesh& mesh, const Tets& tets) {
   std::vector<std::pair<int, double>> sums;
@@ -488,7 +487,7 @@ ImproveReport improve_local(TetMesh& mesh, std::span<const TetId> seeds, const I
     if (mesh.is_alive(t) && region.insert(t.idx()).second) frontier.push_back(t);
   // Each vertex's tets once: a vertex met again has all of them in the region already, so the
   // region gets the same tets in the same order (its iteration order is the pass's queueing
-  // order) for a twentieth of the lookups.
+  // order) for far fewer lookups.
   std::unordered_set<std::uint32_t> ringed;
   for (int r = 0; r < opt.rings; ++r) {
     std::vector<TetId> next;
