@@ -764,6 +764,14 @@ std::vector<CutFacePair> CutStep::crease_faces(const CreaseSides& prev, const Cr
   if (u_next.dot(inner(next.piece) - fa) < 0) u_next = -u_next;
   const Vec3 w = u_prev + u_next;
   auto behind = [&](const Vec3& x) { return w.dot(x - fa) < 0; };
+  // At the crease itself (a face whose corners lie along it, within the snap distance): on the
+  // edge of both polygons, where a corner a hair off the crease line puts it a hair outside
+  // either (in the wedge between their planes); it is inside the union.
+  const double crease_len = (fb - fa).norm();
+  auto on_crease = [&](const Vec3& x, double reach) {
+    const double along = f.dot(x - fa);
+    return along >= 0 && along <= crease_len && ((x - fa) - f * along).norm() <= reach;
+  };
   // A vertex a sheet decided keeps that side (snapped: 0); one it did not decide is on the side
   // its position says (exact).
   auto side = [&](VertexId v) {
@@ -811,7 +819,11 @@ std::vector<CutFacePair> CutStep::crease_faces(const CreaseSides& prev, const Cr
       const int sa = tet_side(t, tv[f]), sb = tet_side(n, mesh_.tet_vertices(n)[g]);
       if (sa == kUndecided || sb == kUndecided || sa * sb >= 0) continue;
       const Vec3 c = (position(fv[0]) + position(fv[1]) + position(fv[2])) / 3;
-      if (!(behind(c) ? prev : next).piece.contains(c, kInsideTol)) continue;
+      if (!(behind(c) ? prev : next).piece.contains(c, kInsideTol)) {
+        double longest = 0;
+        for (int i = 0; i < 3; ++i) longest = std::max(longest, (position(fv[i]) - position(fv[(i + 1) % 3])).norm());
+        if (!on_crease(c, snap_ * longest)) continue;
+      }
       done.insert(face_key(t, f));
       done.insert(face_key(n, g));
       out.push_back({{t, f}, {n, g}});

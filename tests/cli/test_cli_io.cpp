@@ -271,7 +271,13 @@ TEST_CASE("first hour: a user's cut scene runs to the end, every frame reads bac
   const Run r = run(d, "simulate " + (d / "scene.json") + " -o " + (d / "run") + " -q");
   INFO(r.err);
   REQUIRE(r.rc == 0);
-  CHECK(r.err.find("warning") == std::string::npos);  // in one unit system, as it states
+  // In one unit system, as it states: no warning but the one about a slow frame, which depends
+  // on the machine's load (a timing, not what this test asks).
+  {
+    std::stringstream lines(r.err);
+    for (std::string l; std::getline(lines, l);)
+      if (l.find("warning") != std::string::npos) CHECK(l.find("not interactive") != std::string::npos);
+  }
   std::ifstream csv(d / "run/stats.csv");
   std::string line;
   std::getline(csv, line);
