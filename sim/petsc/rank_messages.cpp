@@ -37,6 +37,16 @@ void receive_vector(std::vector<T>& v, MPI_Comm comm) {
   }
 }
 
+// Each vector in turn (fold expressions over a message's fields).
+template <class... V>
+void send_vectors(int dest, MPI_Comm comm, const V&... v) {
+  (send_vector(v, dest, comm), ...);
+}
+template <class... V>
+void receive_vectors(MPI_Comm comm, V&... v) {
+  (receive_vector(v, comm), ...);
+}
+
 }  // namespace
 
 // Contiguous ranges: rank r owns [n r / size, n (r + 1) / size).
@@ -47,39 +57,19 @@ std::vector<PetscInt> split(long long n, int size) {
 }
 
 void send_part(const Part& p, int dest, MPI_Comm comm) {
-  send_vector(p.tet_verts, dest, comm);
-  send_vector(p.tet_data, dest, comm);
-  send_vector(p.free, dest, comm);
-  send_vector(p.mass, dest, comm);
-  send_vector(p.coords, dest, comm);
-  send_vector(p.b_ptr, dest, comm);
-  send_vector(p.b_col, dest, comm);
-  send_vector(p.b_val, dest, comm);
+  send_vectors(dest, comm, p.tet_verts, p.tet_data, p.free, p.mass, p.coords, p.b_ptr, p.b_col, p.b_val);
 }
 
 void receive_part(Part& p, MPI_Comm comm) {
-  receive_vector(p.tet_verts, comm);
-  receive_vector(p.tet_data, comm);
-  receive_vector(p.free, comm);
-  receive_vector(p.mass, comm);
-  receive_vector(p.coords, comm);
-  receive_vector(p.b_ptr, comm);
-  receive_vector(p.b_col, comm);
-  receive_vector(p.b_val, comm);
+  receive_vectors(comm, p.tet_verts, p.tet_data, p.free, p.mass, p.coords, p.b_ptr, p.b_col, p.b_val);
 }
 
 void send_saddle_rows(const SaddleRows& r, int dest, MPI_Comm comm) {
-  send_vector(r.ptr, dest, comm);
-  send_vector(r.col, dest, comm);
-  send_vector(r.val, dest, comm);
-  send_vector(r.p_diagonal, dest, comm);
+  send_vectors(dest, comm, r.ptr, r.col, r.val, r.p_diagonal);
 }
 
 void receive_saddle_rows(SaddleRows& r, MPI_Comm comm) {
-  receive_vector(r.ptr, comm);
-  receive_vector(r.col, comm);
-  receive_vector(r.val, comm);
-  receive_vector(r.p_diagonal, comm);
+  receive_vectors(comm, r.ptr, r.col, r.val, r.p_diagonal);
 }
 
 namespace {
