@@ -9,6 +9,8 @@ earlier pieces, stays flat if it is), the smallest dihedral and the share below 
 after (`incise quality --json`).
 
   /usr/bin/python3 bench/bench_successive_cuts.py [--build DIR] [--cuts N] [--seed S] [MESH]
+
+CUT_ARGS (environment) adds options to every `incise cut`, e.g. CUT_ARGS="--finish-work 40000".
 """
 import argparse
 import json
@@ -50,7 +52,7 @@ def main():
             depth = (hi[2] - lo[2]) * rng.uniform(0.4, 0.8)
             out, rep = os.path.join(tmp, f"cut{k}.msh"), os.path.join(tmp, f"cut{k}.json")
             r = subprocess.run([exe, "cut", prev, "-o", out, "--blade", *map(str, p + q), "--sweep", "0", "0",
-                                str(-depth), "--steps", "10", "--json", rep, "-q"], capture_output=True, text=True)
+                                str(-depth), "--steps", "10", "--json", rep, "-q", *os.environ.get("CUT_ARGS", "").split()], capture_output=True, text=True)
             if r.returncode:
                 sys.exit(r.stderr.strip())
             j = json.load(open(rep))

@@ -118,6 +118,7 @@ void FemModel::grow() {
     mass_.tail(mass_.size() - old).setZero();
     corner_slots_.resize(cap);
     blocks_.resize(cap, Eigen::Matrix3d::Zero());
+    if (edge_smoothed()) sblock_.resize(cap, Eigen::Matrix3d::Zero());
     iso_.resize(cap, 0.0);
     if (nodal_averaged()) {
       nvol_.resize(cap, 0.0);
@@ -200,6 +201,10 @@ void FemModel::vertex_block(std::uint32_t vi) {
     rhs += vol_[ti] * r * stress_of(Eigen::Matrix3d::Identity() - r.transpose(), mu_[ti], lambda_[ti]) * g;
   }
   rhs_.segment<3>(3 * vi) = rhs;
+  if (edge_smoothed()) {
+    smoothed_rest_block(vi);
+    smoothed_block(vi, blk);
+  }
   if (nodal_averaged()) volumetric_block(vi, blk);
   blocks_[vi] = blk;
   diag_.segment<3>(3 * vi) = blk.diagonal();

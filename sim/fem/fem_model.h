@@ -210,6 +210,10 @@ private:
   void nodal_volume_of(std::uint32_t v);     // nvol_, nkv_ from the incident tets
   void refresh_ring(const TopologyChange& change);  // diagonal blocks of the touched 1-ring
   void volumetric_block(std::uint32_t v, Eigen::Matrix3d& blk) const;  // adds B^T B's block (v, v)
+  // EdgeSmoothed: the smoothed deviatoric part's block (v, v) at rest, into sblock_[v], and
+  // rotated by v's rotation (the mean of its tets') into blk, which it overwrites.
+  void smoothed_rest_block(std::uint32_t v);
+  void smoothed_block(std::uint32_t v, Eigen::Matrix3d& blk) const;
   void volume_gradients(std::uint32_t t);  // vgrad_ of a tet from its rotation
   void build_ring(std::uint32_t v);        // ring_, ring_at_ from the vertex's corner slots
   // The nodal-averaged volumetric term in three passes. Per tet div_t: of x (R^T H_t(x) traced)
@@ -270,6 +274,7 @@ private:
   // Per unknown.
   Eigen::VectorXd diag_, mass_;
   std::vector<Eigen::Matrix3d> blocks_;  // per vertex
+  std::vector<Eigen::Matrix3d> sblock_;  // EdgeSmoothed, per vertex: the smoothed block at rest
   std::vector<double> iso_;              // per vertex: sum of V mu |grad N|^2 over its corners
   Eigen::VectorXd rhs_;  // b_R, summed per vertex with the diagonal blocks (deviatoric part)
   // NodalAveraged, per vertex: V_a and kappa_a V_a; scratch of the volumetric passes.

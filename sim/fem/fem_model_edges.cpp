@@ -68,6 +68,62 @@ void FemModel::edge_moduli(std::uint32_t e) {
   edge_lambda_[e] = v > 0 ? vl / v : 0.0;
 }
 
+// At rest, the block sums over the edges e of v's tets (v lies in each one's domain) V_e (mu_e
+// |G|^2 I + (mu_e + lambda_e) G G^T), G = sum over the tets around e holding v of (V_t / 6 V_e)
+// grad N_v: the unit displacement of v along c strains edge e by sym(e_c G^T). Kept per vertex
+// and recomputed with its standard block (after edits: the touched vertices' 1-ring).
+void FemModel::smoothed_rest_block(std::uint32_t v) {
+  thread_local std::vector<std::uint32_t> pos;  // by edge id: position in `edges`, or none
+  thread_local std::vector<std::uint32_t> edges;
+  thread_local std::vector<Eigen::Vector3d> sums;
+  constexpr std::uint32_t kNone = 0xffffffffu;
+  if (pos.size() < edge_tets_.size()) pos.resize(edge_tets_.size(), kNone);
+  edges.clear();
+  sums.clear();
+  for (std::uint32_t slot : corner_slots_[v]) {
+    const std::uint32_t ti = slot / 4;
+    if (!alive_[ti] || !registered_[ti]) continue;
+    const Eigen::Vector3d h = (vol_[ti] / 6) * shape_gradient(bm_[ti], int(slot % 4));
+    for (std::uint32_t e : tet_edges_[ti]) {
+      if (pos[e] == kNone) {
+        pos[e] = std::uint32_t(edges.size());
+        edges.push_back(e);
+        sums.push_back(Eigen::Vector3d::Zero());
+      }
+      sums[pos[e]] += h;
+    }
+  }
+  Eigen::Matrix3d& blk = sblock_[v];
+  blk.setZero();
+  for (std::size_t i = 0; i < edges.size(); ++i) {
+    const std::uint32_t e = edges[i];
+    pos[e] = kNone;
+    if (!(edge_vol_[e] > 0)) continue;
+    const Eigen::Vector3d g = sums[i] / edge_vol_[e];
+    blk.diagonal().array() += edge_vol_[e] * edge_mu_[e] * g.squaredNorm();
+    blk.noalias() += (edge_vol_[e] * (edge_mu_[e] + edge_lambda_[e])) * g * g.transpose();
+  }
+}
+
+// Rotated: R sblock R^T, R the normalized mean of v's tets' rotations (sign-aligned quaternions).
+// Exact where the tets around each of v's edges share one rotation (a rigid turn, and always
+// for Linear); elsewhere a preconditioner's estimate that costs a pass over v's corners, not
+// the product's work (docs/solver.md#edge-smoothed-product).
+void FemModel::smoothed_block(std::uint32_t v, Eigen::Matrix3d& blk) const {
+  if (kind_ != FemKind::Corotational || corner_slots_[v].empty()) {
+    blk = sblock_[v];
+    return;
+  }
+  const Eigen::Quaterniond& q0 = quat_[corner_slots_[v].front() / 4];
+  Eigen::Vector4d sum = Eigen::Vector4d::Zero();
+  for (std::uint32_t slot : corner_slots_[v]) {
+    const Eigen::Vector4d q = quat_[slot / 4].coeffs();
+    sum += q.dot(q0.coeffs()) < 0 ? Eigen::Vector4d(-q) : q;
+  }
+  const Eigen::Matrix3d r = Eigen::Quaterniond(sum).normalized().toRotationMatrix();
+  blk.noalias() = r * sblock_[v] * r.transpose();
+}
+
 // Pass 1 per tet (V_t / 6) eps_t, pass 2 per edge sigma_e, pass 3 per tet sigma_bar_t and the
 // corner forces, gathered per vertex. Each pass is conflict-free; small meshes run serially.
 void FemModel::deviatoric_pass(const Eigen::VectorXd* x, bool rotation, double sign, Eigen::VectorXd* y,

@@ -211,6 +211,7 @@ void FemModel::relinearize(const Eigen::VectorXd& u, bool exact) {
     stats.add(polar, steps);
   });
   parallel_range(vertex_capacity_, [&](std::size_t v) {
+    if (edge_smoothed()) smoothed_block(std::uint32_t(v), blocks_[v]);
     if (nodal_averaged()) volumetric_block(std::uint32_t(v), blocks_[v]);
     diag_.segment<3>(3 * v) = blocks_[v].diagonal();
   });
