@@ -19,6 +19,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 namespace incise {
 
@@ -591,28 +592,29 @@ void AggregationAmg::apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
   // or fixed: they take no coarse correction, so z stays zero on kept unknowns.
   const bool check = topology_changed_ && free_;
   auto covered = [&](std::uint32_t v) { return !check || (*free_)[3 * std::size_t(v)]; };
-  // z += P A_c^-1 P^T x
-  auto coarse_correct = [&](const Eigen::VectorXd& x, Eigen::VectorXd& out) {
-    if (!coarse) return;
-    // Fixed-size 6-vectors per aggregate (P's columns beyond k are zero, and the factor
-    // returns zero there).
-    // Aggregates own disjoint vertices: both passes split over them on large meshes (serial,
-    // the application was a large share of a CG iteration beside a parallel K x).
-    const std::size_t na = agg_.count();
+  // z += P A_c^-1 P^T x, in three parts: restrict (P^T x into rc_), solve (rc_ in place),
+  // prolong (z += P rc_).
+  // Fixed-size 6-vectors per aggregate (P's columns beyond k are zero, and the factor returns
+  // zero there). Aggregates own disjoint vertices: restriction and prolongation split over them
+  // on large meshes (serial, the application was a large share of a CG iteration beside a
+  // parallel K x).
+  const std::size_t na = agg_.count();
+  const bool parallel = r.size() >= kParallelFrom;
+  auto over_aggregates = [&](auto&& f) {
+    if (!parallel) {
+      for (std::size_t ai = 0; ai < na; ++ai) f(ai);
+      return;
+    }
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, na, 8), [&](const tbb::blocked_range<std::size_t>& rg) {
+      for (std::size_t ai = rg.begin(); ai != rg.end(); ++ai) f(ai);
+    });
+  };
+  // P_v = B_v T_a with B_v = [I | -[p_v]x] (p_v the vertex's scaled position): applied from
+  // the positions and T_a, not from the stored 3x6 blocks, so an application streams 3
+  // numbers a vertex instead of 18 (it runs between two products, its data out of cache).
+  // P^T x over a's vertices: T_a^T sum_v (x_v, p_v x x_v).
+  auto restrict_to_coarse = [&](const Eigen::VectorXd& x) {
     rc_.resize(na);
-    auto over_aggregates = [&](auto&& f) {
-      if (x.size() < kParallelFrom) {
-        for (std::size_t ai = 0; ai < na; ++ai) f(ai);
-        return;
-      }
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, na, 8), [&](const tbb::blocked_range<std::size_t>& rg) {
-        for (std::size_t ai = rg.begin(); ai != rg.end(); ++ai) f(ai);
-      });
-    };
-    // P_v = B_v T_a with B_v = [I | -[p_v]x] (p_v the vertex's scaled position): applied from
-    // the positions and T_a, not from the stored 3x6 blocks, so an application streams 3
-    // numbers a vertex instead of 18 (it runs between two products, its data out of cache).
-    // P^T x over a's vertices: T_a^T sum_v (x_v, p_v x x_v).
     over_aggregates([&](std::size_t ai) {
       Vec6& acc = rc_[ai];
       acc.setZero();
@@ -628,19 +630,23 @@ void AggregationAmg::apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
       y << f, m;
       acc.noalias() = t_[ai].transpose() * y;
     });
+  };
+  auto coarse_solve = [&] {
     Coarse& co = *coarse_;
     if (co.block) {
       co.factor.solve_in_place(rc_);
-    } else {
-      co.rc.resize(co.offset.back());
-      for (std::size_t ai = 0; ai < na; ++ai) co.rc.segment(co.offset[ai], modes_[ai]) = rc_[ai].head(modes_[ai]);
-      co.ec = co.ldlt.solve(co.rc);
-      for (std::size_t ai = 0; ai < na; ++ai) {
-        rc_[ai].setZero();
-        rc_[ai].head(modes_[ai]) = co.ec.segment(co.offset[ai], modes_[ai]);
-      }
+      return;
     }
-    // P c over a's vertices: with (t, r) = T_a c, t + r x p_v at each.
+    co.rc.resize(co.offset.back());
+    for (std::size_t ai = 0; ai < na; ++ai) co.rc.segment(co.offset[ai], modes_[ai]) = rc_[ai].head(modes_[ai]);
+    co.ec = co.ldlt.solve(co.rc);
+    for (std::size_t ai = 0; ai < na; ++ai) {
+      rc_[ai].setZero();
+      rc_[ai].head(modes_[ai]) = co.ec.segment(co.offset[ai], modes_[ai]);
+    }
+  };
+  // P c over a's vertices: with (t, r) = T_a c, t + r x p_v at each.
+  auto prolong_into = [&](Eigen::VectorXd& out) {
     over_aggregates([&](std::size_t ai) {
       if (modes_[ai] == 0) return;
       const Vec6 c = t_[ai] * rc_[ai];
@@ -649,9 +655,27 @@ void AggregationAmg::apply(const Eigen::VectorXd& r, Eigen::VectorXd& z) const {
         if (covered(v)) out.segment<3>(3 * Eigen::Index(v)) += t + r.cross(pos_[v]);
     });
   };
+  auto coarse_correct = [&](const Eigen::VectorXd& x, Eigen::VectorXd& out) {
+    if (!coarse) return;
+    restrict_to_coarse(x);
+    coarse_solve();
+    prolong_into(out);
+  };
   if (opt_.cycle == AggregationAmgOptions::Cycle::Additive) {
-    smoother_.apply(r, z);
-    coarse_correct(r, z);
+    if (!coarse) {
+      smoother_.apply(r, z);
+      return;
+    }
+    // z = S r + P A_c^-1 P^T r: the smoother and the coarse solve read r alone, and both are
+    // serial (one memory-bound sweep, one triangular solve), so on large meshes they run side
+    // by side; the sum is the same as in sequence.
+    restrict_to_coarse(r);
+    if (parallel) tbb::parallel_invoke([&] { smoother_.apply(r, z); }, coarse_solve);
+    else {
+      smoother_.apply(r, z);
+      coarse_solve();
+    }
+    prolong_into(z);
     return;
   }
   smoother_.apply(r, z);
