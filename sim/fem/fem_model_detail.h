@@ -40,6 +40,17 @@ void for_each_index(std::size_t n, bool serial, F&& f) {
     parallel_range(n, f);
 }
 
+// f(begin, end) over [0, n) in chunks (a kernel that runs a whole range per call).
+template <class F>
+void for_each_chunk(std::size_t n, bool serial, F&& f) {
+  if (serial) {
+    f(std::size_t(0), n);
+    return;
+  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 512),
+                    [&](const tbb::blocked_range<std::size_t>& r) { f(r.begin(), r.end()); });
+}
+
 // A tet's six edges as pairs of local corners.
 inline constexpr int kTetEdge[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
 

@@ -63,6 +63,7 @@ public:
   // off (tests compare both paths; the portable one is what other CPUs run).
   static bool simd_available();
   void set_simd(bool on) { simd_ = on; }
+  bool simd() const { return simd_ && simd_available(); }  // the AVX2 paths run
 
   std::size_t slabs() const { return blocks_.size() - 1; }
 
