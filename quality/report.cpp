@@ -176,6 +176,8 @@ QualityReport compute_quality_report(const TetMesh& mesh, const QualityOptions& 
 
   r.boundary = boundary_topology(mesh);
   r.boundary_angle = smallest_boundary_angle(mesh);
+  if (r.boundary_angle && r.boundary_angle->degrees < options.sliver_angle)
+    r.forced_slivers = sharp_boundary(mesh, options.sliver_angle).tets.size();
   r.components = tet_components(mesh).count;
   SolverEstimateOptions so;
   so.tolerance = options.solver_tolerance;
@@ -232,7 +234,10 @@ std::string format_quality_report(const QualityReport& r) {
          std::to_string(r.boundary_angle->a.idx()) + "-" + std::to_string(r.boundary_angle->b.idx()) +
          "): no mesh of this surface has a larger smallest dihedral angle");
   line("elements: " + std::to_string(r.inverted) + " inverted, " + std::to_string(r.degenerate) + " degenerate, " +
-       std::to_string(r.slivers) + " slivers (min dihedral < " + num(r.options.sliver_angle) + " deg)");
+       std::to_string(r.slivers) + " slivers (min dihedral < " + num(r.options.sliver_angle) + " deg" +
+       (r.forced_slivers ? "; " + std::to_string(r.forced_slivers) + " of them forced by boundary edges sharper than that"
+                         : std::string()) +
+       ")");
   line("");
 
   std::string head = padr("metric", 20);

@@ -79,6 +79,10 @@ struct QualityReport {
   // The sharpest boundary edge (quality/boundary_angle.h): the worst dihedral angle no
   // surface-keeping improvement can lift above. Empty without manifold boundary edges.
   std::optional<BoundaryAngle> boundary_angle;
+  // Slivers the surface forces: tets around a boundary edge whose interior angle is under
+  // options.sliver_angle (quality/boundary_angle.h, sharp_boundary), which no mesh of this
+  // surface lifts above it. The rest of `slivers` is what improvement could still reach.
+  std::size_t forced_slivers = 0;
   std::size_t components = 0;          // of tets through shared faces
   std::vector<LabelStats> labels;      // by increasing label
   SolverEstimate solver;

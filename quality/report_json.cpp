@@ -58,7 +58,10 @@ json quality_report_json(const QualityReport& r) {
   j["bounding_box"] = {{"min", {r.bbox_min.x(), r.bbox_min.y(), r.bbox_min.z()}},
                        {"max", {r.bbox_max.x(), r.bbox_max.y(), r.bbox_max.z()}}};
   j["edge_length"] = {{"min", number(r.min_edge)}, {"max", number(r.max_edge)}};
-  j["elements"] = {{"inverted", r.inverted}, {"degenerate", r.degenerate}, {"slivers", r.slivers}};
+  j["elements"] = {{"inverted", r.inverted},
+                   {"degenerate", r.degenerate},
+                   {"slivers", r.slivers},
+                   {"forced_slivers", r.forced_slivers}};
   json metrics = json::object();
   for (const MetricStats& s : r.metrics) metrics[metric_info(s.metric).name] = stats_json(s);
   j["metrics"] = metrics;

@@ -389,4 +389,15 @@ TEST_CASE("tets forced below an angle by sharp boundary edges", "[quality][repor
   CHECK(sharp_boundary(sheared, 26).tets.empty());
   CHECK(sharp_boundary(make_box(Vec3(1, 1, 1), {2, 2, 2}), 89.9).tets.empty());
   CHECK(sharp_boundary(make_box(Vec3(1, 1, 1), {2, 2, 2}), 90.01).edges == 24);
+  // The report counts them among its slivers at that angle, and none below the sharpest edge.
+  QualityOptions at30;
+  at30.sliver_angle = 30;
+  const QualityReport r30 = compute_quality_report(sheared, at30);
+  CHECK(r30.forced_slivers == expected.size());
+  CHECK(r30.slivers >= r30.forced_slivers);
+  QualityOptions at26;
+  at26.sliver_angle = 26;
+  CHECK(compute_quality_report(sheared, at26).forced_slivers == 0);
+  CHECK(format_quality_report(r30).find(std::to_string(expected.size()) + " of them forced by boundary edges") !=
+        std::string::npos);
 }
