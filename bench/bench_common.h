@@ -16,7 +16,17 @@ namespace incise::bench {
 
 struct Args {
   std::vector<std::string> argv;
-  Args(int argc, char** a) : argv(a + 1, a + argc) {}
+  // --help or -h: say where the options are written (each program's header comment) and exit,
+  // instead of running the whole benchmark.
+  Args(int argc, char** a) : argv(a + 1, a + argc) {
+    if (flag("--help") || flag("-h")) {
+      const std::string name = std::filesystem::path(a[0]).filename().string();
+      std::printf("%s: a benchmark of incise; its options, sections and what it prints are in the header "
+                  "comment of bench/%s.cpp\n",
+                  name.c_str(), name.c_str());
+      std::exit(0);
+    }
+  }
   bool flag(const std::string& name) const { return std::find(argv.begin(), argv.end(), name) != argv.end(); }
   std::string get(const std::string& name, const std::string& def) const {
     for (std::size_t i = 0; i + 1 < argv.size(); ++i)
