@@ -7,8 +7,9 @@ sample liver by default. Per cut: the tets before and after, the tets of the inp
 split (`tets_cut`), the net growth per cut tet (growth from the cut, not from re-splitting
 earlier pieces, stays flat if it is), the smallest dihedral and the share below 10 degrees
 after, and of it the share the surface forces (tets around boundary edges sharper than 10
-degrees, where cuts meet at small angles) with the sharpest boundary edge (`incise quality
---json`).
+degrees, where cuts meet at small angles) with the sharpest boundary edge, and the share
+across parts thinner than a quarter of the tets' longest edge (layers between two cuts or a cut
+and the surface, which only smaller tets would mesh well; `incise quality --json`).
 
   /usr/bin/python3 bench/bench_successive_cuts.py [--build DIR] [--cuts N] [--seed S] [MESH]
 
@@ -41,7 +42,7 @@ def main():
     lo, hi = info["bounding_box"]["min"], info["bounding_box"]["max"]
     rng = random.Random(a.seed)
     print("cut,tets_before,tets_after,tets_cut,net_growth_per_cut_tet,min_dihedral,below_10deg_pct,"
-          "forced_below_10deg_pct,sharpest_boundary_deg,ms_total")
+          "forced_below_10deg_pct,thin_below_10deg_pct,sharpest_boundary_deg,ms_total")
     with tempfile.TemporaryDirectory() as tmp:
         tmp = os.environ.get("KEEP_DIR", tmp)
         prev = a.mesh
@@ -63,9 +64,10 @@ def main():
             net = j["tets_after"] - j["tets_before"]
             below = 100.0 * qj["elements"]["slivers"] / max(qj["counts"]["tets"], 1)
             forced = 100.0 * qj["elements"]["forced_slivers"] / max(qj["counts"]["tets"], 1)
+            thin = 100.0 * qj["elements"]["thin_slivers"] / max(qj["counts"]["tets"], 1)
             sharp = qj["boundary"]["sharpest_edge"]["degrees"] if qj["boundary"]["sharpest_edge"] else 180.0
             print(f"{k},{j['tets_before']},{j['tets_after']},{j['tets_cut']},{net / max(j['tets_cut'], 1):.2f},"
-                  f"{j['min_dihedral_after']:.2f},{below:.2f},{forced:.2f},{sharp:.2f},{j['ms_total']:.0f}", flush=True)
+                  f"{j['min_dihedral_after']:.2f},{below:.2f},{forced:.2f},{thin:.2f},{sharp:.2f},{j['ms_total']:.0f}", flush=True)
             prev = out
 
 

@@ -8,6 +8,7 @@
 #include <numeric>
 
 #include "mesh/errors.h"
+#include "quality/thin_parts.h"
 
 namespace incise {
 
@@ -176,8 +177,15 @@ QualityReport compute_quality_report(const TetMesh& mesh, const QualityOptions& 
 
   r.boundary = boundary_topology(mesh);
   r.boundary_angle = smallest_boundary_angle(mesh);
-  if (r.boundary_angle && r.boundary_angle->degrees < options.sliver_angle)
-    r.forced_slivers = sharp_boundary(mesh, options.sliver_angle).tets.size();
+  if (r.slivers > 0) {
+    std::vector<TetId> forced;
+    if (r.boundary_angle && r.boundary_angle->degrees < options.sliver_angle)
+      forced = sharp_boundary(mesh, options.sliver_angle).tets;
+    r.forced_slivers = forced.size();
+    ThinPartOptions thin;
+    thin.sliver_degrees = options.sliver_angle;
+    r.thin_slivers = slivers_across_thin_parts(mesh, thin, forced).size();
+  }
   r.components = tet_components(mesh).count;
   SolverEstimateOptions so;
   so.tolerance = options.solver_tolerance;
@@ -237,6 +245,9 @@ std::string format_quality_report(const QualityReport& r) {
        std::to_string(r.slivers) + " slivers (min dihedral < " + num(r.options.sliver_angle) + " deg" +
        (r.forced_slivers ? "; " + std::to_string(r.forced_slivers) + " of them forced by boundary edges sharper than that"
                          : std::string()) +
+       (r.thin_slivers ? "; " + std::to_string(r.thin_slivers) +
+                             (r.forced_slivers ? " more" : " of them") + " across parts thinner than a quarter of their longest edge"
+                       : std::string()) +
        ")");
   line("");
 

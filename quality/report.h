@@ -83,6 +83,9 @@ struct QualityReport {
   // options.sliver_angle (quality/boundary_angle.h, sharp_boundary), which no mesh of this
   // surface lifts above it. The rest of `slivers` is what improvement could still reach.
   std::size_t forced_slivers = 0;
+  // Of the other slivers, those across a part of the body thinner than a quarter of their
+  // longest edge (quality/thin_parts.h): only smaller tets there would be better.
+  std::size_t thin_slivers = 0;
   std::size_t components = 0;          // of tets through shared faces
   std::vector<LabelStats> labels;      // by increasing label
   SolverEstimate solver;

@@ -61,7 +61,8 @@ json quality_report_json(const QualityReport& r) {
   j["elements"] = {{"inverted", r.inverted},
                    {"degenerate", r.degenerate},
                    {"slivers", r.slivers},
-                   {"forced_slivers", r.forced_slivers}};
+                   {"forced_slivers", r.forced_slivers},
+                   {"thin_slivers", r.thin_slivers}};
   json metrics = json::object();
   for (const MetricStats& s : r.metrics) metrics[metric_info(s.metric).name] = stats_json(s);
   j["metrics"] = metrics;

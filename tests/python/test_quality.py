@@ -19,7 +19,7 @@ def test_kuhn_golden_values(box):
     assert m["min_dihedral"]["min"] == pytest.approx(45.0)
     assert q["boundary"]["closed"] and q["boundary"]["manifold"]
     assert q["components"] == 1
-    assert q["elements"] == {"inverted": 0, "degenerate": 0, "slivers": 0, "forced_slivers": 0}
+    assert q["elements"] == {"inverted": 0, "degenerate": 0, "slivers": 0, "forced_slivers": 0, "thin_slivers": 0}
     per_tet = incise.tet_quality(box, "mean_ratio")
     assert per_tet.shape == (box.num_tets,)
     assert np.allclose(per_tet, 0.755953, atol=1e-6)

@@ -8,6 +8,7 @@
 #include "mesh/errors.h"
 #include "mesh/generate.h"
 #include "quality/report.h"
+#include "quality/thin_parts.h"
 #include "testing/mesh_measures.h"
 
 using namespace incise;
@@ -400,4 +401,43 @@ TEST_CASE("tets forced below an angle by sharp boundary edges", "[quality][repor
   CHECK(compute_quality_report(sheared, at26).forced_slivers == 0);
   CHECK(format_quality_report(r30).find(std::to_string(expected.size()) + " of them forced by boundary edges") !=
         std::string::npos);
+}
+
+TEST_CASE("slivers across thin parts", "[quality][report]") {
+  // A slab one cell of 1 x 1 wide and 0.05 thick: every tet has vertices on both faces, is at
+  // most 0.05 across (the slab's thickness, independently of the normals the count reads) and
+  // has an edge of at least 1: each is a sliver, and each lies across a part thinner than a
+  // quarter of its longest edge.
+  const TetMesh slab = make_box(Vec3(4, 4, 0.05), {4, 4, 1});
+  std::size_t slivers = 0;
+  for (TetId t : slab.tets()) slivers += tet_quality(slab, t).min_dihedral < 10;
+  REQUIRE(slivers == slab.num_tets());
+  const std::vector<TetId> thin = slivers_across_thin_parts(slab);
+  CHECK(thin.size() == slab.num_tets());
+  CHECK(std::is_sorted(thin.begin(), thin.end()));
+  // The ratio is what decides: 0.05 over the longest edge (sqrt(2 + 0.0025)) is 0.0353.
+  ThinPartOptions tighter;
+  tighter.ratio = 0.035;
+  CHECK(slivers_across_thin_parts(slab, tighter).empty());
+  tighter.ratio = 0.036;
+  CHECK(slivers_across_thin_parts(slab, tighter).size() == slab.num_tets());
+  // Excluded tets are left out.
+  CHECK(slivers_across_thin_parts(slab, {}, {thin.front()}).size() == thin.size() - 1);
+  const QualityReport r = compute_quality_report(slab);
+  CHECK(r.slivers == slab.num_tets());
+  CHECK(r.forced_slivers == 0);
+  CHECK(r.thin_slivers == slab.num_tets());
+  CHECK(format_quality_report(r).find(std::to_string(r.thin_slivers) + " of them across parts thinner") != std::string::npos);
+
+  // Slivers inside a thick body are not: a 4-cell cube with the vertex at its centre pushed
+  // towards the layer of vertices above it flattens the tets on that layer, all of whose
+  // vertices are inside.
+  TetMesh cube = make_box(Vec3(4, 4, 4), {4, 4, 4});
+  for (VertexId v : cube.vertices())
+    if ((cube.rest(v) - Vec3(2, 2, 2)).norm() < 1e-12) cube.set_rest(v, Vec3(2, 2, 2.98));
+  const QualityReport rc = compute_quality_report(cube);
+  REQUIRE(rc.slivers > 0);
+  CHECK(rc.thin_slivers == 0);
+  CHECK(slivers_across_thin_parts(cube).empty());
+  CHECK(format_quality_report(rc).find("thinner") == std::string::npos);
 }
