@@ -22,7 +22,7 @@ void add_improve(CLI::App& app) {
     std::string in, out, json;
     ImproveOptions improve;
     bool no_flips = false, no_multi_face = false, no_smoothing = false, fixed_boundary = false, keep_surface = false, insert = false,
-         no_surface_flips = false;
+         no_surface_flips = false, no_edge_stars = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("improve", "Improve element quality by flips, contraction and smoothing (surface and label volumes kept within --volume-tolerance)");
@@ -45,6 +45,8 @@ void add_improve(CLI::App& app) {
   cmd->add_flag("--no-multi-face", o->no_multi_face, "No multi-face removal among the flips (for comparison)");
   cmd->add_flag("--no-smoothing", o->no_smoothing, "Flips only (vertices stay)");
   cmd->add_flag("--insert", o->insert, "Also insert vertices (cavity insertion) where flips, contraction and smoothing are stuck");
+  cmd->add_flag("--no-edge-stars", o->no_edge_stars,
+                "With --insert: cavities only grown from the bad tet, not also from the tets around its edges (for comparison)");
   cmd->add_option("--max-growth", o->improve.max_growth, "The tet count stays within this factor of the input")
       ->capture_default_str();
   cmd->add_flag("--fixed-boundary", o->fixed_boundary, "Boundary vertices never move");
@@ -88,6 +90,7 @@ void add_improve(CLI::App& app) {
     opt.move_surface = !o->fixed_boundary;
     opt.slide_curved = !o->keep_surface;
     opt.insertion = o->insert;
+    opt.edge_star_insertion = !o->no_edge_stars;
     opt.reshape_surface = !o->no_surface_flips;
     opt.slide_feature_lines = opt.feature_line_angle_deg > 0;
     OutputTransaction tx;  // the mesh and the report: both written or neither

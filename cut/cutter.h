@@ -104,6 +104,10 @@ struct CutOptions {
     o.collapse_deviation = 0.05;
     o.rings = 1;
     o.max_work = kDefaultImproveWork;
+    // Insertion only from the bad tet and its points, not into its edges' stars: placed in the
+    // rest shape, a vertex in such a larger cavity inverts more tets of the deformed shape
+    // (docs/improve.md, Insertion).
+    o.edge_star_insertion = false;
     return o;
   }();
   // A few operations a step: a step that commits a layer of tets stays cheap, and the work

@@ -116,10 +116,11 @@ std::vector<Fragment> find_fragments(const TetMesh& mesh, std::span<const TetId>
     }
     closed.push_back({std::move(f.tets), f.volume});
   }
-  // Every part closed (a small body cut through): the largest is the body.
+  // Every part closed (a small body cut through): the largest is the body, by volume, which
+  // the improvement keeps (by tet count, a part that insertion refined more could pass it).
   if (!open_part && !closed.empty()) {
     auto big = std::max_element(closed.begin(), closed.end(),
-                                [](const Fragment& a, const Fragment& b) { return a.tets.size() < b.tets.size(); });
+                                [](const Fragment& a, const Fragment& b) { return a.volume < b.volume; });
     closed.erase(big);
   }
   return closed;

@@ -110,7 +110,7 @@ AngleQuality angle_quality(const TetMesh& mesh, std::span<const std::array<Verte
 
 bool better(const AngleQuality& after, const AngleQuality& before, const AngleTargets& t) {
   return after.q > before.q + 1e-6 && after.min_dihedral >= std::min(before.min_dihedral, t.min_deg) &&
-         after.max_dihedral <= std::max(before.max_dihedral, t.max_deg) &&
+         after.max_dihedral <= std::max({before.max_dihedral, t.max_deg, t.max_deg_cap}) &&
          after.radius_ratio >= std::min(before.radius_ratio, t.radius_ratio_floor);
 }
 

@@ -21,6 +21,10 @@ struct AngleTargets {
   // this floor (1: not at all). The improvement pass lowers it to
   // ImproveOptions::radius_ratio_floor when it inserts vertices (see there).
   double radius_ratio_floor = 1;
+  // An operation may raise its tets' largest dihedral angle up to this, past max_deg and their
+  // own largest (0: not at all): the global pass sets it to the mesh's largest when insertion
+  // starts, so the mesh's largest angle never gets worse than it was then.
+  double max_deg_cap = 0;
 };
 
 // Worst values over a set of tets (or one tet).

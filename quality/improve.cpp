@@ -129,6 +129,7 @@ public:
     collapse_.remove_boundary = opt.move_surface && opt.move_cut;
     collapse_.frozen = &frozen_;
     insert_.max_cavity = opt.max_cavity;
+    insert_.edge_stars = opt.edge_star_insertion;
     insert_.iterations = 2 * opt.smoothing_iterations;
     insert_.growth_refused = &growth_refused_;
     // The boundary keeps its shape under boundary insertion, but its triangulation changes: only
@@ -191,6 +192,14 @@ public:
   bool insertion_allowed = true;
   bool growth_refused() const { return growth_refused_; }
   int work() const { return work_; }
+  // From now on an operation may raise its tets' largest dihedral angle up to the mesh's
+  // largest now (AngleTargets::max_deg_cap): the worst tets' smallest angles rise past what
+  // keeping each set's own largest allowed, and the mesh's largest never gets worse. O(mesh).
+  void cap_max_dihedral_at_current() {
+    double largest = 0;
+    for (TetId t : mesh_.tets()) largest = std::max(largest, angle_quality(mesh_, t, scope_.targets).max_dihedral);
+    scope_.targets.max_deg_cap = largest;
+  }
   void allow_insertion() {
     insertion_allowed = true;
     scope_.targets.radius_ratio_floor = opt_.radius_ratio_floor;
@@ -459,6 +468,7 @@ ImproveReport improve(TetMesh& mesh, const ImproveOptions& opt) {
     if (!d.sweep(pass == 0 ? all : mesh.tets(), rep, pass == 0 ? &before : nullptr)) break;
   if (opt.insertion) {
     d.allow_insertion();
+    d.cap_max_dihedral_at_current();
     for (int round = 0; round < 8 && !rep.budget_exhausted; ++round, ++pass)
       if (!d.sweep(pass == 0 ? all : mesh.tets(), rep, pass == 0 ? &before : nullptr)) break;
   }

@@ -40,6 +40,7 @@ struct ImproveOptions {
                                      // costs about ten of the others (docs/improve.md#behind-the-defaults),
                                      // so a budget in operations stays one in time (a finish() slice per frame)
   int max_cavity = 16;               // ... largest cavity (tets replaced by one insertion)
+  bool edge_star_insertion = true;   // ... also into the stars of the bad tet's edges (quality/insertion.h)
   bool boundary_insertion = true;    // ... also on boundary faces (split in their plane, tag kept), where
                                      // move_surface (move_cut for cut faces) allows boundary changes
   bool collapse = true;              // edge contraction of a tet's short edge (mesh/edge_collapse.h), also of

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <unordered_set>
 
+#include "mesh/errors.h"
 #include "quality/star_ascent.h"
 
 namespace incise {
@@ -142,11 +143,30 @@ std::array<double, 3> in_triangle(const Vec3& p, const Vec3& a, const Vec3& b, c
   return {(b - p).cross(c - p).dot(n) / nn, (c - p).cross(a - p).dot(n) / nn, (a - p).cross(b - p).dot(n) / nn};
 }
 
-std::optional<Plan> plan_at(const TetMesh& mesh, TetId t, const Vec3& p0, bool delaunay, const OnBoundary& on,
-                            const ImproveScope& scope, int max_cavity, int iterations, bool* growth_refused) {
+std::optional<Plan> plan_at(const TetMesh& mesh, TetId t, const Vec3& start, bool delaunay, const OnBoundary& on,
+                            const std::vector<TetId>& seed, const ImproveScope& scope, int max_cavity, int iterations,
+                            bool* growth_refused) {
   Plan plan;
   plan.on = on;
   plan.cavity.add(t);
+  for (TetId s : seed) plan.cavity.add(s);
+  Vec3 p0 = start;
+  if (!seed.empty()) {
+    // A seeded cavity is larger than the ascent's reach from one point: start it from the best
+    // of a few, the given point and those a quarter and half of the way to each of the
+    // cavity's vertices, by the worst new tet.
+    const OpenStar star = cones(mesh, sides(mesh, plan.cavity, on));
+    std::vector<Vec3> corners;
+    for (TetId c : plan.cavity.tets)
+      for (VertexId v : mesh.tet_vertices(c)) corners.push_back(mesh.rest(v));
+    double best = star.at(start, scope.targets).q;
+    for (const Vec3& w : corners)
+      for (double f : {0.25, 0.5}) {
+        const Vec3 p = start + f * (w - start);
+        const double q = star.at(p, scope.targets).q;
+        if (q > best) best = q, p0 = p;
+      }
+  }
   if (delaunay) delaunay_cavity(mesh, plan.cavity, p0, scope, max_cavity);
   if (!grow(mesh, plan.cavity, p0, scope, max_cavity, on)) return std::nullopt;
   // Place the point by the ascent on its new tets (within the face for a boundary insertion),
@@ -243,6 +263,7 @@ std::optional<InsertionOutcome> improve_by_insertion(TetMesh& mesh, TetId t, con
     Vec3 p;
     bool delaunay;
     OnBoundary on;
+    std::vector<TetId> seed = {};  // more tets the cavity starts with
   };
   std::vector<Start> starts = {{bary, false, {}}, {bary, true, {}}};
   const Vec3 cc = circumcenter(x);
@@ -254,6 +275,46 @@ std::optional<InsertionOutcome> improve_by_insertion(TetMesh& mesh, TetId t, con
     else if (opt.boundary_tags && opt.boundary_tags(mesh.face_tag(t, f)))
       starts.push_back({centroid, false, {{v[kFaceLocal[f][0]], v[kFaceLocal[f][1]], v[kFaceLocal[f][2]]}}});
   }
+  // The star of each edge of t: a vertex inside it splits the angles around the edge (at a
+  // boundary edge its two boundary faces keep the edge, which two new tets share; inside, the
+  // edge goes). Growing from t alone stops there, at the first boundary face the point on the
+  // edge does not see. The point starts between the edge's midpoint and the star's ring. And
+  // the union of the six stars (every tet sharing an edge with t, so that t's angles at all its
+  // edges are shared anew), from t's barycenter.
+  const int label = mesh.label(t);
+  // The tets around edge (v[i], v[j]): one fan (an edge the tets reach only around a cut's
+  // front, not through faces, is left alone), one label, in scope.
+  const auto edge_star = [&](int i, int j, std::vector<TetId>& star, Vec3& ring) {
+    TetMesh::EdgeStar es;
+    try {
+      es = mesh.edge_star(v[i], v[j]);
+    } catch (const InvalidMesh&) {
+      return false;
+    }
+    ring = Vec3::Zero();
+    for (VertexId w : es.ring) ring += mesh.rest(w);
+    ring /= double(es.ring.size());
+    for (TetId u : es.tets) {
+      if (mesh.label(u) != label || !scope.contains(u)) return false;
+      if (u != t && std::find(star.begin(), star.end(), u) == star.end()) star.push_back(u);
+    }
+    return static_cast<int>(star.size()) + 1 <= opt.max_cavity;
+  };
+  std::vector<TetId> edge_stars;
+  bool all_ok = opt.edge_stars;
+  for (int i = 0; i < 4 && opt.edge_stars; ++i)
+    for (int j = i + 1; j < 4; ++j) {
+      std::vector<TetId> star;
+      Vec3 ring;
+      if (!edge_star(i, j, star, ring)) {
+        all_ok = false;
+        continue;
+      }
+      Vec3 unused;
+      all_ok = all_ok && edge_star(i, j, edge_stars, unused);
+      if (!star.empty()) starts.push_back({0.5 * (0.5 * (x[i] + x[j]) + ring), false, {}, std::move(star)});
+    }
+  if (all_ok && !edge_stars.empty()) starts.push_back({bary, false, {}, std::move(edge_stars)});
   for (int i = 0; i < 4; ++i)
     for (int j = i + 1; j < 4; ++j) {
       const Vec3 mid = 0.5 * (x[i] + x[j]);
@@ -267,7 +328,8 @@ std::optional<InsertionOutcome> improve_by_insertion(TetMesh& mesh, TetId t, con
     }
   std::optional<Plan> best;
   for (const Start& s : starts)
-    if (auto plan = plan_at(mesh, t, s.p, s.delaunay, s.on, scope, opt.max_cavity, opt.iterations, opt.growth_refused))
+    if (auto plan = plan_at(mesh, t, s.p, s.delaunay, s.on, s.seed, scope, opt.max_cavity, opt.iterations,
+                            opt.growth_refused))
       if (!best || plan->after.q > best->after.q) best = std::move(plan);
   if (!best) return std::nullopt;
   InsertionOutcome out;

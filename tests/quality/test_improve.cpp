@@ -14,6 +14,7 @@
 #include "mesh/isosurface_stuffing.h"
 #include "quality/dihedral_objective.h"
 #include "quality/improve.h"
+#include "quality/insertion.h"
 #include "quality/metrics.h"
 #include "testing/mesh_edits.h"
 
@@ -475,4 +476,63 @@ TEST_CASE("improve with insertion: the record carries affine fields exactly", "[
   }
   INFO("worst field error " << worst << " of " << scale);
   CHECK(worst <= 1e-9 * scale);
+}
+
+TEST_CASE("insertion into the star of a sharp boundary edge shares its angle anew", "[improve][insertion]") {
+  // Three tets around the boundary edge a-b (the z axis), its interior angle 120 degrees split
+  // 10 / 55 / 55: every vertex is on the boundary, so only a vertex inside helps, and only in a
+  // cavity holding all three tets (the 10-degree tet alone leaves that wedge to its new tets).
+  TetMesh m;
+  const VertexId a = m.add_vertex(Vec3(0, 0, 0)), b = m.add_vertex(Vec3(0, 0, 1));
+  std::vector<VertexId> ring;
+  for (double deg : {0.0, 10.0, 65.0, 120.0})
+    ring.push_back(m.add_vertex(Vec3(std::cos(deg * M_PI / 180), std::sin(deg * M_PI / 180), 0.5)));
+  std::vector<TetId> fan;  // (a, b, ring[i], ring[i + 1]) turns anticlockwise about +z: positive
+  for (int i = 0; i < 3; ++i) fan.push_back(m.add_tet(a, b, ring[i], ring[i + 1]));
+  for (TetId t : fan) REQUIRE(m.volume(t) > 0);
+  const TetId sharp = fan[0];
+  const double before = tet_quality(m, sharp).min_dihedral;
+  REQUIRE(before < 10.5);
+
+  // Independently: the best a vertex inside the three tets can do, by sampling points and
+  // joining each to the fan's boundary faces (the cavity's faces), in the measure the
+  // insertion maximizes (q, quality/dihedral_objective.h: both angle targets).
+  const AngleTargets targets;
+  std::vector<std::array<Vec3, 3>> faces;
+  for (const BoundaryFace& f : m.boundary_faces())
+    faces.push_back({m.rest(f.vertices[0]), m.rest(f.vertices[2]), m.rest(f.vertices[1])});
+  auto worst_q = [&](const Vec3& p) {
+    double w = 1e300;
+    for (const auto& f : faces) w = std::min(w, angle_q(f[0], f[1], f[2], p, targets));
+    return w;
+  };
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1, 1), z(0, 1);
+  double optimum = -1;
+  for (int k = 0; k < 200000; ++k) optimum = std::max(optimum, worst_q(Vec3(u(rng), u(rng), z(rng))));
+  const double q_before = angle_quality(m, sharp, targets).q;
+  REQUIRE(optimum > 1.5 * q_before);
+
+  // One insertion at the sharp tet, with and without the edges' stars.
+  ImproveScope scope;
+  scope.targets.radius_ratio_floor = 0.1;  // as once insertion starts (ImproveOptions::radius_ratio_floor)
+  auto insert_once = [&](bool stars, TetMesh& out) {
+    out = m;
+    InsertionOptions io;
+    io.edge_stars = stars;
+    const auto r = improve_by_insertion(out, sharp, scope, io);
+    double worst = 1e300;
+    for (TetId t : out.tets()) worst = std::min(worst, angle_quality(out, t, targets).q);
+    return r ? worst : q_before;
+  };
+  TetMesh without, with;
+  const double q_without = insert_once(false, without), q_with = insert_once(true, with);
+  CHECK(with.num_tets() == 8);           // the vertex joined to the fan's eight boundary faces
+  CHECK(q_with >= 0.95 * optimum);       // the ascent finds about what sampling finds
+  CHECK(q_with <= optimum * 1.02);       // and no more: the same cavity
+  CHECK(q_with > q_without);             // grown from the sharp tet alone, less
+  double min_with = 180;
+  for (TetId t : with.tets()) min_with = std::min(min_with, tet_quality(with, t).min_dihedral);
+  CHECK(min_with > before);
+  CHECK(with.total_volume() == Approx(m.total_volume()).epsilon(1e-12));
 }
