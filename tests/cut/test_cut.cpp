@@ -7,6 +7,7 @@
 #include <string>
 
 #include "cut/cutter.h"
+#include "cut/fragments.h"
 #include "cut/predicates.h"
 #include "mesh/generate.h"
 #include "mesh/io/tet_io.h"
@@ -247,4 +248,25 @@ TEST_CASE("bad blades are refused with a clear error", "[cut]") {
   cutter.start({Vec3(0, 0.5, 2), Vec3(1, 0.5, 2)});
   CHECK(cutter.advance({Vec3(0, 0.5, 2), Vec3(1, 0.5, 2)}).change.empty());
   CHECK(cutter.advance({Vec3(0, 0.5, 3), Vec3(1, 0.5, 3)}).change.empty());
+}
+
+TEST_CASE("when a cut closes every part, the body is the largest by volume", "[cut]") {
+  // Two separate boxes: 6 tets of volume 2, and 48 tets of volume 1 (finely meshed, as a part
+  // that the finish's insertion refined). The second is the fragment however many tets it has.
+  TetMesh m = make_box(Vec3(2, 1, 1), {1, 1, 1});
+  const TetMesh fine = make_box(Vec3(1, 1, 1), {2, 2, 2});
+  std::vector<VertexId> map(fine.vertex_capacity());
+  for (VertexId v : fine.vertices()) map[v.idx()] = m.add_vertex(fine.rest(v) + Vec3(5, 0, 0));
+  for (TetId t : fine.tets()) {
+    const auto& tv = fine.tet_vertices(t);
+    m.add_tet(map[tv[0].idx()], map[tv[1].idx()], map[tv[2].idx()], map[tv[3].idx()]);
+  }
+  REQUIRE(m.num_tets() == 54);
+  std::vector<TetId> starts;
+  for (TetId t : m.tets()) starts.push_back(t);
+  cut_detail::FragmentScratch scratch;
+  const auto parts = cut_detail::find_fragments(m, starts, 1000, scratch);
+  REQUIRE(parts.size() == 1);
+  CHECK(parts[0].tets.size() == 48);
+  CHECK(parts[0].volume == Approx(1));
 }
