@@ -15,7 +15,7 @@ namespace {
 ImproveOptions options(double time_limit, double budget_ms, int max_work, double target, double target_max,
                        bool flips, bool multi_face, bool smoothing, bool insertion, double max_growth,
                        double radius_ratio_floor, bool keep_surface, bool fixed_boundary, double feature_angle,
-                       double volume_tolerance, const std::vector<VertexId>& frozen) {
+                       double volume_tolerance, const std::vector<VertexId>& frozen, bool edge_stars = true) {
   ImproveOptions o;
   o.time_limit_s = time_limit;
   o.time_budget_ms = budget_ms;
@@ -28,6 +28,7 @@ ImproveOptions options(double time_limit, double budget_ms, int max_work, double
   o.radius_ratio_floor = radius_ratio_floor;
   o.smoothing = smoothing;
   o.insertion = insertion;
+  o.edge_star_insertion = edge_stars;
   o.max_growth = max_growth;
   // The command line's rules: curved sliding unless keep_surface; nothing on the boundary
   // moves with fixed_boundary.
@@ -53,14 +54,15 @@ void bind_improve(py::module_& m) {
       "improve",
       [](TetMesh& mesh, double time_limit, double target, double target_max, bool flips, bool multi_face,
          bool smoothing, bool insertion, double max_growth, double radius_ratio_floor, bool keep_surface,
-         bool fixed_boundary, double feature_angle, double volume_tolerance, const py::object& frozen) {
+         bool fixed_boundary, double feature_angle, double volume_tolerance, const py::object& frozen,
+         bool edge_stars) {
         if (mesh.has_pending_change())
           throw InvalidArgument("improve: the mesh has edits not yet taken (call take_change() first)");
         const std::vector<VertexId> fz = frozen.is_none() ? std::vector<VertexId>{} : to_vertices(mesh, frozen);
         const ImproveReport r =
             improve(mesh, options(time_limit, 0, 0, target, target_max, flips, multi_face, smoothing, insertion,
                                   max_growth, radius_ratio_floor, keep_surface, fixed_boundary, feature_angle,
-                                  volume_tolerance, fz));
+                                  volume_tolerance, fz, edge_stars));
         return result(mesh, r);
       },
       py::arg("mesh"), py::kw_only(), py::arg("time_limit") = 10.0, py::arg("target_dihedral") = 35.0,
@@ -68,8 +70,9 @@ void bind_improve(py::module_& m) {
       py::arg("smoothing") = true, py::arg("insert") = false, py::arg("max_growth") = 1.5,
       py::arg("radius_ratio_floor") = 0.1, py::arg("keep_surface") = false,
       py::arg("fixed_boundary") = false, py::arg("feature_angle") = 30.0, py::arg("volume_tolerance") = 1e-4,
-      py::arg("frozen") = py::none(),
-      "Flips and smoothing over the whole mesh, worst first (as `incise improve`); returns the "
+      py::arg("frozen") = py::none(), py::arg("edge_stars") = true,
+      "Flips and smoothing over the whole mesh, worst first (as `incise improve`; edge_stars=False "
+      "as --no-edge-stars); returns the "
       "`incise improve --json` report with the edits as 'change'");
   m.def(
       "improve_local",

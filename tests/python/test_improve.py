@@ -138,3 +138,19 @@ def test_improve_keeps_label_volumes_within_volume_tolerance(source_dir):
     incise.improve(loose, time_limit=10, volume_tolerance=1.0)
     after = volumes(loose)
     assert max(abs(after[k] - v) / v for k, v in before.items()) > 1e-3
+
+
+def test_improve_edge_stars_keyword():
+    # Three tets around the boundary edge along z, its 120 degrees split 10 / 55 / 55: with
+    # insertion the 10-degree tet is lifted (a vertex inside all three, where the edge stars
+    # start a cavity); edge_stars=False is `--no-edge-stars`, and the report is the same dict.
+    deg = np.radians([0.0, 10.0, 65.0, 120.0])
+    pts = np.vstack([[0, 0, 0], [0, 0, 1], np.column_stack([np.cos(deg), np.sin(deg), np.full(4, 0.5)])])
+    tets = np.array([[0, 1, 2 + i, 3 + i] for i in range(3)])
+    r = incise.improve(incise.TetMesh(pts, tets), insert=True, max_growth=10, fixed_boundary=True)
+    assert r["before"]["min_dihedral"] < 10.5
+    assert r["after"]["min_dihedral"] > 15
+    r = incise.improve(incise.TetMesh(pts, tets), insert=True, max_growth=10, fixed_boundary=True, edge_stars=False)
+    assert r["after"]["min_dihedral"] >= r["before"]["min_dihedral"]  # never worse, either way
+    with pytest.raises(TypeError):
+        incise.improve(incise.TetMesh(pts, tets), edge_star=True)
