@@ -44,6 +44,7 @@
 #include "mesh/io/tet_io.h"
 #include "mesh/rest_bounds.h"
 #include "quality/boundary_angle.h"
+#include "quality/thin_parts.h"
 #include "quality/components.h"
 #include "quality/metrics.h"
 #include "sim/fem/fem_simulation.h"
@@ -181,14 +182,19 @@ std::string where_bad(const TetMesh& m, double deg) {
 }
 
 // Why the tets below `deg` are there: `forced`, around a boundary edge sharper than that (no
-// mesh of this surface does better); `bridge`, a short edge (under a fifth of the tet's longest)
+// mesh of this surface does better); `thin`, across a part thinner than a quarter of their
+// longest edge (quality/thin_parts.h: only smaller tets would do better); `bridge`, a short edge (under a fifth of the tet's longest)
 // through the inside joining two boundary vertices: the tissue between two sheets is thinner
 // than that there, and removing the edge lays the new tets flat on the sheets while contracting
 // it would glue them; `short boundary edge`, a short edge on the boundary (contraction along
 // the boundary keeps ends on creases and corners; others were not revisited); `other`.
 std::string why_below(const TetMesh& m, double deg) {
-  std::vector<char> forced(m.tet_capacity(), 0), on_boundary(m.vertex_capacity(), 0);
-  for (TetId t : sharp_boundary(m, deg).tets) forced[t.idx()] = 1;
+  std::vector<char> forced(m.tet_capacity(), 0), on_boundary(m.vertex_capacity(), 0), thin(m.tet_capacity(), 0);
+  const std::vector<TetId> sharp = sharp_boundary(m, deg).tets;
+  for (TetId t : sharp) forced[t.idx()] = 1;
+  ThinPartOptions to;
+  to.sliver_degrees = deg;
+  for (TetId t : slivers_across_thin_parts(m, to, sharp)) thin[t.idx()] = 1;
   std::unordered_set<std::uint64_t> boundary_edges;
   auto key = [](VertexId a, VertexId b) {
     return std::uint64_t(std::min(a.idx(), b.idx())) << 32 | std::max(a.idx(), b.idx());
@@ -198,12 +204,16 @@ std::string why_below(const TetMesh& m, double deg) {
       on_boundary[f.vertices[k].idx()] = 1;
       boundary_edges.insert(key(f.vertices[k], f.vertices[(k + 1) % 3]));
     }
-  std::size_t n_forced = 0, bridge = 0, rim_edge = 0, other = 0;
+  std::size_t n_forced = 0, n_thin = 0, bridge = 0, rim_edge = 0, other = 0;
   for (TetId t : m.tets()) {
     const auto& tv = m.tet_vertices(t);
     if (tet_quality(m.rest(tv[0]), m.rest(tv[1]), m.rest(tv[2]), m.rest(tv[3])).min_dihedral >= deg) continue;
     if (forced[t.idx()]) {
       ++n_forced;
+      continue;
+    }
+    if (thin[t.idx()]) {
+      ++n_thin;
       continue;
     }
     double shortest = 1e300, longest = 0;
@@ -219,8 +229,9 @@ std::string why_below(const TetMesh& m, double deg) {
     else
       ++other;
   }
-  char buf[160];
-  std::snprintf(buf, sizeof buf, "forced %zu / bridge %zu / short boundary edge %zu / other %zu", n_forced, bridge, rim_edge, other);
+  char buf[192];
+  std::snprintf(buf, sizeof buf, "forced %zu / thin %zu / bridge %zu / short boundary edge %zu / other %zu", n_forced, n_thin,
+                bridge, rim_edge, other);
   return buf;
 }
 
