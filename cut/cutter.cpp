@@ -178,7 +178,7 @@ void Cutter::Impl::find_detached(CutStepReport& rep, std::span<const TetId> adde
   for (TetId t : added)
     if (mesh_->is_alive(t)) starts.push_back(t);
   fragment_starts_.clear();
-  rep.fragments = find_fragments(*mesh_, starts, opt_.fragment_search_limit, *fragment_scratch_);
+  rep.fragments = find_fragments(*mesh_, starts, opt_.fragment_search_limit, *fragment_scratch_, &rep.body);
 }
 
 void Cutter::Impl::keep_shut_faces(std::span<const CutFacePair> shut) {

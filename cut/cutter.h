@@ -161,6 +161,10 @@ struct CutStepReport {
                                       // half of what it exposed (the channel has two walls)
   double exposed_area = 0;            // area of all new boundary faces (subdivision: twice cut_area)
   std::vector<Fragment> fragments;    // parts detached by this step
+  // When this step closed every part (a small body cut through): the one taken as the body,
+  // the largest by volume, which `fragments` leaves out; empty otherwise. A caller whose
+  // constraints hold a smaller part may find this one free (scene/scene_runner.cpp).
+  Fragment body;
   double ms = 0;                      // wall time of the step (cut + improvement)
   double ms_improve = 0;
   ImproveReport improve;

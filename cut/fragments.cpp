@@ -26,7 +26,8 @@ int root(std::vector<Fill>& fills, int i) {
 }  // namespace
 
 std::vector<Fragment> find_fragments(const TetMesh& mesh, std::span<const TetId> starts, std::size_t limit,
-                                     FragmentScratch& scratch) {
+                                     FragmentScratch& scratch, Fragment* body) {
+  if (body) *body = Fragment{};
   if (limit == 0) return {};
   std::vector<Fill> fills;
   // owner of tet i: scratch.owner[i] when scratch.stamp[i] is this call's stamp.
@@ -121,6 +122,7 @@ std::vector<Fragment> find_fragments(const TetMesh& mesh, std::span<const TetId>
   if (!open_part && !closed.empty()) {
     auto big = std::max_element(closed.begin(), closed.end(),
                                 [](const Fragment& a, const Fragment& b) { return a.volume < b.volume; });
+    if (body) *body = std::move(*big);
     closed.erase(big);
   }
   return closed;

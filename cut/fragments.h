@@ -19,7 +19,9 @@ struct FragmentScratch {
   std::uint32_t now = 0;
 };
 
+// `body`, when given, receives the part taken as the body when every fill closed (empty
+// otherwise): a scene whose constraints hold a smaller part may find that one free.
 std::vector<Fragment> find_fragments(const TetMesh& mesh, std::span<const TetId> starts, std::size_t limit,
-                                     FragmentScratch& scratch);
+                                     FragmentScratch& scratch, Fragment* body = nullptr);
 
 }  // namespace incise::cut_detail

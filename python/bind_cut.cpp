@@ -81,16 +81,19 @@ py::dict report(CutStepReport&& r) {
   d["exposed_area"] = r.exposed_area;
   d["ms"] = r.ms;
   d["ms_improve"] = r.ms_improve;
-  py::list fragments;
-  for (const Fragment& f : r.fragments) {
+  const auto part = [](const Fragment& f) {
     py::array_t<long long> ids(static_cast<py::ssize_t>(f.tets.size()));
     for (std::size_t i = 0; i < f.tets.size(); ++i) ids.mutable_data()[i] = f.tets[i].idx();
     py::dict fd;
     fd["tets"] = ids;
     fd["volume"] = f.volume;
-    fragments.append(fd);
-  }
+    return fd;
+  };
+  py::list fragments;
+  for (const Fragment& f : r.fragments) fragments.append(part(f));
   d["fragments"] = fragments;
+  // A small body cut through: the part taken as the body (the largest by volume), else None.
+  d["body"] = r.body.tets.empty() ? py::object(py::none()) : py::object(part(r.body));
   d["change"] = py::cast(std::move(r.change));
   return d;
 }

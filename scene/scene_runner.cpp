@@ -329,11 +329,22 @@ bool SceneRunner::held_by_scene(VertexId v) const {
 
 // Detached parts without a fixed or prescribed vertex follow the scene's fragment policy (a
 // static solve has no equilibrium for a free part). Named by the frame they come before.
-void SceneRunner::handle_fragments(const std::vector<std::vector<TetId>>& parts) {
+void SceneRunner::handle_fragments(std::vector<std::vector<TetId>> parts, std::vector<TetId> body) {
   const Scene& s = scene_;
+  const auto holds = [&](const std::vector<TetId>& part) {
+    for (TetId t : part)
+      if (mesh_.is_alive(t))
+        for (VertexId v : mesh_.tet_vertices(t))
+          if (fem_ ? fem_->is_constrained(v) : springs_->is_fixed(v)) return true;
+    return false;
+  };
+  // A small body cut through: the cutter took its largest part for the body, but where the
+  // scene holds a smaller one and not that one, the body is what came loose.
+  if (!body.empty() && !holds(body) && std::any_of(parts.begin(), parts.end(), holds))
+    parts.push_back(std::move(body));
   for (const auto& part : parts) {
+    if (holds(part)) continue;
     std::vector<VertexId> verts;
-    bool held = false;
     std::size_t tets = 0;
     Vec3 near = Vec3::Zero();  // the rest-space centroid of its tets' corners, for messages
     for (TetId t : part) {
@@ -342,10 +353,9 @@ void SceneRunner::handle_fragments(const std::vector<std::vector<TetId>>& parts)
       for (VertexId v : mesh_.tet_vertices(t)) {
         verts.push_back(v);
         near += mesh_.rest(v);
-        held = held || (fem_ ? fem_->is_constrained(v) : springs_->is_fixed(v));
       }
     }
-    if (held || verts.empty()) continue;
+    if (verts.empty()) continue;
     near /= double(verts.size());
     // Keep is for dynamic scenes, where a free part falls; a static solve has no equilibrium
     // for it (K is singular there) and would return garbage that looks converged.
@@ -395,7 +405,7 @@ double SceneRunner::cut_scene_blades(double& improve_ms) {
     improve_ms += r.ms_improve;
     std::vector<std::vector<TetId>> parts;
     for (Fragment& fr : r.fragments) parts.push_back(std::move(fr.tets));
-    handle_fragments(parts);
+    handle_fragments(std::move(parts), std::move(r.body.tets));
   };
   // The improvement of blades withdrawn earlier goes on, one slice a frame.
   if (blade_ && blade_->finishing()) {
@@ -510,7 +520,8 @@ CutStepReport SceneRunner::took_blade_step(CutStepReport r) {
   std::vector<std::vector<TetId>> parts;
   for (Fragment& fr : r.fragments) parts.push_back(std::move(fr.tets));
   r.fragments.clear();
-  handle_fragments(parts);
+  handle_fragments(std::move(parts), std::move(r.body.tets));
+  r.body = Fragment{};
   return r;
 }
 

@@ -144,7 +144,9 @@ public:
 private:
   void apply_change(const TopologyChange& change, const Cutter* from);
   double max_displacement_bound() const;
-  void handle_fragments(const std::vector<std::vector<TetId>>& parts);
+  // `body`: a cutter's report's body (CutStepReport::body), handled too when it holds nothing
+  // while one of `parts` does.
+  void handle_fragments(std::vector<std::vector<TetId>> parts, std::vector<TetId> body = {});
   CutStepReport took_blade_step(CutStepReport r);  // an outside blade step: change, time, fragments
   bool held_by_scene(VertexId v) const;
   double cut_scene_blades(double& improve_ms);

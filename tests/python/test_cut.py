@@ -39,6 +39,11 @@ def test_plane_cut_detaches_a_fragment_and_springs_follow():
     assert r["vertices_duplicated"] > 0
     assert len(r["fragments"]) >= 1
     assert all(len(f["tets"]) > 0 and f["volume"] > 0 for f in r["fragments"])
+    # A small body cut through: every part closed, the largest by volume is the body.
+    body = r["body"]
+    assert body is not None and all(body["volume"] >= f["volume"] for f in r["fragments"])
+    assert len(body["tets"]) + sum(len(f["tets"]) for f in r["fragments"]) == mesh.num_tets
+    assert body["volume"] + sum(f["volume"] for f in r["fragments"]) == pytest.approx(1.0)
     springs.apply(r["change"])
     springs.step(1e-4)
     assert np.isfinite(springs.positions).all()
