@@ -2,7 +2,7 @@
 // Detached parts after a cut, found locally: flood fills through face neighbours from the
 // tets next to the new cut faces, stopped after `limit` tets. A fill that closes before the
 // limit has found a whole connected part; when every fill closes (a small body cut through),
-// the largest part is the body and the rest are fragments. Cost O(limit) per step at most.
+// the largest part by volume is the body and the rest are fragments. Cost O(limit) per step at most.
 #include <span>
 #include <vector>
 
