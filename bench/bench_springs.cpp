@@ -11,10 +11,10 @@
 // Usage: bench_springs [--quick] [--only moduli]
 #include <chrono>
 #include <cstdio>
-#include <cstring>
 #include <random>
 #include <vector>
 
+#include "bench/bench_common.h"
 #include "mesh/generate.h"
 #include "mesh/tet_mesh.h"
 #include "sim/fem/fem_simulation.h"
@@ -180,8 +180,9 @@ void effective_moduli(bool quick) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
-  if (argc > 2 && std::strcmp(argv[1], "--only") == 0 && std::strcmp(argv[2], "moduli") == 0) {
+  const bench::Args args(argc, argv);  // --help: where the options are written
+  const bool quick = args.flag("--quick");
+  if (args.get("--only", "") == "moduli") {
     effective_moduli(false);
     return 0;
   }
