@@ -296,7 +296,7 @@ std::optional<InsertionOutcome> improve_by_insertion(TetMesh& mesh, TetId t, con
     ring /= double(es.ring.size());
     for (TetId u : es.tets) {
       if (mesh.label(u) != label || !scope.contains(u)) return false;
-      if (u != t && std::find(star.begin(), star.end(), u) == star.end()) star.push_back(u);
+      if (u != t) star.push_back(u);
     }
     return static_cast<int>(star.size()) + 1 <= opt.max_cavity;
   };
@@ -310,8 +310,9 @@ std::optional<InsertionOutcome> improve_by_insertion(TetMesh& mesh, TetId t, con
         all_ok = false;
         continue;
       }
-      Vec3 unused;
-      all_ok = all_ok && edge_star(i, j, edge_stars, unused);
+      for (TetId u : star)
+        if (std::find(edge_stars.begin(), edge_stars.end(), u) == edge_stars.end()) edge_stars.push_back(u);
+      all_ok = all_ok && static_cast<int>(edge_stars.size()) + 1 <= opt.max_cavity;
       if (!star.empty()) starts.push_back({0.5 * (0.5 * (x[i] + x[j]) + ring), false, {}, std::move(star)});
     }
   if (all_ok && !edge_stars.empty()) starts.push_back({bary, false, {}, std::move(edge_stars)});
