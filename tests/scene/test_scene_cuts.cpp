@@ -38,6 +38,22 @@ fs::path temp_dir(const std::string& name) {
   return d;
 }
 
+// Plays s into a fresh temporary directory `name` (out: that directory).
+SceneRunSummary run_in(const Scene& s, const std::string& name, fs::path& out) {
+  out = temp_dir(name);
+  SceneRunOptions ro;
+  ro.out_dir = out.string();
+  return run_scene(s, ro);
+}
+
+// The volume of the mesh a run wrote for a frame.
+double frame_volume(const fs::path& out, const std::string& frame_file) {
+  const TetMesh m = read_tet_mesh((out / frame_file).string());
+  double volume = 0;
+  for (TetId t : m.tets()) volume += m.volume(t);
+  return volume;
+}
+
 }  // namespace
 
 TEST_CASE("a partial cut over frames: the beam stays one piece, frames mark the cut faces", "[cut][scene]") {
@@ -46,10 +62,8 @@ TEST_CASE("a partial cut over frames: the beam stays one piece, frames mark the 
       beam_scene(R"({"blade": [[2.03, -0.5, 1.2], [2.03, 1.5, 1.2]], "sweep": [0, 0, -0.7], "from_frame": 1, "to_frame": 3})"),
       "scene.json");
   REQUIRE(s.cuts.size() == 1);
-  const fs::path out = temp_dir("partial");
-  SceneRunOptions ro;
-  ro.out_dir = out.string();
-  const SceneRunSummary sum = run_scene(s, ro);
+  fs::path out;
+  const SceneRunSummary sum = run_in(s, "partial", out);
   CHECK(sum.frames == 6);
   CHECK(sum.frames_not_converged == 0);
   CHECK(sum.total_cut_ms > 0);
@@ -223,17 +237,12 @@ TEST_CASE("a through-cut near the clamp removes the free part, though it is the 
   const Scene s = parse_scene(
       beam_scene(R"({"blade": [[1.03, -0.5, -0.5], [1.03, -0.5, 1.5]], "sweep": [0, 2, 0], "from_frame": 1, "to_frame": 3})"),
       "scene.json");
-  const fs::path out = temp_dir("near_clamp");
-  SceneRunOptions ro;
-  ro.out_dir = out.string();
-  const SceneRunSummary sum = run_scene(s, ro);
+  fs::path out;
+  const SceneRunSummary sum = run_in(s, "near_clamp", out);
   CHECK(sum.fragments_handled == 1);
   CHECK(sum.frames_not_converged == 0);
-  const TetMesh last = read_tet_mesh((out / "frame_0005.vtu").string());
-  double volume = 0;
-  for (TetId t : last.tets()) volume += last.volume(t);
   // What stays is the clamped part, x < 1.03 up to snapping (within 0.05 of the 0.5 cells).
-  CHECK(volume == Approx(1.03).margin(0.025));
+  CHECK(frame_volume(out, "frame_0005.vtu") == Approx(1.03).margin(0.025));
 }
 
 TEST_CASE("a path cut bends where its keys say and detaches the beam's end", "[cut][scene]") {
@@ -248,15 +257,11 @@ TEST_CASE("a path cut bends where its keys say and detaches the beam's end", "[c
   CHECK(s.cuts[0].path.size() == 3);
   CHECK(s.cuts[0].from_frame == 2);
   CHECK(s.cuts[0].to_frame == 5);
-  const fs::path out = temp_dir("path");
-  SceneRunOptions ro;
-  ro.out_dir = out.string();
-  const SceneRunSummary sum = run_scene(s, ro);
+  fs::path out;
+  const SceneRunSummary sum = run_in(s, "path", out);
   CHECK(sum.fragments_handled == 1);  // the free end, removed (static FEM)
   CHECK(sum.frames_not_converged == 0);
-  const TetMesh last = read_tet_mesh((out / "frame_0005.vtu").string());
-  double volume = 0;
-  for (TetId t : last.tets()) volume += last.volume(t);
+  const double volume = frame_volume(out, "frame_0005.vtu");
   // What stays: x < 2.03 for y < 0.5, then left of the line towards (2.53, 1.5), which reaches
   // x = 2.28 at y = 1: 2.03 + 0.0625 (of 4).
   CHECK(volume == Approx(2.03 + 0.0625).epsilon(0.002));
