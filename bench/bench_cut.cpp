@@ -22,9 +22,11 @@
 //                  [ORGAN]   (default samples/liver.msh; --case, --steps: only the progressive, curved or
 //                  curved-organ rows whose case name contains NAME_PART, with N steps (no offset rows), for
 //                  profiling; INCISE_BENCH_DEFORMED_OUT=DIR: --only
-//                  deformed writes each cut mesh there; INCISE_BENCH_CURVED_OUT=DIR: --only curved writes each
+//                  deformed writes each cut mesh there; INCISE_BENCH_QUALITY_OUT=DIR: --only quality each
+//                  variant's; INCISE_BENCH_CURVED_OUT=DIR: --only curved writes each
 //                  path's cut mesh there, and the offset drags' below 10 deg; --only curved-organ each drag's)
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -294,6 +296,12 @@ void quality_after_cuts(const TetMesh& organ, const std::string& name, bool quic
       total += fin.ms;
       ms.push_back(fin.ms);
       contractions += fin.improve.contractions;
+    }
+    if (const char* dir = std::getenv("INCISE_BENCH_QUALITY_OUT")) {  // each variant's mesh, for a look
+      std::string file = v.name;
+      for (char& c : file)
+        if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+      write_tet_mesh(m, (std::filesystem::path(dir) / ("quality-" + file + ".vtu")).string());
     }
     const QualityRange q = quality_range(m, 10.0);
     const auto bound = smallest_boundary_angle(m);
