@@ -184,8 +184,10 @@ std::string where_bad(const TetMesh& m, double deg) {
 }
 
 // Why the tets below `deg` are there: `forced`, around a boundary edge sharper than that (no
-// mesh of this surface does better); `thin`, across a part thinner than a quarter of their
-// longest edge (quality/thin_parts.h: only smaller tets would do better); `bridge`, a short edge (under a fifth of the tet's longest)
+// mesh of this surface does better); `front`, with a vertex on the front of a cut that ends
+// inside the body (a boundary edge of interior angle about 360: the cut's two sides folded onto
+// each other); `thin`, across a part thinner than a quarter of their longest edge
+// (quality/thin_parts.h: only smaller tets would do better); `bridge`, a short edge (under a fifth of the tet's longest)
 // through the inside joining two boundary vertices: the tissue between two sheets is thinner
 // than that there, and removing the edge lays the new tets flat on the sheets while contracting
 // it would glue them; `short boundary edge`, a short edge on the boundary (contraction along
@@ -197,6 +199,8 @@ std::string why_below(const TetMesh& m, double deg) {
   ThinPartOptions to;
   to.sliver_degrees = deg;
   for (TetId t : slivers_across_thin_parts(m, to, sharp)) thin[t.idx()] = 1;
+  std::vector<char> on_front(m.vertex_capacity(), 0);
+  for (const auto& [a, b] : reflex_boundary_edges(m, 359.0)) on_front[a.idx()] = on_front[b.idx()] = 1;
   std::unordered_set<std::uint64_t> boundary_edges;
   auto key = [](VertexId a, VertexId b) {
     return std::uint64_t(std::min(a.idx(), b.idx())) << 32 | std::max(a.idx(), b.idx());
@@ -206,12 +210,16 @@ std::string why_below(const TetMesh& m, double deg) {
       on_boundary[f.vertices[k].idx()] = 1;
       boundary_edges.insert(key(f.vertices[k], f.vertices[(k + 1) % 3]));
     }
-  std::size_t n_forced = 0, n_thin = 0, bridge = 0, rim_edge = 0, other = 0;
+  std::size_t n_forced = 0, n_front = 0, n_thin = 0, bridge = 0, rim_edge = 0, other = 0;
   for (TetId t : m.tets()) {
     const auto& tv = m.tet_vertices(t);
     if (tet_quality(m.rest(tv[0]), m.rest(tv[1]), m.rest(tv[2]), m.rest(tv[3])).min_dihedral >= deg) continue;
     if (forced[t.idx()]) {
       ++n_forced;
+      continue;
+    }
+    if (on_front[tv[0].idx()] || on_front[tv[1].idx()] || on_front[tv[2].idx()] || on_front[tv[3].idx()]) {
+      ++n_front;
       continue;
     }
     if (thin[t.idx()]) {
@@ -232,8 +240,8 @@ std::string why_below(const TetMesh& m, double deg) {
       ++other;
   }
   char buf[192];
-  std::snprintf(buf, sizeof buf, "forced %zu / thin %zu / bridge %zu / short boundary edge %zu / other %zu", n_forced, n_thin,
-                bridge, rim_edge, other);
+  std::snprintf(buf, sizeof buf, "forced %zu / front %zu / thin %zu / bridge %zu / short boundary edge %zu / other %zu",
+                n_forced, n_front, n_thin, bridge, rim_edge, other);
   return buf;
 }
 

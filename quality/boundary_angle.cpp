@@ -1,5 +1,6 @@
 #include "quality/boundary_angle.h"
 
+#include <algorithm>
 #include <cmath>
 #include <unordered_map>
 
@@ -76,6 +77,17 @@ SharpBoundary sharp_boundary(const TetMesh& mesh, double degrees) {
       }
     if (held) out.tets.push_back(t);
   }
+  return out;
+}
+
+std::vector<std::pair<VertexId, VertexId>> reflex_boundary_edges(const TetMesh& mesh, double degrees) {
+  std::vector<std::pair<VertexId, VertexId>> out;
+  for (const auto& [key, e] : boundary_edge_angles(mesh))
+    if (e.faces == 2 && e.angle >= degrees)
+      out.push_back({VertexId(static_cast<std::uint32_t>(key >> 32)), VertexId(static_cast<std::uint32_t>(key & 0xffffffffu))});
+  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) {
+    return std::make_pair(a.first.idx(), a.second.idx()) < std::make_pair(b.first.idx(), b.second.idx());
+  });
   return out;
 }
 

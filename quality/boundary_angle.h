@@ -5,6 +5,7 @@
 // most this angle: no improvement that keeps the surface can lift the worst dihedral angle
 // above it (the sample liver's sharpest edge caps it just under the 35-degree target).
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "mesh/tet_mesh.h"
@@ -26,5 +27,10 @@ struct SharpBoundary {
   std::vector<TetId> tets;    // the tets around them, each once, in id order
 };
 SharpBoundary sharp_boundary(const TetMesh& mesh, double degrees);
+
+// Manifold boundary edges whose interior angle is at least `degrees`, each (smaller id, larger
+// id), sorted: near 360, the front of a cut that ends inside the body, where its two sides lie
+// folded onto each other. O(mesh).
+std::vector<std::pair<VertexId, VertexId>> reflex_boundary_edges(const TetMesh& mesh, double degrees);
 
 }  // namespace incise

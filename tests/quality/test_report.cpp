@@ -441,3 +441,27 @@ TEST_CASE("slivers across thin parts", "[quality][report]") {
   CHECK(slivers_across_thin_parts(cube).empty());
   CHECK(format_quality_report(rc).find("thinner") == std::string::npos);
 }
+
+TEST_CASE("reflex boundary edges: the concave edges of a box with a corner cube taken out", "[quality][report]") {
+  // A 2x2x2 box of unit cubes without the cube [1,2]^3: the three unit edges from (1,1,1)
+  // towards (2,1,1), (1,2,1) and (1,1,2) have three quarter-spaces of body around them
+  // (interior angle 270 degrees); every other boundary edge is at most 180.
+  TetMesh m = make_box(Vec3(2, 2, 2), {2, 2, 2});
+  for (TetId t : m.tets()) {
+    Vec3 c = Vec3::Zero();
+    for (VertexId v : m.tet_vertices(t)) c += 0.25 * m.rest(v);
+    if (c.minCoeff() > 1) m.remove_tet(t);
+  }
+  const auto edges = reflex_boundary_edges(m, 269);
+  REQUIRE(edges.size() == 3);
+  for (const auto& [a, b] : edges) {
+    const Vec3 pa = m.rest(a), pb = m.rest(b);
+    const Vec3 lo = pa.cwiseMin(pb), hi = pa.cwiseMax(pb);
+    CHECK((lo - Vec3(1, 1, 1)).norm() < 1e-12);                          // from the inner corner
+    CHECK(((hi - lo).array() > 0.5).count() == 1);                      // one unit along an axis
+    CHECK(a.idx() < b.idx());
+  }
+  CHECK(std::is_sorted(edges.begin(), edges.end()));
+  CHECK(reflex_boundary_edges(m, 271).empty());
+  CHECK(reflex_boundary_edges(make_box(Vec3(1, 1, 1), {2, 2, 2}), 181).empty());
+}
