@@ -111,6 +111,7 @@ QualityReport compute_quality_report(const TetMesh& mesh, const QualityOptions& 
   const std::size_t n = ids.size();
   std::vector<std::vector<double>> values(kNumMetrics, std::vector<double>(n));
   std::map<int, LabelStats> labels;
+  std::vector<TetId> sliver_ids;  // for the forced and thin counts
   double min_edge = std::numeric_limits<double>::infinity(), max_edge = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const TetQuality q = tet_quality(mesh, ids[i], positions);
@@ -140,6 +141,7 @@ QualityReport compute_quality_report(const TetMesh& mesh, const QualityOptions& 
     } else if (q.min_dihedral < options.sliver_angle) {
       ++r.slivers;
       ++ls.slivers;
+      sliver_ids.push_back(ids[i]);
     }
   }
   if (n > 0) {
@@ -182,9 +184,8 @@ QualityReport compute_quality_report(const TetMesh& mesh, const QualityOptions& 
     if (r.boundary_angle && r.boundary_angle->degrees < options.sliver_angle)
       forced = sharp_boundary(mesh, options.sliver_angle).tets;
     r.forced_slivers = forced.size();
-    ThinPartOptions thin;
-    thin.sliver_degrees = options.sliver_angle;
-    r.thin_slivers = slivers_across_thin_parts(mesh, thin, forced).size();
+    std::erase_if(sliver_ids, [&](TetId t) { return std::binary_search(forced.begin(), forced.end(), t); });
+    r.thin_slivers = across_thin_parts(mesh, sliver_ids).size();
   }
   r.components = tet_components(mesh).count;
   SolverEstimateOptions so;

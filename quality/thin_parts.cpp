@@ -8,8 +8,8 @@
 
 namespace incise {
 
-std::vector<TetId> slivers_across_thin_parts(const TetMesh& mesh, const ThinPartOptions& options,
-                                             const std::vector<TetId>& exclude) {
+std::vector<TetId> across_thin_parts(const TetMesh& mesh, std::span<const TetId> candidates,
+                                     const ThinPartOptions& options) {
   // Outward unit normals of the boundary faces at each boundary vertex.
   std::unordered_map<std::uint32_t, std::vector<Vec3>> normals;
   for (const BoundaryFace& f : mesh.boundary_faces()) {
@@ -21,12 +21,12 @@ std::vector<TetId> slivers_across_thin_parts(const TetMesh& mesh, const ThinPart
   }
   std::vector<TetId> out;
   if (normals.empty()) return out;
-  for (TetId t : mesh.tets()) {
-    if (std::binary_search(exclude.begin(), exclude.end(), t)) continue;
-    const TetQuality q = tet_quality(mesh, t);
-    if (!(q.min_dihedral < options.sliver_degrees)) continue;
+  for (TetId t : candidates) {
     const auto& v = mesh.tet_vertices(t);
-    const double limit = options.ratio * q.max_edge;
+    double longest = 0;
+    for (int i = 0; i < 4; ++i)
+      for (int j = i + 1; j < 4; ++j) longest = std::max(longest, (mesh.rest(v[i]) - mesh.rest(v[j])).norm());
+    const double limit = options.ratio * longest;
     bool thin = false;
     for (int i = 0; i < 4 && !thin; ++i) {
       const auto ni = normals.find(v[i].idx());
@@ -44,13 +44,22 @@ std::vector<TetId> slivers_across_thin_parts(const TetMesh& mesh, const ThinPart
             // front).
             const Vec3 m = (a - b).normalized();
             const double h = d.dot(m);
-            if (h > 1e-6 * q.max_edge && h < limit) thin = true;
+            if (h > 1e-6 * longest && h < limit) thin = true;
           }
       }
     }
     if (thin) out.push_back(t);
   }
   return out;
+}
+
+std::vector<TetId> slivers_across_thin_parts(const TetMesh& mesh, const ThinPartOptions& options,
+                                             const std::vector<TetId>& exclude) {
+  std::vector<TetId> slivers;
+  for (TetId t : mesh.tets())
+    if (!std::binary_search(exclude.begin(), exclude.end(), t) && tet_quality(mesh, t).min_dihedral < options.sliver_degrees)
+      slivers.push_back(t);
+  return across_thin_parts(mesh, slivers, options);
 }
 
 }  // namespace incise

@@ -9,6 +9,7 @@
 // sides included) would be better. Flips, smoothing and insertion at the tet's size do not
 // lift it. A heuristic, unlike the bound of a sharp boundary edge (quality/boundary_angle.h):
 // it says where the mesh is too coarse for the body, not what every mesh must contain.
+#include <span>
 #include <vector>
 
 #include "mesh/tet_mesh.h"
@@ -16,14 +17,20 @@
 namespace incise {
 
 struct ThinPartOptions {
-  double sliver_degrees = 10;  // only tets whose smallest dihedral angle is under this
+  double sliver_degrees = 10;  // slivers_across_thin_parts: the tets whose smallest dihedral angle is under this
   double ratio = 0.25;         // thickness across the part over the tet's longest edge
   double opposed_cos = -0.5;   // two boundary faces face away from each other below this cosine
 };
 
-// The slivers (rest shape) across a part thinner than `ratio` of their longest edge, in id
-// order, leaving out those in `exclude` (sorted; e.g. sharp_boundary(...).tets, the slivers
-// the surface forces anyway). O(mesh) for the boundary, then a few face pairs per sliver.
+// Of `candidates` (e.g. the slivers a quality report counted), those across a part thinner than
+// `ratio` of their longest edge, in the candidates' order (sliver_degrees is not read). O(mesh)
+// for the boundary, then a few face pairs per candidate.
+std::vector<TetId> across_thin_parts(const TetMesh& mesh, std::span<const TetId> candidates,
+                                     const ThinPartOptions& options = {});
+
+// The same for every sliver of the mesh (rest shape, under sliver_degrees), in id order,
+// leaving out those in `exclude` (sorted; e.g. sharp_boundary(...).tets, the slivers the
+// surface forces anyway).
 std::vector<TetId> slivers_across_thin_parts(const TetMesh& mesh, const ThinPartOptions& options = {},
                                              const std::vector<TetId>& exclude = {});
 
