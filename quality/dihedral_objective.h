@@ -53,7 +53,7 @@ AngleQuality angle_quality(const TetMesh& mesh, std::span<const std::array<Verte
 // True when `after` replaces `before` with a strictly higher worst q (by more than a small
 // margin, so repeated operations make real progress), a minimum radius ratio at least
 // min(before's, targets.radius_ratio_floor), a minimum dihedral at least min(before's, targets.min_deg) and a maximum at most
-// max(before's, targets.max_deg).
+// max(before's, targets.max_deg, targets.max_deg_cap).
 bool better(const AngleQuality& after, const AngleQuality& before, const AngleTargets& targets);
 
 }  // namespace incise
