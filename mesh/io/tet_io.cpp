@@ -292,6 +292,25 @@ FlatMesh flatten(const TetMesh& mesh, const MeshFields* fields) {
     for (const Field& pd : fields->point_data) f.point_data.push_back(gather(pd, point_ids, pcap, "point"));
     for (const Field& cd : fields->cell_data) f.cell_data.push_back(gather(cd, f.tet_ids, tcap, "cell"));
   }
+  // VTU and VTK have no boundary triangles to carry tags: the cut faces go as each tet's mask
+  // (bit k: its face opposite corner k), which the readers turn back into cut tags. Without
+  // them a cut read back is surface, whose faces the improvement may move (and push one side of
+  // the cut into the other, which coincides with it in the rest shape).
+  const bool has_mask = fields && std::any_of(fields->cell_data.begin(), fields->cell_data.end(),
+                                              [](const Field& cd) { return cd.name == "cut_face_mask"; });
+  if (!has_mask) {
+    FlatMesh::DenseField mask{"cut_face_mask", 1, std::vector<double>(f.tet_ids.size(), 0.0)};
+    bool any = false;
+    for (std::size_t i = 0; i < f.tet_ids.size(); ++i)
+      for (int k = 0; k < 4; ++k) {
+        const TetId t(f.tet_ids[i]);
+        if (!mesh.neighbor(t, k).is_valid() && mesh.face_tag(t, k) == kTagCut) {
+          mask.values[i] += double(1 << k);
+          any = true;
+        }
+      }
+    if (any) f.cell_data.push_back(std::move(mask));
+  }
   return f;
 }
 

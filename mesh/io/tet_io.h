@@ -12,7 +12,10 @@
 // TetGen region attribute). Non-tet cells are skipped and counted, unreferenced vertices
 // kept. Quadratic tets are read as their four corners. Tets are reoriented to positive volume
 // on read; overlapping tets are refused (ReadOptions). Every boundary face is tagged
-// kTagSurface, or with the tag of a boundary triangle the file carries (msh, medit). Positions are written in shortest round-trip form, so they
+// kTagSurface, or with the tag of a boundary triangle the file carries (msh, medit); VTU and
+// VTK, which have no triangles, carry the cut faces (kTagCut) as a cell array
+// "cut_face_mask" that the writers add and the readers turn back into tags. Positions are
+// written in shortest round-trip form, so they
 // read back bit-exact. Every write is atomic (temporary file in the same directory, then
 // rename); a failed write leaves the destination untouched.
 #include <string>
@@ -53,9 +56,10 @@ struct ReadReport {
   std::size_t degenerate_tets = 0;       // zero volume, kept as read
   std::size_t tagged_boundary_faces = 0; // boundary faces that got a tag from the file
   std::string format;                    // e.g. "gmsh 4.1 ascii"
-  // VTU: the one-component cell arrays besides the label (a simulation frame's von_mises,
+  // VTU, VTK: the one-component cell arrays besides the label (a simulation frame's von_mises,
   // cut_faces, ...), by TetId. A "cut_face_mask" array (bit f: local face f is an opened cut
-  // face, as incise's frames write it) also tags those boundary faces kTagCut.
+  // face, as incise's writers add it to every mesh with cut faces) also tags those boundary
+  // faces kTagCut.
   std::vector<Field> cell_data;
 };
 

@@ -1,5 +1,6 @@
 // VTK legacy .vtk: UNSTRUCTURED_GRID, ASCII or BINARY (big-endian), versions up to 5.1
 // (OFFSETS/CONNECTIVITY cells). Written as 4.2, which every VTK, ParaView and meshio reads.
+#include <algorithm>
 #include <cmath>
 
 #include "mesh/io/binary_util.h"
@@ -95,7 +96,7 @@ public:
         c_.token_on_line("lookup table name");
         std::vector<double> v;
         read_values(attr_n_ * static_cast<std::size_t>(nc), t, v);
-        if (nc == 1) offer_label(name, std::move(v));
+        if (nc == 1) offer_scalars(name, std::move(v));
       } else if (equals_nocase(kw, "LOOKUP_TABLE")) {
         c_.token_on_line("lookup table name");
         std::size_t n = c_.count("lookup table size", 1, true);
@@ -137,7 +138,7 @@ public:
           std::vector<double> v;
           c_.check_fits(static_cast<unsigned long long>(nc) * nt, 1, "array size");
           read_values(static_cast<std::size_t>(nc) * nt, t, v);
-          if (nc == 1 && nt == attr_n_) offer_label(name, std::move(v));
+          if (nc == 1 && nt == attr_n_) offer_scalars(name, std::move(v));
         }
       } else if (equals_nocase(kw, "METADATA")) {
         skip_metadata();
@@ -192,11 +193,16 @@ private:
     }
   }
 
-  void offer_label(const std::string& name, std::vector<double>&& v) {
+  // A one-component cell array: the label when its name ranks best so far; every one is
+  // also kept for the tets (as VTU's are: a frame's cut_face_mask, von_mises, ...).
+  void offer_scalars(const std::string& name, std::vector<double>&& v) {
     if (!in_cells_) return;
+    if (std::none_of(scalars_.begin(), scalars_.end(), [&](const auto& s) { return s.first == name; }))
+      scalars_.push_back({name, v});
     int rank = label_rank(name);
     if (rank > label_rank_) {
       label_rank_ = rank;
+      label_name_ = name;
       labels_ = std::move(v);
     }
   }
@@ -213,6 +219,8 @@ private:
     for (std::size_t i = 0; i < np; ++i) m_.points[i] = Vec3(pts_[3 * i], pts_[3 * i + 1], pts_[3 * i + 2]);
     pts_ = {};
     bool use_labels = label_rank_ > 0 && labels_.size() == ncells_;
+    std::erase_if(scalars_, [&](const auto& s) { return s.second.size() != ncells_ || (use_labels && s.first == label_name_); });
+    for (const auto& s : scalars_) m_.cell_scalars.push_back({s.first, {}});
     std::size_t pos = 0;
     for (std::size_t i = 0; i < ncells_; ++i) {
       std::size_t begin, count;
@@ -243,6 +251,7 @@ private:
           throw_io(c_.file(), 0, "cell #" + std::to_string(i) + " has a bad label");
         m_.tet_labels.push_back(static_cast<int>(std::lround(lab)));
         m_.tet_lines.push_back(0);
+        for (std::size_t k = 0; k < scalars_.size(); ++k) m_.cell_scalars[k].second.push_back(scalars_[k].second[i]);
       } else if (type == 10 || type == 24) {
         throw_io(c_.file(), 0, "cell #" + std::to_string(i) + " is a tetrahedron with " + std::to_string(count) + " points");
       } else {
@@ -260,6 +269,8 @@ private:
   std::size_t attr_n_ = 0;
   std::size_t ncells_ = 0;
   std::vector<double> pts_, offsets_, conn_, legacy_cells_, types_, labels_;
+  std::vector<std::pair<std::string, std::vector<double>>> scalars_;
+  std::string label_name_;
   int label_rank_ = 0;
 };
 

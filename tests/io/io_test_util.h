@@ -73,7 +73,11 @@ inline TetMesh box_with_holes() {
 }
 
 // Live vertices in id order and live tets in id order, as the writers emit them.
-inline void require_same_mesh(const TetMesh& a, const TetMesh& b, bool tags_carried) {
+// Which boundary tags a format carries: all (triangles with tags: msh, mesh), the cut faces
+// only (a per-tet cut_face_mask: VTU, VTK), none (every face comes back kTagSurface).
+enum class TagsCarried { All, Cut, None };
+
+inline void require_same_mesh(const TetMesh& a, const TetMesh& b, TagsCarried tags) {
   REQUIRE(b.num_vertices() == a.num_vertices());
   REQUIRE(b.num_tets() == a.num_tets());
   auto va = a.vertices(), vb = b.vertices();
@@ -94,8 +98,11 @@ inline void require_same_mesh(const TetMesh& a, const TetMesh& b, bool tags_carr
     for (int f = 0; f < 4; ++f) {
       REQUIRE(a.neighbor(ta[i], f).is_valid() == b.neighbor(tb[i], f).is_valid());
       if (!b.neighbor(tb[i], f).is_valid()) {
-        if (tags_carried)
-          REQUIRE(b.face_tag(tb[i], f) == (a.face_tag(ta[i], f) == kTagNone ? std::uint16_t(kTagSurface) : a.face_tag(ta[i], f)));
+        const std::uint16_t was = a.face_tag(ta[i], f);
+        if (tags == TagsCarried::All)
+          REQUIRE(b.face_tag(tb[i], f) == (was == kTagNone ? std::uint16_t(kTagSurface) : was));
+        else if (tags == TagsCarried::Cut && was == kTagCut)
+          REQUIRE(b.face_tag(tb[i], f) == kTagCut);
         else
           REQUIRE(b.face_tag(tb[i], f) == kTagSurface);
       }
