@@ -16,18 +16,38 @@ namespace {
 // n, on the old curved disc `fan` (moving along n's tangent plane, projected back), or along
 // a straight crease of the boundary (direction n) between its crease neighbours a and b.
 struct Freedom {
-  enum Kind { Fixed, Free, Plane, Surface, Line, Bent } kind = Fixed;
+  enum Kind { Fixed, Free, Plane, Surface, Line, Bent, Front } kind = Fixed;
   Vec3 n = Vec3::Zero();
   std::vector<std::array<VertexId, 3>> fan;  // disc faces around v, v first, consistently oriented
   std::vector<std::uint16_t> tags;           // per fan face (boundary fans)
   VertexId a, b;                             // Line: the crease neighbours (a - v opposite to n)
-                                             // Bent: the feature neighbours; n points from a's side to b's
-  bool a_open = true, b_open = true;         // Bent: whether v may move towards a (b)
+                                             // Bent, Front: the line's neighbours; n points from a's side to b's
+  bool a_open = true, b_open = true;         // Bent, Front: whether v may move towards a (b)
 };
 
 int slides_of(const std::unordered_map<std::uint32_t, int>& slides, VertexId v) {
   const auto it = slides.find(v.idx());
   return it == slides.end() ? 0 : it->second;
+}
+
+// v slides along the old segments v-a and v-b (unit directions ua, ub) of a bent line, exactly
+// on the input's line: only where the pass found it (it never slid along a line or a curved
+// part), and only towards a neighbour that never did either, so the segment it moves on is a
+// piece of an input segment (a neighbour that slid may have left the corner between them).
+bool along_line(const SmoothOptions& opt, VertexId v, VertexId a, VertexId b, const Vec3& ua, const Vec3& ub,
+                Freedom::Kind kind, Freedom& fr) {
+  if (!((ub - ua).norm() > 0)) return false;
+  if (opt.curved_slides) {
+    if (slides_of(*opt.curved_slides, v) > 0) return false;
+    fr.a_open = slides_of(*opt.curved_slides, a) == 0;
+    fr.b_open = slides_of(*opt.curved_slides, b) == 0;
+    if (!fr.a_open && !fr.b_open) return false;
+  }
+  fr.kind = kind;
+  fr.a = a;
+  fr.b = b;
+  fr.n = (ub - ua).normalized();
+  return true;
 }
 
 // A feature line bent at v: exactly two of v's fan edges (v,a), (v,b) are features (tags
@@ -49,21 +69,40 @@ bool feature_line(const TetMesh& mesh, VertexId v, const std::vector<Vec3>& norm
   const Vec3 ua = (mesh.rest(feature[0]) - pv).normalized(), ub = (mesh.rest(feature[1]) - pv).normalized();
   // The line's bend at v: 180 degrees minus the angle a-v-b.
   if (-ua.dot(ub) < std::cos(opt.feature_line_angle_deg * 3.14159265358979323846 / 180)) return false;
-  // Exactly on the input's line: v is still where the pass found it (it never slid along a
-  // line or a curved part), and it moves only towards a neighbour that never did either, so the
-  // segment it moves on is a piece of an input segment (a neighbour that slid may have left the
-  // corner between them).
-  if (opt.curved_slides) {
-    if (slides_of(*opt.curved_slides, v) > 0) return false;
-    fr.a_open = slides_of(*opt.curved_slides, feature[0]) == 0;
-    fr.b_open = slides_of(*opt.curved_slides, feature[1]) == 0;
-    if (!fr.a_open && !fr.b_open) return false;
+  return along_line(opt, v, feature[0], feature[1], ua, ub, Freedom::Bent, fr);
+}
+
+// Every face of v's disc in one plane, some facing each way (a disc folded onto itself, as
+// the two sides of a cut are around its front): every face's normal parallel to the first
+// one's, to a tiny angle (each face holds v, so each lies in the plane through v).
+bool folded_flat(const std::vector<Vec3>& normals) {
+  const Vec3 n0 = normals.front().normalized();
+  bool up = false, down = false;
+  for (const Vec3& fn : normals) {
+    const double c = n0.dot(fn);
+    if (!(std::abs(c) > 0) || n0.cross(fn).norm() > 1e-10 * fn.norm()) return false;
+    (c > 0 ? up : down) = true;
   }
-  fr.kind = Freedom::Bent;
-  fr.a = feature[0];
-  fr.b = feature[1];
-  fr.n = (ub - ua).normalized();
-  return true;
+  return up && down;
+}
+
+// A cut's front bent at v within the cut's plane: v's disc, folded flat (folded_flat), folds
+// along exactly two edges (v,a), (v,b), where the faces on either side face opposite ways. v
+// slides along the old segments v-a and v-b (along_line).
+bool front_line(const TetMesh& mesh, VertexId v, const std::vector<Vec3>& normals, const SmoothOptions& opt,
+                Freedom& fr) {
+  std::map<std::uint32_t, std::vector<std::size_t>> at_edge;  // neighbour w -> fan faces with edge (v,w)
+  for (std::size_t i = 0; i < fr.fan.size(); ++i)
+    for (int k = 1; k < 3; ++k) at_edge[fr.fan[i][k].idx()].push_back(i);
+  std::vector<VertexId> front;
+  for (const auto& [w, faces] : at_edge) {
+    if (faces.size() != 2) return false;
+    if (normals[faces[0]].dot(normals[faces[1]]) < 0) front.push_back(VertexId(w));
+  }
+  if (front.size() != 2) return false;
+  const Vec3& pv = mesh.rest(v);
+  const Vec3 ua = (mesh.rest(front[0]) - pv).normalized(), ub = (mesh.rest(front[1]) - pv).normalized();
+  return along_line(opt, v, front[0], front[1], ua, ub, Freedom::Front, fr);
 }
 
 // A straight crease through v: exactly two of v's boundary edges (v,a), (v,b) separate faces
@@ -177,6 +216,16 @@ Freedom freedom(const TetMesh& mesh, VertexId v, const ImproveScope& scope, cons
     feature_line(mesh, v, normals, from, opt, fr);
     return fr;
   }
+  // The front of a cut that ended inside the body, where it bends within the cut's plane (the
+  // disc folds onto itself along the front, every face in one plane): v slides along the old
+  // front, onto one of its two segments. Both sides move with it and no volume changes; the
+  // opening changes by the triangle cut off (or added) at the bend, within the old faces. A
+  // straight front is a crease (above: its opening keeps its area). Stuck before, such bends
+  // held the worst tets after many partial cuts (docs/improve.md, smoothing).
+  if (cut && !mixed && folded_flat(normals)) {
+    if (crease_or_fixed().kind != Freedom::Line && !slid_enough) front_line(mesh, v, normals, opt, fr);
+    return fr;
+  }
   if (!(n.norm() > 0)) return fr;
   n.normalize();
   fr.n = n;
@@ -224,7 +273,7 @@ bool locate(const TetMesh& mesh, VertexId v, const Vec3& p, const Freedom& fr, s
     weights = {1 - s, s};
     return true;
   }
-  if (fr.kind == Freedom::Bent) {
+  if (fr.kind == Freedom::Bent || fr.kind == Freedom::Front) {
     // On the segment from v towards a or b (the side n points to), strictly before it.
     const bool to_b = fr.n.dot(p - pv) >= 0;
     if (!(to_b ? fr.b_open : fr.a_open)) return false;
@@ -328,7 +377,7 @@ SmoothMove smooth_vertex_how(TetMesh& mesh, VertexId v, const ImproveScope& scop
   ao.iterations = opt.iterations;
   ao.scale = hmin;
   if (fr.kind != Freedom::Free) {
-    (fr.kind == Freedom::Line || fr.kind == Freedom::Bent ? ao.line : ao.normal) = &fr.n;
+    (fr.kind == Freedom::Line || fr.kind == Freedom::Bent || fr.kind == Freedom::Front ? ao.line : ao.normal) = &fr.n;
     ao.project = [&](Vec3& p) { return place(mesh, v, p, fr, p); };
   }
   const Vec3 best_p = ascend(star, p0, tg, ao, &orig, &at_best);
@@ -343,12 +392,14 @@ SmoothMove smooth_vertex_how(TetMesh& mesh, VertexId v, const ImproveScope& scop
   const bool moves_surface = fr.kind == Freedom::Surface || fr.kind == Freedom::Bent;
   if (moves_surface && opt.volume && !spend_volume(mesh, v, actual, *opt.volume)) return SmoothMove::None;
   mesh.move_vertex(v, parents, weights);
-  if (moves_surface && opt.curved_slides) ++(*opt.curved_slides)[v.idx()];
+  // A front slide moves no volume, but leaves the old line like a feature slide: counted the same.
+  if ((moves_surface || fr.kind == Freedom::Front) && opt.curved_slides) ++(*opt.curved_slides)[v.idx()];
   switch (fr.kind) {
     case Freedom::Free: return SmoothMove::Free;
     case Freedom::Plane: return SmoothMove::Plane;
     case Freedom::Surface: return SmoothMove::Surface;
     case Freedom::Line: return SmoothMove::Crease;
+    case Freedom::Front: return SmoothMove::Front;
     default: return SmoothMove::FeatureLine;
   }
 }

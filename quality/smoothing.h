@@ -9,7 +9,9 @@
 // edge sharper than feature_angle_deg; only with slide_curved, never for cut faces) it moves
 // in the tangent plane and is projected back onto the old disc, so it stays on the old
 // surface (the surface then changes by at most the disc's sagitta). A vertex on a straight
-// crease (tags or planes change across two boundary edges in line) slides along it; one on a
+// crease (tags or planes change across two boundary edges in line) slides along it; one on
+// the front of a cut where it bends within the cut's plane (its faces folded onto each other,
+// all in one plane) slides along the old front, onto one of its two segments; one on a
 // bent feature line (exactly two feature edges, with slide_curved and feature_line_angle_deg)
 // slides along the old line, onto one of its two old segments. Other vertices (corners, where
 // three labels meet) stay. The move goes through
@@ -44,7 +46,7 @@ struct SmoothOptions {
 };
 
 // How a vertex moved (None: it did not; its tets strictly better by better() otherwise).
-enum class SmoothMove { None, Free, Plane, Surface, Crease, FeatureLine };
+enum class SmoothMove { None, Free, Plane, Surface, Crease, FeatureLine, Front };
 
 SmoothMove smooth_vertex_how(TetMesh& mesh, VertexId v, const ImproveScope& scope, const SmoothOptions& opt);
 // Returns true when v moved.

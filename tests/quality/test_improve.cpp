@@ -536,3 +536,90 @@ TEST_CASE("insertion into the star of a sharp boundary edge shares its angle ane
   CHECK(min_with > before);
   CHECK(with.total_volume() == Approx(m.total_volume()).epsilon(1e-12));
 }
+
+TEST_CASE("improve: a vertex where a cut's front bends slides along the front, both sides with it", "[improve]") {
+  // A crack along the lattice plane z = 0.5 of a unit box, opened where x < 0.5 or y < 0.5 (an
+  // L reaching the box's sides; the vertices there duplicated for the tets above): its front
+  // runs along x = 0.5 and y = 0.5 and bends by 90 degrees at (0.5, 0.5, 0.5). The two sides'
+  // faces coincide and carry kTagCut.
+  TetMesh m = make_box(Vec3(1, 1, 1), {4, 4, 4});
+  auto centre = [&](TetId t) {
+    Vec3 c = Vec3::Zero();
+    for (VertexId w : m.tet_vertices(t)) c += m.rest(w) / 4;
+    return c;
+  };
+  std::vector<VertexId> opened;
+  for (VertexId v : m.vertices()) {
+    const Vec3 p = m.rest(v);
+    if (p.z() == 0.5 && (p.x() < 0.4 || p.y() < 0.4)) opened.push_back(v);
+  }
+  for (VertexId v : opened) {
+    std::vector<TetId> upper;
+    for (TetId t : m.incident_tets(v))
+      if (centre(t).z() > 0.5) upper.push_back(t);
+    const VertexId parents[1] = {v};
+    const double weights[1] = {1.0};
+    const VertexId d = m.add_vertex_interpolated(parents, weights);
+    for (TetId t : upper) m.replace_vertex(t, v, d);
+  }
+  for (TetId t : m.tets())
+    for (int f = 0; f < 4; ++f)
+      if (!m.neighbor(t, f).is_valid()) {
+        bool on_plane = true;
+        for (VertexId w : m.face_vertices(t, f)) on_plane = on_plane && m.rest(w).z() == 0.5;
+        m.set_face_tag(t, f, on_plane ? kTagCut : kTagSurface);
+      }
+  VertexId corner;
+  for (VertexId v : m.vertices())
+    if (m.rest(v) == Vec3(0.5, 0.5, 0.5)) corner = v;
+  REQUIRE(corner.is_valid());
+  // The corner pushed along the front towards (0.75, 0.5): the tets between it and its
+  // neighbour there turn flat. Its front is now (0.75, 0.5) - (0.7, 0.5) - (0.5, 0.75).
+  const Vec3 pushed(0.7, 0.5, 0.5), a(0.75, 0.5, 0.5), b(0.5, 0.75, 0.5);
+  m.set_rest(corner, pushed);
+  REQUIRE_NOTHROW(m.validate());
+  m.discard_change();
+  auto cut_area = [&](double& up, double& down) {
+    up = down = 0;
+    for (TetId t : m.tets())
+      for (int f = 0; f < 4; ++f)
+        if (!m.neighbor(t, f).is_valid() && m.face_tag(t, f) == kTagCut) {
+          const auto fv = m.face_vertices(t, f);
+          const Vec3 n = (m.rest(fv[1]) - m.rest(fv[0])).cross(m.rest(fv[2]) - m.rest(fv[0])) / 2;
+          CHECK(std::abs(n.x()) + std::abs(n.y()) <= 1e-12);  // in the plane z = 0.5
+          (n.z() > 0 ? up : down) += std::abs(n.z());
+        }
+  };
+  double volume = 0, up0 = 0, down0 = 0;
+  for (TetId t : m.tets()) volume += m.volume(t);
+  cut_area(up0, down0);
+  const QualityRange before = quality_range(m, 10.0);
+  // Smoothing alone (flips would take the flat tets too), surface and cut kept exactly.
+  ImproveOptions o;
+  o.time_limit_s = 60;
+  o.flips = false;
+  o.collapse = false;
+  const ImproveReport r = improve(m, o);
+  REQUIRE_NOTHROW(m.validate());
+  CHECK(std::count(r.moved_vertices.begin(), r.moved_vertices.end(), corner) > 0);
+  const Vec3 p = m.rest(corner);
+  CAPTURE(p.transpose());
+  // On the old front: one of its two segments at the corner.
+  auto on_segment = [&](const Vec3& s, const Vec3& e) {
+    const double t = (p - s).dot(e - s) / (e - s).squaredNorm();
+    return t >= -1e-12 && t <= 1 + 1e-12 && (s + t * (e - s) - p).norm() <= 1e-12;
+  };
+  CHECK((on_segment(pushed, a) || on_segment(pushed, b)));
+  CHECK(p != pushed);
+  CHECK(r.min_dihedral_after > before.min_dihedral + 5);
+  // The body's volume exactly; the two sides still coincide (as much cut faces up as down,
+  // each side triangulated on its own by the flips on it), and the opening changed by at most
+  // the triangle between the corner's two front segments on each side.
+  double volume_after = 0, up = 0, down = 0;
+  for (TetId t : m.tets()) volume_after += m.volume(t);
+  CHECK(std::abs(volume_after - volume) <= 1e-12 * volume);
+  cut_area(up, down);
+  CHECK(std::abs(up - down) <= 1e-12);
+  const double corner_triangle = 0.5 * (a - pushed).cross(b - pushed).norm();
+  CHECK(std::abs(up - up0) <= corner_triangle + 1e-12);
+}
