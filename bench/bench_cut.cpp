@@ -459,15 +459,19 @@ std::size_t vertex_parts(const TetMesh& m) { return part_volumes(m).size(); }
 
 // How a path cut an organ: parts (sharing no vertex) that hold tets more than `reach` on both
 // sides of the path (`side`: signed, negative on one side), and specks (parts under 1e-4 of
-// the volume: slivers cut off between two sheets).
+// the volume: slivers cut off between two sheets), with their boxes. A speck inside a box of
+// `own` (the uncut organ's own specks, which a path may cut in two) is not counted.
 struct PathParts {
   std::size_t joined = 0, specks = 0;
+  std::vector<std::pair<Vec3, Vec3>> speck_boxes;
 };
-PathParts path_parts(const TetMesh& m, const std::function<double(const Vec3&)>& side, double reach) {
+PathParts path_parts(const TetMesh& m, const std::function<double(const Vec3&)>& side, double reach,
+                     const std::vector<std::pair<Vec3, Vec3>>& own = {}) {
   const auto part_of = tet_parts(m);
   struct Part {
     double volume = 0;
     bool below = false, above = false;
+    Vec3 lo = Vec3::Constant(1e300), hi = Vec3::Constant(-1e300);
   };
   std::unordered_map<std::uint32_t, Part> parts;
   double total = 0;
@@ -477,6 +481,10 @@ PathParts path_parts(const TetMesh& m, const std::function<double(const Vec3&)>&
     Part& p = parts[part_of.at(t.idx())];
     p.volume += m.volume(t);
     total += m.volume(t);
+    for (VertexId v : m.tet_vertices(t)) {
+      p.lo = p.lo.cwiseMin(m.rest(v));
+      p.hi = p.hi.cwiseMax(m.rest(v));
+    }
     const double s = side(c);
     p.below = p.below || s < -reach;
     p.above = p.above || s > reach;
@@ -484,7 +492,13 @@ PathParts path_parts(const TetMesh& m, const std::function<double(const Vec3&)>&
   PathParts out;
   for (const auto& [r, p] : parts) {
     out.joined += p.below && p.above;
-    out.specks += p.volume < 1e-4 * total;
+    if (!(p.volume < 1e-4 * total)) continue;
+    const bool inside_own = std::any_of(own.begin(), own.end(), [&](const auto& b) {
+      return (p.lo.array() >= b.first.array()).all() && (p.hi.array() <= b.second.array()).all();
+    });
+    if (inside_own) continue;
+    ++out.specks;
+    out.speck_boxes.push_back({p.lo, p.hi});
   }
   return out;
 }
@@ -768,12 +782,13 @@ void curved_organ(const TetMesh& organ, const std::string& name, double toleranc
   const Vec3 ext = hi - lo, c = 0.5 * (lo + hi);
   const double h = mean_edge(organ), pi = std::acos(-1.0);
   // An imaged organ may carry specks of its own (a tet alone): those are not the cut's.
-  const std::size_t own_specks = path_parts(organ, [](const Vec3&) { return 0.0; }, h).specks;
+  const PathParts own = path_parts(organ, [](const Vec3&) { return 0.0; }, h);
+  const std::size_t own_specks = own.specks;
   std::printf("# curved paths on %s (%zu tets, mean edge %.3g): a vertical blade at 0.1, 0.3 and 0.05 of an edge "
               "per step, then finish()\n", name.c_str(), organ.num_tets(), h);
   std::printf("# joined: parts holding tissue more than an edge on both sides of the path (0: the path cut "
               "through); specks: parts under 1e-4 of the volume the cut made (the uncut organ has %zu of its "
-              "own, not counted)\n", own_specks);
+              "own, not counted, nor their pieces)\n", own_specks);
   std::printf("case,steps,tets_after,parts,joined,specks,min_dihedral,below_10deg_pct,ms_median,ms_p95,ms_max,ms_finish\n");
   struct P {
     std::string name;
@@ -824,8 +839,7 @@ void curved_organ(const TetMesh& organ, const std::string& name, double toleranc
     if (const char* dir = std::getenv("INCISE_BENCH_CURVED_OUT"))  // the organ's cut meshes too
       write_tet_mesh(m, std::string(dir) + "/organ-" + p.name + "-" + std::to_string(d.steps) + ".vtu");
     d.parts = vertex_parts(m);
-    d.pp = path_parts(m, p.side, h);
-    d.pp.specks -= std::min(d.pp.specks, own_specks);
+    d.pp = path_parts(m, p.side, h, own.speck_boxes);
     d.q = quality_range(m, 10.0);
     return d;
   };
