@@ -138,11 +138,13 @@ inline void jitter(TetMesh& m, double amount, std::uint32_t seed) {
 }
 
 // A crack along the faces between the tets whose centroid lies below `at` on `axis` and those
-// above it, where those faces lie above `from` on axis `up`: the crack's vertices are
-// duplicated (recorded as added vertices with one parent) and the upper-side tets moved onto
-// the duplicates. A stand-in for a scalpel cut in sim tests and benchmarks (cut/ has the real
-// one); crack deeper by calling again with a lower `from`. Returns the vertices duplicated.
-inline std::size_t crack(TetMesh& m, int axis, double at, int up, double from) {
+// above it, opened at the vertices there whose rest position `opens` accepts (the faces with
+// such a vertex open; a vertex it refuses beside them is on the crack's front): those vertices
+// are duplicated (recorded as added vertices with one parent) and the upper-side tets moved
+// onto the duplicates. A stand-in for a scalpel cut in sim and quality tests and benchmarks
+// (cut/ has the real one). Returns the vertices duplicated.
+template <class Opens>
+std::size_t crack_where(TetMesh& m, int axis, double at, Opens opens) {
   auto centre = [&](TetId t) {
     Vec3 c = Vec3::Zero();
     for (VertexId w : m.tet_vertices(t)) c += m.rest(w) / 4;
@@ -150,7 +152,7 @@ inline std::size_t crack(TetMesh& m, int axis, double at, int up, double from) {
   };
   std::vector<VertexId> on;
   for (VertexId v : m.vertices()) {
-    if (m.rest(v)[up] <= from) continue;
+    if (!opens(m.rest(v))) continue;
     bool below = false, above = false;
     for (TetId t : m.incident_tets(v)) (centre(t)[axis] < at ? below : above) = true;
     if (below && above) on.push_back(v);
@@ -167,6 +169,11 @@ inline std::size_t crack(TetMesh& m, int axis, double at, int up, double from) {
     ++n;
   }
   return n;
+}
+
+// crack_where() above `from` on axis `up`: crack deeper by calling again with a lower `from`.
+inline std::size_t crack(TetMesh& m, int axis, double at, int up, double from) {
+  return crack_where(m, axis, at, [&](const Vec3& p) { return p[up] > from; });
 }
 
 }  // namespace incise::testing

@@ -25,6 +25,20 @@ struct Variant {
   TagsCarried tags;  // which boundary tags travel
 };
 
+// The cut-tagged boundary faces, each as its sorted vertex ids.
+std::set<std::array<std::uint32_t, 3>> cut_faces(const TetMesh& mesh) {
+  std::set<std::array<std::uint32_t, 3>> out;
+  for (TetId t : mesh.tets())
+    for (int f = 0; f < 4; ++f)
+      if (!mesh.neighbor(t, f).is_valid() && mesh.face_tag(t, f) == kTagCut) {
+        auto fv = mesh.face_vertices(t, f);
+        std::array<std::uint32_t, 3> k{fv[0].idx(), fv[1].idx(), fv[2].idx()};
+        std::sort(k.begin(), k.end());
+        out.insert(k);
+      }
+  return out;
+}
+
 std::vector<Variant> variants() {
   std::vector<Variant> v;
   WriteOptions ascii;
@@ -330,16 +344,7 @@ TEST_CASE("a frame's cut_face_mask comes back as cut tags, and its cell fields a
     ReadReport rep;
     const TetMesh back = read_tet_mesh(path, &rep);
     CHECK(rep.reoriented_tets == (mirrored ? m.num_tets() : 0));
-    std::set<std::array<std::uint32_t, 3>> got;
-    for (TetId t : back.tets())
-      for (int f = 0; f < 4; ++f)
-        if (!back.neighbor(t, f).is_valid() && back.face_tag(t, f) == kTagCut) {
-          auto fv = back.face_vertices(t, f);
-          std::array<std::uint32_t, 3> k{fv[0].idx(), fv[1].idx(), fv[2].idx()};
-          std::sort(k.begin(), k.end());
-          got.insert(k);
-        }
-    CHECK(got == cut);
+    CHECK(cut_faces(back) == cut);
     REQUIRE(rep.cell_data.size() == 2);
     CHECK(rep.cell_data[0].name == "von_mises");
     REQUIRE(rep.cell_data[0].values.size() == back.num_tets());
@@ -369,18 +374,6 @@ TEST_CASE("a cut written to VTU or VTK comes back with its cut faces, and improv
     cutter.finish();
   }
   m.compact();
-  auto cut_faces = [](const TetMesh& mesh) {
-    std::set<std::array<std::uint32_t, 3>> out;
-    for (TetId t : mesh.tets())
-      for (int f = 0; f < 4; ++f)
-        if (!mesh.neighbor(t, f).is_valid() && mesh.face_tag(t, f) == kTagCut) {
-          auto fv = mesh.face_vertices(t, f);
-          std::array<std::uint32_t, 3> k{fv[0].idx(), fv[1].idx(), fv[2].idx()};
-          std::sort(k.begin(), k.end());
-          out.insert(k);
-        }
-    return out;
-  };
   const auto cut = cut_faces(m);
   REQUIRE(cut.size() > 50);
   for (const char* name : {"cut.vtu", "cut.vtk", "cut-binary.vtu", "cut-binary.vtk"}) {

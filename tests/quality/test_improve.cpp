@@ -543,25 +543,7 @@ TEST_CASE("improve: a vertex where a cut's front bends slides along the front, b
   // runs along x = 0.5 and y = 0.5 and bends by 90 degrees at (0.5, 0.5, 0.5). The two sides'
   // faces coincide and carry kTagCut.
   TetMesh m = make_box(Vec3(1, 1, 1), {4, 4, 4});
-  auto centre = [&](TetId t) {
-    Vec3 c = Vec3::Zero();
-    for (VertexId w : m.tet_vertices(t)) c += m.rest(w) / 4;
-    return c;
-  };
-  std::vector<VertexId> opened;
-  for (VertexId v : m.vertices()) {
-    const Vec3 p = m.rest(v);
-    if (p.z() == 0.5 && (p.x() < 0.4 || p.y() < 0.4)) opened.push_back(v);
-  }
-  for (VertexId v : opened) {
-    std::vector<TetId> upper;
-    for (TetId t : m.incident_tets(v))
-      if (centre(t).z() > 0.5) upper.push_back(t);
-    const VertexId parents[1] = {v};
-    const double weights[1] = {1.0};
-    const VertexId d = m.add_vertex_interpolated(parents, weights);
-    for (TetId t : upper) m.replace_vertex(t, v, d);
-  }
+  REQUIRE(testing::crack_where(m, 2, 0.5, [](const Vec3& p) { return p.x() < 0.4 || p.y() < 0.4; }) > 0);
   for (TetId t : m.tets())
     for (int f = 0; f < 4; ++f)
       if (!m.neighbor(t, f).is_valid()) {
