@@ -32,6 +32,11 @@ void add_improve(CLI::App& app) {
   cmd->add_option("--time-limit", o->improve.time_limit_s, "Wall-clock limit in seconds")
       ->check(time_limit_range(1e6))
       ->capture_default_str();
+  cmd->add_option("--max-work", o->improve.max_work,
+                  "Stop after this many operations (tried), whichever of this and --time-limit comes first (0: no "
+                  "limit): the same input gives the same mesh on every run and machine")
+      ->check(CLI::Range(0, 2000000000))
+      ->capture_default_str();
   cmd->add_option("--target-dihedral", o->improve.target_dihedral_deg,
                   "Stop improving a tet once its smallest dihedral angle reaches this (degrees)")
       ->capture_default_str();

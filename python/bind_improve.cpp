@@ -55,12 +55,13 @@ void bind_improve(py::module_& m) {
       [](TetMesh& mesh, double time_limit, double target, double target_max, bool flips, bool multi_face,
          bool smoothing, bool insertion, double max_growth, double radius_ratio_floor, bool keep_surface,
          bool fixed_boundary, double feature_angle, double volume_tolerance, const py::object& frozen,
-         bool edge_stars) {
+         bool edge_stars, int max_work) {
+        if (max_work < 0) throw InvalidArgument("improve: max_work: expected an integer >= 0 (0: no cap)");
         if (mesh.has_pending_change())
           throw InvalidArgument("improve: the mesh has edits not yet taken (call take_change() first)");
         const std::vector<VertexId> fz = frozen.is_none() ? std::vector<VertexId>{} : to_vertices(mesh, frozen);
         const ImproveReport r =
-            improve(mesh, options(time_limit, 0, 0, target, target_max, flips, multi_face, smoothing, insertion,
+            improve(mesh, options(time_limit, 0, max_work, target, target_max, flips, multi_face, smoothing, insertion,
                                   max_growth, radius_ratio_floor, keep_surface, fixed_boundary, feature_angle,
                                   volume_tolerance, fz, edge_stars));
         return result(mesh, r);
@@ -70,9 +71,9 @@ void bind_improve(py::module_& m) {
       py::arg("smoothing") = true, py::arg("insert") = false, py::arg("max_growth") = 1.5,
       py::arg("radius_ratio_floor") = 0.1, py::arg("keep_surface") = false,
       py::arg("fixed_boundary") = false, py::arg("feature_angle") = 30.0, py::arg("volume_tolerance") = 1e-4,
-      py::arg("frozen") = py::none(), py::arg("edge_stars") = true,
+      py::arg("frozen") = py::none(), py::arg("edge_stars") = true, py::arg("max_work") = 0,
       "Flips and smoothing over the whole mesh, worst first (as `incise improve`; edge_stars=False "
-      "as --no-edge-stars); returns the "
+      "as --no-edge-stars, max_work as --max-work); returns the "
       "`incise improve --json` report with the edits as 'change'");
   m.def(
       "improve_local",

@@ -17,7 +17,7 @@ std::string format_improve_report(const ImproveReport& r) {
                 r.flips44, r.edge_removals, r.multi_face_removals, r.boundary_flips, r.surface_flips, r.smoothing_moves,
                 r.moved_vertices.size(), r.feature_slides, r.insertions, r.boundary_insertions,
                 r.growth_capped ? ", stopped by the growth cap (--max-growth)" : "", r.contractions, r.seconds,
-                r.budget_exhausted ? " (time limit reached)" : "",
+                r.budget_exhausted ? " (time or work limit reached)" : "",
                 r.label_volume_change < 1e-12 ? 0.0 : 100 * r.label_volume_change);  // 0: kept up to rounding
   return buf;
 }
@@ -50,6 +50,7 @@ nlohmann::json improve_report_json(const ImproveReport& r) {
   j["label_volume_change"] = r.label_volume_change;
   j["seconds"] = r.seconds;
   j["budget_exhausted"] = r.budget_exhausted;
+  j["work"] = r.work;  // operations tried, as --max-work counts them
   return j;
 }
 

@@ -148,3 +148,30 @@ TEST_CASE("incise improve --insert says when --max-growth stopped it; the reshap
     CHECK_FALSE(std::filesystem::exists(dir / "bad.msh"));
   }
 }
+
+TEST_CASE("incise improve --max-work stops after that many operations, the same mesh every run", "[cli][improve]") {
+  const auto dir = scratch_dir("cli_improve_work");
+  TetMesh m = make_box(Vec3(1, 1, 1), {5, 5, 5});
+  testing::jitter(m, 0.4, 5);
+  const std::string in = (dir / "in.msh").string();
+  write_tet_mesh(m, in);
+  auto run = [&](const std::string& out, const std::string& args) {
+    const std::string json = (dir / (out + ".json")).string();
+    Run r = run_incise("improve '" + in + "' -o '" + (dir / out).string() + "' --json '" + json + "' --insert " + args, dir);
+    INFO(r.err);
+    REQUIRE(r.code == 0);
+    return nlohmann::json::parse(slurp(json));
+  };
+  const auto a = run("a.msh", "--max-work 40 --time-limit 0");
+  const auto b = run("b.msh", "--max-work 40 --time-limit 0");
+  const auto all = run("all.msh", "--time-limit 0");
+  CHECK(a["budget_exhausted"] == true);
+  CHECK(a["work"].get<int>() >= 40);
+  CHECK(all["work"].get<int>() > a["work"].get<int>());
+  CHECK(slurp((dir / "a.msh").string()) == slurp((dir / "b.msh").string()));
+  CHECK(slurp((dir / "a.msh").string()) != slurp((dir / "all.msh").string()));
+  // A bad count is refused with one line, nothing written.
+  Run bad = run_incise("improve '" + in + "' -o '" + (dir / "c.msh").string() + "' --max-work -3", dir);
+  CHECK(bad.code != 0);
+  CHECK_FALSE(std::filesystem::exists(dir / "c.msh"));
+}

@@ -154,3 +154,18 @@ def test_improve_edge_stars_keyword():
     assert r["after"]["min_dihedral"] >= r["before"]["min_dihedral"]  # never worse, either way
     with pytest.raises(TypeError):
         incise.improve(incise.TetMesh(pts, tets), edge_star=True)
+
+
+def test_improve_max_work_stops_after_that_many_operations():
+    # max_work is `--max-work`: a pass limited by operations, not the clock, gives the same
+    # mesh every run; the report counts the operations it spent.
+    a, b, c = jittered_box(), jittered_box(), jittered_box()
+    ra = incise.improve(a, time_limit=0, max_work=30)
+    rb = incise.improve(b, time_limit=0, max_work=30)
+    rc = incise.improve(c, time_limit=0)
+    assert ra["budget_exhausted"] and ra["work"] >= 30
+    assert rc["work"] > ra["work"]
+    assert np.array_equal(a.points, b.points) and np.array_equal(a.tets, b.tets)
+    assert rc["after"]["min_dihedral"] >= ra["after"]["min_dihedral"]
+    with pytest.raises(incise.InvalidArgument):
+        incise.improve(jittered_box(), max_work=-1)
