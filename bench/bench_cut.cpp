@@ -904,8 +904,14 @@ void deformed(const TetMesh& organ_in, const std::string& name, bool quick, doub
               "held at low x, probe pushing the far end's top down, blade 60%% down through the middle over "
               "frames 10-50 on the current shape, corotational static\n",
               name.c_str(), organ.num_tets(), q0.min_dihedral, b0 ? b0->degrees : 0.0);
+  // Issue 36's goal for these rows: smallest dihedral >= min(10, half the uncut body's sharpest
+  // boundary angle), under 1% below 10 degrees, and no crease the blade did not make (the
+  // boundary's sharpest angle after the cut at least 20 degrees).
+  const double goal = std::min(10.0, 0.5 * (b0 ? b0->degrees : 0.0));
+  std::printf("# goal: min dihedral >= %.2f deg (min(10, half the sharpest boundary angle)), < 1%% below 10 deg, "
+              "boundary angle after >= 20 deg\n", goal);
   std::printf("push,frame,tets_after,min_dihedral,below_10deg_pct,boundary_angle_after,cut_area,ms_step_median,"
-              "ms_step_p95,max_displacement\n");
+              "ms_step_p95,max_displacement,meets_goal\n");
   std::vector<double> pushes = {0.0, 0.05, 0.15, 0.30};
   if (quick) pushes = {0.0, 0.15};
   for (double push : pushes)
@@ -955,9 +961,14 @@ void deformed(const TetMesh& organ_in, const std::string& name, bool quick, doub
         std::snprintf(file, sizeof file, "/deformed-%02d-%s.vtu", int(std::lround(100 * push)), material ? "rest" : "current");
         write_tet_mesh(m, std::string(dir) + file);
       }
-      std::printf("%.2f,%s,%zu,%.3f,%.3f,%.2f,%.4g,%.3f,%.3f,%.4g\n", push, material ? "rest" : "current", m.num_tets(),
-                  q.min_dihedral, 100.0 * double(q.below) / double(m.num_tets()), b1 ? b1->degrees : 0.0,
-                  tagged_area(m), percentile(ms, 0.5), percentile(ms, 0.95), max_disp);
+      const double below_pct = 100.0 * double(q.below) / double(m.num_tets()), crease = b1 ? b1->degrees : 0.0;
+      const bool smallest_ok = q.min_dihedral >= goal, share_ok = below_pct < 1, crease_ok = crease >= 20;
+      std::string meets;
+      for (const auto& [ok, what] : {std::pair{smallest_ok, "smallest no"}, {share_ok, "share no"}, {crease_ok, "crease no"}})
+        if (!ok) meets += (meets.empty() ? "" : " / ") + std::string(what);
+      std::printf("%.2f,%s,%zu,%.3f,%.3f,%.2f,%.4g,%.3f,%.3f,%.4g,%s\n", push, material ? "rest" : "current", m.num_tets(),
+                  q.min_dihedral, below_pct, crease, tagged_area(m), percentile(ms, 0.5), percentile(ms, 0.95), max_disp,
+                  meets.empty() ? "yes" : meets.c_str());
       std::fflush(stdout);
     }
 }
