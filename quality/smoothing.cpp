@@ -72,6 +72,14 @@ bool feature_line(const TetMesh& mesh, VertexId v, const std::vector<Vec3>& norm
   return along_line(opt, v, feature[0], feature[1], ua, ub, Freedom::Bent, fr);
 }
 
+// v's fan by its edges: neighbour w -> the fan faces holding the edge (v, w).
+std::map<std::uint32_t, std::vector<std::size_t>> fan_edges(const Freedom& fr) {
+  std::map<std::uint32_t, std::vector<std::size_t>> at_edge;
+  for (std::size_t i = 0; i < fr.fan.size(); ++i)
+    for (int k = 1; k < 3; ++k) at_edge[fr.fan[i][k].idx()].push_back(i);
+  return at_edge;
+}
+
 // Every face of v's disc in one plane, some facing each way (a disc folded onto itself, as
 // the two sides of a cut are around its front): every face's normal parallel to the first
 // one's, to a tiny angle (each face holds v, so each lies in the plane through v).
@@ -91,9 +99,7 @@ bool folded_flat(const std::vector<Vec3>& normals) {
 // slides along the old segments v-a and v-b (along_line).
 bool front_line(const TetMesh& mesh, VertexId v, const std::vector<Vec3>& normals, const SmoothOptions& opt,
                 Freedom& fr) {
-  std::map<std::uint32_t, std::vector<std::size_t>> at_edge;  // neighbour w -> fan faces with edge (v,w)
-  for (std::size_t i = 0; i < fr.fan.size(); ++i)
-    for (int k = 1; k < 3; ++k) at_edge[fr.fan[i][k].idx()].push_back(i);
+  const auto at_edge = fan_edges(fr);
   std::vector<VertexId> front;
   for (const auto& [w, faces] : at_edge) {
     if (faces.size() != 2) return false;
@@ -109,9 +115,7 @@ bool front_line(const TetMesh& mesh, VertexId v, const std::vector<Vec3>& normal
 // that differ in tag or plane, a and b lie on opposite sides of v on one line, and the faces
 // between them are coplanar on each side. Sliding along it keeps both sides' planes.
 bool crease_line(const TetMesh& mesh, VertexId v, Freedom& fr) {
-  std::map<std::uint32_t, std::vector<std::size_t>> at_edge;  // neighbour w -> fan faces with edge (v,w)
-  for (std::size_t i = 0; i < fr.fan.size(); ++i)
-    for (int k = 1; k < 3; ++k) at_edge[fr.fan[i][k].idx()].push_back(i);
+  const auto at_edge = fan_edges(fr);
   const Vec3& pv = mesh.rest(v);
   auto normal = [&](std::size_t i) { return (mesh.rest(fr.fan[i][1]) - pv).cross(mesh.rest(fr.fan[i][2]) - pv); };
   std::vector<VertexId> crease;
