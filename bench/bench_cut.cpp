@@ -24,7 +24,8 @@
 //                  profiling; INCISE_BENCH_DEFORMED_OUT=DIR: --only
 //                  deformed writes each cut mesh there; INCISE_BENCH_QUALITY_OUT=DIR: --only quality each
 //                  variant's; INCISE_BENCH_CURVED_OUT=DIR: --only curved writes each
-//                  path's cut mesh there, and the offset drags' below 10 deg; --only curved-organ each drag's)
+//                  path's cut mesh there, and the offset drags' below 10 deg; --only curved-organ each drag's;
+//                  INCISE_BENCH_STEPS=1: --only curved-organ prints every step's times on stderr)
 #include <algorithm>
 #include <cctype>
 #include <chrono>
@@ -833,7 +834,13 @@ void curved_organ(const TetMesh& organ, const std::string& name, double toleranc
       return BladeSegment{Vec3(q.x(), q.y(), lo.z() - 0.1 * ext.z()), Vec3(q.x(), q.y(), hi.z() + 0.1 * ext.z())};
     };
     cutter.start(blade(p.at(0)));
-    for (int k = 1; k <= d.steps; ++k) d.ms.push_back(cutter.advance(blade(p.at(double(k) / d.steps))).ms);
+    for (int k = 1; k <= d.steps; ++k) {
+      const CutStepReport r = cutter.advance(blade(p.at(double(k) / d.steps)));
+      d.ms.push_back(r.ms);
+      if (std::getenv("INCISE_BENCH_STEPS"))  // each step: ms, improvement ms, tets waiting, tets added
+        std::fprintf(stderr, "step %d %.3f %.3f waiting %zu added %zu\n", k, r.ms, r.ms_improve, cutter.waiting_tets(),
+                     r.change.added_tets.size());
+    }
     d.finish_ms = cutter.finish().ms;
     d.tets = m.num_tets();
     if (const char* dir = std::getenv("INCISE_BENCH_CURVED_OUT"))  // the organ's cut meshes too

@@ -339,6 +339,7 @@ void Cutter::Impl::improve_after(CutStepReport& rep, std::vector<TetId> seeds, s
   frozen.insert(frozen.end(), opt_.frozen.begin(), opt_.frozen.end());
   io.frozen = frozen;
   io.time_budget_ms = opt_.improve_budget_ms;
+  io.quality_cache = &step_quality_;
   rep.improve = improve_local(*mesh_, seeds, io);
   rep.ms_improve += ms_since(ti);
 }
@@ -382,9 +383,10 @@ void Cutter::Impl::keep_shut(std::vector<TetId>& tets) const {
   tets = std::move(out);
 }
 
-void Cutter::Impl::refresh_waiting(const PositionFn& positions, std::span<const TetId> more) {
+void Cutter::Impl::refresh_waiting(const PositionFn& positions, std::span<const TetId> more, bool recheck) {
   Progress& pr = *progress_;
   std::vector<TetId> all = std::move(pr.waiting);
+  const std::size_t kept = recheck ? 0 : all.size();
   all.insert(all.end(), more.begin(), more.end());
   pr.waiting.clear();
   if (!pr.sheet) return;
@@ -392,8 +394,17 @@ void Cutter::Impl::refresh_waiting(const PositionFn& positions, std::span<const 
   const double tol = 1e-9 * (sp.hi - sp.lo).norm();
   auto pos = [&](VertexId v) { return positions ? positions(v) : mesh_->rest(v); };
   std::unordered_set<std::uint32_t> seen;
-  for (TetId t : all) {
+  // An id on the list that `more` holds too is another tet now (ids are reused).
+  std::unordered_set<std::uint32_t> fresh;
+  if (kept > 0)
+    for (TetId t : more) fresh.insert(t.idx());
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    const TetId t = all[i];
     if (!mesh_->is_alive(t) || !seen.insert(t.idx()).second) continue;
+    if (i < kept && !fresh.count(t.idx())) {
+      pr.waiting.push_back(t);
+      continue;
+    }
     bool plus = false, minus = false;
     int off = -1, on = 0;  // the one vertex off the plane, and how many are on it
     std::array<Vec3, 4> x;
@@ -879,7 +890,7 @@ void Cutter::Impl::step_sheet(CutStepReport& rep, const Piece& local, const std:
   const Piece& sp = pr.sheet->piece();
   CutStep step(*mesh_, positions, opt_.snap, &pr.memory, true);
   step.set_fixed(opt_.frozen);
-  step.add_candidates(pr.waiting);
+  step.add_candidates(waiting_ahead(positions));
   step.add_candidates(pr.closed);
   step.collect(local, walk.from, scan, walk.then);
   step.split_crossings(sp);
@@ -926,6 +937,48 @@ void Cutter::Impl::step_sheet(CutStepReport& rep, const Piece& local, const std:
     if (in.insert(e.first.idx()).second) seeds.push_back(e.first);
 }
 
+// A sheet that starts at a crease (an earlier sheet's front) waits for many tets beyond that
+// edge: they cross its plane's extension behind the crease, in the earlier sheet's tissue, and
+// their section touches the polygon along the crease at most. The polygon is convex, so while
+// the back edge is one of its edges it lies wholly on one side of that edge's line, and no step
+// of the sheet cuts a tet lying on the other side; offering them at every step cost most of a
+// step's time on a path that turns often (docs/cut.md#curved-paths). They stay on the waiting
+// list: the sheet's finish and the improvement's frozen vertices see them as before.
+std::vector<TetId> Cutter::Impl::waiting_ahead(const PositionFn& positions) const {
+  const Progress& pr = *progress_;
+  if (!pr.back_known || !pr.sheet) return pr.waiting;
+  const Piece& sp = pr.sheet->piece();
+  const Vec3 along = pr.back.b - pr.back.a;
+  Vec3 u = sp.normal.cross(along);
+  const double len = along.norm();
+  if (!(len > 0) || !(u.norm() > 0)) return pr.waiting;
+  u /= u.norm();
+  const double tol = 1e-6 * len;
+  // Into the polygon: the side of its farthest point; give up when it has points on both.
+  double lo = 0, hi = 0;
+  for (const CutTriangle& tri : sp.triangles)
+    for (const Vec3& p : tri.p) {
+      const double d = u.dot(p - pr.back.a);
+      lo = std::min(lo, d);
+      hi = std::max(hi, d);
+    }
+  if (lo < -tol && hi > tol) return pr.waiting;
+  if (lo < -tol) u = -u;
+  auto pos = [&](VertexId v) { return positions ? positions(v) : mesh_->rest(v); };
+  std::vector<TetId> ahead;
+  ahead.reserve(pr.waiting.size());
+  for (TetId t : pr.waiting) {
+    bool behind = true;
+    for (VertexId v : mesh_->tet_vertices(t))
+      if (u.dot(pos(v) - pr.back.a) > tol) {
+        behind = false;
+        break;
+      }
+    if (!behind) ahead.push_back(t);
+  }
+  return ahead;
+}
+
 // After a step's improvement: the sheet's lists and the front follow the step's edits.
 void Cutter::Impl::keep_sheet_lists(const PositionFn& positions) {
   Progress& pr = *progress_;
@@ -948,8 +1001,9 @@ void Cutter::Impl::keep_sheet_lists(const PositionFn& positions) {
     }
   }
   if (pr.sheet) {
+    // The improvement held the waiting tets' vertices: those it did not replace wait as before.
     const std::vector<TetId> added = mesh_->pending_added_tets();
-    refresh_waiting(positions, added);
+    refresh_waiting(positions, added, false);
     if (!pr.improve_queue.empty())
       for (TetId t : added)
         if (needs_improving(t)) pr.improve_queue.emplace_back(t, pr.step);

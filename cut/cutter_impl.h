@@ -15,6 +15,7 @@
 #include "cut/separate.h"
 #include "cut/sheet.h"
 #include "cut/tet_grid.h"
+#include "quality/quality_cache.h"
 
 namespace incise {
 
@@ -69,6 +70,9 @@ struct Cutter::Impl {
   void step_sheet(CutStepReport& rep, const cut_detail::Piece& local, const std::function<std::vector<TetId>()>& scan,
                   const Walk& walk, const PositionFn& positions, std::vector<TetId>& seeds, std::vector<VertexId>& frozen);
   void keep_sheet_lists(const PositionFn& positions);
+  // The waiting tets a step of the sheet may cut: not those behind its back edge when that edge
+  // is a crease (see there).
+  std::vector<TetId> waiting_ahead(const PositionFn& positions) const;
   // A new sheet from `from` (a finished sheet's front, or the blade's last position) to `to`.
   void start_sheet(const BladeSegment& from, const BladeSegment& to, const PositionFn& positions);
   // Cut faces an earlier sheet's finish left shut (their opening would have pinched the
@@ -101,7 +105,9 @@ struct Cutter::Impl {
   void keep_made(Progress& pr) const;  // adds the pending change's tets to pr.made
   // Keeps the live tets with a face in the sheet's plane still shut (and adds their partner).
   void keep_shut(std::vector<TetId>& tets) const;
-  void refresh_waiting(const PositionFn& positions, std::span<const TetId> more);
+  // The waiting list again, with `more` offered too; recheck false: the live tets on it stay
+  // without a look (nothing they depend on changed since the last refresh).
+  void refresh_waiting(const PositionFn& positions, std::span<const TetId> more, bool recheck = true);
   CutStepReport run(std::span<const CutTriangle> triangles, const PositionFn& positions, double max_displacement,
                     bool use_front);
   // run()'s two modes (the tets the pieces touch removed, or split and opened) and the
@@ -169,6 +175,8 @@ struct Cutter::Impl {
   // bounds (with the region's), to those bounds only; empty once done.
   std::vector<TetId> repair_seeds_;
   int finish_left_ = 0;
+  // The steps' improvement passes share their tets' figures (consecutive regions overlap).
+  AngleQualityCache step_quality_;
   // One slice of the finish improvement on finish_seeds_ (improvement only: no cut).
   void improve_finish_slice(CutStepReport& rep, int work);
   void keep_finish_seeds(const TopologyChange& change);  // the slice's new tets join the region

@@ -12,6 +12,7 @@
 #include "quality/flips.h"
 #include "quality/insertion.h"
 #include "quality/improve.h"
+#include "quality/quality_cache.h"
 #include "quality/metrics.h"
 #include "quality/smoothing.h"
 
@@ -224,7 +225,8 @@ private:
   }
 
   AngleQuality push(TetId t) {
-    const AngleQuality a = angle_quality(mesh_, t, scope_.targets);
+    const AngleQuality a =
+        opt_.quality_cache ? opt_.quality_cache->get(mesh_, t, scope_.targets) : angle_quality(mesh_, t, scope_.targets);
     Known& k = version_[t.idx()];
     ++k.version;
     k.quality = a;

@@ -18,6 +18,8 @@
 
 namespace incise {
 
+class AngleQualityCache;
+
 struct ImproveOptions {
   double time_limit_s = 10;          // global mode wall-clock limit
   double time_budget_ms = 0;         // local mode budget (0 = unlimited apart from max_work)
@@ -80,6 +82,9 @@ struct ImproveOptions {
   int rings = 2;                     // local mode: rings grown around the seeds
   int max_ring = 7;                  // edge removal: largest ring (tets around the edge) tried
   int smoothing_iterations = 8;      // ascent steps per vertex smoothing attempt
+  // Local mode: figures of the region's tets kept from earlier passes (quality/quality_cache.h;
+  // the cutter's steps); null: each pass evaluates its region.
+  AngleQualityCache* quality_cache = nullptr;
 };
 
 struct ImproveReport {

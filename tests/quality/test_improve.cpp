@@ -16,6 +16,7 @@
 #include "quality/improve.h"
 #include "quality/insertion.h"
 #include "quality/metrics.h"
+#include "quality/quality_cache.h"
 #include "testing/mesh_edits.h"
 
 using namespace incise;
@@ -437,6 +438,64 @@ TEST_CASE("improve_local: only the seeds' rings change, never for the worse", "[
   one.max_work = 1;
   const std::vector<TetId> all = m2.tets();
   CHECK(improve_local(m2, all, one).budget_exhausted);
+}
+
+TEST_CASE("improve_local with a quality cache: the same mesh as without, over passes and edits between them",
+          "[improve]") {
+  // The cutter's steps share one AngleQualityCache between their passes: an entry must stand
+  // for its tet only while the tet is the same (ids come back as other tets, vertices move).
+  TetMesh plain = make_box(Vec3(1, 1, 1) * 2, {2 * kCells, 2 * kCells, 2 * kCells});
+  testing::jitter(plain, 0.35, 7);
+  plain.discard_change();
+  TetMesh cached = plain;
+  AngleQualityCache cache;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> shake(-0.02, 0.02);
+  for (int pass = 0; pass < 12; ++pass) {
+    // Seeds: the tets around a vertex that walks across the box, so that regions overlap.
+    const Vec3 at = Vec3(0.4, 0.5, 0.6) + 0.1 * pass * Vec3(1, 0.8, 0.6);
+    auto seeds_of = [&](const TetMesh& m) {
+      VertexId centre;
+      double best = 1e300;
+      for (VertexId v : m.vertices())
+        if ((m.rest(v) - at).norm() < best) best = (m.rest(v) - at).norm(), centre = v;
+      const auto inc = m.incident_tets(centre);
+      return std::vector<TetId>(inc.begin(), inc.end());
+    };
+    ImproveOptions o;
+    o.max_work = 40;
+    o.rings = 1;
+    const ImproveReport a = improve_local(plain, seeds_of(plain), o);
+    o.quality_cache = &cache;
+    const ImproveReport b = improve_local(cached, seeds_of(cached), o);
+    CHECK(a.work == b.work);
+    CHECK(a.min_dihedral_after == b.min_dihedral_after);
+    plain.discard_change();
+    cached.discard_change();
+    // An edit outside the pass: interior vertices near the next region move a little.
+    for (VertexId v : plain.vertices()) {
+      const Vec3 p = plain.rest(v);
+      const bool inside = (p.array() > 0.01).all() && (p.array() < 1.99).all();
+      if (!inside || (p - at).norm() > 0.5) continue;
+      const Vec3 d(shake(rng), shake(rng), shake(rng));
+      plain.set_rest(v, p + d);
+      cached.set_rest(v, p + d);
+    }
+  }
+  REQUIRE(plain.num_tets() == cached.num_tets());
+  for (TetId t : plain.tets()) {
+    REQUIRE(cached.is_alive(t));
+    CHECK(plain.tet_vertices(t) == cached.tet_vertices(t));
+  }
+  for (VertexId v : plain.vertices()) CHECK(plain.rest(v) == cached.rest(v));
+  // And its figures are angle_quality's now, for any targets asked.
+  const AngleTargets other{20, 150, 1.0};
+  for (TetId t : cached.tets()) {
+    const AngleQuality q = cache.get(cached, t, other), r = angle_quality(cached, t, other);
+    REQUIRE(q.q == r.q);
+    REQUIRE(q.min_dihedral == r.min_dihedral);
+    REQUIRE(q.radius_ratio == r.radius_ratio);
+  }
 }
 
 TEST_CASE("improve with insertion: the record carries affine fields exactly", "[improve][insertion]") {
