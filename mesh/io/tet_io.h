@@ -14,7 +14,8 @@
 // on read; overlapping tets are refused (ReadOptions). Every boundary face is tagged
 // kTagSurface, or with the tag of a boundary triangle the file carries (msh, medit); VTU and
 // VTK, which have no triangles, carry the cut faces (kTagCut) as a cell array
-// "cut_face_mask" that the writers add and the readers turn back into tags. Positions are
+// "cut_face_mask" that the writers add and the readers turn back into tags (TetGen: a second
+// .ele attribute that the header comment names). Positions are
 // written in shortest round-trip form, so they
 // read back bit-exact. Every write is atomic (temporary file in the same directory, then
 // rename); a failed write leaves the destination untouched.

@@ -1,11 +1,19 @@
 // TetGen .node/.ele: points numbered consecutively from 0 or 1; the first tet attribute is
-// the region label (tetgen -A).
+// the region label (tetgen -A). A cut mesh's .ele has a second attribute, each tet's
+// cut_face_mask (bit k: its face opposite corner k is a cut face; tet_io.h), which its header
+// comment names: only a file that says so has its second attribute read as the mask (another
+// tool's second attribute means something else).
 #include <cmath>
+#include <string_view>
 
 #include "mesh/io/formats.h"
 #include "mesh/io/parse_util.h"
 
 namespace incise::io {
+
+namespace {
+constexpr std::string_view kCutMaskAttribute = "cut_face_mask";
+}  // namespace
 
 RawMesh parse_tetgen(const std::string& node_file, const std::string& node_text, const std::string& ele_file,
                      const std::string& ele_text) {
@@ -40,6 +48,17 @@ RawMesh parse_tetgen(const std::string& node_file, const std::string& node_text,
     }
     if (!c.at_end()) c.fail("more points than the declared " + std::to_string(n));
   }
+  // The header comment (the lines before the first number) names the attributes.
+  bool has_mask = false;
+  for (std::size_t at = 0; at < ele_text.size();) {
+    std::size_t end = ele_text.find('\n', at);
+    if (end == std::string::npos) end = ele_text.size();
+    const std::string_view line(ele_text.data() + at, end - at);
+    const std::size_t first = line.find_first_not_of(" \t\r");
+    if (first != std::string_view::npos && line[first] != '#') break;
+    if (line.find(kCutMaskAttribute) != std::string_view::npos) has_mask = true;
+    at = end + 1;
+  }
   Cursor c(ele_file, ele_text, '#');
   if (c.at_end()) c.fail("empty file");
   std::size_t n = c.count("number of tetrahedra", 10);
@@ -50,6 +69,8 @@ RawMesh parse_tetgen(const std::string& node_file, const std::string& node_text,
   m.tets.reserve(n);
   m.tet_labels.reserve(n);
   m.tet_lines.reserve(n);
+  std::vector<double> mask;
+  if (has_mask && nattr >= 2) mask.reserve(n);
   const long long np = static_cast<long long>(m.points.size());
   for (std::size_t i = 0; i < n; ++i) {
     c.skip_ws();
@@ -69,6 +90,9 @@ RawMesh parse_tetgen(const std::string& node_file, const std::string& node_text,
       if (k == 0) {
         if (std::abs(a) > 2147483647.0) c.fail("region attribute out of range");
         label = static_cast<int>(std::lround(a));
+      } else if (k == 1 && has_mask) {
+        if (!(a >= 0 && a <= 15) || a != std::floor(a)) c.fail("cut face mask must be an integer 0..15");
+        mask.push_back(a);
       }
     }
     m.tets.push_back(t);
@@ -76,6 +100,7 @@ RawMesh parse_tetgen(const std::string& node_file, const std::string& node_text,
     m.tet_lines.push_back(line);
   }
   if (!c.at_end()) c.fail("more tetrahedra than the declared " + std::to_string(n));
+  if (!mask.empty()) m.cell_scalars.emplace_back("cut_face_mask", std::move(mask));
   return m;
 }
 
@@ -96,9 +121,18 @@ void write_tetgen(const FlatMesh& m, AtomicFile& node, AtomicFile& ele, const Wr
   }
   node.write(b);
   b.clear();
-  b += "# incise tetrahedral mesh; attribute: region label\n";
+  const FlatMesh::DenseField* mask = nullptr;
+  for (const FlatMesh::DenseField& f : m.cell_data)
+    if (f.name == "cut_face_mask" && f.components == 1 && f.values.size() == m.tets.size()) mask = &f;
+  if (mask) {
+    b += "# incise tetrahedral mesh; attributes: region label, ";
+    b += kCutMaskAttribute;
+    b += " (bit k: the face opposite corner k is a cut face)\n";
+  } else {
+    b += "# incise tetrahedral mesh; attribute: region label\n";
+  }
   append_int(b, static_cast<long long>(m.tets.size()));
-  b += " 4 1\n";
+  b += mask ? " 4 2\n" : " 4 1\n";
   for (std::size_t i = 0; i < m.tets.size(); ++i) {
     append_int(b, static_cast<long long>(i));
     for (std::uint32_t v : m.tets[i]) {
@@ -107,6 +141,10 @@ void write_tetgen(const FlatMesh& m, AtomicFile& node, AtomicFile& ele, const Wr
     }
     b += ' ';
     append_int(b, m.labels[i]);
+    if (mask) {
+      b += ' ';
+      append_int(b, static_cast<long long>(mask->values[i]));
+    }
     b += '\n';
     ele.flush_if_large(b);
   }

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <fstream>
 #include <map>
 #include <numeric>
 #include <set>
@@ -63,8 +64,8 @@ std::vector<Variant> variants() {
   v.push_back({"be32.vtu", be, TagsCarried::Cut});
   v.push_back({"le64.vtu", le64, TagsCarried::Cut});
   v.push_back({"be64.vtu", be64, TagsCarried::Cut});
-  v.push_back({"tg.node", ascii, TagsCarried::None});
-  v.push_back({"tg2.ele", ascii, TagsCarried::None});
+  v.push_back({"tg.node", ascii, TagsCarried::Cut});
+  v.push_back({"tg2.ele", ascii, TagsCarried::Cut});
   return v;
 }
 
@@ -357,7 +358,7 @@ TEST_CASE("a frame's cut_face_mask comes back as cut tags, and its cell fields a
 // for surface and may move one side of the cut into the other, which coincides with it in
 // the rest shape (found on a cut organ: `incise improve` wrote overlapping tets it then refused
 // to read).
-TEST_CASE("a cut written to VTU or VTK comes back with its cut faces, and improving it keeps the sides apart",
+TEST_CASE("a cut written to VTU, VTK or TetGen comes back with its cut faces, and improving it keeps the sides apart",
           "[io][cut]") {
   ScratchDir dir("cut_tags");
   TetMesh m = make_box(Vec3(4, 2, 1), {16, 8, 4});
@@ -376,7 +377,7 @@ TEST_CASE("a cut written to VTU or VTK comes back with its cut faces, and improv
   m.compact();
   const auto cut = cut_faces(m);
   REQUIRE(cut.size() > 50);
-  for (const char* name : {"cut.vtu", "cut.vtk", "cut-binary.vtu", "cut-binary.vtk"}) {
+  for (const char* name : {"cut.vtu", "cut.vtk", "cut-binary.vtu", "cut-binary.vtk", "cut.ele"}) {
     CAPTURE(name);
     const std::string path = dir / name;
     write_tet_mesh(m, path, WriteOptions{.binary = std::string(name).find("binary") != std::string::npos});
@@ -389,5 +390,38 @@ TEST_CASE("a cut written to VTU or VTK comes back with its cut faces, and improv
     o.max_work = 20000;
     improve(back, o);
     CHECK_FALSE(find_overlapping_tets(back).has_value());
+  }
+}
+
+TEST_CASE("a TetGen .ele's second attribute is a cut mask only where its header says so", "[io][cut]") {
+  ScratchDir dir("tetgen_mask");
+  const std::string node = dir / "t.node";
+  {
+    std::ofstream f(node);
+    f << "4 3 0 0\n0 0 0 0\n1 1 0 0\n2 0 1 0\n3 0 0 1\n";
+  }
+  auto write_ele = [&](const std::string& text) {
+    std::ofstream f(dir / "t.ele");
+    f << text;
+  };
+  // Another tool's second attribute: read as nothing.
+  write_ele("1 4 2\n0 0 1 2 3 7 9\n");
+  TetMesh plain = read_tet_mesh(node);
+  CHECK(cut_faces(plain).empty());
+  CHECK(plain.label(TetId(0)) == 7);
+  // incise's header: the mask's bits tag the faces (bit k: the face opposite corner k).
+  write_ele("# incise tetrahedral mesh; attributes: region label, cut_face_mask\n1 4 2\n0 0 1 2 3 7 9\n");
+  TetMesh tagged = read_tet_mesh(node);
+  CHECK(cut_faces(tagged).size() == 2);
+  for (int k = 0; k < 4; ++k) CHECK((tagged.face_tag(TetId(0), k) == kTagCut) == (k == 0 || k == 3));
+  // A mask that is not one: the file and line are named.
+  write_ele("# incise tetrahedral mesh; attributes: region label, cut_face_mask\n1 4 2\n0 0 1 2 3 7 16\n");
+  try {
+    read_tet_mesh(node);
+    FAIL("a mask of 16 was read");
+  } catch (const IoError& e) {
+    CHECK(e.file().find("t.ele") != std::string::npos);
+    CHECK(e.line() == 3);
+    CHECK(std::string(e.what()).find("cut face mask") != std::string::npos);
   }
 }
