@@ -82,6 +82,20 @@ bool CutStep::edge_split_ok(VertexId a, VertexId b, double s) const {
   return true;
 }
 
+bool CutStep::edge_split_ok_cached(VertexId a, VertexId b, double s) {
+  const std::uint64_t edits = mesh_.counters().edits;
+  if (edits != split_ok_edits_) {
+    split_ok_.clear();
+    split_ok_edits_ = edits;
+  }
+  const std::uint64_t key = std::uint64_t(a.idx()) << 32 | b.idx();
+  auto it = split_ok_.find(key);
+  if (it != split_ok_.end() && it->second.s == s) return it->second.ok;
+  const bool ok = edge_split_ok(a, b, s);
+  split_ok_[key] = {s, ok};
+  return ok;
+}
+
 CutStep::CutStep(TetMesh& mesh, const PositionFn& positions, double snap, CutMemory* memory, bool provisional)
     : mesh_(mesh), positions_(positions), snap_(std::max(snap, kSnapFloor)), memory_(memory),
       provisional_(provisional && memory) {}
@@ -633,7 +647,7 @@ bool CutStep::collect_crossings(const Piece& piece, std::unordered_set<std::uint
           // volume (docs/cut.md#known-gaps), so the edge is not split, as below.
           continue;
         }
-        if (!edge_split_ok(tv[a], tv[b], u)) {
+        if (!edge_split_ok_cached(tv[a], tv[b], u)) {
           const int nv = u < 0.5 ? a : b;
           if (!on_piece_[k].count(tv[nv].idx()) && pinned.insert(tv[nv].idx()).second) {
             decide(k, tv[nv], 0);

@@ -139,6 +139,15 @@ private:
   bool on_segment(VertexId v, const Vec3& a, const Vec3& b) const;
   double mean_incident_edge(VertexId v) const;
   bool edge_split_ok(VertexId a, VertexId b, double s) const;
+  // edge_split_ok() for collect_crossings(), which asks it once per tet around each crossing
+  // edge: an answer holds while the mesh is not edited (the same edge, split at the same point).
+  bool edge_split_ok_cached(VertexId a, VertexId b, double s);
+  struct SplitAnswer {
+    double s;
+    bool ok;
+  };
+  std::unordered_map<std::uint64_t, SplitAnswer> split_ok_;
+  std::uint64_t split_ok_edits_ = ~std::uint64_t(0);
   // Inserts the point with barycentric w in t, snapping small weights to zero; returns the
   // vertex now at that point (existing or new).
   VertexId insert_point(TetId t, std::array<double, 4> w);
