@@ -5,13 +5,14 @@
 // corner positions (in order) and the targets alone, so an entry stands for whatever tet holds
 // its id while those are the same (an id that came back as another tet, or a corner that moved,
 // is computed again): a figure taken from it is the one angle_quality() would compute now, bit
-// for bit. Memory grows with the largest tet id met, work with the tets asked.
+// for bit. Work follows the tets asked; memory is bounded (kMaxEntries: past it the cache
+// starts afresh, which costs time, never a different figure).
 #include <array>
 #include <cstdint>
-#include <vector>
 
 #include "mesh/tet_mesh.h"
 #include "quality/dihedral_objective.h"
+#include "quality/tet_map.h"
 
 namespace incise {
 
@@ -24,7 +25,7 @@ public:
     }
     const auto& tv = mesh.tet_vertices(t);
     const std::array<Vec3, 4> x = {mesh.rest(tv[0]), mesh.rest(tv[1]), mesh.rest(tv[2]), mesh.rest(tv[3])};
-    if (t.idx() >= entries_.size()) entries_.resize(std::size_t(t.idx()) + 1);
+    if (entries_.size() >= kMaxEntries) entries_.clear();
     Entry& e = entries_[t.idx()];
     if (e.valid && e.x == x) return e.quality;
     e.valid = true;
@@ -40,10 +41,12 @@ private:
   }
   struct Entry {
     bool valid = false;
-    std::array<Vec3, 4> x;
+    std::array<Vec3, 4> x{Vec3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
     AngleQuality quality;
   };
-  std::vector<Entry> entries_;
+  // A cut step's region is a few thousand tets; a drag's steps revisit the last few regions.
+  static constexpr std::size_t kMaxEntries = std::size_t(1) << 16;
+  TetMap<Entry> entries_;
   AngleTargets targets_;
 };
 
