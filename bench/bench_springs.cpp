@@ -4,11 +4,13 @@
 //  2. estimated stable time step against mesh resolution (expected ~ h);
 //  3. local update (apply one TopologyChange) vs a full rebuild after k edited tets in an
 //     N-tet mesh;
+//  1b. step cost per spring configuration (volume term, stiffness rule, viscosity, stiffening)
+//     relative to the default, with each one's stable step, so the cost of a simulated second;
 //  4. what each volume term makes of the material (docs/solver.md#spring-volume-terms): the
 //     effective Young's modulus and Poisson's ratio of a bar in tension, and a cantilever's tip
 //     deflection against Timoshenko's, per mesh pattern and resolution, with corotational
 //     nodal-averaged FEM on the same meshes as the baseline.
-// Usage: bench_springs [--quick] [--only moduli]
+// Usage: bench_springs [--quick] [--only moduli|configurations]
 #include <chrono>
 #include <cstdio>
 #include <random>
@@ -113,6 +115,73 @@ double mean_over(const TetMesh& m, const std::vector<Vec3>& u, In in, F f) {
   return n ? sum / n : 0.0;
 }
 
+// 1b. What each spring configuration costs: a symplectic Euler step (the scenes' default
+// integrator) and an implicit Euler step at 10x the stable step, relative to the default
+// configuration in the same run, on a jittered box (a structured one has every tet alike), and
+// the explicit stable step each one allows; per simulated second the explicit cost is ms/step
+// over dt.
+void configuration_costs(bool quick) {
+  const int n = quick ? 10 : 20;
+  TetMesh m = make_box(Vec3(0.1, 0.1, 0.1), {n, n, n});
+  testing::jitter(m, 0.2, 5);
+  m.discard_change();
+  struct Config {
+    const char* name;
+    SpringOptions o;
+  };
+  std::vector<Config> configs;
+  SpringOptions base;
+  base.damping = 2.0;
+  base.compute_energy = false;
+  base.cg_tolerance = 1e-6;
+  configs.push_back({"volume tet (default)", base});
+  SpringOptions o = base;
+  o.nodal_volume = true;
+  configs.push_back({"volume nodal", o});
+  o = base;
+  o.volume_term = false;
+  configs.push_back({"no volume term", o});
+  o = base;
+  o.stiffness = SpringStiffness::Fitted;
+  configs.push_back({"volume tet, fitted", o});
+  o.nodal_volume = true;
+  configs.push_back({"volume nodal, fitted", o});
+  o = base;
+  o.viscosity = 1e-3;
+  configs.push_back({"viscosity 1e-3 s", o});
+  o = base;
+  o.stiffening = 8;
+  configs.push_back({"stiffening 8", o});
+  std::printf("== step cost per spring configuration, %zu tets (jittered box; relative to the default)\n", m.num_tets());
+  std::printf("%-22s %12s %8s %12s %8s %14s %10s %12s\n", "configuration", "explicit ms", "ratio", "dt_stable",
+              "dt/def", "ms/sim-second", "ratio", "implicit ms");
+  double base_ms = 0, base_dt = 0, base_implicit = 0, implicit_dt = 0;
+  for (const Config& c : configs) {
+    SpringModel s(m, soft_tissue(), c.o);
+    perturb(s, m, 1e-4);
+    const double dt = 0.5 * s.stable_time_step(Integrator::SymplecticEuler);
+    if (implicit_dt == 0) implicit_dt = 10 * dt;  // the default's, for every configuration
+    const int steps = quick ? 50 : 200;
+    s.step(dt, Integrator::SymplecticEuler);  // warm-up
+    double t0 = now_ms();
+    for (int i = 0; i < steps; ++i) s.step(dt, Integrator::SymplecticEuler);
+    const double per = (now_ms() - t0) / steps;
+    SpringModel si(m, soft_tissue(), c.o);
+    perturb(si, m, 1e-4);
+    const int isteps = quick ? 5 : 15;
+    t0 = now_ms();
+    for (int i = 0; i < isteps; ++i) si.step(implicit_dt, Integrator::ImplicitEuler);
+    const double implicit = (now_ms() - t0) / isteps;
+    const double stable = s.stable_time_step(Integrator::SymplecticEuler);
+    if (base_ms == 0) base_ms = per, base_dt = stable, base_implicit = implicit;
+    const double per_second = per / stable, base_second = base_ms / base_dt;
+    std::printf("%-22s %12.3f %8.2f %12.3e %8.2f %14.1f %10.2f %12.3f (%.2f)\n", c.name, per, per / base_ms, stable,
+                stable / base_dt, per_second, per_second / base_second, implicit, implicit / base_implicit);
+  }
+  std::printf("(explicit: symplectic Euler at half the stable step; implicit Euler at 10x the default's half; "
+              "ms/sim-second at the stable step)\n\n");
+}
+
 void effective_moduli(bool quick) {
   const Material mat{1e4, 0.45, 1000};
   std::printf("== what each volume term makes of E = 1e4, nu = 0.45: a 4x1x1 bar pulled (strain 1e-4), and\n"
@@ -182,6 +251,10 @@ void effective_moduli(bool quick) {
 int main(int argc, char** argv) {
   const bench::Args args(argc, argv);  // --help: where the options are written
   const bool quick = args.flag("--quick");
+  if (args.get("--only", "") == "configurations") {
+    configuration_costs(quick);
+    return 0;
+  }
   if (args.get("--only", "") == "moduli") {
     effective_moduli(false);
     return 0;
@@ -218,6 +291,8 @@ int main(int argc, char** argv) {
     }
     std::printf("(implicit Euler at 10x the stable step; explicit Euler at 0.5x its own, damped, limit)\n\n");
   }
+
+  configuration_costs(quick);
 
   // ---- 2. stable time step vs resolution -----------------------------------------------------
   {
