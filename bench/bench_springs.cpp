@@ -23,6 +23,10 @@
 #include "sim/springs/spring_model.h"
 #include "testing/draws.h"
 #include "testing/mesh_edits.h"
+#ifdef INCISE_HAVE_TETRA
+#include "mesh/io/surface.h"
+#include "mesh/tetrahedralize/tetrahedralize.h"
+#endif
 
 using namespace incise;
 using incise::testing::draw_vec3;
@@ -182,18 +186,58 @@ void configuration_costs(bool quick) {
               "ms/sim-second at the stable step)\n\n");
 }
 
+// The affine map that fits u over the vertices whose rest position passes `in` (least squares):
+// its gradient, the strain of a body that is not meshed in planes of vertices.
+template <class In>
+Eigen::Matrix3d fitted_gradient(const TetMesh& m, const std::vector<Vec3>& u, In in) {
+  Eigen::Matrix4d ata = Eigen::Matrix4d::Zero();
+  Eigen::Matrix<double, 4, 3> atb = Eigen::Matrix<double, 4, 3>::Zero();
+  for (VertexId v : m.vertices()) {
+    const Vec3 p = m.rest(v);
+    if (!in(p)) continue;
+    const Eigen::Vector4d a(p.x(), p.y(), p.z(), 1);
+    ata += a * a.transpose();
+    atb += a * u[v.idx()].transpose();
+  }
+  const Eigen::Matrix<double, 4, 3> x = ata.ldlt().solve(atb);
+  return x.topRows<3>().transpose();  // (i, j): du_i / dp_j
+}
+
+#ifdef INCISE_HAVE_TETRA
+// A box [0, size] meshed by CGAL's Delaunay refinement (incise tetra's engine), tets of about
+// edge h, its edges kept as features: the unstructured pattern of issue 41's moduli tests.
+TetMesh cgal_box(const Vec3& size, double h) {
+  SurfaceMesh box;
+  for (int i = 0; i < 8; ++i) box.vertices.push_back(Vec3((i & 1) * size.x(), (i >> 1 & 1) * size.y(), (i >> 2 & 1) * size.z()));
+  box.triangles = {{0, 2, 3}, {0, 3, 1}, {4, 5, 7}, {4, 7, 6}, {0, 1, 5}, {0, 5, 4},
+                   {2, 6, 7}, {2, 7, 3}, {0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}};
+  TetraOptions o;
+  o.size = Length{0.612 * h, false};  // a regular tet's circumradius over its edge
+  o.features_angle = 60;
+  return tetrahedralize_surface(box, o);
+}
+#endif
+
 void effective_moduli(bool quick) {
   const Material mat{1e4, 0.45, 1000};
   std::printf("== what each volume term makes of E = 1e4, nu = 0.45: a 4x1x1 bar pulled (strain 1e-4), and\n"
               "   an 8x1x1 cantilever's tip under a load (deflection over Timoshenko's, which FEM's converges to)\n");
   std::printf("%-10s %5s %8s %-9s %10s %10s %10s %14s\n", "pattern", "cells", "tets", "model", "E_eff/E", "nu_eff",
               "G_eff/G", "tip/Timoshenko");
-  for (const char* pattern : {"kuhn", "mirrored", "jittered"}) {
+  std::vector<std::string> patterns = {"kuhn", "mirrored", "jittered"};
+#ifdef INCISE_HAVE_TETRA
+  patterns.push_back("cgal");
+#endif
+  for (const std::string& pattern : patterns) {
+    const bool unstructured = pattern == "cgal";
     for (int n : {1, 2, 4}) {
       if (quick && n > 2) break;
       auto mesh = [&](const Vec3& size, std::array<int, 3> cells) {
-        TetMesh m = make_box(size, cells, 1, std::string(pattern) == "mirrored" ? BoxSplit::Mirrored : BoxSplit::Kuhn);
-        if (std::string(pattern) == "jittered") incise::testing::jitter(m, 0.3, 11);
+#ifdef INCISE_HAVE_TETRA
+        if (unstructured) return cgal_box(size, 1.0 / n);
+#endif
+        TetMesh m = make_box(size, cells, 1, pattern == "mirrored" ? BoxSplit::Mirrored : BoxSplit::Kuhn);
+        if (pattern == "jittered") incise::testing::jitter(m, 0.3, 11);
         return m;
       };
       const TetMesh bar = mesh(Vec3(4, 1, 1), {4 * n, n, n}), beam = mesh(Vec3(8, 1, 1), {8 * n, n, n});
@@ -206,14 +250,21 @@ void effective_moduli(bool quick) {
         for (VertexId v : end) pull.push_back({v, Vec3(mat.young * 1e-4 / double(end.size()), 0, 0)});
         const auto ub = equilibrium(bar, mat, model, pull);
         auto mid = [](double x0, double x1) { return [=](const Vec3& p) { return p.x() > x0 - 1e-9 && p.x() < x1 + 1e-9; }; };
-        // Strains over the middle half, x in [1, 3] (planes of vertices at every resolution).
-        const double ex = (mean_over(bar, ub, [](const Vec3& p) { return std::abs(p.x() - 3) < 1e-9; },
+        // Strains over the middle half, x in [1, 3]: between its end planes of vertices and across
+        // its side faces on the structured patterns; on CGAL's, which has no inner planes of
+        // vertices, the gradient of the affine map that fits the displacements there.
+        double ex = (mean_over(bar, ub, [](const Vec3& p) { return std::abs(p.x() - 3) < 1e-9; },
                                      [](const Vec3& d) { return d.x(); }) -
                            mean_over(bar, ub, [](const Vec3& p) { return std::abs(p.x() - 1) < 1e-9; },
                                      [](const Vec3& d) { return d.x(); })) / 2;
-        const double ey =
+        double ey =
             mean_over(bar, ub, [&](const Vec3& p) { return mid(1, 3)(p) && p.y() > 1 - 1e-9; }, [](const Vec3& d) { return d.y(); }) -
             mean_over(bar, ub, [&](const Vec3& p) { return mid(1, 3)(p) && p.y() < 1e-9; }, [](const Vec3& d) { return d.y(); });
+        if (unstructured) {
+          const Eigen::Matrix3d g = fitted_gradient(bar, ub, mid(1, 3));
+          ex = g(0, 0);
+          ey = g(1, 1);
+        }
         // Bending: a small total load at the tip (the deflection a few thousandths of the length).
         const double F = 1e-3 * mat.young / 8;
         end.clear();
@@ -236,14 +287,15 @@ void effective_moduli(bool quick) {
                                        [](const Vec3& d) { return d.x(); });
         const double tip = -mean_over(beam, uc, [](const Vec3& p) { return p.x() > 8 - 1e-9; }, [](const Vec3& d) { return d.z(); });
         const double timoshenko = F * 512 / (3 * mat.young / 12) + F * 8 / (5.0 / 6 * G);
-        std::printf("%-10s %5d %8zu %-9s %10.3f %10.3f %10.3f %14.3f\n", pattern, n, bar.num_tets(), model,
+        std::printf("%-10s %5d %8zu %-9s %10.3f %10.3f %10.3f %14.3f\n", pattern.c_str(), n, bar.num_tets(), model,
                     1e-4 / ex, -ey / ex, 1e-4 / gamma, tip / timoshenko);
         std::fflush(stdout);
       }
     }
   }
   std::printf("(cells: across the section; tets: the bar's. jittered: Kuhn tets, interior vertices moved up to\n"
-              " 0.3 of their shortest edge)\n\n");
+              " 0.3 of their shortest edge; cgal: CGAL's Delaunay refinement of the box, tets of about the\n"
+              " cells' edge, its strains fitted)\n\n");
 }
 
 }  // namespace
