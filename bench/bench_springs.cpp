@@ -13,6 +13,7 @@
 // Usage: bench_springs [--quick] [--only moduli|configurations]
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <random>
 #include <vector>
 
@@ -78,7 +79,8 @@ std::vector<Vec3> equilibrium(const TetMesh& m, const Material& mat, const std::
                               bool (*held)(const Vec3&) = [](const Vec3& p) { return p.x() < 1e-9; }) {
   std::vector<Vec3> u(m.vertex_capacity(), Vec3::Zero());
   const bool fit = model.size() > 4 && model.compare(model.size() - 4, 4, "-fit") == 0;
-  const std::string volume = fit ? model.substr(0, model.size() - 4) : model;
+  const bool faces = model.size() > 6 && model.compare(model.size() - 6, 6, "+faces") == 0;
+  const std::string volume = fit ? model.substr(0, model.size() - 4) : faces ? model.substr(0, model.size() - 6) : model;
   if (volume == "fem") {
     FemSimulationOptions o;
     o.kind = FemKind::Corotational;
@@ -97,6 +99,8 @@ std::vector<Vec3> equilibrium(const TetMesh& m, const Material& mat, const std::
   o.volume_term = volume != "none";
   o.nodal_volume = volume == "nodal";
   o.stiffness = fit ? SpringStiffness::Fitted : SpringStiffness::VanGelder;
+  o.across_faces = faces;
+  if (const char* share = std::getenv("INCISE_BENCH_FACE_SHARE")) o.face_share = std::atof(share);
   o.cg_tolerance = 1e-12;
   o.cg_max_iterations = 50000;
   o.compute_energy = false;
@@ -241,7 +245,7 @@ void effective_moduli(bool quick) {
         return m;
       };
       const TetMesh bar = mesh(Vec3(4, 1, 1), {4 * n, n, n}), beam = mesh(Vec3(8, 1, 1), {8 * n, n, n});
-      for (const char* model : {"tet", "tet-fit", "nodal", "nodal-fit", "none", "none-fit", "fem"}) {
+      for (const char* model : {"tet", "tet-fit", "tet+faces", "nodal", "nodal-fit", "nodal+faces", "none", "none-fit", "fem"}) {
         // Tension: force E * 1e-4 over the end face's vertices.
         std::vector<std::pair<VertexId, Vec3>> pull, load;
         std::vector<VertexId> end;

@@ -70,6 +70,10 @@ SpringModel::SpringModel(const TetMesh& mesh, const MaterialTable& materials, co
     throw InvalidArgument("springs.barrier_limit: expected a value in (0, 1)");
   if (!(opt_.cg_tolerance > 0) || opt_.cg_max_iterations < 1)
     throw InvalidArgument("springs.cg: expected tolerance > 0 and max_iterations >= 1");
+  if (opt_.across_faces && opt_.stiffness == SpringStiffness::Fitted)
+    throw InvalidArgument("springs.connectivity: springs across faces take van-gelder stiffness, not fitted");
+  if (!(opt_.face_share >= 0 && opt_.face_share < 1))
+    throw InvalidArgument("springs.face_share: expected a value in [0, 1)");
 
   // Headroom so the first cuts do not reallocate every per-vertex array (an O(n) hitch).
   const std::size_t nv = mesh.vertex_capacity(), nt = mesh.tet_capacity();
@@ -105,6 +109,15 @@ SpringModel::SpringModel(const TetMesh& mesh, const MaterialTable& materials, co
       if (!spring_index_.count(edge_key(a, b))) update_edge(mesh, a, b);
     }
   }
+  if (opt_.across_faces)
+    for (std::uint32_t t = 0; t < mesh.tet_capacity(); ++t) {
+      if (!tet_alive_[t]) continue;
+      for (int f = 0; f < 4; ++f) {
+        const std::uint32_t a = tet_v_[t][f].idx(), p = apex_across(mesh, TetId(t), f);
+        tet_partner_[t][f] = p;
+        if (p != kNone && !spring_index_.count(face_key(a, p))) update_face_pair(mesh, a, p);
+      }
+    }
   for (std::uint32_t i = 0; i < mesh.vertex_capacity(); ++i)
     if (alive_[i]) update_mass(mesh, i);
   for (std::uint32_t i = 0; i < mesh.vertex_capacity(); ++i)
@@ -139,6 +152,7 @@ void SpringModel::grow(std::size_t nv, std::size_t nt) {
     tet_alive_.resize(nt, 0);
     volume_slot_.resize(nt, kNone);
   }
+  if (opt_.across_faces && nt > tet_partner_.size()) tet_partner_.resize(nt, {kNone, kNone, kNone, kNone});
 }
 
 void SpringModel::grow_tree(std::size_t nv) {
@@ -180,7 +194,7 @@ void SpringModel::update_edge(const TetMesh& mesh, std::uint32_t a, std::uint32_
         const int ia = mesh.local_index(t, VertexId(a)), ib = mesh.local_index(t, VertexId(b));
         fitted += tet_fit_[t.idx()].k[tet_edge_index(ia, ib)];
       } else {
-        sum += calibration(mesh.label(t)).spring_modulus * v;
+        sum += calibration(mesh.label(t)).spring_modulus * v * edge_share(mesh, t);
       }
       const Material& m = materials_.get(mesh.label(t));
       vol += v;
@@ -196,7 +210,61 @@ void SpringModel::update_edge(const TetMesh& mesh, std::uint32_t a, std::uint32_
   const double rest = (mesh.rest(VertexId(a)) - mesh.rest(VertexId(b))).norm();
   const double k = sum / (rest * rest) + fitted;
   auto [it, inserted] = spring_index_.try_emplace(key, static_cast<std::uint32_t>(springs_.size()));
-  const Spring sp{a, b, rest, k, tau / vol, stiff / vol};
+  const Spring sp{a, b, rest, k, tau / vol, stiff / vol, key};
+  max_tau_ = std::max(max_tau_, sp.tau);
+  if (inserted)
+    springs_.push_back(sp);
+  else
+    springs_[it->second] = sp;
+  ++counters_.visits;
+}
+
+double SpringModel::edge_share(const TetMesh& mesh, TetId t) const {
+  if (!opt_.across_faces) return 1.0;
+  int interior = 0;
+  for (int f = 0; f < 4; ++f) interior += mesh.neighbor(t, f).is_valid();
+  return 1.0 - opt_.face_share * interior / 4.0;
+}
+
+std::uint32_t SpringModel::apex_across(const TetMesh& mesh, TetId t, int f) const {
+  const TetId n = mesh.neighbor(t, f);
+  if (!n.is_valid()) return kNone;
+  const auto face = mesh.face_vertices(t, f);
+  for (VertexId w : mesh.tet_vertices(n))
+    if (w != face[0] && w != face[1] && w != face[2]) return w.idx();
+  return kNone;
+}
+
+// The spring across the faces whose apexes are a and b, from scratch: each such face has one
+// tet at a, found among a's tets in the mesh's incidence order (bit-reproducible as edges).
+// Each of the face's two tets gives it a quarter of face_share of its budget: 6 c V_t / 4.
+void SpringModel::update_face_pair(const TetMesh& mesh, std::uint32_t a, std::uint32_t b) {
+  if (a > b) std::swap(a, b);
+  const std::uint64_t key = face_key(a, b);
+  double sum = 0, vol = 0, tau = 0, stiff = 0;
+  bool any = false;
+  if (mesh.is_alive(VertexId(a)) && mesh.is_alive(VertexId(b)))
+    for (TetId t : mesh.incident_tets(VertexId(a))) {
+      ++counters_.visits;
+      const int f = mesh.local_index(t, VertexId(a));
+      if (apex_across(mesh, t, f) != b) continue;
+      for (TetId x : {t, mesh.neighbor(t, f)}) {
+        const double v = mesh.volume(x);
+        const Material& m = materials_.get(mesh.label(x));
+        sum += opt_.face_share * 1.5 * calibration(mesh.label(x)).spring_modulus * v;
+        vol += v;
+        tau += v * (m.viscosity > 0 ? m.viscosity : opt_.viscosity);
+        stiff += v * (m.stiffening > 0 ? m.stiffening : opt_.stiffening);
+      }
+      any = true;
+    }
+  if (!any) {
+    remove_spring(key);
+    return;
+  }
+  const double rest = (mesh.rest(VertexId(a)) - mesh.rest(VertexId(b))).norm();
+  auto [it, inserted] = spring_index_.try_emplace(key, static_cast<std::uint32_t>(springs_.size()));
+  const Spring sp{a, b, rest, sum / (rest * rest), tau / vol, stiff / vol, key};
   max_tau_ = std::max(max_tau_, sp.tau);
   if (inserted)
     springs_.push_back(sp);
@@ -212,7 +280,7 @@ void SpringModel::remove_spring(std::uint64_t key) {
   spring_index_.erase(it);
   if (slot + 1 != springs_.size()) {
     springs_[slot] = springs_.back();
-    spring_index_[edge_key(springs_[slot].a, springs_[slot].b)] = slot;
+    spring_index_[springs_[slot].key] = slot;
   }
   springs_.pop_back();
   ++counters_.visits;
@@ -289,6 +357,16 @@ void SpringModel::update_bound(const TetMesh& mesh, std::uint32_t v) {
     auto it = spring_index_.find(edge_key(v, w));
     if (it != spring_index_.end()) row += 2 * springs_[it->second].k;
   }
+  if (opt_.across_faces) {
+    scratch_.clear();
+    for (TetId t : mesh.incident_tets(VertexId(v))) {
+      const std::uint32_t p = apex_across(mesh, t, mesh.local_index(t, VertexId(v)));
+      if (p == kNone || std::find(scratch_.begin(), scratch_.end(), p) != scratch_.end()) continue;
+      scratch_.push_back(p);
+      auto it = spring_index_.find(face_key(v, p));
+      if (it != spring_index_.end()) row += 2 * springs_[it->second].k;
+    }
+  }
   set_bound(v, row / mass_[v]);
 }
 
@@ -351,11 +429,29 @@ void SpringModel::apply(const TetMesh& mesh, const TopologyChange& change) {
     for (const auto& e : kEdges) edge_scratch_.push_back(edge_key(tv[e[0]].idx(), tv[e[1]].idx()));
     for (VertexId w : tv) touch(w.idx());
   };
+  // across_faces: the springs across the faces of every tet the change removed (the apexes as
+  // they were) and, after the lists, of every face of a removed or added tet as it is now.
+  std::vector<std::uint64_t> pairs;
+  std::vector<std::array<std::uint32_t, 3>> faces;
+  auto forget_tet = [&](std::uint32_t t) {
+    if (!opt_.across_faces) return;
+    const auto& tv = tet_v_[t];
+    for (int f = 0; f < 4; ++f) {
+      std::array<std::uint32_t, 3> face{};
+      for (int j = 0, k = 0; j < 4; ++j)
+        if (j != f) face[k++] = tv[j].idx();
+      std::sort(face.begin(), face.end());
+      faces.push_back(face);
+      if (tet_partner_[t][f] != kNone) pairs.push_back(face_key(tv[f].idx(), tet_partner_[t][f]));
+      tet_partner_[t][f] = kNone;
+    }
+  };
   // Removed first: a recycled id appears in both lists.
   for (TetId t : change.removed_tets) {
     ++counters_.visits;
     if (!tet_alive_[t.idx()]) continue;
     add_edges(tet_v_[t.idx()]);
+    forget_tet(t.idx());
     tet_alive_[t.idx()] = 0;
     remove_volume(t);
   }
@@ -363,15 +459,46 @@ void SpringModel::apply(const TetMesh& mesh, const TopologyChange& change) {
     ++counters_.visits;
     if (tet_alive_[t.idx()]) {  // not listed as removed (a change applied twice): replace it
       add_edges(tet_v_[t.idx()]);
+      forget_tet(t.idx());
       remove_volume(t);
     }
     tet_v_[t.idx()] = mesh.tet_vertices(t);
     tet_alive_[t.idx()] = 1;
     fit_tet(mesh, t);
     add_edges(tet_v_[t.idx()]);
+    forget_tet(t.idx());  // lists its faces; it has no springs yet
     if (opt_.volume_term) add_volume(mesh, t);
   }
   for (VertexId v : change.touched_vertices) touch(v.idx());
+  if (opt_.across_faces) {
+    // The live tets on each listed face now: their apex across it (and so the springs at both
+    // ends), and their edges' share (a face that opened or closed changes it).
+    std::sort(faces.begin(), faces.end());
+    faces.erase(std::unique(faces.begin(), faces.end()), faces.end());
+    for (const auto& face : faces) {
+      if (!mesh.is_alive(VertexId(face[0]))) continue;
+      for (TetId x : mesh.incident_tets(VertexId(face[0]))) {
+        ++counters_.visits;
+        const int i1 = mesh.local_index(x, VertexId(face[1])), i2 = mesh.local_index(x, VertexId(face[2]));
+        if (i1 < 0 || i2 < 0) continue;
+        const int f = 6 - mesh.local_index(x, VertexId(face[0])) - i1 - i2;  // the corner off the face
+        const std::uint32_t apex = mesh.tet_vertices(x)[f].idx(), old = tet_partner_[x.idx()][f];
+        const std::uint32_t now = apex_across(mesh, x, f);
+        if (old != kNone) pairs.push_back(face_key(apex, old));
+        if (now != kNone) pairs.push_back(face_key(apex, now));
+        tet_partner_[x.idx()][f] = now;
+        add_edges(mesh.tet_vertices(x));
+      }
+    }
+    std::sort(pairs.begin(), pairs.end());
+    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+    for (std::uint64_t key : pairs) {
+      const auto a = static_cast<std::uint32_t>((key >> 32) & 0x7fffffffu), b = static_cast<std::uint32_t>(key & 0xffffffffu);
+      update_face_pair(mesh, a, b);
+      touch(a);
+      touch(b);
+    }
+  }
 
   std::sort(edge_scratch_.begin(), edge_scratch_.end());
   edge_scratch_.erase(std::unique(edge_scratch_.begin(), edge_scratch_.end()), edge_scratch_.end());
@@ -430,19 +557,31 @@ void SpringModel::set_velocity(VertexId v, const Vec3& u) {
   invalidate();
 }
 
+namespace {
+constexpr std::uint64_t kFaceBit = std::uint64_t(1) << 63;
+}  // namespace
+
 std::optional<SpringModel::SpringInfo> SpringModel::spring(VertexId a, VertexId b) const {
   auto it = spring_index_.find(edge_key(a.idx(), b.idx()));
   if (it == spring_index_.end()) return std::nullopt;
   const Spring& s = springs_[it->second];
-  return SpringInfo{VertexId(s.a), VertexId(s.b), s.rest, s.k, s.tau, s.stiffening};
+  return SpringInfo{VertexId(s.a), VertexId(s.b), s.rest, s.k, s.tau, s.stiffening, false};
+}
+
+std::optional<SpringModel::SpringInfo> SpringModel::spring_across_faces(VertexId a, VertexId b) const {
+  auto it = spring_index_.find(face_key(a.idx(), b.idx()));
+  if (it == spring_index_.end()) return std::nullopt;
+  const Spring& s = springs_[it->second];
+  return SpringInfo{VertexId(s.a), VertexId(s.b), s.rest, s.k, s.tau, s.stiffening, true};
 }
 
 std::vector<SpringModel::SpringInfo> SpringModel::springs() const {
   std::vector<SpringInfo> out;
   out.reserve(springs_.size());
-  for (const Spring& s : springs_) out.push_back({VertexId(s.a), VertexId(s.b), s.rest, s.k, s.tau, s.stiffening});
+  for (const Spring& s : springs_)
+    out.push_back({VertexId(s.a), VertexId(s.b), s.rest, s.k, s.tau, s.stiffening, (s.key & kFaceBit) != 0});
   std::sort(out.begin(), out.end(), [](const SpringInfo& p, const SpringInfo& q) {
-    return p.a != q.a ? p.a < q.a : p.b < q.b;
+    return p.a != q.a ? p.a < q.a : p.b != q.b ? p.b < q.b : p.across_faces < q.across_faces;
   });
   return out;
 }

@@ -6,6 +6,8 @@
 //
 //  - g_ij: a Hookean spring on every mesh edge, rest length = rest edge length,
 //    g_ij = k_ij (l_ij - |x_i - x_j|) (x_i - x_j) / |x_i - x_j|.
+//    With SpringOptions::across_faces, also a spring between the two apexes of every interior
+//    face (the vertices the face's two tets do not share), with part of the tets' stiffness.
 //  - h_ti: a per-tet volume barrier (SpringOptions::volume_term) that keeps tets from
 //    collapsing and inverting and carries the bulk stiffness edge springs cannot.
 //  - m_i: lumped mass, each tet's density * rest volume split equally to its 4 vertices.
@@ -64,6 +66,16 @@ struct SpringOptions {
   // standard tets do (docs/solver.md#spring-volume-terms). Computed from the per-tet volumes
   // each step (one more pass), so edits stay local.
   bool nodal_volume = false;
+  // Connectivity: besides the mesh's edges, a spring across every interior face, joining the
+  // two apexes of its tets (Van Gelder's stiffness only). The edges of a lattice mesh (six tets
+  // per cube) point along few directions, so the network is anisotropic: too stiff in tension
+  // and too soft in shear whatever the resolution; springs across the faces add the missing
+  // directions. Each tet's stiffness budget (c V_t, which calibrate_springs() sets) is shared:
+  // face_share of it, a quarter per interior face, goes to the springs across its faces, the
+  // rest to its six edges (a boundary face's quarter stays with the edges).
+  // docs/solver.md#spring-connectivity measures both connectivities and the share.
+  bool across_faces = false;
+  double face_share = 0.65;
   // Kelvin-Voigt damping in every spring: a force c (v_rel . n) along it against its rate of
   // extension, c = viscosity x k (viscosity: a time constant [s]); 0: none. A material's own
   // `viscosity` (> 0) replaces it in its tets, and a spring takes its tets' mean; likewise
@@ -166,9 +178,12 @@ public:
     double rest_length = 0;
     double stiffness = 0;  // [N/m]
     double viscosity = 0, stiffening = 0;  // Kelvin-Voigt time constant [s], stiffening exponent
+    bool across_faces = false;             // a spring across faces (SpringOptions::across_faces)
   };
-  std::optional<SpringInfo> spring(VertexId a, VertexId b) const;  // O(1)
-  std::vector<SpringInfo> springs() const;                          // O(springs), sorted by (a, b)
+  std::optional<SpringInfo> spring(VertexId a, VertexId b) const;  // O(1): the edge's
+  std::optional<SpringInfo> spring_across_faces(VertexId a, VertexId b) const;  // O(1)
+  // O(springs), sorted by (a, b), an edge's before the one across faces between the same two.
+  std::vector<SpringInfo> springs() const;
   struct VolumeInfo {
     TetId tet;
     double rest_volume = 0;
@@ -187,6 +202,7 @@ private:
     std::uint32_t a, b;
     double rest, k;
     double tau = 0, stiffening = 0;  // per spring: the volume-weighted mean of its tets' materials
+    std::uint64_t key = 0;           // in spring_index_: edge_key, or face_key for one across faces
   };
   struct Volume {
     std::array<std::uint32_t, 4> v;
@@ -197,10 +213,20 @@ private:
   static std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
     return a < b ? (std::uint64_t(a) << 32 | b) : (std::uint64_t(b) << 32 | a);
   }
+  // A spring across faces between a and b (ids below 2^31): its own key beside an edge's.
+  static std::uint64_t face_key(std::uint32_t a, std::uint32_t b) { return edge_key(a, b) | (std::uint64_t(1) << 63); }
 
   void grow(std::size_t vertices, std::size_t tets);
   void grow_tree(std::size_t vertices);
   void update_edge(const TetMesh& mesh, std::uint32_t a, std::uint32_t b);
+  // across_faces: the spring between a and b from the interior faces whose apexes they are
+  // (none: removed); the share of a tet's budget its edges keep.
+  void update_face_pair(const TetMesh& mesh, std::uint32_t a, std::uint32_t b);
+  double edge_share(const TetMesh& mesh, TetId t) const;
+  // across_faces, per live tet and local face: the apex across that face (kNone on the
+  // boundary) as the springs were last built, so apply() finds the springs of removed tets.
+  std::vector<std::array<std::uint32_t, 4>> tet_partner_;
+  std::uint32_t apex_across(const TetMesh& mesh, TetId t, int f) const;
   void remove_spring(std::uint64_t key);
   void add_volume(const TetMesh& mesh, TetId t);
   void remove_volume(TetId t);

@@ -402,6 +402,96 @@ TEST_CASE("uniaxial bar: midsection strain close to F/(EA)", "[springs]") {
   }
 }
 
+TEST_CASE("springs across faces: a lattice's network close to the material in tension and shear", "[springs]") {
+  // Six tets per cube put the edges along seven directions: with edge springs alone the
+  // network is too stiff in tension and too soft in shear at every resolution (docs/solver.md,
+  // "Spring connectivity"). Measured against the material's E and G, by static equilibrium.
+  const double E = 1e4, nu = 0.45, G = E / (2 * (1 + nu));
+  auto solve = [&](const TetMesh& m, bool faces, int held_axis, const std::vector<std::pair<VertexId, Vec3>>& loads) {
+    SpringOptions o;
+    o.across_faces = faces;
+    o.cg_tolerance = 1e-12;
+    o.cg_max_iterations = 50000;
+    SpringModel s(m, table(E, nu), o);
+    for (VertexId v : select_plane(m, held_axis, 0.0)) s.set_fixed(v, true);
+    for (const auto& [v, f] : loads) s.set_external_force(v, f);
+    for (int n = 0; n < 8; ++n) s.step(1e6, Integrator::ImplicitEuler);
+    return s.positions();
+  };
+  // Tension: a 4x1x1 bar pulled by E 1e-4 over its end; strain between the planes x = 1 and 3.
+  const TetMesh bar = make_box(Vec3(4, 1, 1), {8, 2, 2});
+  std::vector<std::pair<VertexId, Vec3>> pull;
+  const auto end = select_plane(bar, 0, 4.0);
+  for (VertexId v : end) pull.push_back({v, Vec3(E * 1e-4 / double(end.size()), 0, 0)});
+  // Shear: a 4x4x1 slab held at z = 0, its top pulled along x by 1e-4 G; the top's mean slide
+  // over its middle quarter.
+  const TetMesh slab = make_box(Vec3(4, 4, 1), {8, 8, 2});
+  std::vector<std::pair<VertexId, Vec3>> shear;
+  const auto top = select_plane(slab, 2, 1.0);
+  for (VertexId v : top) shear.push_back({v, Vec3(1e-4 * G * 16 / double(top.size()), 0, 0)});
+  auto moduli = [&](bool faces) {
+    const auto xb = solve(bar, faces, 0, pull);
+    auto mean_ux = [&](double at) {
+      double u = 0;
+      const auto plane = select_plane(bar, 0, at);
+      for (VertexId v : plane) u += xb[v.idx()].x() - bar.rest(v).x();
+      return u / double(plane.size());
+    };
+    const double e_ratio = 1e-4 / ((mean_ux(3.0) - mean_ux(1.0)) / 2);
+    const auto xs = solve(slab, faces, 2, shear);
+    double slide = 0;
+    int n = 0;
+    for (VertexId v : top) {
+      const Vec3 p = slab.rest(v);
+      if (std::abs(p.x() - 2) > 1 + 1e-9 || std::abs(p.y() - 2) > 1 + 1e-9) continue;
+      slide += xs[v.idx()].x() - p.x();
+      ++n;
+    }
+    return std::pair{e_ratio, 1e-4 / (slide / n)};
+  };
+  const auto [e_edges, g_edges] = moduli(false);
+  const auto [e_faces, g_faces] = moduli(true);
+  WARN("Kuhn lattice, 2 cells across: E_eff/E " << e_edges << " -> " << e_faces << ", G_eff/G " << g_edges << " -> "
+                                               << g_faces << " with springs across faces");
+  CHECK(std::abs(e_edges - 1) > 0.15);  // the anisotropy this connectivity is for
+  CHECK(g_edges < 0.7);
+  CHECK(std::abs(e_faces - 1) < 0.05);
+  CHECK(g_faces > 0.8);
+  CHECK(g_faces < 1.1);
+}
+
+TEST_CASE("springs across faces: refused with fitted stiffness, the share outside [0, 1)", "[springs]") {
+  const TetMesh m = make_box(Vec3(1, 1, 1), {2, 2, 2});
+  SpringOptions o;
+  o.across_faces = true;
+  o.stiffness = SpringStiffness::Fitted;
+  CHECK_THROWS_AS(SpringModel(m, table(1e4, 0.3), o), InvalidArgument);
+  o.stiffness = SpringStiffness::VanGelder;
+  for (double share : {-0.1, 1.0, std::nan("")}) {
+    o.face_share = share;
+    CHECK_THROWS_AS(SpringModel(m, table(1e4, 0.3), o), InvalidArgument);
+  }
+  o.face_share = 0.65;
+  const SpringModel s(m, table(1e4, 0.3), o);
+  // Every interior face has a spring between its apexes (two faces may share the pair).
+  std::set<std::pair<std::uint32_t, std::uint32_t>> pairs;
+  for (TetId t : m.tets())
+    for (int f = 0; f < 4; ++f) {
+      const TetId n = m.neighbor(t, f);
+      if (!n.is_valid()) continue;
+      const auto face = m.face_vertices(t, f);
+      for (VertexId w : m.tet_vertices(n))
+        if (w != face[0] && w != face[1] && w != face[2]) {
+          const std::uint32_t a = m.tet_vertices(t)[f].idx(), b = w.idx();
+          pairs.insert({std::min(a, b), std::max(a, b)});
+          REQUIRE(s.spring_across_faces(m.tet_vertices(t)[f], w).has_value());
+        }
+    }
+  std::size_t across = 0;
+  for (const auto& info : s.springs()) across += info.across_faces;
+  CHECK(across == pairs.size());
+}
+
 TEST_CASE("the volume barrier stops a squashed tet from inverting; edge springs alone do not",
           "[springs]") {
   const double s3 = std::sqrt(3.0);
@@ -458,6 +548,7 @@ TEST_CASE("local updates after thousands of random edits equal a fresh build", "
     TetMesh mesh;
     bool volume;
     SpringStiffness stiffness = SpringStiffness::VanGelder;
+    bool across_faces = false;
   };
   std::vector<Setup> setups;
   setups.push_back({make_box(Vec3(1, 1, 1), {3, 3, 3}), true});
@@ -469,6 +560,10 @@ TEST_CASE("local updates after thousands of random edits equal a fresh build", "
   // The fitted constants are per tet: an edit refits only its new tets.
   setups.push_back({make_ellipsoid(Vec3(2, 1, 0.5), 2), true, SpringStiffness::Fitted});
   setups.push_back({make_box(Vec3(1e3, 1e3, 3e3), {2, 2, 4}), false, SpringStiffness::Fitted});
+  // Springs across faces: an edit changes the faces of its tets and of their neighbours.
+  setups.push_back({make_box(Vec3(1, 1, 1), {4, 4, 4}), true, SpringStiffness::VanGelder, true});
+  jitter(setups.back().mesh, 0.2, 13);
+  setups.push_back({make_ellipsoid(Vec3(2, 1, 0.5), 2), false, SpringStiffness::VanGelder, true});
   MaterialTable mats(Material{1e5, 0.3, 1000});
   mats.set(2, Material{1e9, 0.49, 1500});
   mats.set(3, Material{10, 0.1, 900});
@@ -480,6 +575,7 @@ TEST_CASE("local updates after thousands of random edits equal a fresh build", "
     SpringOptions o;
     o.volume_term = su.volume;
     o.stiffness = su.stiffness;
+    o.across_faces = su.across_faces;
     SpringModel s(m, mats, o);
     // An affine state: interpolated new vertices must land exactly on it.
     Eigen::Matrix3d F;
@@ -504,6 +600,7 @@ TEST_CASE("local updates after thousands of random edits equal a fresh build", "
       for (std::size_t k = 0; k < a.size(); ++k) {
         REQUIRE(a[k].a == c[k].a);
         REQUIRE(a[k].b == c[k].b);
+        REQUIRE(a[k].across_faces == c[k].across_faces);
         REQUIRE(a[k].rest_length == Approx(c[k].rest_length).epsilon(1e-12));
         REQUIRE(a[k].stiffness == Approx(c[k].stiffness).epsilon(1e-12));
       }
