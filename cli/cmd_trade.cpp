@@ -39,6 +39,7 @@ struct TradeCliOptions {
   std::vector<std::string> formulations{"standard", "nodal-averaged", "mixed"};
   std::vector<std::string> spring_volumes{"tet", "nodal"};
   std::vector<std::string> spring_stiffness{"van-gelder", "fitted"};
+  std::vector<std::string> spring_connectivity{"edges", "across-faces"};
   std::vector<int> resolutions;
   int reference_level = -1;
   std::vector<double> frame_budgets{2, 16, 33};
@@ -65,6 +66,9 @@ void add_trade(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--spring-stiffness", o->spring_stiffness,
                   "Springs' constants, a row each: van-gelder (the isotropic rule), fitted (to each tet's FEM stiffness)")
+      ->capture_default_str();
+  cmd->add_option("--spring-connectivity", o->spring_connectivity,
+                  "Springs' connectivity, a row each: edges, across-faces (a spring across every interior face too; van-gelder only)")
       ->capture_default_str();
   cmd->add_option("--formulations", o->formulations, "FEM formulations to run (standard, nodal-averaged, edge-smoothed, mixed, mixed-edge-smoothed, quadratic, mixed-quadratic)")
       ->capture_default_str();
@@ -125,6 +129,11 @@ void trade(const TradeCliOptions& opts, int rank) {
         throw InvalidArgument("trade: --spring-stiffness: expected " + std::string(kSpringStiffnessNames) + ", got \"" + k + "\"");
     if (o->spring_stiffness.empty()) throw InvalidArgument("trade: --spring-stiffness: expected at least one");
     to.spring_stiffness = o->spring_stiffness;
+    for (const auto& c : o->spring_connectivity)
+      if (c != "edges" && c != "across-faces")
+        throw InvalidArgument("trade: --spring-connectivity: expected edges or across-faces, got \"" + c + "\"");
+    if (o->spring_connectivity.empty()) throw InvalidArgument("trade: --spring-connectivity: expected at least one");
+    to.spring_connectivity = o->spring_connectivity;
     to.resolutions = o->resolutions;
     to.reference_level = o->reference_level;
     for (double b : o->frame_budgets)

@@ -115,6 +115,9 @@ struct Scene {
   // springs: each spring's constant, "van-gelder" (default) or "fitted" to each tet's FEM
   // stiffness (SpringOptions::stiffness; docs/solver.md#spring-stiffness).
   std::string springs_stiffness = "van-gelder";
+  // springs: "edges" (default) or "across-faces", a spring across every interior face too
+  // (SpringOptions::across_faces; docs/solver.md#spring-connectivity).
+  std::string springs_connectivity = "edges";
   double springs_viscosity = 0, springs_stiffening = 0;  // SpringOptions::viscosity, ::stiffening
   // fem-corotational: hold tets near inversion (docs/solver.md#inversion-barrier-inversion_barrier-in-scenes); off by default.
   InversionBarrierOptions inversion_barrier;

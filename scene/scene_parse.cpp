@@ -417,8 +417,13 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     const json& jsp = j["springs"];
     if (!jsp.is_object())
       rd.fail("springs", "expected {\"volume\": \"tet\" | \"nodal\" | \"none\", \"stiffness\": \"van-gelder\" | "
-                         "\"fitted\", \"viscosity\": T, \"stiffening\": B}");
-    rd.keys(jsp, "springs", {"volume", "stiffness", "viscosity", "stiffening"});
+                         "\"fitted\", \"connectivity\": \"edges\" | \"across-faces\", \"viscosity\": T, \"stiffening\": B}");
+    rd.keys(jsp, "springs", {"volume", "stiffness", "connectivity", "viscosity", "stiffening"});
+    if (jsp.contains("connectivity")) {
+      s.springs_connectivity = rd.string(jsp["connectivity"], "springs.connectivity");
+      if (s.springs_connectivity != "edges" && s.springs_connectivity != "across-faces")
+        rd.fail("springs.connectivity", "expected \"edges\" or \"across-faces\", got \"" + s.springs_connectivity + "\"");
+    }
     if (jsp.contains("stiffness")) {
       s.springs_stiffness = rd.string(jsp["stiffness"], "springs.stiffness");
       if (!parse_spring_stiffness(s.springs_stiffness))

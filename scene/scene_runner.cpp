@@ -201,6 +201,7 @@ SceneRunner::SceneRunner(const Scene& scene, const TetMesh* mesh) : scene_(scene
     so.volume_term = s.springs_volume != "none";
     so.nodal_volume = s.springs_volume == "nodal";
     so.stiffness = parse_spring_stiffness(s.springs_stiffness).value_or(SpringStiffness::VanGelder);
+    so.across_faces = s.springs_connectivity == "across-faces";
     so.viscosity = s.springs_viscosity;
     so.stiffening = s.springs_stiffening;
     springs_ = std::make_unique<SpringModel>(mesh_, s.materials, so);

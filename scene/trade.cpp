@@ -46,13 +46,17 @@ std::vector<Setting> grid(const Scene& base, const TradeOptions& opt, const std:
         st.row.solver = "implicit-euler";
         st.row.tolerance = st.scene.cg.tolerance;
         for (const std::string& v : opt.spring_volumes)
-          for (const std::string& k : opt.spring_stiffness) {
-            Setting vs = st;
-            vs.scene.springs_volume = v;
-            vs.scene.springs_stiffness = k;
-            vs.row.formulation = "volume " + v + (k == "van-gelder" ? "" : " (" + k + ")");  // no comma: a CSV field
-            out.push_back(vs);
-          }
+          for (const std::string& c : opt.spring_connectivity)
+            for (const std::string& k : opt.spring_stiffness) {
+              if (c == "across-faces" && k != "van-gelder") continue;
+              Setting vs = st;
+              vs.scene.springs_volume = v;
+              vs.scene.springs_stiffness = k;
+              vs.scene.springs_connectivity = c;
+              // No comma: a CSV field.
+              vs.row.formulation = "volume " + v + (c == "edges" ? "" : " " + c) + (k == "van-gelder" ? "" : " (" + k + ")");
+              out.push_back(vs);
+            }
         continue;
       }
       for (Formulation f : opt.formulations) {

@@ -46,6 +46,9 @@ struct TradeOptions {
   std::vector<std::string> spring_volumes{"tet", "nodal"};
   // And one per stiffness rule ("van-gelder", "fitted": springs.stiffness), "volume tet (fitted)".
   std::vector<std::string> spring_stiffness{"van-gelder", "fitted"};
+  // And one per connectivity ("edges", "across-faces": springs.connectivity), "volume tet
+  // across-faces"; springs across faces take the van-gelder constants only.
+  std::vector<std::string> spring_connectivity{"edges", "across-faces"};
   // Mesh levels: 0 the scene's mesh, k > 0 refined k times, -1 one coarser: a generated mesh
   // with half the cells, a mesh file coarsened to about twice its edge length
   // (quality/coarsen.h: 1/4 .. 1/8 of the tets, same labels and tags, the surface within a

@@ -64,8 +64,8 @@ TEST_CASE("incise trade writes the grid, the errors against a converged referenc
   CHECK(r.err.find("trade: reference: level 2 (12288 tets), fem-corotational quadratic, direct") != std::string::npos);
   CHECK(r.err.find("it differs from level 1 by") != std::string::npos);
   CHECK(r.err.find("so its error bar (Richardson, order 2) is ") != std::string::npos);
-  CHECK(r.err.find("trade: 34 runs; the estimate of the time left follows each") != std::string::npos);
-  CHECK(r.err.find("[####################] 34/34") != std::string::npos);
+  CHECK(r.err.find("trade: 38 runs; the estimate of the time left follows each") != std::string::npos);
+  CHECK(r.err.find("[####################] 38/38") != std::string::npos);
   CHECK(r.err.find("; about 0 s left\n") != std::string::npos);  // after the last run
   for (const char* line : {"Pareto frontier (fastest first):", "for a 2 ms frame: ", "for a 16 ms frame: ", "for a 33 ms frame: "})
     CHECK(r.out.find(line) != std::string::npos);
@@ -75,9 +75,10 @@ TEST_CASE("incise trade writes the grid, the errors against a converged referenc
                     0) == 0);
   const auto rows = read_csv(csv);
   // Discretization: 2 levels x (2 FEM models x 2 formulations + springs with a volume term per
-  // tet and one averaged at the vertices, each with Van Gelder's and fitted constants); solvers:
-  // 2 FEM models x (direct + 4 preconditioners x 2 tolerances).
-  REQUIRE(rows.size() == 34);
+  // tet and one averaged at the vertices, each with Van Gelder's and fitted constants on the
+  // edges and with Van Gelder's across the faces too); solvers: 2 FEM models x (direct + 4
+  // preconditioners x 2 tolerances).
+  REQUIRE(rows.size() == 38);
   std::map<std::string, double> err;
   int pareto = 0;
   for (const auto& row : rows) {
@@ -90,7 +91,8 @@ TEST_CASE("incise trade writes the grid, the errors against a converged referenc
     if (row.at("model") == "springs") {
       // Compared at rest, and settled: a meaningful error, not "100% wrong".
       const std::string f = row.at("formulation");
-      CHECK((f == "volume tet" || f == "volume nodal" || f == "volume tet (fitted)" || f == "volume nodal (fitted)"));
+      CHECK((f == "volume tet" || f == "volume nodal" || f == "volume tet (fitted)" || f == "volume nodal (fitted)" ||
+             f == "volume tet across-faces" || f == "volume nodal across-faces"));
       CHECK(row.at("compared") == "at-rest");
       CHECK(row.at("settled") == "1");
       CHECK(std::stoi(row.at("settle_frames")) > 3);
@@ -236,6 +238,9 @@ TEST_CASE("incise trade: bad input is one line, nothing written", "[cli][trade][
   r = run_incise("trade '" + (dir / "scene.json").string() + "' -o '" + (dir / "out").string() + "' --spring-stiffness lloyd", dir);
   CHECK(r.code == 1);
   CHECK(r.err.find("--spring-stiffness: expected van-gelder or fitted, got \"lloyd\"") != std::string::npos);
+  r = run_incise("trade '" + (dir / "scene.json").string() + "' -o '" + (dir / "out").string() + "' --spring-connectivity rings", dir);
+  CHECK(r.code == 1);
+  CHECK(r.err.find("--spring-connectivity: expected edges or across-faces, got \"rings\"") != std::string::npos);
   r = run_incise("trade '" + (dir / "scene.json").string() + "' -o '" + (dir / "out").string() + "' --formulations bar", dir);
   CHECK(r.code == 1);
   CHECK(r.err.find("--formulations: expected \"standard\", \"nodal-averaged\", \"edge-smoothed\", \"mixed\", "

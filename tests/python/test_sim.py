@@ -468,6 +468,15 @@ def test_springs_nodal_volume_term_sags_its_own_way(box):
     assert np.isfinite(fitted) and fitted < 0 and fitted != per_tet
     with pytest.raises(incise.InvalidArgument, match='stiffness: expected van-gelder or fitted, got "lloyd"'):
         incise.SpringSimulation(box, stiffness="lloyd")
+    # Springs across the interior faces too (docs/solver.md#spring-connectivity): more springs,
+    # another sag; not with fitted constants.
+    faces = sag(across_faces=True)
+    assert np.isfinite(faces) and faces < 0 and faces != per_tet
+    assert incise.SpringSimulation(box, across_faces=True).num_springs > incise.SpringSimulation(box).num_springs
+    with pytest.raises(incise.InvalidArgument, match="van-gelder stiffness, not fitted"):
+        incise.SpringSimulation(box, across_faces=True, stiffness="fitted")
+    with pytest.raises(incise.InvalidArgument, match="face_share"):
+        incise.SpringSimulation(box, across_faces=True, face_share=1.5)
 
 
 def test_springs_viscosity_and_stiffening(box):

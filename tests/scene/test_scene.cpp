@@ -306,6 +306,26 @@ TEST_CASE("springs.volume: per tet, averaged at the vertices, or none; bad value
   }
   CHECK(norms[0] != norms[1]);
   CHECK(error_of(stiffness("lloyd")) == "scene.json: springs.stiffness: expected \"van-gelder\" or \"fitted\", got \"lloyd\"");
+  // Connectivity: edges (default) or a spring across every interior face too (docs/solver.md#spring-connectivity).
+  auto connectivity = [&](const std::string& c) {
+    std::string t = text;
+    t.insert(t.rfind('}'), ", \"springs\": {\"connectivity\": \"" + c + "\"}");
+    return t;
+  };
+  CHECK(parse_scene(text, "scene.json").springs_connectivity == "edges");
+  {
+    const Scene s = parse_scene(connectivity("across-faces"), "scene.json");
+    CHECK(s.springs_connectivity == "across-faces");
+    SceneRunOptions ro;
+    double norm = 0;
+    ro.on_frame = [&](int, const Eigen::VectorXd& d, const FrameStats&) { norm = d.norm(); };
+    run_scene(s, ro);
+    CHECK(std::isfinite(norm));
+    CHECK(norm > 0);
+    CHECK(norm != norms[0]);
+  }
+  CHECK(error_of(connectivity("second-ring")) ==
+        "scene.json: springs.connectivity: expected \"edges\" or \"across-faces\", got \"second-ring\"");
   // Kelvin-Voigt viscosity and strain-stiffening ride in the same key.
   std::string viscous = text;
   viscous.insert(viscous.rfind('}'), R"(, "springs": {"viscosity": 0.002, "stiffening": 5})");
