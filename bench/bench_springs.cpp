@@ -155,6 +155,11 @@ void configuration_costs(bool quick) {
   o.nodal_volume = true;
   configs.push_back({"volume nodal, fitted", o});
   o = base;
+  o.across_faces = true;
+  configs.push_back({"across faces", o});
+  o.nodal_volume = true;
+  configs.push_back({"nodal, across faces", o});
+  o = base;
   o.viscosity = 1e-3;
   configs.push_back({"viscosity 1e-3 s", o});
   o = base;

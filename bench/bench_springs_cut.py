@@ -51,7 +51,9 @@ def main():
 
     configs = [("volume tet", dict()), ("volume nodal", dict(nodal_volume=True)),
                ("volume tet (fitted)", dict(stiffness="fitted")),
-               ("volume nodal (fitted)", dict(nodal_volume=True, stiffness="fitted"))]
+               ("volume nodal (fitted)", dict(nodal_volume=True, stiffness="fitted")),
+               ("volume tet across-faces", dict(across_faces=True)),
+               ("volume nodal across-faces", dict(nodal_volume=True, across_faces=True))]
     springs = []
     for name, kw in configs:
         s = incise.SpringSimulation(mesh, mat, damping=10.0, compute_energy=False, **kw)
