@@ -178,7 +178,8 @@ void SpringModel::set_bound(std::uint32_t v, double b) {
 void SpringModel::update_edge(const TetMesh& mesh, std::uint32_t a, std::uint32_t b) {
   if (a > b) std::swap(a, b);
   const std::uint64_t key = edge_key(a, b);
-  double sum = 0, fitted = 0, vol = 0, tau = 0, stiff = 0;
+  double sum = 0, fitted = 0;
+  SpringMix mix;
   bool any = false;
   if (mesh.is_alive(VertexId(a)) && mesh.is_alive(VertexId(b))) {
     // Scan the shorter incidence list (a deterministic choice, so still bit-reproducible).
@@ -196,10 +197,7 @@ void SpringModel::update_edge(const TetMesh& mesh, std::uint32_t a, std::uint32_
       } else {
         sum += calibration(mesh.label(t)).spring_modulus * v * edge_share(mesh, t);
       }
-      const Material& m = materials_.get(mesh.label(t));
-      vol += v;
-      tau += v * (m.viscosity > 0 ? m.viscosity : opt_.viscosity);
-      stiff += v * (m.stiffening > 0 ? m.stiffening : opt_.stiffening);
+      mix.add(materials_.get(mesh.label(t)), v, opt_);
       any = true;
     }
   }
@@ -208,9 +206,11 @@ void SpringModel::update_edge(const TetMesh& mesh, std::uint32_t a, std::uint32_
     return;
   }
   const double rest = (mesh.rest(VertexId(a)) - mesh.rest(VertexId(b))).norm();
-  const double k = sum / (rest * rest) + fitted;
-  auto [it, inserted] = spring_index_.try_emplace(key, static_cast<std::uint32_t>(springs_.size()));
-  const Spring sp{a, b, rest, k, tau / vol, stiff / vol, key};
+  store_spring({a, b, rest, sum / (rest * rest) + fitted, mix.tau / mix.vol, mix.stiff / mix.vol, key});
+}
+
+void SpringModel::store_spring(const Spring& sp) {
+  auto [it, inserted] = spring_index_.try_emplace(sp.key, static_cast<std::uint32_t>(springs_.size()));
   max_tau_ = std::max(max_tau_, sp.tau);
   if (inserted)
     springs_.push_back(sp);
@@ -241,7 +241,8 @@ std::uint32_t SpringModel::apex_across(const TetMesh& mesh, TetId t, int f) cons
 void SpringModel::update_face_pair(const TetMesh& mesh, std::uint32_t a, std::uint32_t b) {
   if (a > b) std::swap(a, b);
   const std::uint64_t key = face_key(a, b);
-  double sum = 0, vol = 0, tau = 0, stiff = 0;
+  double sum = 0;
+  SpringMix mix;
   bool any = false;
   if (mesh.is_alive(VertexId(a)) && mesh.is_alive(VertexId(b)))
     for (TetId t : mesh.incident_tets(VertexId(a))) {
@@ -250,11 +251,8 @@ void SpringModel::update_face_pair(const TetMesh& mesh, std::uint32_t a, std::ui
       if (apex_across(mesh, t, f) != b) continue;
       for (TetId x : {t, mesh.neighbor(t, f)}) {
         const double v = mesh.volume(x);
-        const Material& m = materials_.get(mesh.label(x));
         sum += opt_.face_share * 1.5 * calibration(mesh.label(x)).spring_modulus * v;
-        vol += v;
-        tau += v * (m.viscosity > 0 ? m.viscosity : opt_.viscosity);
-        stiff += v * (m.stiffening > 0 ? m.stiffening : opt_.stiffening);
+        mix.add(materials_.get(mesh.label(x)), v, opt_);
       }
       any = true;
     }
@@ -263,14 +261,7 @@ void SpringModel::update_face_pair(const TetMesh& mesh, std::uint32_t a, std::ui
     return;
   }
   const double rest = (mesh.rest(VertexId(a)) - mesh.rest(VertexId(b))).norm();
-  auto [it, inserted] = spring_index_.try_emplace(key, static_cast<std::uint32_t>(springs_.size()));
-  const Spring sp{a, b, rest, sum / (rest * rest), tau / vol, stiff / vol, key};
-  max_tau_ = std::max(max_tau_, sp.tau);
-  if (inserted)
-    springs_.push_back(sp);
-  else
-    springs_[it->second] = sp;
-  ++counters_.visits;
+  store_spring({a, b, rest, sum / (rest * rest), mix.tau / mix.vol, mix.stiff / mix.vol, key});
 }
 
 void SpringModel::remove_spring(std::uint64_t key) {

@@ -218,6 +218,17 @@ private:
 
   void grow(std::size_t vertices, std::size_t tets);
   void grow_tree(std::size_t vertices);
+  // A spring's material: the volume-weighted mean viscosity and stiffening of its tets (a
+  // material's own value, else the options').
+  struct SpringMix {
+    double vol = 0, tau = 0, stiff = 0;
+    void add(const Material& m, double v, const SpringOptions& o) {
+      vol += v;
+      tau += v * (m.viscosity > 0 ? m.viscosity : o.viscosity);
+      stiff += v * (m.stiffening > 0 ? m.stiffening : o.stiffening);
+    }
+  };
+  void store_spring(const Spring& sp);  // inserts or replaces the spring at sp.key
   void update_edge(const TetMesh& mesh, std::uint32_t a, std::uint32_t b);
   // across_faces: the spring between a and b from the interior faces whose apexes they are
   // (none: removed); the share of a tet's budget its edges keep.
