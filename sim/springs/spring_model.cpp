@@ -484,7 +484,7 @@ void SpringModel::apply(const TetMesh& mesh, const TopologyChange& change) {
     std::sort(pairs.begin(), pairs.end());
     pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
     for (std::uint64_t key : pairs) {
-      const auto a = static_cast<std::uint32_t>((key >> 32) & 0x7fffffffu), b = static_cast<std::uint32_t>(key & 0xffffffffu);
+      const auto a = static_cast<std::uint32_t>((key & ~kFaceBit) >> 32), b = static_cast<std::uint32_t>(key & 0xffffffffu);
       update_face_pair(mesh, a, b);
       touch(a);
       touch(b);
@@ -547,10 +547,6 @@ void SpringModel::set_velocity(VertexId v, const Vec3& u) {
   v_[v.idx()] = u;
   invalidate();
 }
-
-namespace {
-constexpr std::uint64_t kFaceBit = std::uint64_t(1) << 63;
-}  // namespace
 
 std::optional<SpringModel::SpringInfo> SpringModel::spring(VertexId a, VertexId b) const {
   auto it = spring_index_.find(edge_key(a.idx(), b.idx()));

@@ -214,7 +214,8 @@ private:
     return a < b ? (std::uint64_t(a) << 32 | b) : (std::uint64_t(b) << 32 | a);
   }
   // A spring across faces between a and b (ids below 2^31): its own key beside an edge's.
-  static std::uint64_t face_key(std::uint32_t a, std::uint32_t b) { return edge_key(a, b) | (std::uint64_t(1) << 63); }
+  static constexpr std::uint64_t kFaceBit = std::uint64_t(1) << 63;
+  static std::uint64_t face_key(std::uint32_t a, std::uint32_t b) { return edge_key(a, b) | kFaceBit; }
 
   void grow(std::size_t vertices, std::size_t tets);
   void grow_tree(std::size_t vertices);
