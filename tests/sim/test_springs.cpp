@@ -460,7 +460,7 @@ TEST_CASE("springs across faces: a lattice's network close to the material in te
   CHECK(g_faces < 1.1);
 }
 
-TEST_CASE("springs across faces: refused with fitted stiffness, the share outside [0, 1)", "[springs]") {
+TEST_CASE("springs across faces: refused with fitted stiffness or a share outside 0 to 1", "[springs]") {
   const TetMesh m = make_box(Vec3(1, 1, 1), {2, 2, 2});
   SpringOptions o;
   o.across_faces = true;
