@@ -122,7 +122,7 @@ TEST_CASE("incise improve keeps each label's volume within --volume-tolerance on
   }
 }
 
-TEST_CASE("incise improve --insert says when --max-growth stopped it; the reshaping options refuse bad values",
+TEST_CASE("incise improve --insert says when --max-growth stopped it, the reshaping options refuse bad values",
           "[cli][improve]") {
   const auto dir = scratch_dir("cli_improve_growth");
   const std::string in = std::string(INCISE_SOURCE_DIR) + "/samples/elephant.msh";

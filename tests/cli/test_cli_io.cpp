@@ -215,7 +215,7 @@ TEST_CASE("incise convert: every direction, and failures leave no trace", "[cli]
   CHECK(run(d, "convert " + (d / "src.msh")).rc == 1);
 }
 
-TEST_CASE("first hour: one wording for a missing file; info says which tags came from the file", "[cli][io]") {
+TEST_CASE("first hour: one wording for a missing file, info says which tags came from the file", "[cli][io]") {
   Dir d;
   for (const std::string& cmd : {"info " + (d / "missing.vtk"), "quality " + (d / "missing.msh"),
                                 "simulate " + (d / "missing.json") + " -o " + (d / "run"),

@@ -153,7 +153,7 @@ TEST_CASE("overlap: the readers refuse overlapping tets, naming the later tet's 
   }
 }
 
-TEST_CASE("a deformed frame with inverted tets reads back; the same shape as a rest mesh does not",
+TEST_CASE("a deformed frame with inverted tets reads back, the same shape as a rest mesh does not",
           "[io][overlap]") {
   // Issue 39 item 1: frames incise wrote with tets the motion inverted were refused by
   // `incise info`, incise.read and `incise view RUN` ("tet #N overlaps tet #M").

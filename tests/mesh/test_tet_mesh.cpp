@@ -212,7 +212,7 @@ TEST_CASE("cavity insertions that would orphan a vertex, mix labels or invert ar
   m.validate();
 }
 
-TEST_CASE("flip 2-3 and 3-2 are inverse; 4-4 keeps volume and boundary", "[mesh]") {
+TEST_CASE("flip 2-3 and 3-2 are inverse, 4-4 keeps volume and boundary", "[mesh]") {
   TetMesh m = make_box(Vec3(1, 1, 1), {3, 3, 3});
   jitter(m, 0.25, 5);
   int flipped = 0;
@@ -435,7 +435,7 @@ TEST_CASE("edits are local: incidence visits per edit do not grow with mesh size
   CHECK(large < 1.5 * small);
 }
 
-TEST_CASE("move_vertex records the move and its tets; backends can interpolate from it", "[mesh][move]") {
+TEST_CASE("move_vertex records the move and its tets, backends can interpolate from it", "[mesh][move]") {
   TetMesh m = make_box(Vec3(1, 1, 1), {3, 3, 3});
   m.discard_change();
   // An interior vertex: (1/3, 1/3, 1/3).

@@ -259,7 +259,7 @@ TEST_CASE("units: SI materials on a body in millimetres are flagged by the sag t
   CHECK(run_scene(scene(R"({"young": 0.003, "poisson": 0.3, "density": 1e-9})", 9810), ro).warnings.empty());
 }
 
-TEST_CASE("springs.volume: per tet, averaged at the vertices, or none; bad values named", "[scene]") {
+TEST_CASE("springs.volume: per tet, averaged at the vertices, or none, bad values named", "[scene]") {
   std::string text = kGood;
   text.replace(text.find("\"fem-linear\""), 12, "\"springs\"");
   text.replace(text.find("\"time\": {\"frames\": 6}"), 21,

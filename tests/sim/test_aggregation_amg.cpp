@@ -113,7 +113,7 @@ TEST_CASE("amg: M^-1 is symmetric positive definite", "[amg][preconditioner]") {
     }
 }
 
-TEST_CASE("amg: CG equals the direct solution through cuts; aggregates never span the cut", "[amg][preconditioner][cut]") {
+TEST_CASE("amg: CG equals the direct solution through cuts, aggregates never span the cut", "[amg][preconditioner][cut]") {
   for (int block : {700, 0})
   for (Cycle cycle : {Cycle::Multiplicative, Cycle::Additive})
     for (FemKind kind : {FemKind::Linear, FemKind::Corotational}) {

@@ -61,7 +61,7 @@ double cantilever_tip(int n, double nu, const FemSimulationOptions& opt, FrameSt
 
 }  // namespace
 
-TEST_CASE("quadratic cantilever converges to Timoshenko; Taylor-Hood does not lock", "[quadratic]") {
+TEST_CASE("quadratic cantilever converges to Timoshenko, Taylor-Hood does not lock", "[quadratic]") {
   // The clamped face holds the lateral contraction beam theory leaves free, so the 3D answer is
   // a little stiffer than Timoshenko's, more so towards nu = 0.5 (docs/solver.md#quadratic-tets
   // has the table to 32 x 4 x 4 cells).

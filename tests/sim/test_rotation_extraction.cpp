@@ -326,7 +326,7 @@ TEST_CASE("a corotational simulation gives the same result with warm-started and
   CHECK((uw - ue).norm() <= 1e-7 * ue.norm());
 }
 
-TEST_CASE("tets added by edits start from the identity and reach the exact rotation; the others stay warm",
+TEST_CASE("tets added by edits start from the identity and reach the exact rotation, the others stay warm",
           "[fem][rotation][local]") {
   TetMesh m = make_box(Vec3(2, 1, 1), {8, 4, 4});
   jitter(m, 0.2, 6);

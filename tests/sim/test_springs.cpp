@@ -492,7 +492,7 @@ TEST_CASE("springs across faces: refused with fitted stiffness or a share outsid
   CHECK(across == pairs.size());
 }
 
-TEST_CASE("the volume barrier stops a squashed tet from inverting; edge springs alone do not",
+TEST_CASE("the volume barrier stops a squashed tet from inverting, edge springs alone do not",
           "[springs]") {
   const double s3 = std::sqrt(3.0);
   TetMesh m = single_tet({Vec3(1, 0, 0), Vec3(-0.5, s3 / 2, 0), Vec3(-0.5, -s3 / 2, 0), Vec3(0, 0, std::sqrt(2.0))});
