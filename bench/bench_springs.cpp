@@ -11,6 +11,7 @@
 //     deflection against Timoshenko's, per mesh pattern and resolution, with corotational
 //     nodal-averaged FEM on the same meshes as the baseline.
 // Usage: bench_springs [--quick] [--only moduli|configurations]
+//        INCISE_BENCH_FACE_SHARE=S: the moduli rows "+faces" with SpringOptions::face_share = S
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
