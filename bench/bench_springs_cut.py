@@ -1,15 +1,18 @@
 #!/usr/bin/python3
-"""Springs at rest before and after a cut, against FEM on the same mesh (issue 41, section 3).
+"""Springs at rest before and after a cut, against a converged reference (issue 41, section 3).
 
-The sample liver (or MESH) held on its low-x 15%, sagging under gravity; at rest, each spring
-configuration's displacement against corotational nodal-averaged FEM's on the same mesh
-(relative L2 over the vertices), before and after a progressive cut (a vertical blade over the
-middle half of the width, half the height down, 10 steps, then finish()). The spring models are built before the cut and
-follow it through the cut's change records (SpringSimulation.apply), as in a scene; FEM is
-solved afresh on the cut mesh. A converged reference for the cut body is out of reach
-(quadratic tets refuse cuts), so FEM on the same mesh stands in for it: the ratio says whether
-a cut makes the springs worse relative to FEM. The last column builds each spring model afresh
-on the cut mesh: at rest it must equal the one that followed the cut.
+The sample liver (or MESH) held on its low-x 15%, sagging under gravity; at rest, each model's
+displacement against a converged reference (relative L2 over the mesh's vertices), before and
+after a progressive cut (a vertical blade over the middle half of the width, half the height
+down, 10 steps, then finish()). The reference is corotational Taylor-Hood FEM (quadratic
+displacement, linear pressure: `mixed-quadratic`, incise trade's reference) on the mesh refined
+1:8 (refine_uniform, which keeps the cut open), solved afresh before and after the cut:
+quadratic tets do not follow a cut, but they can be built on the cut mesh. Linear FEM (standard
+and nodal-averaged) and Taylor-Hood on the mesh itself are rows too, so each spring ratio reads
+beside FEM's own (a cut leaves a crack front, where every discretization's error grows). The
+spring models are built before the cut and follow it through the cut's change records
+(SpringSimulation.apply), as in a scene. The last column builds each model afresh on the cut
+mesh: at rest it must equal the one that followed the cut.
 
   /usr/bin/python3 bench/bench_springs_cut.py [--build DIR] [MESH]
 """
@@ -41,8 +44,8 @@ def main():
     def held(m):
         return np.nonzero(m.points[:, 0] < lo[0] + 0.15 * ext[0])[0]
 
-    def fem_rest(m):
-        f = incise.FemSimulation(m, mat, kind="corotational", formulation="nodal-averaged", gravity=g,
+    def fem_rest(m, formulation="mixed-quadratic"):
+        f = incise.FemSimulation(m, mat, kind="corotational", formulation=formulation, gravity=g,
                                  nonlinear_iterations=4, tolerance=1e-9)
         f.fix(held(m))
         for _ in range(4):
@@ -81,9 +84,23 @@ def main():
         d = (u - ref)[alive]
         return np.linalg.norm(d) / np.linalg.norm(ref[alive])
 
+    def reference(m):
+        # Taylor-Hood on the mesh refined 1:8, read back at m's vertex ids (refine_uniform keeps a
+        # compact mesh's ids; compact() numbers the live vertices in id order).
+        c = m.copy()
+        vmap, _ = c.compact()
+        u = fem_rest(incise.refine_uniform(c))
+        out = np.zeros((m.vertex_capacity, 3))
+        live = vmap >= 0
+        out[live] = u[vmap[live]]
+        return out
+
+    fems = ["standard", "nodal-averaged", "mixed-quadratic"]
     alive = np.unique(mesh.tets)
-    ref = fem_rest(mesh)
+    ref = reference(mesh)
     before = {name: error(settle(s), ref, alive) for name, s in springs}
+    for f in fems:
+        before["FEM " + f] = error(fem_rest(mesh, f), ref, alive)
 
     cutter = incise.Cutter(mesh)
     c = lo + 0.5 * ext
@@ -102,10 +119,14 @@ def main():
         follow(cutter.advance(a0 + k * step, b0 + k * step))
     follow(cutter.finish())
     alive = np.unique(mesh.tets)
-    ref = fem_rest(mesh)
-    print(f"# {os.path.basename(a.mesh)}: {mesh.num_tets} tets after the cut; springs at rest against "
-          "corotational nodal-averaged FEM on the same mesh (relative L2)")
-    print("springs,uncut,cut,cut/uncut,cut (built on the cut mesh)")
+    ref = reference(mesh)
+    print(f"# {os.path.basename(a.mesh)}: {mesh.num_tets} tets after the cut; at rest against "
+          "corotational Taylor-Hood FEM on the mesh refined 1:8 (relative L2)")
+    print("model,uncut,cut,cut/uncut,cut (built on the cut mesh)")
+    for f in fems:
+        after = error(fem_rest(mesh, f), ref, alive)
+        print(f"FEM {f},{before['FEM ' + f]:.3f},{after:.3f},{after / before['FEM ' + f]:.2f},{after:.3f}",
+              flush=True)
     for name, s in springs:
         after = error(settle(s), ref, alive)
         fresh = incise.SpringSimulation(mesh, mat, damping=10.0, compute_energy=False, **dict(configs)[name])

@@ -12,6 +12,7 @@
 #include "mesh/generate.h"
 #include "mesh/io/formats.h"
 #include "mesh/io/input_checks.h"
+#include "mesh/refine.h"
 
 namespace incise::python {
 
@@ -272,12 +273,19 @@ void bind_mesh(py::module_& m) {
           },
           "Renumbers densely along a space-filling curve (vertices by position, tets by centroid: solvers run "
           "faster); returns (old->new vertex map, old->new tet map), -1 for dead ids")
+      .def(
+          "copy", [](const TetMesh& mesh) { return TetMesh(mesh); },
+          "An independent copy: the same ids, dead slots and pending change")
       .def("__repr__", [](const TetMesh& mesh) {
         std::ostringstream s;
         s << "<incise.TetMesh " << mesh.num_vertices() << " vertices, " << mesh.num_tets() << " tets>";
         return s.str();
       });
 
+  m.def(
+      "refine_uniform", [](const TetMesh& mesh) { return refine_uniform(mesh); }, py::arg("mesh"),
+      "Every tet split 1:8 (edges half as long; labels and boundary tags inherited); the input's vertex ids are "
+      "kept and the edge midpoints follow. The input must be compact (TetMesh.compact()); a cut stays open");
   m.def(
       "generate_box",
       [](const py::object& size, const py::object& cells, int label) {

@@ -305,8 +305,10 @@ void bind_sim(py::module_& m) {
       .def(py::init([](const py::object& mesh_obj, const py::object& materials, double damping,
                        const py::object& volume_term, const py::object& compute_energy,
                        const py::object& nodal_volume, double viscosity, double stiffening,
-                       const std::string& stiffness, const py::object& across_faces, double face_share) {
+                       const std::string& stiffness, const py::object& across_faces, double face_share,
+                       double nodal_share) {
              SpringOptions o;
+             o.nodal_share = nodal_share;
              o.across_faces = strict_bool(across_faces, "SpringSimulation: across_faces");
              o.face_share = face_share;
              const auto rule = parse_spring_stiffness(stiffness);
@@ -327,7 +329,7 @@ void bind_sim(py::module_& m) {
            py::arg("volume_term") = py::bool_(true), py::arg("compute_energy") = py::bool_(true),
            py::arg("nodal_volume") = py::bool_(false), py::arg("viscosity") = 0.0, py::arg("stiffening") = 0.0,
            py::arg("stiffness") = "van-gelder", py::arg("across_faces") = py::bool_(false),
-           py::arg("face_share") = SpringOptions{}.face_share)
+           py::arg("face_share") = SpringOptions{}.face_share, py::arg("nodal_share") = SpringOptions{}.nodal_share)
       .def("fix", [](Springs& s, const py::object& v) { for (VertexId x : to_vertices(s.mesh, v)) s.model.set_fixed(x, true); })
       .def("release", [](Springs& s, const py::object& v) {
         for (VertexId x : to_vertices(s.mesh, v)) {

@@ -112,6 +112,9 @@ struct Scene {
   // springs: the volume term per tet ("tet", default), averaged at the vertices ("nodal") or
   // none (SpringOptions::volume_term, ::nodal_volume; docs/solver.md#spring-volume-terms).
   std::string springs_volume = "tet";
+  // springs, volume "nodal": the share of the bulk modulus averaged at the vertices, the rest
+  // per tet (SpringOptions::nodal_share).
+  double springs_nodal_share = 1.0;
   // springs: each spring's constant, "van-gelder" (default) or "fitted" to each tet's FEM
   // stiffness (SpringOptions::stiffness; docs/solver.md#spring-stiffness).
   std::string springs_stiffness = "van-gelder";

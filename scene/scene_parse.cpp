@@ -417,8 +417,13 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     const json& jsp = j["springs"];
     if (!jsp.is_object())
       rd.fail("springs", "expected {\"volume\": \"tet\" | \"nodal\" | \"none\", \"stiffness\": \"van-gelder\" | "
-                         "\"fitted\", \"connectivity\": \"edges\" | \"across-faces\", \"viscosity\": T, \"stiffening\": B}");
-    rd.keys(jsp, "springs", {"volume", "stiffness", "connectivity", "viscosity", "stiffening"});
+                         "\"fitted\", \"connectivity\": \"edges\" | \"across-faces\", \"nodal_share\": S, \"viscosity\": T, "
+                         "\"stiffening\": B}");
+    rd.keys(jsp, "springs", {"volume", "stiffness", "connectivity", "nodal_share", "viscosity", "stiffening"});
+    if (jsp.contains("nodal_share")) {
+      s.springs_nodal_share = rd.non_negative(jsp["nodal_share"], "springs.nodal_share");
+      if (s.springs_nodal_share > 1) rd.fail("springs.nodal_share", "expected a value in [0, 1]");
+    }
     if (jsp.contains("connectivity")) {
       s.springs_connectivity = rd.string(jsp["connectivity"], "springs.connectivity");
       if (s.springs_connectivity != "edges" && s.springs_connectivity != "across-faces")

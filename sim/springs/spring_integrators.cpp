@@ -152,7 +152,7 @@ int SpringModel::implicit_step(double dt, double& relative_residual) {
     const Volume& vol = volumes_[t];
     volume_grad_[t] = volume_gradient_of(vol);
     const double J = (x_[vol.v[1]] - x_[vol.v[0]]).dot(volume_grad_[t][1]) / vol.rest_volume;
-    volume_beta_[t] = barrier_curvature(J, vol.kappa, vol.rest_volume) / (vol.rest_volume * vol.rest_volume);
+    volume_beta_[t] = barrier_curvature(J, tet_part() * vol.kappa, vol.rest_volume) / (vol.rest_volume * vol.rest_volume);
   }
   // y = a M p + b K p + c C p (C: the springs' Kelvin-Voigt damping, viscosity x k along each)
   auto apply_op = [&](const std::vector<Vec3>& p, std::vector<Vec3>& y, double a, double b, double c) {
@@ -187,8 +187,8 @@ int SpringModel::implicit_step(double dt, double& relative_residual) {
         for (int k = 0; k < 4; ++k) s += 0.25 * nodal_dot_[vol.v[k]];
         for (int k = 0; k < 4; ++k) y[vol.v[k]] += s * g[k];
       }
-      return;
     }
+    if (tet_part() == 0) return;
     for (std::size_t t = 0; t < volumes_.size(); ++t) {
       const Volume& vol = volumes_[t];
       const auto& g = volume_grad_[t];
@@ -231,10 +231,8 @@ int SpringModel::implicit_step(double dt, double& relative_residual) {
   for (std::size_t t = 0; t < volumes_.size(); ++t) {
     // Nodal: the cross terms between a vertex's tets left out, a Jacobi estimate.
     double beta = volume_beta_[t];
-    if (opt_.nodal_volume) {
-      beta = 0;
+    if (opt_.nodal_volume)
       for (int k = 0; k < 4; ++k) beta += nodal_[volumes_[t].v[k]].beta / 16;
-    }
     for (int k = 0; k < 4; ++k) diag_[volumes_[t].v[k]] += (dt2 * beta) * volume_grad_[t][k].cwiseAbs2();
   }
 

@@ -74,6 +74,8 @@ SpringModel::SpringModel(const TetMesh& mesh, const MaterialTable& materials, co
     throw InvalidArgument("springs.connectivity: springs across faces take van-gelder stiffness, not fitted");
   if (!(opt_.face_share >= 0 && opt_.face_share < 1))
     throw InvalidArgument("springs.face_share: expected a value in [0, 1)");
+  if (!(opt_.nodal_share >= 0 && opt_.nodal_share <= 1))
+    throw InvalidArgument("springs.nodal_share: expected a value in [0, 1]");
 
   // Headroom so the first cuts do not reallocate every per-vertex array (an O(n) hitch).
   const std::size_t nv = mesh.vertex_capacity(), nt = mesh.tet_capacity();
@@ -633,21 +635,15 @@ void SpringModel::compute_forces(const std::vector<Vec3>& x, const std::vector<V
     f[s.a] += fs;
     f[s.b] -= fs;
   }
-  if (opt_.nodal_volume) {
-    nodal_volumes(x);
-    for (const Volume& vol : volumes_) {
-      const auto g = volume_gradient(x[vol.v[0]], x[vol.v[1]], x[vol.v[2]], x[vol.v[3]]);
-      double s = 0;  // dW/dV_t: a quarter of each corner's slope
-      for (int k = 0; k < 4; ++k) s += 0.25 * nodal_[vol.v[k]].slope;
-      for (int k = 0; k < 4; ++k) f[vol.v[k]] -= s * g[k];
-    }
-    return;
-  }
+  const double own = tet_part();
+  if (opt_.nodal_volume) nodal_volumes(x);
   for (const Volume& vol : volumes_) {
     const Vec3 &x0 = x[vol.v[0]], &x1 = x[vol.v[1]], &x2 = x[vol.v[2]], &x3 = x[vol.v[3]];
     const auto g = volume_gradient(x0, x1, x2, x3);
-    const double J = (x1 - x0).dot(g[1]) / vol.rest_volume;
-    const double s = barrier_slope(J, vol.kappa, vol.rest_volume) / vol.rest_volume;
+    double s = 0;  // dW/dV_t: the tet's own barrier, and a quarter of each corner's nodal slope
+    if (own > 0) s = barrier_slope((x1 - x0).dot(g[1]) / vol.rest_volume, own * vol.kappa, vol.rest_volume) / vol.rest_volume;
+    if (opt_.nodal_volume)
+      for (int k = 0; k < 4; ++k) s += 0.25 * nodal_[vol.v[k]].slope;
     for (int k = 0; k < 4; ++k) f[vol.v[k]] -= s * g[k];
   }
 }
@@ -659,7 +655,7 @@ void SpringModel::nodal_volumes(const std::vector<Vec3>& x) const {
     for (std::uint32_t a : vol.v) {
       NodalVolume& n = nodal_[a];
       n.rest += 0.25 * vol.rest_volume;
-      n.kappa_rest += 0.25 * vol.kappa * vol.rest_volume;
+      n.kappa_rest += 0.25 * nodal_part() * vol.kappa * vol.rest_volume;
       n.current += 0.25 * v;
     }
   }
@@ -685,12 +681,12 @@ double SpringModel::potential_energy() const {
     nodal_volumes(x_);
     for (const NodalVolume& n : nodal_)
       if (n.rest > 0) e += barrier_energy(n.current / n.rest, n.kappa_rest / n.rest, n.rest);
-  } else {
+  }
+  if (const double own = tet_part(); own > 0)
     for (const Volume& vol : volumes_) {
       const double V = signed_volume(x_[vol.v[0]], x_[vol.v[1]], x_[vol.v[2]], x_[vol.v[3]]);
-      e += barrier_energy(V / vol.rest_volume, vol.kappa, vol.rest_volume);
+      e += barrier_energy(V / vol.rest_volume, own * vol.kappa, vol.rest_volume);
     }
-  }
   for (std::size_t i = 0; i < x_.size(); ++i)
     if (active(static_cast<std::uint32_t>(i))) e -= (mass_[i] * gravity_ + f_ext_[i]).dot(x_[i]);
   return e;

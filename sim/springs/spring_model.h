@@ -66,6 +66,13 @@ struct SpringOptions {
   // standard tets do (docs/solver.md#spring-volume-terms). Computed from the per-tet volumes
   // each step (one more pass), so edits stay local.
   bool nodal_volume = false;
+  // With nodal_volume: the share of kappa averaged at the vertices; the rest, 1 - nodal_share,
+  // stays in a per-tet barrier beside it (a blend, as stabilized nodal-pressure tets blend the
+  // element's own volume change into the averaged one). 1: the nodal term alone. The per-tet
+  // part keeps every tet from inversion (the nodal one only its vertices' stars) and stiffens
+  // the spurious soft modes that nodal averaging leaves on coarse meshes; below 1 it also
+  // brings back part of the locking. docs/solver.md#spring-volume-terms measures the share.
+  double nodal_share = 1.0;
   // Connectivity: besides the mesh's edges, a spring across every interior face, joining the
   // two apexes of its tets (Van Gelder's stiffness only). The edges of a lattice mesh (six tets
   // per cube) point along few directions, so the network is anisotropic: too stiff in tension
@@ -247,6 +254,9 @@ private:
   void set_bound(std::uint32_t v, double b);
   const SpringCalibration& calibration(int label) const;
   bool active(std::uint32_t i) const { return alive_[i] && mass_[i] > 0; }
+  // The shares of each tet's kappa in its own barrier and in its vertices' nodal terms.
+  double tet_part() const { return opt_.nodal_volume ? 1.0 - opt_.nodal_share : 1.0; }
+  double nodal_part() const { return opt_.nodal_volume ? opt_.nodal_share : 0.0; }
   bool free_dof(std::uint32_t i) const { return active(i) && !fixed_[i] && !prescribed_[i]; }
   void invalidate() { acc_valid_ = false; }
 

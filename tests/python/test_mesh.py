@@ -175,3 +175,31 @@ def test_write_refuses_what_read_would_refuse(box, tmp_path):
     with pytest.raises(incise.InvalidArgument, match="non-finite point coordinate \\(point 3\\)"):
         incise.write(box, path, positions=pos)
     assert not (tmp_path / "nan.vtu").exists()
+
+
+def test_copy_is_independent_and_refine_keeps_ids(box):
+    c = box.copy()
+    assert c.num_tets == box.num_tets and np.array_equal(c.tets, box.tets)
+    c.split_tet(int(c.tet_ids[0]))
+    assert c.num_tets == box.num_tets + 3  # the original is untouched
+    r = incise.refine_uniform(box)
+    assert r.num_tets == 8 * box.num_tets
+    assert np.allclose(r.points[: box.num_vertices], box.points)  # the input's ids kept
+    assert np.isclose(r.volume(), box.volume())
+    r.validate()
+    # A cut leaves dead slots: compact() first.
+    cut = box.copy()
+    k = incise.Cutter(cut)
+    p, e = box.points.min(0), box.points.max(0)
+    mid = 0.5 * (p + e)
+    k.start((mid[0], p[1] - 1, e[2] + 1), (mid[0], e[1] + 1, e[2] + 1))
+    k.advance((mid[0], p[1] - 1, mid[2]), (mid[0], e[1] + 1, mid[2]))
+    k.finish()
+    if cut.vertex_capacity > cut.num_vertices or cut.tet_capacity > cut.num_tets:
+        with pytest.raises(incise.InvalidArgument, match="compact"):
+            incise.refine_uniform(cut)
+    cut.compact()
+    rc = incise.refine_uniform(cut)
+    rc.validate()
+    assert rc.num_tets == 8 * cut.num_tets
+    assert (rc.boundary_faces()[1] == incise.TAG_CUT).sum() == 4 * (cut.boundary_faces()[1] == incise.TAG_CUT).sum()

@@ -477,6 +477,12 @@ def test_springs_nodal_volume_term_sags_its_own_way(box):
         incise.SpringSimulation(box, across_faces=True, stiffness="fitted")
     with pytest.raises(incise.InvalidArgument, match="face_share"):
         incise.SpringSimulation(box, across_faces=True, face_share=1.5)
+    # The nodal term blended with the per-tet one (docs/solver.md#spring-volume-terms).
+    blend = sag(nodal_volume=True, nodal_share=0.5)
+    assert np.isfinite(blend) and blend < 0 and blend not in (per_tet, nodal)
+    assert sag(nodal_volume=True, nodal_share=0.0) == pytest.approx(per_tet, rel=1e-9)
+    with pytest.raises(incise.InvalidArgument, match="nodal_share"):
+        incise.SpringSimulation(box, nodal_volume=True, nodal_share=-0.5)
 
 
 def test_springs_viscosity_and_stiffening(box):

@@ -317,6 +317,15 @@ TEST_CASE("springs.volume: per tet, averaged at the vertices, or none, bad value
   CHECK(run_norm(faces) != norms[0]);
   CHECK(error_of(connectivity("second-ring")) ==
         "scene.json: springs.connectivity: expected \"edges\" or \"across-faces\", got \"second-ring\"");
+  // The nodal volume term's share of the bulk modulus (the rest per tet).
+  std::string blend = text;
+  blend.insert(blend.rfind('}'), R"(, "springs": {"volume": "nodal", "nodal_share": 0.5})");
+  const Scene bs = parse_scene(blend, "scene.json");
+  CHECK(bs.springs_nodal_share == 0.5);
+  CHECK(run_norm(bs) != run_norm(parse_scene(volume("nodal"), "scene.json")));
+  std::string bad_share = text;
+  bad_share.insert(bad_share.rfind('}'), R"(, "springs": {"nodal_share": 1.5})");
+  CHECK(error_of(bad_share) == "scene.json: springs.nodal_share: expected a value in [0, 1]");
   // Kelvin-Voigt viscosity and strain-stiffening ride in the same key.
   std::string viscous = text;
   viscous.insert(viscous.rfind('}'), R"(, "springs": {"viscosity": 0.002, "stiffening": 5})");

@@ -257,10 +257,12 @@ TEST_CASE("the stable step estimate bounds the real limit and is not far below i
   // Both volume terms (the bound takes the per-tet term's rows for the nodal one too), at a
   // Poisson's ratio where the volume term is most of the stiffness.
   const bool nodal = GENERATE(false, true);
+  const double share = nodal ? GENERATE(1.0, 0.9) : 1.0;  // nodal alone, or blended with per tet
   const double nu = GENERATE(0.3, 0.45);
-  CAPTURE(nodal, nu);
+  CAPTURE(nodal, share, nu);
   SpringOptions o;
   o.nodal_volume = nodal;
+  o.nodal_share = share;
   auto blows_up = [&](double factor) {
     SpringModel s(m, table(1e5, nu), o);
     perturb(s, m, 1e-4, 2);
@@ -704,8 +706,11 @@ TEST_CASE("the nodal volume term: forces are minus its energy's gradient, volume
           "[springs]") {
   // The forces against central differences of the potential energy, at a perturbed configuration.
   TetMesh m = make_box(Vec3(1, 1, 1), {2, 2, 2});
+  const double share = GENERATE(1.0, 0.9, 0.5);  // nodal alone, or blended with the per-tet term
+  CAPTURE(share);
   SpringOptions o;
   o.nodal_volume = true;
+  o.nodal_share = share;
   SpringModel s(m, table(1e4, 0.45), o);
   perturb(s, m, 0.08, 5);
   CHECK(force_gradient_error(s, m) < 1e-5);
@@ -714,6 +719,7 @@ TEST_CASE("the nodal volume term: forces are minus its energy's gradient, volume
   auto squeezed = [&](bool nodal) {
     SpringOptions q;
     q.nodal_volume = nodal;
+    q.nodal_share = share;
     q.cg_tolerance = 1e-12;
     SpringModel sp(m, table(1e4, 0.45), q);
     for (VertexId v : m.vertices()) {
@@ -733,6 +739,42 @@ TEST_CASE("the nodal volume term: forces are minus its energy's gradient, volume
   INFO("volume after a 10% squeeze: per tet " << per_tet << ", nodal " << nodal);
   CHECK(nodal > 0.95);
   CHECK(per_tet > 0.95);
+}
+
+TEST_CASE("the nodal share: 0 is the per-tet term, 1 the nodal one, and it is checked", "[springs]") {
+  TetMesh m = make_box(Vec3(1, 1, 1), {2, 2, 2});
+  jitter(m, 0.2, 3);
+  // The same perturbed state under three models; after one implicit step (forces and the
+  // Hessian product both) a blend at share 0 must equal the per-tet term.
+  auto run = [&](bool nodal, double share) {
+    SpringOptions o;
+    o.nodal_volume = nodal;
+    o.nodal_share = share;
+    o.cg_tolerance = 1e-12;
+    SpringModel s(m, table(1e4, 0.45), o);
+    perturb(s, m, 0.05, 7);
+    const double e = s.potential_energy();
+    s.step(1e-2, Integrator::ImplicitEuler);
+    return std::pair{e, s.positions()};
+  };
+  auto [e_tet, x_tet] = run(false, 1.0);
+  auto [e_zero, x_zero] = run(true, 0.0);
+  auto [e_half, x_half] = run(true, 0.5);
+  CHECK(e_zero == Approx(e_tet).epsilon(1e-12));
+  double d0 = 0, d_half = 0;
+  for (std::size_t i = 0; i < x_tet.size(); ++i) {
+    d0 = std::max(d0, (x_zero[i] - x_tet[i]).norm());
+    d_half = std::max(d_half, (x_half[i] - x_tet[i]).norm());
+  }
+  CHECK(d0 < 1e-12);
+  CHECK(d_half > 1e-6);  // a blend is a different model
+  CHECK(e_half != Approx(e_tet));
+  for (double bad : {-0.1, 1.5, std::nan("")}) {
+    SpringOptions o;
+    o.nodal_volume = true;
+    o.nodal_share = bad;
+    CHECK_THROWS_WITH(SpringModel(m, table(1e4, 0.45), o), Catch::Contains("nodal_share"));
+  }
 }
 
 TEST_CASE("stiffening springs: forces are minus the energy's gradient, and a bar stiffens as it stretches",
