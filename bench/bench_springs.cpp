@@ -73,8 +73,9 @@ int edit_tets(TetMesh& m, std::mt19937& rng, int k) {
 
 // Static equilibrium of a model under per-vertex forces with the vertices at x = 0 held:
 // springs by implicit Euler with a huge step (each step a Newton step), FEM by its static solve.
-// Returns the displacement per vertex slot. model: "tet", "nodal", "none" (the volume term,
-// Van Gelder's constants), the same with "-fit" (SpringStiffness::Fitted), or "fem".
+// Returns the displacement per vertex slot. model: "tet", "nodal" (share 1), "none" (the volume
+// term, Van Gelder's constants, edges), the same with "-fit" (SpringStiffness::Fitted) or
+// "+faces" (springs across faces), "default" (SpringOptions' defaults) or "fem".
 std::vector<Vec3> equilibrium(const TetMesh& m, const Material& mat, const std::string& model,
                               const std::vector<std::pair<VertexId, Vec3>>& forces,
                               bool (*held)(const Vec3&) = [](const Vec3& p) { return p.x() < 1e-9; }) {
@@ -96,11 +97,14 @@ std::vector<Vec3> equilibrium(const TetMesh& m, const Material& mat, const std::
     for (VertexId v : m.vertices()) u[v.idx()] = fem.displacement().segment<3>(3 * v.idx());
     return u;
   }
-  SpringOptions o;
-  o.volume_term = volume != "none";
-  o.nodal_volume = volume == "nodal";
-  o.stiffness = fit ? SpringStiffness::Fitted : SpringStiffness::VanGelder;
-  o.across_faces = faces;
+  SpringOptions o;  // "default": SpringOptions' own
+  if (model != "default") {
+    o.volume_term = volume != "none";
+    o.nodal_volume = volume == "nodal";
+    o.nodal_share = 1;
+    o.stiffness = fit ? SpringStiffness::Fitted : SpringStiffness::VanGelder;
+    o.across_faces = faces;
+  }
   if (const char* share = std::getenv("INCISE_BENCH_FACE_SHARE")) o.face_share = std::atof(share);
   o.cg_tolerance = 1e-12;
   o.cg_max_iterations = 50000;
@@ -143,31 +147,33 @@ void configuration_costs(bool quick) {
   base.damping = 2.0;
   base.compute_energy = false;
   base.cg_tolerance = 1e-6;
-  configs.push_back({"volume tet (default)", base});
+  // Each configuration spelled out (volume term, its nodal share, connectivity, stiffness).
+  auto with = [&](bool volume, bool nodal, double share, bool faces, bool fitted) {
+    SpringOptions o = base;
+    o.volume_term = volume;
+    o.nodal_volume = nodal;
+    o.nodal_share = share;
+    o.across_faces = faces;
+    o.stiffness = fitted ? SpringStiffness::Fitted : SpringStiffness::VanGelder;
+    return o;
+  };
+  configs.push_back({"default: nodal 0.9+faces", base});
+  configs.push_back({"volume tet, edges", with(true, false, 1, false, false)});
+  configs.push_back({"nodal 1, edges", with(true, true, 1, false, false)});
+  configs.push_back({"nodal 0.9, edges", with(true, true, 0.9, false, false)});
+  configs.push_back({"no volume, edges", with(false, false, 1, false, false)});
+  configs.push_back({"tet, edges, fitted", with(true, false, 1, false, true)});
+  configs.push_back({"nodal 0.9, edges, fitted", with(true, true, 0.9, false, true)});
+  configs.push_back({"tet, across faces", with(true, false, 1, true, false)});
+  configs.push_back({"nodal 1, across faces", with(true, true, 1, true, false)});
   SpringOptions o = base;
-  o.nodal_volume = true;
-  configs.push_back({"volume nodal", o});
-  o = base;
-  o.volume_term = false;
-  configs.push_back({"no volume term", o});
-  o = base;
-  o.stiffness = SpringStiffness::Fitted;
-  configs.push_back({"volume tet, fitted", o});
-  o.nodal_volume = true;
-  configs.push_back({"volume nodal, fitted", o});
-  o = base;
-  o.across_faces = true;
-  configs.push_back({"across faces", o});
-  o.nodal_volume = true;
-  configs.push_back({"nodal, across faces", o});
-  o = base;
   o.viscosity = 1e-3;
   configs.push_back({"viscosity 1e-3 s", o});
   o = base;
   o.stiffening = 8;
   configs.push_back({"stiffening 8", o});
   std::printf("== step cost per spring configuration, %zu tets (jittered box; relative to the default)\n", m.num_tets());
-  std::printf("%-22s %12s %8s %12s %8s %14s %10s %12s\n", "configuration", "explicit ms", "ratio", "dt_stable",
+  std::printf("%-26s %12s %8s %12s %8s %14s %10s %12s\n", "configuration", "explicit ms", "ratio", "dt_stable",
               "dt/def", "ms/sim-second", "ratio", "implicit ms");
   double base_ms = 0, base_dt = 0, base_implicit = 0, implicit_dt = 0;
   for (const Config& c : configs) {
@@ -189,7 +195,7 @@ void configuration_costs(bool quick) {
     const double stable = s.stable_time_step(Integrator::SymplecticEuler);
     if (base_ms == 0) base_ms = per, base_dt = stable, base_implicit = implicit;
     const double per_second = per / stable, base_second = base_ms / base_dt;
-    std::printf("%-22s %12.3f %8.2f %12.3e %8.2f %14.1f %10.2f %12.3f (%.2f)\n", c.name, per, per / base_ms, stable,
+    std::printf("%-26s %12.3f %8.2f %12.3e %8.2f %14.1f %10.2f %12.3f (%.2f)\n", c.name, per, per / base_ms, stable,
                 stable / base_dt, per_second, per_second / base_second, implicit, implicit / base_implicit);
   }
   std::printf("(explicit: symplectic Euler at half the stable step; implicit Euler at 10x the default's half; "
@@ -251,7 +257,7 @@ void effective_moduli(bool quick) {
         return m;
       };
       const TetMesh bar = mesh(Vec3(4, 1, 1), {4 * n, n, n}), beam = mesh(Vec3(8, 1, 1), {8 * n, n, n});
-      for (const char* model : {"tet", "tet-fit", "tet+faces", "nodal", "nodal-fit", "nodal+faces", "none", "none-fit", "fem"}) {
+      for (const char* model : {"default", "tet", "tet-fit", "tet+faces", "nodal", "nodal-fit", "nodal+faces", "none", "none-fit", "fem"}) {
         // Tension: force E * 1e-4 over the end face's vertices.
         std::vector<std::pair<VertexId, Vec3>> pull, load;
         std::vector<VertexId> end;

@@ -52,11 +52,14 @@ def main():
             f.step()
         return f.displacement.copy()
 
-    configs = [("volume tet", dict()), ("volume nodal", dict(nodal_volume=True)),
-               ("volume tet (fitted)", dict(stiffness="fitted")),
-               ("volume nodal (fitted)", dict(nodal_volume=True, stiffness="fitted")),
-               ("volume tet across-faces", dict(across_faces=True)),
-               ("volume nodal across-faces", dict(nodal_volume=True, across_faces=True))]
+    configs = [("default: volume nodal 0.9 across-faces", dict()),
+               ("volume tet", dict(nodal_volume=False, across_faces=False)),
+               ("volume nodal", dict(nodal_share=1.0, across_faces=False)),
+               ("volume tet (fitted)", dict(nodal_volume=False, stiffness="fitted")),
+               ("volume nodal 0.9 (fitted)", dict(stiffness="fitted")),
+               ("volume tet across-faces", dict(nodal_volume=False)),
+               ("volume nodal across-faces", dict(nodal_share=1.0)),
+               ("volume nodal 0.75 across-faces", dict(nodal_share=0.75))]
     springs = []
     for name, kw in configs:
         s = incise.SpringSimulation(mesh, mat, damping=10.0, compute_energy=False, **kw)

@@ -301,7 +301,7 @@ void bind_sim(py::module_& m) {
       }, "Von Mises stress per tet id (tet_capacity entries)");
 
   py::class_<Springs>(m, "SpringSimulation",
-                      "Spring-mass model on the mesh edges with per-tet volume terms (sim/springs/spring_model.h)")
+                      "Spring-mass model: springs on the mesh edges and across its interior faces, and volume terms (sim/springs/spring_model.h)")
       .def(py::init([](const py::object& mesh_obj, const py::object& materials, double damping,
                        const py::object& volume_term, const py::object& compute_energy,
                        const py::object& nodal_volume, double viscosity, double stiffening,
@@ -309,13 +309,15 @@ void bind_sim(py::module_& m) {
                        double nodal_share) {
              SpringOptions o;
              o.nodal_share = nodal_share;
-             o.across_faces = strict_bool(across_faces, "SpringSimulation: across_faces");
              o.face_share = face_share;
              const auto rule = parse_spring_stiffness(stiffness);
              if (!rule)
                throw InvalidArgument("SpringSimulation: stiffness: expected " + std::string(kSpringStiffnessNames) +
                                      ", got \"" + stiffness + "\"");
              o.stiffness = *rule;
+             // Default: across faces (SpringOptions'), except with fitted constants, which are per edge.
+             o.across_faces = across_faces.is_none() ? o.stiffness == SpringStiffness::VanGelder && o.across_faces
+                                                     : strict_bool(across_faces, "SpringSimulation: across_faces");
              o.viscosity = viscosity;
              o.stiffening = stiffening;
              o.nodal_volume = strict_bool(nodal_volume, "SpringSimulation: nodal_volume");
@@ -327,8 +329,8 @@ void bind_sim(py::module_& m) {
            }),
            py::arg("mesh"), py::arg("materials") = py::none(), py::kw_only(), py::arg("damping") = 0.0,
            py::arg("volume_term") = py::bool_(true), py::arg("compute_energy") = py::bool_(true),
-           py::arg("nodal_volume") = py::bool_(false), py::arg("viscosity") = 0.0, py::arg("stiffening") = 0.0,
-           py::arg("stiffness") = "van-gelder", py::arg("across_faces") = py::bool_(false),
+           py::arg("nodal_volume") = py::bool_(SpringOptions{}.nodal_volume), py::arg("viscosity") = 0.0, py::arg("stiffening") = 0.0,
+           py::arg("stiffness") = "van-gelder", py::arg("across_faces") = py::none(),
            py::arg("face_share") = SpringOptions{}.face_share, py::arg("nodal_share") = SpringOptions{}.nodal_share)
       .def("fix", [](Springs& s, const py::object& v) { for (VertexId x : to_vertices(s.mesh, v)) s.model.set_fixed(x, true); })
       .def("release", [](Springs& s, const py::object& v) {
@@ -397,6 +399,17 @@ void bind_sim(py::module_& m) {
         d["nonlinear_iterations"] = s.nonlinear_iterations;
         return d;
       }, "Keyword arguments of FemSimulation")
+      .def_property_readonly("springs", [](const Scene& s) {
+        py::dict d;
+        d["volume_term"] = s.springs_volume != "none";
+        d["nodal_volume"] = s.springs_volume == "nodal";
+        d["nodal_share"] = s.springs_nodal_share;
+        d["stiffness"] = s.springs_stiffness;
+        d["across_faces"] = s.springs_connectivity == "across-faces";
+        d["viscosity"] = s.springs_viscosity;
+        d["stiffening"] = s.springs_stiffening;
+        return d;
+      }, "Keyword arguments of SpringSimulation (the scene's springs key)")
       .def_readonly("frames", &Scene::frames)
       .def_readonly("dt", &Scene::dt)
       .def_readonly("integrator", &Scene::integrator)

@@ -109,18 +109,20 @@ struct Scene {
   // the body's size, the moduli, the densities and g are checked (docs/scene.md#units).
   std::string units;
   SceneModel model = SceneModel::FemLinear;
-  // springs: the volume term per tet ("tet", default), averaged at the vertices ("nodal") or
+  // springs: the volume term averaged at the vertices ("nodal", default), per tet ("tet") or
   // none (SpringOptions::volume_term, ::nodal_volume; docs/solver.md#spring-volume-terms).
-  std::string springs_volume = "tet";
+  // The defaults here are SpringOptions' (tests/scene/test_scene.cpp checks they agree).
+  std::string springs_volume = "nodal";
   // springs, volume "nodal": the share of the bulk modulus averaged at the vertices, the rest
   // per tet (SpringOptions::nodal_share).
-  double springs_nodal_share = 1.0;
+  double springs_nodal_share = 0.9;
   // springs: each spring's constant, "van-gelder" (default) or "fitted" to each tet's FEM
   // stiffness (SpringOptions::stiffness; docs/solver.md#spring-stiffness).
   std::string springs_stiffness = "van-gelder";
-  // springs: "edges" (default) or "across-faces", a spring across every interior face too
-  // (SpringOptions::across_faces; docs/solver.md#spring-connectivity).
-  std::string springs_connectivity = "edges";
+  // springs: "across-faces" (default: a spring across every interior face too) or "edges"
+  // (SpringOptions::across_faces; docs/solver.md#spring-connectivity). With "fitted"
+  // stiffness, which is per edge, the parser makes "edges" the default.
+  std::string springs_connectivity = "across-faces";
   double springs_viscosity = 0, springs_stiffening = 0;  // SpringOptions::viscosity, ::stiffening
   // fem-corotational: hold tets near inversion (docs/solver.md#inversion-barrier-inversion_barrier-in-scenes); off by default.
   InversionBarrierOptions inversion_barrier;

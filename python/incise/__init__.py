@@ -33,7 +33,7 @@ def simulation_from_scene(path):
     scene = load_scene(path)
     mesh = scene.mesh()
     if scene.model == "springs":
-        sim = SpringSimulation(mesh, scene.materials, damping=scene.damping)
+        sim = SpringSimulation(mesh, scene.materials, damping=scene.damping, **scene.springs)
     else:
         kind = "corotational" if scene.model == "fem-corotational" else "linear"
         sim = FemSimulation(mesh, scene.materials, kind=kind, dynamic=scene.integrator == "implicit-euler",

@@ -65,14 +65,14 @@ struct SpringOptions {
   // the volume-weighted kappa of its tets. Per tet, a near-incompressible body locks as
   // standard tets do (docs/solver.md#spring-volume-terms). Computed from the per-tet volumes
   // each step (one more pass), so edits stay local.
-  bool nodal_volume = false;
+  bool nodal_volume = true;
   // With nodal_volume: the share of kappa averaged at the vertices; the rest, 1 - nodal_share,
   // stays in a per-tet barrier beside it (a blend, as stabilized nodal-pressure tets blend the
   // element's own volume change into the averaged one). 1: the nodal term alone. The per-tet
   // part keeps every tet from inversion (the nodal one only its vertices' stars) and stiffens
   // the spurious soft modes that nodal averaging leaves on coarse meshes; below 1 it also
   // brings back part of the locking. docs/solver.md#spring-volume-terms measures the share.
-  double nodal_share = 1.0;
+  double nodal_share = 0.9;
   // Connectivity: besides the mesh's edges, a spring across every interior face, joining the
   // two apexes of its tets (Van Gelder's stiffness only). The edges of a lattice mesh (six tets
   // per cube) point along few directions, so the network is anisotropic: too stiff in tension
@@ -81,7 +81,7 @@ struct SpringOptions {
   // face_share of it, a quarter per interior face, goes to the springs across its faces, the
   // rest to its six edges (a boundary face's quarter stays with the edges).
   // docs/solver.md#spring-connectivity measures both connectivities and the share.
-  bool across_faces = false;
+  bool across_faces = true;
   double face_share = 0.65;
   // Kelvin-Voigt damping in every spring: a force c (v_rel . n) along it against its rate of
   // extension, c = viscosity x k (viscosity: a time constant [s]); 0: none. A material's own

@@ -117,6 +117,18 @@ def test_scene_file(source_dir, tmp_path):
     s = sim.step()
     assert s["info"] == "success"
     assert sim.displacement[tip, 2].max() < 0
+    # A springs scene: its springs key reaches the model (simulation_from_scene builds it).
+    springs = tmp_path / "springs.json"
+    text = (source_dir / "samples" / "scenes" / "beam.json").read_text()
+    text = text.replace('"model": "fem-corotational",', '"model": "springs", "springs": {"connectivity": "edges", '
+                        '"volume": "tet"},').replace('"formulation": "nodal-averaged",', "")
+    springs.write_text(text.replace('"beam.vtu"', '"' + str(source_dir / "samples" / "scenes" / "beam.vtu") + '"'))
+    scene = incise.load_scene(str(springs))
+    assert scene.springs["across_faces"] is False and scene.springs["nodal_volume"] is False
+    mesh, sim = incise.simulation_from_scene(str(springs))
+    assert isinstance(sim, incise.SpringSimulation)
+    assert sim.num_springs == incise.SpringSimulation(mesh, across_faces=False).num_springs
+    assert incise.load_scene(beam).springs["across_faces"] is True  # the default connectivity
     bad = tmp_path / "bad.json"
     bad.write_text('{"mesh": "x.vtu", "solver": {"tolerance": -1}}')
     with pytest.raises(incise.IoError, match="bad.json"):
@@ -458,7 +470,8 @@ def test_springs_nodal_volume_term_sags_its_own_way(box):
             sim.step(0.01, "implicit-euler")
         return sim.displacement[:, 2].min()
 
-    per_tet, nodal = sag(), sag(nodal_volume=True)
+    per_tet, nodal = sag(nodal_volume=False), sag(nodal_volume=True)  # the default: nodal (a blend)
+    assert nodal == sag()
     assert np.isfinite(nodal) and nodal < 0 and per_tet < 0
     assert nodal != per_tet
     with pytest.raises(incise.InvalidArgument, match="nodal_volume: expected True or False"):
@@ -470,9 +483,9 @@ def test_springs_nodal_volume_term_sags_its_own_way(box):
         incise.SpringSimulation(box, stiffness="lloyd")
     # Springs across the interior faces too (docs/solver.md#spring-connectivity): more springs,
     # another sag; not with fitted constants.
-    faces = sag(across_faces=True)
-    assert np.isfinite(faces) and faces < 0 and faces != per_tet
-    assert incise.SpringSimulation(box, across_faces=True).num_springs > incise.SpringSimulation(box).num_springs
+    edges = sag(across_faces=False)  # the default: across faces too
+    assert np.isfinite(edges) and edges < 0 and edges != nodal
+    assert incise.SpringSimulation(box).num_springs > incise.SpringSimulation(box, across_faces=False).num_springs
     with pytest.raises(incise.InvalidArgument, match="van-gelder stiffness, not fitted"):
         incise.SpringSimulation(box, across_faces=True, stiffness="fitted")
     with pytest.raises(incise.InvalidArgument, match="face_share"):

@@ -11,6 +11,7 @@
 #include "mesh/errors.h"
 #include "mesh/io/tet_io.h"
 #include "scene/run_scene.h"
+#include "sim/springs/spring_model.h"
 
 using namespace incise;
 namespace fs = std::filesystem;
@@ -279,7 +280,12 @@ TEST_CASE("springs.volume: per tet, averaged at the vertices, or none, bad value
     CHECK(norm > 0);
     return norm;
   };
-  CHECK(parse_scene(text, "scene.json").springs_volume == "tet");
+  // The scene's defaults are SpringOptions'.
+  const Scene plain = parse_scene(text, "scene.json");
+  CHECK(plain.springs_volume == (SpringOptions{}.nodal_volume ? "nodal" : "tet"));
+  CHECK(plain.springs_nodal_share == SpringOptions{}.nodal_share);
+  CHECK(plain.springs_connectivity == (SpringOptions{}.across_faces ? "across-faces" : "edges"));
+  CHECK(plain.springs_volume == "nodal");
   double last = -1;
   for (const char* v : {"tet", "nodal", "none"}) {
     const Scene s = parse_scene(volume(v), "scene.json");
@@ -311,10 +317,12 @@ TEST_CASE("springs.volume: per tet, averaged at the vertices, or none, bad value
     t.insert(t.rfind('}'), ", \"springs\": {\"connectivity\": \"" + c + "\"}");
     return t;
   };
-  CHECK(parse_scene(text, "scene.json").springs_connectivity == "edges");
-  const Scene faces = parse_scene(connectivity("across-faces"), "scene.json");
-  CHECK(faces.springs_connectivity == "across-faces");
+  CHECK(parse_scene(text, "scene.json").springs_connectivity == "across-faces");
+  const Scene faces = parse_scene(connectivity("edges"), "scene.json");
+  CHECK(faces.springs_connectivity == "edges");
   CHECK(run_norm(faces) != norms[0]);
+  // Fitted constants are per edge: their default connectivity is edges.
+  CHECK(parse_scene(stiffness("fitted"), "scene.json").springs_connectivity == "edges");
   CHECK(error_of(connectivity("second-ring")) ==
         "scene.json: springs.connectivity: expected \"edges\" or \"across-faces\", got \"second-ring\"");
   // The nodal volume term's share of the bulk modulus (the rest per tet).

@@ -140,6 +140,7 @@ TEST_CASE("fitted springs: a model's spring is the sum of its tets' fitted const
   const Material mat{1e5, 0.45, 1000};
   SpringOptions o;
   o.stiffness = SpringStiffness::Fitted;
+  o.across_faces = false;  // fitted constants are per edge
   SpringModel s(m, MaterialTable(mat), o);
   std::map<std::pair<std::uint32_t, std::uint32_t>, double> sum;
   for (TetId t : m.tets()) {
