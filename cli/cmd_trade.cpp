@@ -40,6 +40,7 @@ struct TradeCliOptions {
   std::vector<std::string> spring_volumes{"tet", "nodal"};
   std::vector<std::string> spring_stiffness{"van-gelder", "fitted"};
   std::vector<std::string> spring_connectivity{"edges", "across-faces"};
+  std::vector<double> spring_nodal_shares;
   std::vector<int> resolutions;
   int reference_level = -1;
   std::vector<double> frame_budgets{2, 16, 33};
@@ -70,6 +71,9 @@ void add_trade(CLI::App& app) {
   cmd->add_option("--spring-connectivity", o->spring_connectivity,
                   "Springs' connectivity, a row each: edges, across-faces (a spring across every interior face too; van-gelder only)")
       ->capture_default_str();
+  cmd->add_option("--spring-nodal-shares", o->spring_nodal_shares,
+                  "Springs' nodal volume term: a row per share of the bulk modulus averaged at the vertices, in [0, 1] "
+                  "(default: the scene's springs.nodal_share, one row)");
   cmd->add_option("--formulations", o->formulations, "FEM formulations to run (standard, nodal-averaged, edge-smoothed, mixed, mixed-edge-smoothed, quadratic, mixed-quadratic)")
       ->capture_default_str();
   cmd->add_option("--resolutions", o->resolutions,
@@ -134,6 +138,9 @@ void trade(const TradeCliOptions& opts, int rank) {
         throw InvalidArgument("trade: --spring-connectivity: expected edges or across-faces, got \"" + c + "\"");
     if (o->spring_connectivity.empty()) throw InvalidArgument("trade: --spring-connectivity: expected at least one");
     to.spring_connectivity = o->spring_connectivity;
+    for (double sh : o->spring_nodal_shares)
+      if (!(sh >= 0 && sh <= 1)) throw InvalidArgument("trade: --spring-nodal-shares: expected values in [0, 1]");
+    to.spring_nodal_shares = o->spring_nodal_shares;
     to.resolutions = o->resolutions;
     to.reference_level = o->reference_level;
     for (double b : o->frame_budgets)

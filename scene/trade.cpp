@@ -45,18 +45,28 @@ std::vector<Setting> grid(const Scene& base, const TradeOptions& opt, const std:
         st.scene.formulation = Formulation::Standard;
         st.row.solver = "implicit-euler";
         st.row.tolerance = st.scene.cg.tolerance;
-        for (const std::string& v : opt.spring_volumes)
-          for (const std::string& c : opt.spring_connectivity)
-            for (const std::string& k : opt.spring_stiffness) {
-              if (c == "across-faces" && k != "van-gelder") continue;
-              Setting vs = st;
-              vs.scene.springs_volume = v;
-              vs.scene.springs_stiffness = k;
-              vs.scene.springs_connectivity = c;
-              // No comma: a CSV field.
-              vs.row.formulation = "volume " + v + (c == "edges" ? "" : " " + c) + (k == "van-gelder" ? "" : " (" + k + ")");
-              out.push_back(vs);
-            }
+        for (const std::string& v : opt.spring_volumes) {
+          // The nodal term's shares: the scene's (NaN: unnamed), or a row each.
+          std::vector<double> shares{std::nan("")};
+          if (v == "nodal" && !opt.spring_nodal_shares.empty()) shares = opt.spring_nodal_shares;
+          for (double share : shares)
+            for (const std::string& c : opt.spring_connectivity)
+              for (const std::string& k : opt.spring_stiffness) {
+                if (c == "across-faces" && k != "van-gelder") continue;
+                Setting vs = st;
+                vs.scene.springs_volume = v;
+                vs.scene.springs_stiffness = k;
+                vs.scene.springs_connectivity = c;
+                std::string name = "volume " + v;
+                if (!std::isnan(share)) {
+                  vs.scene.springs_nodal_share = share;
+                  name += " " + fmt(share);
+                }
+                // No comma: a CSV field.
+                vs.row.formulation = name + (c == "edges" ? "" : " " + c) + (k == "van-gelder" ? "" : " (" + k + ")");
+                out.push_back(vs);
+              }
+        }
         continue;
       }
       for (Formulation f : opt.formulations) {

@@ -49,6 +49,9 @@ struct TradeOptions {
   // And one per connectivity ("edges", "across-faces": springs.connectivity), "volume tet
   // across-faces"; springs across faces take the van-gelder constants only.
   std::vector<std::string> spring_connectivity{"edges", "across-faces"};
+  // And, for the nodal volume term, one per share of it at the vertices (springs.nodal_share),
+  // "volume nodal 0.75"; empty: the scene's share, one row named "volume nodal".
+  std::vector<double> spring_nodal_shares;
   // Mesh levels: 0 the scene's mesh, k > 0 refined k times, -1 one coarser: a generated mesh
   // with half the cells, a mesh file coarsened to about twice its edge length
   // (quality/coarsen.h: 1/4 .. 1/8 of the tets, same labels and tags, the surface within a

@@ -6,10 +6,13 @@
 //
 //  - g_ij: a Hookean spring on every mesh edge, rest length = rest edge length,
 //    g_ij = k_ij (l_ij - |x_i - x_j|) (x_i - x_j) / |x_i - x_j|.
-//    With SpringOptions::across_faces, also a spring between the two apexes of every interior
-//    face (the vertices the face's two tets do not share), with part of the tets' stiffness.
-//  - h_ti: a per-tet volume barrier (SpringOptions::volume_term) that keeps tets from
-//    collapsing and inverting and carries the bulk stiffness edge springs cannot.
+//    With SpringOptions::across_faces (default), also a spring between the two apexes of every
+//    interior face (the vertices the face's two tets do not share), with part of the tets'
+//    stiffness.
+//  - h_ti: volume terms (SpringOptions::volume_term) that carry the bulk stiffness edge
+//    springs cannot: by default most of it averaged at the vertices (nodal_volume,
+//    nodal_share), the rest a per-tet barrier that keeps every tet from collapsing and
+//    inverting. docs/solver.md#springs-which-configuration-to-pick says why this default.
 //  - m_i: lumped mass, each tet's density * rest volume split equally to its 4 vertices.
 //  - gamma_i = damping * m_i (mass-proportional damping; `damping` in 1/s).
 //  - Stiffness from E and nu by calibrate_springs() (see there for the rule and its source).

@@ -285,6 +285,35 @@ TEST_CASE("incise trade: dynamic runs are compared at rest under the loads of th
   CHECK(springs);
 }
 
+TEST_CASE("incise trade --spring-nodal-shares: a row per share of the nodal volume term", "[cli][trade][long]") {
+  const fs::path dir = scratch_dir("cli_trade_shares");
+  {
+    std::ofstream(dir / "scene.json") << kScene;
+  }
+  std::string args = "trade ";
+  args += q(dir / "scene.json");
+  args += " -o ";
+  args += q(dir / "out");
+  args += " --models springs --spring-volumes nodal tet --spring-stiffness van-gelder --spring-connectivity edges "
+          "--spring-nodal-shares 1 0.5 0 --resolutions 0 --no-direct -q";
+  const Run r = run_incise(args, dir);
+  INFO("stderr: " << r.err);
+  REQUIRE(r.code == 0);
+  std::map<std::string, double> err;
+  for (const auto& row : read_csv(slurp(dir / "out" / "trade.csv"))) err[row.at("formulation")] = std::stod(row.at("error"));
+  REQUIRE(err.size() == 4);  // the per-tet row once, the nodal one per share
+  REQUIRE(err.count("volume nodal 1"));
+  REQUIRE(err.count("volume nodal 0.5"));
+  REQUIRE(err.count("volume nodal 0"));
+  REQUIRE(err.count("volume tet"));
+  CHECK(err["volume nodal 1"] != err["volume nodal 0.5"]);
+  CHECK(err["volume nodal 0"] == Approx(err["volume tet"]).epsilon(1e-3));  // share 0: the per-tet term
+  const Run bad = run_incise("trade " + q(dir / "scene.json") + " -o " + q(dir / "out2") + " --spring-nodal-shares 1.5", dir);
+  CHECK(bad.code == 1);
+  CHECK(bad.err.find("--spring-nodal-shares: expected values in [0, 1]") != std::string::npos);
+  CHECK(!fs::exists(dir / "out2" / "trade.csv"));
+}
+
 TEST_CASE("incise trade --convergence: errors per level against the quadratic reference, and the orders",
           "[cli][trade]") {
   // The 8 x 1 x 1 cantilever, 8 x 1 x 1 cells at level 0, levels 0 and 1 against a level-2 reference.
