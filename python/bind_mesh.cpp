@@ -136,7 +136,7 @@ py::array_t<long long> live_tets(const TetMesh& mesh) {
 template <class Id>
 py::array_t<long long> id_array(const std::vector<Id>& ids) {
   py::array_t<long long> a(static_cast<py::ssize_t>(ids.size()));
-  for (std::size_t i = 0; i < ids.size(); ++i) a.mutable_data()[i] = ids[i].is_valid() ? ids[i].idx() : -1;
+  for (std::size_t i = 0; i < ids.size(); ++i) a.mutable_data()[i] = ids[i].is_valid() ? static_cast<long long>(ids[i].idx()) : -1LL;  // not the unsigned -1
   return a;
 }
 

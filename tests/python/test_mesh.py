@@ -198,8 +198,34 @@ def test_copy_is_independent_and_refine_keeps_ids(box):
     if cut.vertex_capacity > cut.num_vertices or cut.tet_capacity > cut.num_tets:
         with pytest.raises(incise.InvalidArgument, match="compact"):
             incise.refine_uniform(cut)
-    cut.compact()
+    dead_v, dead_t = cut.vertex_capacity - cut.num_vertices, cut.tet_capacity - cut.num_tets
+    vmap, tmap = cut.compact()
+    assert (vmap == -1).sum() == dead_v and (tmap == -1).sum() == dead_t  # dead ids map to -1
+    assert np.array_equal(np.sort(tmap[tmap >= 0]), np.arange(cut.num_tets))
     rc = incise.refine_uniform(cut)
     rc.validate()
     assert rc.num_tets == 8 * cut.num_tets
     assert (rc.boundary_faces()[1] == incise.TAG_CUT).sum() == 4 * (cut.boundary_faces()[1] == incise.TAG_CUT).sum()
+
+
+def test_compact_maps_dead_ids_to_minus_one(source_dir):
+    # A cut through the sample liver leaves dead vertex slots (the improvement contracts edges);
+    # compact() maps them to -1 (it once returned 2^32 - 1, an unsigned -1).
+    mesh = incise.read(str(source_dir / "samples" / "liver.msh"))
+    p = mesh.points
+    lo, hi = p.min(0), p.max(0)
+    ext, c = hi - lo, 0.5 * (p.min(0) + p.max(0))
+    a0 = np.array([c[0], lo[1] + 0.25 * ext[1], hi[2] + 0.05 * ext[2]])
+    b0 = np.array([c[0], lo[1] + 0.75 * ext[1], hi[2] + 0.05 * ext[2]])
+    step = np.array([0.0, 0.0, -0.055 * ext[2]])
+    cutter = incise.Cutter(mesh)
+    cutter.start(a0, b0)
+    for k in range(1, 11):
+        cutter.advance(a0 + k * step, b0 + k * step)
+    cutter.finish()
+    dead = mesh.vertex_capacity - mesh.num_vertices
+    assert dead > 0
+    alive = mesh.vertex_ids
+    vmap, _ = mesh.compact()
+    assert (vmap == -1).sum() == dead
+    assert np.array_equal(vmap[alive], np.arange(len(alive)))  # live vertices keep their order
