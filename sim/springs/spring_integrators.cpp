@@ -170,25 +170,28 @@ int SpringModel::implicit_step(double dt, double& relative_residual) {
     }
     if (opt_.nodal_volume) {
       // Gauss-Newton on sum_a W_a(J_a): beta_a g_a g_a^T with g_a = sum_{t at a} grad V_t / 4,
-      // in three passes (per tet g_t . p, per vertex its quarter sums, per tet the forces).
+      // in three passes (per tet g_t . p, per vertex its quarter sums, per tet the forces),
+      // the per-tet part of a blend riding in the first and the last.
       nodal_dot_.assign(n, 0.0);
+      tet_dot_.resize(volumes_.size());
       for (std::size_t t = 0; t < volumes_.size(); ++t) {
         const Volume& vol = volumes_[t];
         const auto& g = volume_grad_[t];
         double s = 0;
         for (int k = 0; k < 4; ++k) s += g[k].dot(p[vol.v[k]]);
+        tet_dot_[t] = s;
         for (int k = 0; k < 4; ++k) nodal_dot_[vol.v[k]] += 0.25 * s;
       }
       for (std::size_t a = 0; a < n; ++a) nodal_dot_[a] *= b * nodal_[a].beta;
       for (std::size_t t = 0; t < volumes_.size(); ++t) {
         const Volume& vol = volumes_[t];
         const auto& g = volume_grad_[t];
-        double s = 0;
+        double s = b * volume_beta_[t] * tet_dot_[t];
         for (int k = 0; k < 4; ++k) s += 0.25 * nodal_dot_[vol.v[k]];
         for (int k = 0; k < 4; ++k) y[vol.v[k]] += s * g[k];
       }
+      return;
     }
-    if (tet_part() == 0) return;
     for (std::size_t t = 0; t < volumes_.size(); ++t) {
       const Volume& vol = volumes_[t];
       const auto& g = volume_grad_[t];

@@ -320,6 +320,7 @@ private:
   };
   mutable std::vector<NodalVolume> nodal_;
   std::vector<double> nodal_dot_;  // implicit product: per vertex beta_a g_a . p
+  std::vector<double> tet_dot_;    // implicit product: per tet g_t . p
   void nodal_volumes(const std::vector<Vec3>& x) const;  // fills nodal_ at x
   std::vector<std::array<Vec3, 4>> volume_grad_;
   std::vector<std::uint32_t> touched_, scratch_;
