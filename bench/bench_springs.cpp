@@ -10,7 +10,7 @@
 //     effective Young's modulus and Poisson's ratio of a bar in tension, and a cantilever's tip
 //     deflection against Timoshenko's, per mesh pattern and resolution, with corotational
 //     nodal-averaged FEM on the same meshes as the baseline.
-// Usage: bench_springs [--quick] [--only moduli|configurations]
+// Usage: bench_springs [--quick] [--only moduli|configurations|updates]
 //        INCISE_BENCH_FACE_SHARE=S: the moduli rows "+faces" with SpringOptions::face_share = S
 #include <chrono>
 #include <cstdio>
@@ -316,11 +316,49 @@ void effective_moduli(bool quick) {
 
 }  // namespace
 
+// 3. Local update (apply one change) against a rebuild, with the default configuration.
+void local_updates(bool quick) {
+  {
+    std::printf("== local update vs full rebuild after k edited tets\n");
+    std::printf("%10s %6s %14s %14s %12s %14s\n", "N tets", "k", "update [ms]", "rebuild [ms]", "ratio", "visits/update");
+    std::vector<int> sizes = quick ? std::vector<int>{8, 16} : std::vector<int>{12, 24, 48};
+    for (int n : sizes) {
+      TetMesh m = make_box(Vec3(1, 1, 1), {n, n, n});
+      SpringModel s(m, soft_tissue());
+      std::mt19937 rng(7);
+      for (int k : {1, 10, 100}) {
+        // Several repetitions of the update (cheap) against one rebuild (expensive).
+        const int reps = 20;
+        double t_update = 0;
+        s.reset_counters();
+        for (int r = 0; r < reps; ++r) {
+          edit_tets(m, rng, k);
+          TopologyChange ch = m.take_change();
+          const double t0 = now_ms();
+          s.apply(m, ch);
+          t_update += now_ms() - t0;
+        }
+        t_update /= reps;
+        const double visits = double(s.counters().visits) / double(s.counters().updates);
+        const double t0 = now_ms();
+        SpringModel fresh(m, soft_tissue());
+        const double t_rebuild = now_ms() - t0;
+        std::printf("%10zu %6d %14.4f %14.2f %12.0f %14.0f\n", m.num_tets(), k, t_update, t_rebuild,
+                    t_rebuild / t_update, visits);
+      }
+    }
+  }
+}
+
 int main(int argc, char** argv) {
   const bench::Args args(argc, argv);  // --help: where the options are written
   const bool quick = args.flag("--quick");
   if (args.get("--only", "") == "configurations") {
     configuration_costs(quick);
+    return 0;
+  }
+  if (args.get("--only", "") == "updates") {
+    local_updates(quick);
     return 0;
   }
   if (args.get("--only", "") == "moduli") {
@@ -383,36 +421,6 @@ int main(int argc, char** argv) {
     std::printf("\n");
   }
 
-  // ---- 3. local update vs full rebuild --------------------------------------------------------
-  {
-    std::printf("== local update vs full rebuild after k edited tets\n");
-    std::printf("%10s %6s %14s %14s %12s %14s\n", "N tets", "k", "update [ms]", "rebuild [ms]", "ratio", "visits/update");
-    std::vector<int> sizes = quick ? std::vector<int>{8, 16} : std::vector<int>{12, 24, 48};
-    for (int n : sizes) {
-      TetMesh m = make_box(Vec3(1, 1, 1), {n, n, n});
-      SpringModel s(m, soft_tissue());
-      std::mt19937 rng(7);
-      for (int k : {1, 10, 100}) {
-        // Several repetitions of the update (cheap) against one rebuild (expensive).
-        const int reps = 20;
-        double t_update = 0;
-        s.reset_counters();
-        for (int r = 0; r < reps; ++r) {
-          edit_tets(m, rng, k);
-          TopologyChange ch = m.take_change();
-          const double t0 = now_ms();
-          s.apply(m, ch);
-          t_update += now_ms() - t0;
-        }
-        t_update /= reps;
-        const double visits = double(s.counters().visits) / double(s.counters().updates);
-        const double t0 = now_ms();
-        SpringModel fresh(m, soft_tissue());
-        const double t_rebuild = now_ms() - t0;
-        std::printf("%10zu %6d %14.4f %14.2f %12.0f %14.0f\n", m.num_tets(), k, t_update, t_rebuild,
-                    t_rebuild / t_update, visits);
-      }
-    }
-  }
+  local_updates(quick);
   return 0;
 }
