@@ -445,6 +445,8 @@ Scene parse_scene(const std::string& text, const std::string& path) {
       if (s.springs_volume != "tet" && s.springs_volume != "nodal" && s.springs_volume != "none")
         rd.fail("springs.volume", "expected \"tet\", \"nodal\" or \"none\", got \"" + s.springs_volume + "\"");
     }
+    if (jsp.contains("nodal_share") && s.springs_volume != "nodal")
+      rd.fail("springs.nodal_share", "is the nodal volume term's share; \"volume\" is \"" + s.springs_volume + "\"");
   }
   if (j.contains("inversion_barrier")) {
     // true: the defaults; an object: {"j_min": J, "stiffness": K}, either optional.

@@ -334,6 +334,9 @@ TEST_CASE("springs.volume: per tet, averaged at the vertices, or none, bad value
   std::string bad_share = text;
   bad_share.insert(bad_share.rfind('}'), R"(, "springs": {"nodal_share": 1.5})");
   CHECK(error_of(bad_share) == "scene.json: springs.nodal_share: expected a value in [0, 1]");
+  std::string stray_share = text;
+  stray_share.insert(stray_share.rfind('}'), R"(, "springs": {"volume": "tet", "nodal_share": 0.5})");
+  CHECK(error_of(stray_share) == "scene.json: springs.nodal_share: is the nodal volume term's share; \"volume\" is \"tet\"");
   // Kelvin-Voigt viscosity and strain-stiffening ride in the same key.
   std::string viscous = text;
   viscous.insert(viscous.rfind('}'), R"(, "springs": {"viscosity": 0.002, "stiffening": 5})");
