@@ -315,8 +315,7 @@ void bind_sim(py::module_& m) {
                throw InvalidArgument("SpringSimulation: stiffness: expected " + std::string(kSpringStiffnessNames) +
                                      ", got \"" + stiffness + "\"");
              o.stiffness = *rule;
-             // Default: across faces (SpringOptions'), except with fitted constants, which are per edge.
-             o.across_faces = across_faces.is_none() ? o.stiffness == SpringStiffness::VanGelder && o.across_faces
+             o.across_faces = across_faces.is_none() ? default_across_faces(o.stiffness)
                                                      : strict_bool(across_faces, "SpringSimulation: across_faces");
              o.viscosity = viscosity;
              o.stiffening = stiffening;

@@ -434,7 +434,8 @@ Scene parse_scene(const std::string& text, const std::string& path) {
       if (!parse_spring_stiffness(s.springs_stiffness))
         rd.fail("springs.stiffness", "expected \"van-gelder\" or \"fitted\", got \"" + s.springs_stiffness + "\"");
     }
-    if (s.springs_stiffness == "fitted" && !jsp.contains("connectivity")) s.springs_connectivity = "edges";
+    if (!jsp.contains("connectivity"))
+      s.springs_connectivity = default_across_faces(*parse_spring_stiffness(s.springs_stiffness)) ? "across-faces" : "edges";
     if (jsp.contains("viscosity")) s.springs_viscosity = rd.non_negative(jsp["viscosity"], "springs.viscosity");
     if (jsp.contains("stiffening")) {
       s.springs_stiffening = rd.non_negative(jsp["stiffening"], "springs.stiffening");

@@ -127,6 +127,12 @@ struct SpringCalibration {
 };
 SpringCalibration calibrate_springs(const Material& material, const SpringOptions& options);
 
+// The connectivity a caller gets when it names none: SpringOptions' (across faces), except with
+// fitted constants, which are per edge. The scene parser and the Python module both ask here.
+inline bool default_across_faces(SpringStiffness stiffness) {
+  return stiffness == SpringStiffness::VanGelder && SpringOptions{}.across_faces;
+}
+
 struct StepStats {
   double dt = 0;
   bool stable_step_exceeded = false;  // explicit integrator above stable_time_step(integrator)

@@ -47,6 +47,11 @@ std::vector<std::map<std::string, std::string>> read_csv(const std::string& text
   return rows;
 }
 
+// `incise trade DIR/scene.json -o DIR/out OPTIONS`.
+std::string trade_args(const fs::path& dir, const std::string& options) {
+  return "trade " + q(dir / "scene.json") + " -o " + q(dir / "out") + " " + options;
+}
+
 }  // namespace
 
 TEST_CASE("incise trade writes the grid, the errors against a converged reference and the Pareto plot", "[cli][trade][long]") {
@@ -265,13 +270,10 @@ TEST_CASE("incise trade: dynamic runs are compared at rest under the loads of th
     scene.replace(scene.find("\"frames\": 4"), 11, "\"frames\": 40");
     std::ofstream(dir / "scene.json") << scene;
   }
-  std::string args = "trade ";
-  args += q(dir / "scene.json");
-  args += " -o ";
-  args += q(dir / "out");
-  args += " --frames 2 --models springs fem-corotational --formulations standard --resolutions 0 "
-          "--preconditioners cholesky --tolerances 1e-8 --budgets 0 --no-direct -q";
-  const Run r = run_incise(args, dir);
+  const Run r = run_incise(trade_args(dir, "--frames 2 --models springs fem-corotational --formulations standard "
+                                          "--resolutions 0 --preconditioners cholesky --tolerances 1e-8 --budgets 0 "
+                                          "--no-direct -q"),
+                           dir);
   INFO("stderr: " << r.err);
   REQUIRE(r.code == 0);
   const auto rows = read_csv(slurp(dir / "out" / "trade.csv"));
@@ -290,13 +292,10 @@ TEST_CASE("incise trade --spring-nodal-shares: a row per share of the nodal volu
   {
     std::ofstream(dir / "scene.json") << kScene;
   }
-  std::string args = "trade ";
-  args += q(dir / "scene.json");
-  args += " -o ";
-  args += q(dir / "out");
-  args += " --models springs --spring-volumes nodal tet --spring-stiffness van-gelder --spring-connectivity edges "
-          "--spring-nodal-shares 1 0.5 0 --resolutions 0 --no-direct -q";
-  const Run r = run_incise(args, dir);
+  const Run r = run_incise(trade_args(dir, "--models springs --spring-volumes nodal tet --spring-stiffness van-gelder "
+                                          "--spring-connectivity edges --spring-nodal-shares 1 0.5 0 --resolutions 0 "
+                                          "--no-direct -q"),
+                           dir);
   INFO("stderr: " << r.err);
   REQUIRE(r.code == 0);
   std::map<std::string, double> err;
