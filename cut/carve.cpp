@@ -101,7 +101,7 @@ bool link_is_disk(const TetMesh& mesh, VertexId v) {
 
 }  // namespace
 
-void repair_manifold(TetMesh& mesh, std::vector<VertexId>& touched, std::unordered_set<std::uint32_t>& doomed,
+void repair_manifold(TetMesh& mesh, std::vector<VertexId>& touched, IdSet& doomed,
                      const std::function<void(TetId)>& remove) {
   for (;;) {
     // Edges first: a non-manifold edge (several fans of tets meeting only along it) loses
@@ -168,7 +168,7 @@ CarveResult carve(TetMesh& mesh, std::span<const Piece> pieces, std::span<const 
                   const std::function<std::vector<TetId>()>& fallback, const std::function<Vec3(VertexId)>& positions) {
   CarveResult r;
   CutStep finder(mesh, positions, 0);
-  std::unordered_set<std::uint32_t> doomed;
+  IdSet doomed;
   std::vector<TetId> doomed_list;
   for (const Piece& p : pieces) {
     finder.collect(p, seeds, fallback);
@@ -188,7 +188,7 @@ CarveResult carve(TetMesh& mesh, std::span<const Piece> pieces, std::span<const 
   // Removing tets one by one: each exposes its live neighbours' faces (tagged kTagCut) and
   // hands their vertices to the manifold repair below.
   std::vector<VertexId> touched;
-  std::unordered_set<std::uint32_t> nb;
+  IdSet nb;
   auto remove = [&](TetId t) {
     for (int f = 0; f < 4; ++f) {
       const TetId n = mesh.neighbor(t, f);

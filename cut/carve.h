@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "cut/cut_piece.h"
+#include "mesh/id_set.h"
 #include "mesh/tet_mesh.h"
 
 namespace incise::cut_detail {
@@ -27,7 +28,7 @@ CarveResult carve(TetMesh& mesh, std::span<const Piece> pieces, std::span<const 
 // removed: tets of extra fans around a non-manifold edge are removed too (through `remove`,
 // which must append the removed tet's vertices to `touched`), then vertices whose star falls
 // into several parts are duplicated. Local: only the stars of touched vertices are visited.
-void repair_manifold(TetMesh& mesh, std::vector<VertexId>& touched, std::unordered_set<std::uint32_t>& doomed,
+void repair_manifold(TetMesh& mesh, std::vector<VertexId>& touched, IdSet& doomed,
                      const std::function<void(TetId)>& remove);
 
 // True when the (positively or negatively oriented) tet and the triangle share a point

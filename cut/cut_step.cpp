@@ -317,7 +317,7 @@ void CutStep::collect(const Piece& piece, std::span<const TetId> seeds,
   // Tolerance of the overlap test: a little more than the snap reach, relative to the piece.
   const double tol = 1e-9 * (piece.hi - piece.lo).norm();
   std::vector<TetId> queue;
-  std::unordered_set<std::uint32_t> seen;
+  IdSet seen;
   auto touches = [&](TetId t) {
     const auto x = tet_positions(t);
     for (const CutTriangle& tri : piece.triangles)
@@ -428,7 +428,7 @@ void CutStep::embed_corners(const Piece& piece, const std::vector<bool>& known, 
 void CutStep::embed_segment(const Piece& piece, std::size_t si, SegmentMarks& marks) {
   const auto& seg = piece.boundary[si];
   std::vector<TetId> work(cand_.begin(), cand_.end());
-  std::unordered_set<std::uint32_t> queued(in_cand_);
+  IdSet queued(in_cand_);
   // The cap only guards against degenerate input (the cut is then less exact, never
   // invalid); each real crossing makes one vertex.
   std::size_t splits = 0;
@@ -574,7 +574,7 @@ bool CutStep::move_snapped(const Piece& piece, std::size_t k, VertexId v) {
 // Snapping must not flatten a whole tet into the plane: the cut surface could then not say
 // which side the tet is on, and would leave a hole there. Such a tet gets its farthest snapped
 // vertex back on its exact side.
-void CutStep::pin_flattened(const Piece& piece, std::unordered_set<std::uint32_t>& pinned) {
+void CutStep::pin_flattened(const Piece& piece, IdSet& pinned) {
   const std::size_t k = current_piece_;
   for (std::size_t i = 0; i < cand_.size(); ++i) {
     const TetId t = cand_[i];
@@ -599,10 +599,11 @@ void CutStep::pin_flattened(const Piece& piece, std::unordered_set<std::uint32_t
 // it; a crossing too close to an endpoint (or one whose split would make a flat tet) puts that
 // endpoint on the plane instead. Returns whether such a decision changed a side (the caller
 // then collects again).
-bool CutStep::collect_crossings(const Piece& piece, std::unordered_set<std::uint32_t>& pinned,
+bool CutStep::collect_crossings(const Piece& piece, IdSet& pinned,
                                 std::map<std::pair<std::uint32_t, std::uint32_t>, EdgeSplit>& edges) {
   const std::size_t k = current_piece_;
   bool changed = false;
+  std::vector<EdgeSplit> crossing;
   for (std::size_t i = 0; i < cand_.size(); ++i) {
     const TetId t = cand_[i];
     if (!mesh_.is_alive(t)) continue;
@@ -622,7 +623,7 @@ bool CutStep::collect_crossings(const Piece& piece, std::unordered_set<std::uint
     Vec3 c = Vec3::Zero();
     int n = 0;
     bool all_inside = true;
-    std::vector<EdgeSplit> crossing;
+    crossing.clear();
     for (int a = 0; a < 4; ++a) {
       if (s[a] == 0) {
         c += position(tv[a]);
@@ -694,7 +695,7 @@ void CutStep::split_crossings(const Piece& piece) {
   std::map<std::pair<std::uint32_t, std::uint32_t>, EdgeSplit> edges;
   // Vertices whose side one of the two corrections set; each vertex changes at most once, so
   // the passes end.
-  std::unordered_set<std::uint32_t> pinned;
+  IdSet pinned;
   for (bool changed = true; changed;) {
     edges.clear();
     pin_flattened(piece, pinned);
@@ -731,7 +732,7 @@ void CutStep::split_crossings(const Piece& piece) {
 
 std::vector<CutFacePair> CutStep::cut_faces(std::span<const Piece> pieces) {
   std::vector<CutFacePair> out;
-  std::unordered_set<std::uint32_t> done;
+  IdSet done;
   for (std::size_t k = 0; k < pieces.size(); ++k) {
     const Piece& piece = pieces[k];
     for (std::size_t i = 0; i < cand_.size(); ++i) {
@@ -819,7 +820,7 @@ std::vector<CutFacePair> CutStep::crease_faces(const CreaseSides& prev, const Cr
     return (behind(c) ? prev : next).piece.side(c);
   };
   std::vector<CutFacePair> out;
-  std::unordered_set<std::uint32_t> done;
+  IdSet done;
   auto scan = [&](TetId t) {
     if (!mesh_.is_alive(t)) return;
     const auto& tv = mesh_.tet_vertices(t);

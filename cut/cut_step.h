@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "cut/cut_piece.h"
+#include "mesh/id_set.h"
 #include "mesh/tet_mesh.h"
 
 namespace incise::cut_detail {
@@ -31,8 +32,8 @@ struct CutFacePair {
 // splits around a vertex shorten its edges; measuring again would make whether it snaps depend
 // on how many steps came before.
 struct CutMemory {
-  std::unordered_map<std::uint32_t, int> side;
-  std::unordered_map<std::uint32_t, double> snap_len;
+  IdMap<int> side;
+  IdMap<double> snap_len;
   void forget(VertexId v) {
     side.erase(v.idx());
     snap_len.erase(v.idx());
@@ -85,7 +86,7 @@ public:
   // beyond the crease) is a cut face that neither opens (docs/cut.md#curved-paths).
   struct CreaseSides {
     const Piece& piece;
-    const std::unordered_map<std::uint32_t, int>& sides;  // the sheet's decided vertices
+    const IdMap<int>& sides;  // the sheet's decided vertices
   };
   std::vector<CutFacePair> crease_faces(const CreaseSides& prev, const CreaseSides& next, const Vec3& fa, const Vec3& fb,
                                         std::span<const TetId> around) const;
@@ -106,7 +107,7 @@ public:
   // vertices kept across steps may name ids the mesh has given to other vertices since.
   std::vector<VertexId> on_segment(std::span<const VertexId> vertices, const Vec3& a, const Vec3& b) const;
   // Current positions of the vertices this step created.
-  const std::unordered_map<std::uint32_t, Vec3>& created_positions() const { return created_pos_; }
+  const IdMap<Vec3>& created_positions() const { return created_pos_; }
   // Records the current position of a vertex created outside (duplicates).
   void set_position(VertexId v, const Vec3& x) { created_pos_[v.idx()] = x; }
 
@@ -116,13 +117,13 @@ private:
     VertexId a, b;
     double s;
   };
-  void pin_flattened(const Piece& piece, std::unordered_set<std::uint32_t>& pinned);
-  bool collect_crossings(const Piece& piece, std::unordered_set<std::uint32_t>& pinned,
+  void pin_flattened(const Piece& piece, IdSet& pinned);
+  bool collect_crossings(const Piece& piece, IdSet& pinned,
                          std::map<std::pair<std::uint32_t, std::uint32_t>, EdgeSplit>& edges);
   bool section_inside(const Piece& piece, TetId t);
   // embed_boundary()'s parts (cut_step.cpp): vertex -> the piece's boundary segments it lies on
   // (bit i: segment i).
-  using SegmentMarks = std::unordered_map<std::uint32_t, std::uint32_t>;
+  using SegmentMarks = IdMap<std::uint32_t>;
   void mark_on_segments(SegmentMarks& marks, VertexId v, std::uint32_t segments);
   std::vector<bool> reuse_known_segments(const Piece& piece, SegmentMarks& marks);
   void embed_corners(const Piece& piece, const std::vector<bool>& known, SegmentMarks& marks);
@@ -174,21 +175,21 @@ private:
   bool provisional_;
   bool no_moves_ = false;
   void decide(std::size_t k, VertexId v, int s);
-  std::unordered_set<std::uint32_t> fixed_;
+  IdSet fixed_;
   std::vector<TetId> cand_;
-  std::unordered_set<std::uint32_t> in_cand_;
-  std::unordered_map<std::uint32_t, Vec3> created_pos_;
-  std::unordered_map<std::uint32_t, double> snap_len_;
-  std::unordered_map<std::uint32_t, double> radius_;  // snap radius of vertices made this step
+  IdSet in_cand_;
+  IdMap<Vec3> created_pos_;
+  IdMap<double> snap_len_;
+  IdMap<double> radius_;  // snap radius of vertices made this step
   double pending_radius_ = 0;
-  std::unordered_set<std::uint32_t> born_, destroyed_;
+  IdSet born_, destroyed_;
   // Per piece: vertices created on it (exactly on it by construction) and cached sides.
-  std::vector<std::unordered_set<std::uint32_t>> on_piece_;
-  std::vector<std::unordered_map<std::uint32_t, int>> side_cache_;
+  std::vector<IdSet> on_piece_;
+  std::vector<IdMap<int>> side_cache_;
   // Vertices side() found undecided, with the mesh's edit count then: the answer depends on
   // the vertex's position and its star only, so it holds until the mesh is edited (a split
   // or a snap move); side() is asked about each vertex once per tet around it.
-  std::vector<std::unordered_map<std::uint32_t, std::uint64_t>> undecided_;
+  std::vector<IdMap<std::uint64_t>> undecided_;
   std::size_t current_piece_ = 0;
   std::vector<VertexId> boundary_vertices_;
   struct EmbeddedSegment {

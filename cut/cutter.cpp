@@ -348,11 +348,11 @@ void Cutter::Impl::add_crease_faces(const CutStep& step, std::vector<CutFacePair
   const Progress& pr = *progress_;
   if (!pr.previous || !pr.back_known || pr.previous->crease.empty()) return;  // no crease in the body
   std::vector<TetId> around;  // the tets at the crease, cut by either sheet or by none
-  std::unordered_set<std::uint32_t> at_crease;
+  IdSet at_crease;
   for (VertexId v : step.on_segment(pr.previous->crease, pr.back.a, pr.back.b))
     for (TetId t : mesh_->incident_tets(v))
       if (at_crease.insert(t.idx()).second) around.push_back(t);
-  std::unordered_set<std::uint32_t> listed;
+  IdSet listed;
   for (const CutFacePair& f : faces) listed.insert(4 * f.a.tet.idx() + std::uint32_t(f.a.local));
   for (const CutFacePair& f : step.crease_faces({pr.previous->piece, pr.previous->sides},
                                                 {pr.sheet->piece(), pr.memory.side}, pr.back.a, pr.back.b, around))
@@ -368,7 +368,7 @@ void Cutter::Impl::keep_shut(std::vector<TetId>& tets) const {
     return it != mem.side.end() && it->second == 0;
   };
   std::vector<TetId> out;
-  std::unordered_set<std::uint32_t> seen;
+  IdSet seen;
   for (TetId t : tets) {
     if (!mesh_->is_alive(t) || seen.count(t.idx())) continue;
     for (int f = 0; f < 4; ++f) {
@@ -393,9 +393,9 @@ void Cutter::Impl::refresh_waiting(const PositionFn& positions, std::span<const 
   const Piece& sp = pr.sheet->piece();
   const double tol = 1e-9 * (sp.hi - sp.lo).norm();
   auto pos = [&](VertexId v) { return positions ? positions(v) : mesh_->rest(v); };
-  std::unordered_set<std::uint32_t> seen;
+  IdSet seen;
   // An id on the list that `more` holds too is another tet now (ids are reused).
-  std::unordered_set<std::uint32_t> fresh;
+  IdSet fresh;
   if (kept > 0)
     for (TetId t : more) fresh.insert(t.idx());
   for (std::size_t i = 0; i < all.size(); ++i) {
@@ -511,7 +511,7 @@ void Cutter::Impl::take_back_provisional(CutStepReport& rep) {
   rep.tets_taken_back = ids.size();
   // The undo's edits go into this call's record, and the grid takes them from it.
   if (grid_synced) grid_edits_ = mesh_->counters().edits;
-  std::unordered_map<std::uint32_t, TetId> renamed;
+  IdMap<TetId> renamed;
   std::vector<TetId> restored;
   for (const auto& [old_id, new_id] : ids) {
     renamed[old_id.idx()] = new_id;
@@ -913,7 +913,7 @@ void Cutter::Impl::step_sheet(CutStepReport& rep, const Piece& local, const std:
   refresh_waiting(positions, front_);
   // The improvement works on what was cut; the tets still waiting (and the closed faces)
   // keep their vertices, whose sides are decided or about to be.
-  std::unordered_set<std::uint32_t> wait;
+  IdSet wait;
   for (const auto* list : {&pr.waiting, &pr.closed})
     for (TetId t : *list) {
       wait.insert(t.idx());
@@ -932,7 +932,7 @@ void Cutter::Impl::step_sheet(CutStepReport& rep, const Piece& local, const std:
   std::erase_if(pr.improve_queue, [&](const auto& e) {
     return !mesh_->is_alive(e.first) || wait.count(e.first.idx()) || e.second + kImproveSteps < pr.step;
   });
-  std::unordered_set<std::uint32_t> in;
+  IdSet in;
   for (const auto& e : pr.improve_queue)
     if (in.insert(e.first.idx()).second) seeds.push_back(e.first);
 }
@@ -1013,7 +1013,7 @@ void Cutter::Impl::keep_sheet_lists(const PositionFn& positions) {
     keep_shut(pr.closed);
   }
   {
-    std::unordered_set<std::uint32_t> in(front_.size());
+    IdSet in(front_.size());
     std::vector<TetId> live;
     for (TetId t : front_)
       if (mesh_->is_alive(t) && in.insert(t.idx()).second) live.push_back(t);
@@ -1083,7 +1083,7 @@ CutStepReport Cutter::Impl::run(std::span<const CutTriangle> triangles, const Po
   find_detached(rep);
   if (opt_.mode == CutMode::Subdivide) {
     // Tets the improvement created are near the blade too.
-    std::unordered_set<std::uint32_t> in(front_.size());
+    IdSet in(front_.size());
     for (TetId t : front_) in.insert(t.idx());
     for (TetId t : rep.change.added_tets)
       if (mesh_->is_alive(t) && in.insert(t.idx()).second) front_.push_back(t);

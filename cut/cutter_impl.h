@@ -45,7 +45,7 @@ struct Cutter::Impl {
   PositionFn with_fresh(const PositionFn& positions);
   void remember_fresh(const cut_detail::CutStep& step, const cut_detail::SeparationResult& sep,
                       const PositionFn& positions);
-  std::unordered_map<std::uint32_t, Vec3> fresh_;
+  IdMap<Vec3> fresh_;
   // Separates the step's cut faces and adds what it did to the report.
   cut_detail::SeparationResult open_faces(const cut_detail::CutStep& step, std::span<const cut_detail::CutFacePair> faces,
                                           CutStepReport& rep, const PositionFn& positions, bool split_chords = true);
@@ -227,7 +227,7 @@ struct Cutter::Impl::Progress {
   // the crease) is cut: its polygon and its vertices' decided sides (CutStep::crease_faces).
   struct PreviousSheet {
     cut_detail::Piece piece;
-    std::unordered_map<std::uint32_t, int> sides;
+    IdMap<int> sides;
     std::vector<VertexId> crease;  // the vertices along the crease, and their copies since
   };
   std::optional<PreviousSheet> previous;

@@ -9,7 +9,7 @@ namespace incise::cut_detail {
 std::optional<LocalDeformation> fit_local_deformation(const TetMesh& mesh, std::span<const TetId> tets,
                                                       const std::function<Vec3(VertexId)>& positions) {
   std::vector<VertexId> verts;
-  std::unordered_set<std::uint32_t> seen;
+  IdSet seen;
   for (TetId t : tets)
     if (mesh.is_alive(t))
       for (VertexId v : mesh.tet_vertices(t))

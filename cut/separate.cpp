@@ -14,7 +14,7 @@ std::uint32_t face_key(TetId t, int f) { return 4 * t.idx() + std::uint32_t(f); 
 
 // Components of v's star: tets joined across faces that contain v and are not blocked.
 std::vector<std::vector<TetId>> star_components(const TetMesh& mesh, VertexId v,
-                                                const std::unordered_set<std::uint32_t>& blocked) {
+                                                const IdSet& blocked) {
   const auto star = mesh.incident_tets(v);
   std::vector<TetId> tets(star.begin(), star.end());
   std::vector<int> comp(tets.size(), -1);
@@ -70,7 +70,7 @@ struct EdgeArcs {
   std::vector<int> arc;
   int arcs = 0;
 };
-EdgeArcs edge_arcs(const TetMesh& mesh, VertexId v, VertexId w, const std::unordered_set<std::uint32_t>& blocked) {
+EdgeArcs edge_arcs(const TetMesh& mesh, VertexId v, VertexId w, const IdSet& blocked) {
   EdgeArcs e;
   for (TetId t : mesh.incident_tets(v))
     if (mesh.local_index(t, w) >= 0) e.ring.push_back(t);
@@ -136,7 +136,7 @@ bool midpoint_split_ok(const TetMesh& mesh, VertexId a, VertexId b) {
 // a hole there the size of v's star), and their other vertices are checked again.
 std::vector<CutFacePair> drop_pinches(const TetMesh& mesh, std::span<const CutFacePair> faces, std::size_t& dropped) {
   std::vector<char> active(faces.size(), 1);
-  std::unordered_map<std::uint32_t, std::vector<std::size_t>> at;  // vertex -> cut faces containing it
+  IdMap<std::vector<std::size_t>> at;  // vertex -> cut faces containing it
   std::vector<VertexId> work;
   for (std::size_t i = 0; i < faces.size(); ++i)
     for (VertexId v : mesh.face_vertices(faces[i].a.tet, faces[i].a.local)) {
@@ -144,7 +144,7 @@ std::vector<CutFacePair> drop_pinches(const TetMesh& mesh, std::span<const CutFa
       if (list.empty()) work.push_back(v);
       list.push_back(i);
     }
-  std::unordered_map<std::uint32_t, std::uint32_t> parent;
+  IdMap<std::uint32_t> parent;
   auto find = [&](std::uint32_t x) {
     while (parent[x] != x) x = parent[x] = parent[parent[x]];
     return x;
@@ -186,7 +186,7 @@ std::vector<CutFacePair> drop_pinches(const TetMesh& mesh, std::span<const CutFa
       }
     if (mine.size() < 2 && !on_boundary) continue;
     // Group this vertex's cut faces by the component of their link edge.
-    std::unordered_map<std::uint32_t, std::vector<std::size_t>> groups;
+    IdMap<std::vector<std::size_t>> groups;
     for (std::size_t i : mine) {
       const auto e = other_two(mesh.face_vertices(faces[i].a.tet, faces[i].a.local));
       groups[find(e[0])].push_back(i);
@@ -230,8 +230,8 @@ struct ChordSplit {
   VertexId v, w, mid;  // mid invalid: no chord left
 };
 ChordSplit split_a_chord(TetMesh& mesh, std::span<const CutFacePair> faces,
-                         const std::unordered_set<std::uint32_t>& blocked,
-                         const std::unordered_map<std::uint32_t, std::vector<std::vector<TetId>>>& comps_of,
+                         const IdSet& blocked,
+                         const IdMap<std::vector<std::vector<TetId>>>& comps_of,
                          std::unordered_set<std::uint64_t>& unsplittable) {
   auto single = [&](VertexId x) {
     auto it = comps_of.find(x.idx());
@@ -302,9 +302,9 @@ SeparationResult separate(TetMesh& mesh, std::span<const CutFacePair> all_faces,
   // the faces through the chord, and chords only get fewer).
   std::vector<CutFacePair> all(all_faces.begin(), all_faces.end());  // the input, through chord splits
   std::vector<CutFacePair> faces = all;
-  std::unordered_set<std::uint32_t> blocked;
+  IdSet blocked;
   std::vector<VertexId> verts;
-  std::unordered_map<std::uint32_t, std::vector<std::vector<TetId>>> comps_of;
+  IdMap<std::vector<std::vector<TetId>>> comps_of;
   std::unordered_set<std::uint64_t> unsplittable;
   auto triples = [&](const std::vector<CutFacePair>& list) {
     std::vector<std::array<VertexId, 3>> out;
@@ -317,7 +317,7 @@ SeparationResult separate(TetMesh& mesh, std::span<const CutFacePair> all_faces,
     blocked.clear();
     verts.clear();
     comps_of.clear();
-    std::unordered_set<std::uint32_t> seen;
+    IdSet seen;
     for (const CutFacePair& p : faces) {
       blocked.insert(face_key(p.a.tet, p.a.local));
       blocked.insert(face_key(p.b.tet, p.b.local));
@@ -364,7 +364,7 @@ SeparationResult separate(TetMesh& mesh, std::span<const CutFacePair> all_faces,
     // Faces that do not open stay joined whatever the set says: only opening faces (and the
     // boundary) cut the ring around an edge. (Counting a face that stays shut, e.g. one with
     // all three vertices on the rim, made its edge look like two sheets meeting.)
-    std::unordered_set<std::uint32_t> opened;
+    IdSet opened;
     for (const CutFacePair& p : opening) {
       opened.insert(face_key(p.a.tet, p.a.local));
       opened.insert(face_key(p.b.tet, p.b.local));

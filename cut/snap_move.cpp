@@ -41,7 +41,7 @@ double star_min_dihedral(const TetMesh& mesh, VertexId v, const Vec3& at) {
 
 std::optional<Vec3> move_onto_plane(TetMesh& mesh, VertexId v, const Piece& piece,
                                     const std::function<Vec3(VertexId)>& position,
-                                    const std::unordered_set<std::uint32_t>& fixed) {
+                                    const IdSet& fixed) {
   if (fixed.count(v.idx()) || !interior_one_label(mesh, v)) return std::nullopt;
   const Vec3 x = position(v);
   const Vec3 target = x - piece.distance(x) * piece.normal;

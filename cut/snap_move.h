@@ -12,6 +12,7 @@
 #include <unordered_set>
 
 #include "cut/cut_piece.h"
+#include "mesh/id_set.h"
 #include "mesh/tet_mesh.h"
 
 namespace incise::cut_detail {
@@ -25,6 +26,6 @@ constexpr double kSnapMoveFloorDeg = 10;
 // that never move (CutOptions::frozen).
 std::optional<Vec3> move_onto_plane(TetMesh& mesh, VertexId v, const Piece& piece,
                                     const std::function<Vec3(VertexId)>& position,
-                                    const std::unordered_set<std::uint32_t>& fixed);
+                                    const IdSet& fixed);
 
 }  // namespace incise::cut_detail

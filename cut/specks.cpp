@@ -13,12 +13,12 @@ std::uint64_t key(TetId t, int f) { return 4 * std::uint64_t(t.idx()) + std::uin
 
 std::size_t keep_specks_attached(const TetMesh& m, std::vector<CutFacePair>& faces, std::span<const VertexId> crease) {
   if (faces.empty() || crease.empty()) return 0;
-  std::unordered_set<std::uint32_t> on_crease;
+  IdSet on_crease;
   for (VertexId v : crease) on_crease.insert(v.idx());
   std::unordered_set<std::uint64_t> opening;
   for (const CutFacePair& p : faces)
     for (const FaceRef& r : {p.a, p.b}) opening.insert(key(r.tet, r.local));
-  std::unordered_set<std::uint32_t> seen;  // tets already in a group looked at
+  IdSet seen;  // tets already in a group looked at
   std::unordered_set<std::uint64_t> keep;  // faces (both sides) that stay shut
   std::size_t specks = 0;
   std::vector<TetId> group;
@@ -28,7 +28,7 @@ std::size_t keep_specks_attached(const TetMesh& m, std::vector<CutFacePair>& fac
       // The group `start` would belong to once `faces` are open: tets joined across faces that
       // stay interior, stopping as soon as it is larger than a speck.
       group.assign(1, start.tet);
-      std::unordered_set<std::uint32_t> in{start.tet.idx()};
+      IdSet in{start.tet.idx()};
       bool closed = true;
       for (std::size_t i = 0; i < group.size() && closed; ++i)
         for (int f = 0; f < 4; ++f) {

@@ -57,6 +57,7 @@ void TetGrid::build(const TetMesh& mesh) {
   }
   cells_.assign(std::size_t(dims_[0] * dims_[1] * dims_[2]), {});
   range_.assign(mesh.tet_capacity(), {});
+  box_.assign(mesh.tet_capacity(), {});
   for (TetId t : tets) insert(mesh, t);
   const std::size_t room = mesh.tet_capacity() + mesh.tet_capacity() / 8 + 1024;
   in_cell_.assign(room, 0);
@@ -68,7 +69,11 @@ void TetGrid::insert(const TetMesh& mesh, TetId t) {
   Vec3 a, b;
   rest_box(mesh, t, a, b);
   const auto c0 = cell_of(a), c1 = cell_of(b);
-  if (range_.size() <= t.idx()) range_.resize(std::max<std::size_t>(t.idx() + 1, range_.size() + range_.size() / 2));
+  if (range_.size() <= t.idx()) {
+    range_.resize(std::max<std::size_t>(t.idx() + 1, range_.size() + range_.size() / 2));
+    box_.resize(range_.size());
+  }
+  box_[t.idx()] = {a[0], a[1], a[2], b[0], b[1], b[2]};
   range_[t.idx()] = {std::int32_t(c0[0]), std::int32_t(c0[1]), std::int32_t(c0[2]),
                      std::int32_t(c1[0]), std::int32_t(c1[1]), std::int32_t(c1[2])};
   for (std::int64_t k = c0[2]; k <= c1[2]; ++k)
@@ -119,9 +124,9 @@ std::vector<TetId> TetGrid::query(const TetMesh& mesh, const Vec3& lo, const Vec
           list[keep++] = id;
           if (in_query_[id] == query_stamp_) continue;
           in_query_[id] = query_stamp_;
-          Vec3 a, b;
-          rest_box(mesh, t, a, b);
-          if ((a.array() <= qhi.array()).all() && (b.array() >= qlo.array()).all()) out.push_back(t);
+          const auto& x = box_[id];
+          if (x[0] <= qhi[0] && x[1] <= qhi[1] && x[2] <= qhi[2] && x[3] >= qlo[0] && x[4] >= qlo[1] && x[5] >= qlo[2])
+            out.push_back(t);
         }
         list.resize(keep);
       }

@@ -53,6 +53,9 @@ private:
   // k): a query drops a listing outside them (the id's tet was removed or re-inserted since)
   // with no look at the mesh, and computes a tet's box once, not once per cell it lists.
   std::vector<std::array<std::int32_t, 6>> range_;
+  // By tet id, its rest box when it was last inserted (lo, hi): a query reads it instead of
+  // the tet's four rest positions. Exact while the tet is as inserted, which range_ assumes too.
+  std::vector<std::array<double, 6>> box_;
   std::uint32_t cell_stamp_ = 0, query_stamp_ = 0;
 };
 

@@ -442,7 +442,7 @@ std::vector<std::pair<TetId, TetId>> TetMesh::undo(const UndoLog& log) {
 std::vector<TetId> TetMesh::pending_added_tets() const {
   // In take_change()'s order: by each id's first event.
   std::vector<TetId> out;
-  std::unordered_map<std::uint32_t, bool> added;  // id -> any add event
+  IdMap<bool> added;  // id -> any add event
   std::vector<std::uint32_t> order;
   for (const Event& e : events_) {
     auto [it, inserted] = added.try_emplace(e.tet.idx(), false);
@@ -460,7 +460,7 @@ TopologyChange TetMesh::take_change() {
     bool existed_before = false, any_remove = false, any_add = false;
     std::size_t order = 0;
   };
-  std::unordered_map<std::uint32_t, State> st;
+  IdMap<State> st;
   st.reserve(events_.size());
   std::vector<std::uint32_t> order;
   for (const Event& e : events_) {
@@ -689,7 +689,7 @@ void TetMesh::validate(const ValidateOptions& opt) const {
     // Every boundary edge in exactly two boundary faces, once in each direction, and the
     // boundary faces around each vertex form a single fan (vertex-manifold).
     std::map<std::pair<std::uint32_t, std::uint32_t>, int> directed;
-    std::unordered_map<std::uint32_t, std::vector<std::pair<std::uint32_t, std::uint32_t>>> link;
+    IdMap<std::vector<std::pair<std::uint32_t, std::uint32_t>>> link;
     for (const BoundaryFace& bf : boundary_faces()) {
       for (int k = 0; k < 3; ++k) {
         std::uint32_t p = bf.vertices[k].idx(), q = bf.vertices[(k + 1) % 3].idx(),
@@ -704,7 +704,7 @@ void TetMesh::validate(const ValidateOptions& opt) const {
         fail("boundary is open at edge (" + std::to_string(e.first) + "," + std::to_string(e.second) + ")");
     for (auto& [v, edges] : link) {
       // Follow q -> r around v; a single cycle must visit all link edges.
-      std::unordered_map<std::uint32_t, std::uint32_t> next;
+      IdMap<std::uint32_t> next;
       for (auto [q, r] : edges) next[q] = r;
       std::uint32_t start = edges.front().first, cur = start;
       std::size_t steps = 0;

@@ -24,6 +24,7 @@
 #include <Eigen/Geometry>
 
 #include "mesh/handles.h"
+#include "mesh/id_set.h"
 #include "mesh/topology_change.h"
 
 namespace incise {
@@ -312,7 +313,7 @@ private:
   std::vector<VertexId> pending_touched_;
   // Rest positions before the batch's first move of each vertex moved in it (added vertices:
   // where they were added).
-  std::unordered_map<std::uint32_t, Vec3> batch_origin_;
+  IdMap<Vec3> batch_origin_;
   std::vector<std::uint8_t> touched_mark_;  // per vertex: already in pending_touched_
   struct PendingFlag {
     bool empty() const { return !any; }
@@ -337,7 +338,7 @@ private:
   // The undo log being recorded (begin_undo_log), with the tets it added or saved.
   bool logging_ = false;
   UndoLog log_;
-  std::unordered_set<std::uint32_t> log_added_, log_saved_;
+  IdSet log_added_, log_saved_;
   void log_before_rewrite(TetId t);  // keeps t as it is, once, unless the log added it
   EditCounters counters_;
 };

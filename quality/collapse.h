@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "mesh/edge_collapse.h"
+#include "mesh/id_set.h"
 #include "mesh/tet_mesh.h"
 #include "quality/improve_scope.h"
 
@@ -17,7 +18,7 @@ namespace incise {
 
 struct CollapseOptions {
   double edge_ratio = 0.2;  // try edges shorter than this times the tet's longest edge
-  const std::unordered_set<std::uint32_t>* frozen = nullptr;  // never removed
+  const IdSet* frozen = nullptr;  // never removed
   double tolerance = 0;  // check_collapse's: tiny edges may contract on curved boundary and interfaces
   bool remove_boundary = true;  // false: boundary vertices stay (ImproveOptions::move_surface / move_cut off)
   // > 0: where check_collapse refuses a surface vertex (its surface is curved or bent there), it

@@ -47,7 +47,7 @@ class Driver {
 public:
   // base_tets: the input's tet count (global) or the region's size (local), for max_growth.
   Driver(TetMesh& mesh, const ImproveOptions& opt, Clock::time_point deadline, bool has_deadline,
-         std::unordered_set<std::uint32_t>* region, std::size_t base_tets)
+         IdSet* region, std::size_t base_tets)
       : mesh_(mesh),
         opt_(opt),
         deadline_(deadline),
@@ -128,7 +128,7 @@ public:
     return progress;
   }
 
-  std::unordered_set<std::uint32_t> moved;
+  IdSet moved;
 
   // The report's figures of live tets, from their last push (the same values angle_quality
   // gives now: min/max dihedral and radius ratio do not depend on the targets); a tet never
@@ -317,7 +317,7 @@ private:
   const ImproveOptions& opt_;
   Clock::time_point deadline_;
   bool has_deadline_;
-  std::unordered_set<std::uint32_t>* region_;
+  IdSet* region_;
   ImproveScope scope_;
   FlipOptions flip_;
   SmoothOptions smooth_;
@@ -325,11 +325,11 @@ private:
   InsertionOptions insert_;
   SurfaceReshape reshape_;
   bool growth_refused_ = false;
-  std::unordered_set<std::uint32_t> frozen_;
-  std::unordered_map<std::uint32_t, int> curved_slides_;
+  IdSet frozen_;
+  IdMap<int> curved_slides_;
   VolumeAllowance volume_;
   // Smoothing (vertices) or flips (tets) failed and nothing around changed since.
-  std::unordered_set<std::uint32_t> stuck_, flip_stuck_, collapse_stuck_;
+  IdSet stuck_, flip_stuck_, collapse_stuck_;
   // Per tet pushed: its queue version and its figures when pushed. Every tet an operation
   // creates or reshapes is pushed again, so a live tet's figures are its current ones.
   struct Known {
@@ -451,14 +451,14 @@ ImproveReport improve_local(TetMesh& mesh, std::span<const TetId> seeds, const I
   const auto start = Clock::now();
   ImproveReport rep;
   // Region: the live seeds plus opt.rings rings of tets sharing a vertex.
-  std::unordered_set<std::uint32_t> region;
+  IdSet region;
   std::vector<TetId> frontier;
   for (TetId t : seeds)
     if (mesh.is_alive(t) && region.insert(t.idx()).second) frontier.push_back(t);
   // Each vertex's tets once: a vertex met again has all of them in the region already, so the
   // region gets the same tets in the same order (its iteration order is the pass's queueing
   // order) for far fewer lookups.
-  std::unordered_set<std::uint32_t> ringed;
+  IdSet ringed;
   for (int r = 0; r < opt.rings; ++r) {
     std::vector<TetId> next;
     for (TetId t : frontier)

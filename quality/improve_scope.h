@@ -4,13 +4,14 @@
 #include <cstdint>
 #include <unordered_set>
 
+#include "mesh/id_set.h"
 #include "quality/dihedral_objective.h"
 
 namespace incise {
 
 struct ImproveScope {
   AngleTargets targets;
-  const std::unordered_set<std::uint32_t>* region = nullptr;  // nullptr: the whole mesh
+  const IdSet* region = nullptr;  // nullptr: the whole mesh
   long growth_left = 1L << 60;  // how many more tets the pass may add (ImproveOptions::max_growth)
   bool contains(TetId t) const { return region == nullptr || region->count(t.idx()) > 0; }
 };

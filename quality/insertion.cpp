@@ -12,7 +12,7 @@ namespace {
 
 struct Cavity {
   std::vector<TetId> tets;
-  std::unordered_set<std::uint32_t> in;
+  IdSet in;
   bool add(TetId t) {
     if (!in.insert(t.idx()).second) return false;
     tets.push_back(t);

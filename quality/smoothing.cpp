@@ -25,7 +25,7 @@ struct Freedom {
   bool a_open = true, b_open = true;         // Bent, Front: whether v may move towards a (b)
 };
 
-int slides_of(const std::unordered_map<std::uint32_t, int>& slides, VertexId v) {
+int slides_of(const IdMap<int>& slides, VertexId v) {
   const auto it = slides.find(v.idx());
   return it == slides.end() ? 0 : it->second;
 }

@@ -20,6 +20,7 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "mesh/id_set.h"
 #include "mesh/tet_mesh.h"
 #include "quality/improve_scope.h"
 #include "quality/volume_allowance.h"
@@ -36,11 +37,11 @@ struct SmoothOptions {
   // (degrees) slides along the old line (the feature stays on its old polyline); 0: never.
   double feature_line_angle_deg = 0;
   int iterations = 8;        // ascent steps
-  const std::unordered_set<std::uint32_t>* frozen = nullptr;  // vertex ids that never move
+  const IdSet* frozen = nullptr;  // vertex ids that never move
   // How often each vertex slid on a curved disc or a bent feature line in this pass: it slides
   // there at most max_curved_slides times, each onto the faces it is on, so its drift from the
   // input surface stays within that many discs' sagittas (nullptr: no limit).
-  std::unordered_map<std::uint32_t, int>* curved_slides = nullptr;
+  IdMap<int>* curved_slides = nullptr;
   int max_curved_slides = 1;
   VolumeAllowance* volume = nullptr;  // curved slides spend it (nullptr: no limit)
 };

@@ -11,7 +11,7 @@ namespace incise {
 std::vector<TetId> across_thin_parts(const TetMesh& mesh, std::span<const TetId> candidates,
                                      const ThinPartOptions& options) {
   // Outward unit normals of the boundary faces at each boundary vertex.
-  std::unordered_map<std::uint32_t, std::vector<Vec3>> normals;
+  IdMap<std::vector<Vec3>> normals;
   for (const BoundaryFace& f : mesh.boundary_faces()) {
     const Vec3 a = mesh.rest(f.vertices[0]);
     const Vec3 n = (mesh.rest(f.vertices[1]) - a).cross(mesh.rest(f.vertices[2]) - a);
