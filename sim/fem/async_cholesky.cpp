@@ -142,12 +142,17 @@ void AsyncCholesky::start(const std::vector<std::uint8_t>& free, double a, doubl
   pending_rot_ = opt_.rotate && model_->kind() == FemKind::Corotational
                      ? std::make_shared<const std::vector<Eigen::Matrix3d>>(elements.rot)
                      : nullptr;
+  // A factor the frame waits for (the first one, with wait_for_first) is made on the frame's
+  // thread: on the lowest-priority thread, a machine busy with other processes would leave the
+  // frame blocked on a thread that hardly runs (docs/solver.md#behind-the-constants).
+  const bool background = opt_.background && !(factor_ == nullptr && opt_.wait_for_first);
   auto task = [e = std::move(elements), mass = a != 0 ? model_->lumped_mass() : Eigen::VectorXd(), fr = free, a, c,
-               background = opt_.background] {
+               background] {
     if (background) yield_to_frames();  // a fresh thread per job (std::launch::async)
     return factorize(e, mass, fr, a, c);
   };
-  job_ = std::async(opt_.background ? std::launch::async : std::launch::deferred, std::move(task));
+  job_ = std::async(background ? std::launch::async : std::launch::deferred, std::move(task));
+  background_factorizations_ += background;
 }
 
 void AsyncCholesky::adopt() {

@@ -93,6 +93,9 @@ public:
   bool settling() const { return settling_; }  // block-Jacobi alone (settle_frames policy)
   bool factorizing() const { return job_.valid(); }
   int factorizations() const { return factorizations_; }  // adopted so far
+  // Started on the background thread (the lowest priority) so far; a factor the frame waits
+  // for (the first, with wait_for_first) is made on the frame's own thread instead.
+  int background_factorizations() const { return background_factorizations_; }
   double last_factorize_ms() const { return last_ms_; }    // snapshot-to-factor time of the last adopted one
 
   struct Factor;  // the factorization and its unknown map (in the .cpp)
@@ -131,7 +134,7 @@ private:
   CgPreconditioner* moving_ = nullptr;
   const std::vector<std::uint8_t>* free_ = nullptr;
   std::uint64_t version_ = 0;
-  int factorizations_ = 0;
+  int factorizations_ = 0, background_factorizations_ = 0;
   double last_ms_ = 0;
   mutable Eigen::VectorXd rf_, zf_;
   // Rotation: per-tet rotations at the snapshot of the current factor (pending_: of the job),

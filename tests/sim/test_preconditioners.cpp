@@ -186,6 +186,39 @@ TEST_CASE("settle policy: block-Jacobi while the topology changes, a factor of t
   check_equals_direct(m, opt, top, sim);
 }
 
+TEST_CASE("the first factor, waited for, is made on the frame's thread, later ones in the background", "[fem][preconditioner]") {
+  // A factor the frame waits for, made on the lowest-priority thread, left the frame blocked on a
+  // thread that hardly ran while other processes kept the cores busy: only factors the frames
+  // do not wait for go there.
+  for (bool wait_for_first : {true, false}) {
+    INFO("wait_for_first " << wait_for_first);
+    TetMesh m = make_box(Vec3(4, 1, 1), {12, 3, 3});
+    m.discard_change();
+    FemSimulationOptions opt;
+    opt.cg.tolerance = 1e-8;
+    opt.cg.preconditioner = Preconditioner::Cholesky;
+    opt.cholesky.wait_for_first = wait_for_first;
+    opt.cholesky.settle_frames = 0;
+    FemSimulation sim(m, table(1e5, 0.3), opt);
+    fix_ends(m, sim);
+    for (VertexId v : m.vertices())
+      if (m.rest(v).z() > 1 - 1e-9) sim.set_force(v, Vec3(0, 0, -2));
+    REQUIRE(sim.step().info == SolveInfo::Success);
+    if (wait_for_first) {
+      CHECK(sim.cholesky()->factorizations() == 1);
+      CHECK(sim.cholesky()->background_factorizations() == 0);
+    } else {
+      CHECK(sim.cholesky()->background_factorizations() == 1);
+    }
+    if (!wait_for_first) continue;  // its first job may still run: when the next starts is timing
+    // A change: the next factor is not waited for (the old one preconditions meanwhile).
+    crack(m, 0, 2.0, 2, 0.5);
+    sim.apply(m.take_change());
+    REQUIRE(sim.step().info == SolveInfo::Success);
+    CHECK(sim.cholesky()->background_factorizations() == 1);
+  }
+}
+
 TEST_CASE("a mesh above the factorization limit runs on the multigrid (block-Jacobi without it)",
           "[fem][preconditioner]") {
   for (bool amg : {true, false}) {
