@@ -3,6 +3,7 @@
 #include "mesh/clock.h"
 #include "sim/linalg/blas_threads.h"
 
+#include <atomic>
 #include <chrono>
 
 #ifdef __linux__
@@ -53,10 +54,13 @@ struct AsyncCholesky::Factor {
 namespace {
 
 // Runs on the background thread; owns everything it reads.
+// Stops (a factor with ok false) at the next phase once `cancel` is set.
 std::shared_ptr<AsyncCholesky::Factor> factorize(const FemElements& e, const Eigen::VectorXd& mass,
-                                                 const std::vector<std::uint8_t>& free, double a, double c) {
+                                                 const std::vector<std::uint8_t>& free, double a, double c,
+                                                 const std::atomic<bool>& cancel) {
   const double t0 = now_ms();
   auto f = std::make_shared<AsyncCholesky::Factor>();
+  auto cancelled = [&] { return cancel.load(std::memory_order_relaxed); };
   f->index.assign(free.size(), -1);
   for (std::size_t i = 0; i < free.size(); ++i)
     if (free[i]) f->index[i] = std::int32_t(f->rows++);
@@ -64,6 +68,7 @@ std::shared_ptr<AsyncCholesky::Factor> factorize(const FemElements& e, const Eig
   lower.reserve(e.alive.size() * 78);
   for (std::size_t t = 0; t < e.alive.size(); ++t) {
     if (!e.alive[t]) continue;
+    if (t % 4096 == 0 && cancelled()) return f;
     for (int i = 0; i < 4; ++i)
       for (int j = 0; j < 4; ++j) {
         const Eigen::Matrix3d blk = c * e.block(t, i, j);
@@ -79,7 +84,7 @@ std::shared_ptr<AsyncCholesky::Factor> factorize(const FemElements& e, const Eig
   }
   // Nodal-averaged: the volumetric term B^T B (the blocks above are the deviatoric part), so
   // the factor is of the whole K, not an approximation of it.
-  if (e.nodal_b.rows() > 0) {
+  if (e.nodal_b.rows() > 0 && !cancelled()) {
     const Eigen::SparseMatrix<double> bc = e.nodal_b, bt = e.nodal_b.transpose();
     const Eigen::SparseMatrix<double> kv = bt * bc;
     for (Eigen::Index col = 0; col < kv.outerSize(); ++col) {
@@ -94,13 +99,17 @@ std::shared_ptr<AsyncCholesky::Factor> factorize(const FemElements& e, const Eig
   if (a != 0)
     for (std::size_t i = 0; i < free.size(); ++i)
       if (f->index[i] >= 0) lower.emplace_back(f->index[i], f->index[i], a * mass[Eigen::Index(i)]);
+  if (cancelled()) return f;
   Eigen::SparseMatrix<double> k(f->rows, f->rows);
   k.setFromTriplets(lower.begin(), lower.end());
   lower = {};
 #ifdef INCISE_HAVE_CHOLMOD
   f->llt.cholmod().print = 0;  // a failure (not positive definite) is reported by ok, not on stdout
 #endif
-  f->llt.compute(k);
+  if (cancelled()) return f;
+  f->llt.analyzePattern(k);  // the ordering, then the numeric factor: a phase each
+  if (f->llt.info() != Eigen::Success || cancelled()) return f;
+  f->llt.factorize(k);
   f->ok = f->llt.info() == Eigen::Success;
   f->ms = now_ms() - t0;
   return f;
@@ -114,7 +123,9 @@ AsyncCholesky::AsyncCholesky(const FemModel& model, const AsyncCholeskyOptions& 
 }
 
 AsyncCholesky::~AsyncCholesky() {
-  if (job_.valid()) job_.wait();
+  if (!job_.valid()) return;
+  if (cancel_) cancel_->store(true, std::memory_order_relaxed);
+  job_.wait();
 }
 
 bool AsyncCholesky::has_factor() const { return factor_ != nullptr; }
@@ -146,10 +157,11 @@ void AsyncCholesky::start(const std::vector<std::uint8_t>& free, double a, doubl
   // thread: on the lowest-priority thread, a machine busy with other processes would leave the
   // frame blocked on a thread that hardly runs (docs/solver.md#behind-the-constants).
   const bool background = opt_.background && !(factor_ == nullptr && opt_.wait_for_first);
+  cancel_ = std::make_shared<std::atomic<bool>>(false);
   auto task = [e = std::move(elements), mass = a != 0 ? model_->lumped_mass() : Eigen::VectorXd(), fr = free, a, c,
-               background] {
+               background, cancel = cancel_] {
     if (background) yield_to_frames();  // a fresh thread per job (std::launch::async)
-    return factorize(e, mass, fr, a, c);
+    return factorize(e, mass, fr, a, c, *cancel);
   };
   job_ = std::async(background ? std::launch::async : std::launch::deferred, std::move(task));
   background_factorizations_ += background;

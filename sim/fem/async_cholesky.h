@@ -25,6 +25,7 @@
 // it stays fixed during a solve. Q orthogonal keeps M^-1 symmetric positive definite.
 //
 // Factorization: CHOLMOD's supernodal LL^T when built with it, else Eigen's SimplicialLDLT.
+#include <atomic>
 #include <cstdint>
 #include <future>
 #include <memory>
@@ -63,7 +64,7 @@ struct AsyncCholeskyOptions {
 class AsyncCholesky : public CgPreconditioner {
 public:
   explicit AsyncCholesky(const FemModel& model, const AsyncCholeskyOptions& options = {});
-  ~AsyncCholesky() override;  // waits for a running factorization
+  ~AsyncCholesky() override;  // stops a running factorization at its next phase and waits for it
 
   // Between frames, before the solve: adopts a finished factor, and starts a new one when stale
   // (see mark_stale, apply) or the last frame needed more than refactor_iterations. The system
@@ -112,6 +113,9 @@ private:
   AsyncCholeskyOptions opt_;
   std::shared_ptr<Factor> factor_;
   std::future<std::shared_ptr<Factor>> job_;
+  // Set by the destructor: the running job stops at its next phase (assembly, ordering, numeric
+  // factor) instead of finishing a factor nobody will use.
+  std::shared_ptr<std::atomic<bool>> cancel_;
   void map_added(const VertexOrigin& o);  // P's row of an added vertex, from its parents
 
   std::vector<std::uint32_t> changed_since_snapshot_;  // vertices to uncover when the job lands
