@@ -53,8 +53,8 @@ struct AsyncCholesky::Factor {
 
 namespace {
 
-// Runs on the background thread; owns everything it reads.
-// Stops (a factor with ok false) at the next phase once `cancel` is set.
+// Runs on the background thread, or on the frame's for a factor the frame waits for; owns
+// everything it reads. Stops (a factor with ok false) at the next phase once `cancel` is set.
 std::shared_ptr<AsyncCholesky::Factor> factorize(const FemElements& e, const Eigen::VectorXd& mass,
                                                  const std::vector<std::uint8_t>& free, double a, double c,
                                                  const std::atomic<bool>& cancel) {
@@ -67,8 +67,8 @@ std::shared_ptr<AsyncCholesky::Factor> factorize(const FemElements& e, const Eig
   std::vector<Eigen::Triplet<double>> lower;  // the factorizations read the lower triangle only
   lower.reserve(e.alive.size() * 78);
   for (std::size_t t = 0; t < e.alive.size(); ++t) {
-    if (!e.alive[t]) continue;
     if (t % 4096 == 0 && cancelled()) return f;
+    if (!e.alive[t]) continue;
     for (int i = 0; i < 4; ++i)
       for (int j = 0; j < 4; ++j) {
         const Eigen::Matrix3d blk = c * e.block(t, i, j);
