@@ -502,7 +502,8 @@ private:
 // share Amdahl's law gives from the speed-up S on p threads: s = (p / S - 1) / (p - 1).
 // Passes (median of 15, ms): K x, the block-Jacobi and multigrid applications, the
 // relinearization (every tet's rotation and the diagonal blocks) and a tenth of it (what a budget too
-// small for every rotation refreshes a frame), and CG's vector work per
+// small for every rotation refreshes a frame), the multigrid's coarse factor (what every
+// patch after a cut step refactors), and CG's vector work per
 // iteration (a Jacobi CG of 40 iterations on a diagonal operator, less its products and
 // applications).
 void section_scaling(const std::vector<std::string>& organ_files, long box_tets, Csv& csv) {
@@ -577,7 +578,7 @@ void section_scaling(const std::vector<std::string>& organ_files, long box_tets,
         }
         return pct(t, 0.5);
       };
-      std::vector<double> kx, bja, amga, relin, partial, vec;
+      std::vector<double> kx, bja, amga, relin, partial, vec, coarse;
       const std::size_t tenth = std::max<std::size_t>(1, sim.model().rotation_packets() / 10);
       std::size_t cursor = 0;
       for (int t : threads) {
@@ -586,6 +587,16 @@ void section_scaling(const std::vector<std::string>& organ_files, long box_tets,
         bja.push_back(med15([&] { bj.apply(r, z); }));
         amga.push_back(med15([&] { amg.apply(r, z); }));
         relin.push_back(med15([&] { sim.model().update_rotations(u); }));
+        // The coarse factor a patch after each cut step refactors (timed inside a rebuild).
+        {
+          std::vector<double> f;
+          for (int k = 0; k < 15; ++k) {
+            amg.mark_stale();
+            amg.setup(sim.model(), &sim.free_mask());
+            f.push_back(amg.build_stats().factor_ms);
+          }
+          coarse.push_back(pct(f, 0.5));
+        }
         // What a budget too small for every rotation refreshes a frame: a tenth, in turn.
         partial.push_back(med15([&] {
           sim.model().update_rotations_partial(u, cursor, tenth);
@@ -612,6 +623,7 @@ void section_scaling(const std::vector<std::string>& organ_files, long box_tets,
       row(me.name, "K x, " + f, m.num_tets(), kx);
       row(me.name, "relinearization, " + f, m.num_tets(), relin);
       row(me.name, "a tenth of it, " + f, m.num_tets(), partial);
+      row(me.name, "multigrid coarse factor, " + f, m.num_tets(), coarse);
       if (form == Formulation::Standard) {
         row(me.name, "block-Jacobi apply", m.num_tets(), bja);
         row(me.name, "multigrid apply", m.num_tets(), amga);

@@ -61,9 +61,9 @@ void add_cut(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--no-improve", o->no_improve, "No local flips and smoothing after each step");
   cmd->add_flag("--exact-volumes,!--no-exact-volumes", o->exact_volumes,
-                "Keep every label's volume (and the body's) to rounding (the default): the improvement may not "
-                "contract edges that move the surface, a cut or a label interface. --no-exact-volumes lets it, "
-                "moving each by a hair (docs/cut.md#label-volumes)");
+                "Keep every label's volume (and the body's) to rounding (the default): a contraction that moves "
+                "the surface moves its kept vertex by what gives the volume back. --no-exact-volumes takes "
+                "those contractions as they are, moving each label by a hair (docs/cut.md#label-volumes)");
   cmd->add_option("--improve-work", o->work,
                   "Operations the local improvement may attempt per step (0: no cap). The default result is "
                   "reproducible: the same command gives the same mesh on every run")

@@ -84,8 +84,9 @@ Cutter::Impl::Impl(TetMesh& mesh, CutOptions options)
       fragment_scratch_(std::make_unique<FragmentScratch>()) {
   if (const std::string e = snap_error(opt_.snap); !e.empty()) throw InvalidArgument("cut: snap: " + e);
   if (opt_.exact_volumes) {
-    opt_.improve_options.collapse_tolerance = 0;
-    opt_.improve_options.collapse_deviation = 0;
+    // Contractions that move the surface, a cut or an interface give their label the volume
+    // back by moving the kept vertex; curved slides stay off.
+    opt_.improve_options.collapse_restores_volume = true;
     opt_.improve_options.slide_curved = false;
   }
   // Room for the cuts' new vertices and tets: the first steps then do not copy the mesh's

@@ -82,11 +82,13 @@ struct CutOptions {
   // costs more (docs/cut.md#the-opening).
   bool provisional = false;
   // true (the default): the cut and its improvement keep every label's volume, and the body's,
-  // to rounding: the improvement's contractions may not move the body's surface, a cut or a
-  // label interface (improve_options' collapse_tolerance and collapse_deviation, and curved
-  // slides, are off). The cut itself never moves those (snapping moves only interior vertices
-  // of one label). false lets those contractions remove slivers along curved rims and bent
-  // sheets, moving volume by a hair each (docs/cut.md#label-volumes says what each way costs).
+  // to rounding: a contraction that moves the body's surface (improve_options'
+  // collapse_tolerance and collapse_deviation) is taken only with its kept vertex moved by what
+  // gives the label its volume back, within the cut planes there
+  // (ImproveOptions::collapse_restores_volume), and curved slides are off. The cut itself never
+  // moves volume (snapping moves only interior vertices of one label). false takes those
+  // contractions as they are, moving volume by a hair each, and lets vertices slide on curved
+  // surfaces (docs/cut.md#label-volumes says what each way costs).
   bool exact_volumes = true;
   // Used when improve (rings, budget, ...); frozen is set per step. With exact_volumes off,
   // contraction tolerance 0.01:

@@ -29,10 +29,18 @@ struct CollapseOptions {
   // sheets and rims that nothing else removes (ImproveOptions::collapse_deviation).
   double surface_deviation = 0;
   double feature_angle_deg = 30;
+  // With tolerance or surface_deviation: a contraction that moves the surface is taken only
+  // with the kept vertex moved by what gives its label back exactly the volume the contraction
+  // moved (ImproveOptions::collapse_restores_volume): along the gradient of the volume, within
+  // every cut plane at the two vertices, by at most surface_deviation (or tolerance) times the
+  // mean surface edge at the kept vertex; refused where the two stars hold more than one label
+  // or the cut planes leave no direction.
+  bool restore_volume = false;
 };
 
 struct CollapseOutcome {
   VertexId kept, removed_vertex;
+  bool kept_moved = false;     // restore_volume moved `kept` (its tets are in removed and rebuilt)
   std::vector<TetId> removed;  // every tet of the removed vertex before the collapse
   std::vector<TetId> rebuilt;  // the ones still alive (same ids, rebuilt on `kept`)
   double volume_change = 0;    // sum over labels of |volume change| (tolerance mode only)

@@ -82,6 +82,7 @@ public:
     collapse_.edge_ratio = opt.collapse_edge_ratio;
     collapse_.tolerance = opt.collapse_tolerance;
     collapse_.surface_deviation = opt.collapse_deviation;
+    collapse_.restore_volume = opt.collapse_restores_volume;
     collapse_.feature_angle_deg = opt.feature_angle_deg;
     // Boundary vertices that may not slide may not be contracted away either (the boundary's
     // triangulation then stays as it is).
@@ -231,6 +232,7 @@ private:
       rep.volume_change += c->volume_change;
       const std::uint32_t gone = c->removed_vertex.idx();
       moved.erase(gone);
+      if (c->kept_moved) moved.insert(c->kept.idx());
       stuck_.erase(gone);
       curved_slides_.erase(gone);
       replaced(c->removed, c->rebuilt);

@@ -56,6 +56,10 @@ struct ImproveOptions {
                                      // curved or bent surface (never across a feature edge: see
                                      // feature_angle_deg), when it stays within this times its mean surface
                                      // edge of the surface after (quality/collapse.h; cutter: 0.05, its snap)
+  bool collapse_restores_volume = false;  // with collapse_tolerance or collapse_deviation: such a contraction
+                                     // is taken only with the kept vertex moved by what gives the label its
+                                     // volume back exactly (within the cut planes there; quality/collapse.h),
+                                     // so labels keep their volumes to rounding (the cutter's exact_volumes)
   double max_growth = 1.5;           // tet count stays <= max_growth x input (region in local mode)
   bool move_surface = true;          // boundary vertices may slide within the (flat part of the) surface
   bool move_cut = true;              // vertices on cut-tagged faces may slide within their plane
