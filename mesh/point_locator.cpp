@@ -47,6 +47,25 @@ Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3
   return a + ab * (vb * den) + ac * (vc * den);
 }
 
+double star_coordinates(const TetMesh& mesh, VertexId v, const Vec3& p, std::vector<VertexId>& parents,
+                        std::vector<double>& weights) {
+  double best = -std::numeric_limits<double>::infinity();
+  for (TetId t : mesh.incident_tets(v)) {
+    const auto& tv = mesh.tet_vertices(t);
+    Eigen::Matrix3d a;
+    for (int k = 0; k < 3; ++k) a.col(k) = mesh.rest(tv[std::size_t(k) + 1]) - mesh.rest(tv[0]);
+    const Vec3 l = a.partialPivLu().solve(p - mesh.rest(tv[0]));
+    const double w[4] = {1 - l.sum(), l[0], l[1], l[2]};
+    const double m = std::min({w[0], w[1], w[2], w[3]});
+    if (m > best) {
+      best = m;
+      parents.assign(tv.begin(), tv.end());
+      weights.assign(w, w + 4);
+    }
+  }
+  return best;
+}
+
 PointLocator::PointLocator(const TetMesh& mesh) : mesh_(&mesh) {
   if (mesh.num_tets() == 0) return;
   const RestBounds box = rest_bounds(mesh);

@@ -22,6 +22,12 @@ struct PointLocation {
 // The point of triangle abc nearest to p (any triangle, flat ones too).
 Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c);
 
+// p in the tet of v's star where it lies deepest: that tet's vertices and p's barycentric
+// weights in it (move_vertex's parents), and the smallest weight, negative when p lies outside
+// the star. No tet: -infinity and the vectors untouched.
+double star_coordinates(const TetMesh& mesh, VertexId v, const Vec3& p, std::vector<VertexId>& parents,
+                        std::vector<double>& weights);
+
 class PointLocator {
 public:
   explicit PointLocator(const TetMesh& mesh);  // O(mesh); the mesh must outlive it

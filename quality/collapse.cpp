@@ -5,8 +5,6 @@
 #include <numbers>
 #include <span>
 
-#include <Eigen/LU>
-
 #include "mesh/edge_collapse.h"
 #include "mesh/point_locator.h"
 #include "quality/surface_star.h"
@@ -86,26 +84,6 @@ std::optional<Vec3> volume_restoring_shift(const TetMesh& mesh, const CollapsePl
   const Vec3 shift = (-dv / g.dot(d)) * d;
   if (!(shift.norm() <= reach)) return std::nullopt;
   return shift;
-}
-
-// Barycentric parents of p in the tet of v's star where it lies deepest (weights may be a
-// little negative: a shift that moves the surface out), for move_vertex.
-void parents_of(const TetMesh& mesh, VertexId v, const Vec3& p, std::vector<VertexId>& parents,
-                std::vector<double>& weights) {
-  double best = -1e300;
-  for (TetId t : mesh.incident_tets(v)) {
-    const auto& tv = mesh.tet_vertices(t);
-    Eigen::Matrix3d a;
-    for (int k = 0; k < 3; ++k) a.col(k) = mesh.rest(tv[std::size_t(k) + 1]) - mesh.rest(tv[0]);
-    const Vec3 l = a.partialPivLu().solve(p - mesh.rest(tv[0]));
-    const double w[4] = {1 - l.sum(), l[0], l[1], l[2]};
-    const double m = std::min({w[0], w[1], w[2], w[3]});
-    if (m > best) {
-      best = m;
-      parents.assign(tv.begin(), tv.end());
-      weights.assign(w, w + 4);
-    }
-  }
 }
 
 }  // namespace
@@ -269,7 +247,7 @@ std::optional<CollapseOutcome> improve_by_collapse(TetMesh& mesh, TetId t, const
   if (best_shift != Vec3::Zero()) {
     std::vector<VertexId> parents;
     std::vector<double> weights;
-    parents_of(mesh, out.kept, target, parents, weights);
+    star_coordinates(mesh, out.kept, target, parents, weights);  // weights < 0 where it moved out
     mesh.move_vertex(out.kept, parents, weights);
     out.kept_moved = true;
     for (TetId u : mesh.incident_tets(out.kept))

@@ -6,6 +6,7 @@
 #include <map>
 #include <vector>
 
+#include "mesh/point_locator.h"
 #include "quality/star_ascent.h"
 
 namespace incise {
@@ -303,19 +304,7 @@ bool locate(const TetMesh& mesh, VertexId v, const Vec3& p, const Freedom& fr, s
       }
     }
   } else {
-    for (TetId t : mesh.incident_tets(v)) {
-      const auto& tv = mesh.tet_vertices(t);
-      Eigen::Matrix3d a;
-      for (int k = 0; k < 3; ++k) a.col(k) = mesh.rest(tv[k + 1]) - mesh.rest(tv[0]);
-      const Vec3 l = a.partialPivLu().solve(p - mesh.rest(tv[0]));
-      const double w[4] = {1 - l.sum(), l[0], l[1], l[2]};
-      const double m = std::min({w[0], w[1], w[2], w[3]});
-      if (m > best) {
-        best = m;
-        parents.assign(tv.begin(), tv.end());
-        weights.assign(w, w + 4);
-      }
-    }
+    best = star_coordinates(mesh, v, p, parents, weights);
   }
   if (!(best > -1e-9)) return false;
   double s = 0;
