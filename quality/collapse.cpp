@@ -31,7 +31,7 @@ bool holds(std::span<const TetId> tets, TetId t) { return std::find(tets.begin()
 // shift may: see there). A star's volume is linear in its centre's position, so the shift
 // is exact: along d, by -dV / (g . d) for the volume's gradient g, d being g without its
 // components across the cut planes at the two vertices (cut faces stay in their planes).
-std::optional<Vec3> volume_restoring_shift(const TetMesh& mesh, const CollapsePlan& plan, double reach) {
+std::optional<Vec3> volume_restoring_shift(const TetMesh& mesh, const CollapsePlan& plan, double bound) {
   int label = mesh.label(*mesh.incident_tets(plan.remove).begin());
   double before = 0, after = 0, scale = 0;
   for (TetId t : mesh.incident_tets(plan.remove)) {
@@ -82,7 +82,11 @@ std::optional<Vec3> volume_restoring_shift(const TetMesh& mesh, const CollapsePl
   for (const Vec3& e : planes) d -= d.dot(e) * e;
   if (!(d.squaredNorm() >= 0.01 * g.squaredNorm()) || !(g.squaredNorm() > 0)) return std::nullopt;
   const Vec3 shift = (-dv / g.dot(d)) * d;
-  if (!(shift.norm() <= reach)) return std::nullopt;
+  // At most `bound` times the mean surface edge at keep.
+  double h = 0;
+  const auto around = surface_neighbours(mesh, plan.keep);
+  for (std::uint32_t w : around) h += (mesh.rest(VertexId(w)) - p).norm();
+  if (!(shift.norm() <= bound * h / double(std::max<std::size_t>(around.size(), 1)))) return std::nullopt;
   return shift;
 }
 
@@ -183,12 +187,7 @@ std::optional<CollapseOutcome> improve_by_collapse(TetMesh& mesh, TetId t, const
       if (!c.ok()) continue;
       Vec3 shift = Vec3::Zero();
       if (opt.restore_volume) {
-        double h = 0;
-        const auto around = surface_neighbours(mesh, keep);
-        for (std::uint32_t w : around) h += (mesh.rest(VertexId(w)) - mesh.rest(keep)).norm();
-        const double reach = std::max(opt.surface_deviation, opt.tolerance) * h /
-                             double(std::max<std::size_t>(around.size(), 1));
-        const auto s = volume_restoring_shift(mesh, c.plan, reach);
+        const auto s = volume_restoring_shift(mesh, c.plan, std::max(opt.surface_deviation, opt.tolerance));
         if (!s) continue;
         shift = *s;
         c.plan.volume_change = 0;
