@@ -30,7 +30,7 @@ struct Counting : LinearOperator {
 };
 
 // A cantilever fixed at x = 0 with a tip probe (prescribed) and a traction.
-struct Cantilever {
+struct ProbedCantilever {
   TetMesh mesh = make_box(Vec3(4, 1, 1), {16, 4, 4});
   std::vector<VertexId> tip;
   void setup(FemSimulation& sim) {
@@ -49,7 +49,7 @@ struct Cantilever {
 }  // namespace
 
 TEST_CASE("CG setup costs one product, a resume none", "[fem][frames]") {
-  Cantilever c;
+  ProbedCantilever c;
   FemSimulation sim(c.mesh, table(1e5, 0.3));
   c.setup(sim);
   c.probe(sim, Vec3(0, 0, -0.1));
@@ -90,7 +90,7 @@ TEST_CASE("CG setup costs one product, a resume none", "[fem][frames]") {
 TEST_CASE("budgeted frames on an unchanged problem add up to one uninterrupted solve", "[fem][frames]") {
   for (FemKind kind : {FemKind::Linear, FemKind::Corotational}) {
     for (Preconditioner pc : {Preconditioner::Jacobi, Preconditioner::BlockJacobi}) {
-      Cantilever c;
+      ProbedCantilever c;
       FemSimulationOptions opt;
       opt.kind = kind;
       opt.cg.tolerance = 1e-9;
@@ -141,7 +141,7 @@ TEST_CASE("budgeted frames on an unchanged problem add up to one uninterrupted s
 
 TEST_CASE("time the frame spent before the step (a cut) comes off the budget", "[fem][frames]") {
   for (FemKind kind : {FemKind::Linear, FemKind::Corotational}) {
-    Cantilever c;
+    ProbedCantilever c;
     FemSimulationOptions opt;
     opt.kind = kind;
     opt.cg.tolerance = 1e-9;
@@ -187,7 +187,7 @@ TEST_CASE("time the frame spent before the step (a cut) comes off the budget", "
 }
 
 TEST_CASE("a change between budgeted frames restarts CG and still converges", "[fem][frames]") {
-  Cantilever c;
+  ProbedCantilever c;
   FemSimulationOptions opt;
   opt.cg.tolerance = 1e-9;
   opt.cg.preconditioner = Preconditioner::Jacobi;  // capped at 5 iterations: needs many frames
@@ -217,7 +217,7 @@ TEST_CASE("predicting warm start: never a worse start than the last solution, fe
     if (f < 20) return -0.12 - 0.002 * (f - 12) * (f - 12);
     return -0.248 + 0.03 * (f - 20);
   };
-  Cantilever c;
+  ProbedCantilever c;
   auto run = [&](bool warm, bool predict, std::vector<FrameStats>& st) {
     FemSimulationOptions opt;
     opt.warm_start = warm;
@@ -261,7 +261,7 @@ TEST_CASE("a frame right after a topology change starts from the last solution, 
   // products of a run without prediction (no direction products) and starts where it does;
   // the next frames predict again.
   auto run = [](bool predict) {
-    Cantilever c;
+    ProbedCantilever c;
     FemSimulationOptions opt;
     opt.cg.tolerance = 1e-8;
     opt.cg.preconditioner = Preconditioner::Jacobi;
