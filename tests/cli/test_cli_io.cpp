@@ -21,7 +21,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct Run {
+struct IoRun {
   int rc = -1;
   std::string out, err;
 };
@@ -53,11 +53,11 @@ struct Dir {
   }
 };
 
-Run run(const Dir& d, const std::string& args) {
+IoRun run(const Dir& d, const std::string& args) {
   const std::string out = d / "stdout.txt", err = d / "stderr.txt";
   std::string cmd = std::string(INCISE_EXE) + " " + args + " > " + out + " 2> " + err;
   int status = std::system(cmd.c_str());
-  Run r;
+  IoRun r;
   r.rc = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   r.out = slurp(out);
   r.err = slurp(err);
@@ -67,7 +67,7 @@ Run run(const Dir& d, const std::string& args) {
 }
 
 // Exactly one line on stderr, "incise: error: FILE...".
-void require_one_line_error(const Run& r, const std::string& file) {
+void require_one_line_error(const IoRun& r, const std::string& file) {
   INFO("stderr: " << r.err);
   REQUIRE(r.rc == 1);
   REQUIRE(!r.err.empty());
@@ -87,10 +87,10 @@ TEST_CASE("incise info on good files", "[cli][io]") {
   for (std::string name : {"e.msh", "e.mesh", "e.vtk", "e.vtu", "e.node"}) {
     write_tet_mesh(m, d / name);
     INFO(name);
-    Run text = run(d, "info " + (d / name));
+    IoRun text = run(d, "info " + (d / name));
     CHECK(text.rc == 0);
     CHECK(text.out.find("tets                   " + std::to_string(m.num_tets())) != std::string::npos);
-    Run js = run(d, "info --json " + (d / name));
+    IoRun js = run(d, "info --json " + (d / name));
     REQUIRE(js.rc == 0);
     auto j = nlohmann::json::parse(js.out);
     CHECK(j["tets"] == m.num_tets());
@@ -104,7 +104,7 @@ TEST_CASE("incise info on good files", "[cli][io]") {
   }
   // A surface.
   std::ofstream(d / "t.off") << "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
-  Run s = run(d, "info --json " + (d / "t.off"));
+  IoRun s = run(d, "info --json " + (d / "t.off"));
   REQUIRE(s.rc == 0);
   auto j = nlohmann::json::parse(s.out);
   CHECK(j["triangles"] == 4);
@@ -121,7 +121,7 @@ TEST_CASE("incise info and convert on bad files: one line, exit 1", "[cli][io]")
   std::ofstream(d / "surface.off") << "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
   std::ofstream(d / "tris.mesh") << "MeshVersionFormatted 2\nDimension 3\nVertices\n3\n0 0 0 0\n1 0 0 0\n0 1 0 0\n"
                                     "Triangles\n1\n1 2 3 1\nEnd\n";
-  Run r = run(d, "info " + (d / "bad.msh"));
+  IoRun r = run(d, "info " + (d / "bad.msh"));
   require_one_line_error(r, d / "bad.msh:7: ");
   CHECK(r.err.find("non-finite") != std::string::npos);
   require_one_line_error(run(d, "info " + (d / "medit.msh")), d / "medit.msh:1: ");
@@ -151,7 +151,7 @@ TEST_CASE("a mesh with overlapping tets is refused by every command that reads i
                                 "cut " + (d / "span.mesh") + " -o " + (d / "x.vtu") + " --plane 0.5 0.5 0.5 1 0 0",
                                 "simulate " + (d / "scene.json") + " -o " + (d / "run")}) {
     INFO(cmd);
-    const Run r = run(d, cmd);
+    const IoRun r = run(d, cmd);
     require_one_line_error(r, d / "span.mesh:");
     CHECK(r.err.find("overlaps tet #") != std::string::npos);
   }
@@ -170,7 +170,7 @@ TEST_CASE("incise convert: every direction, and failures leave no trace", "[cli]
       {"c.vtu", "--big-endian"}, {"d.vtu", "--binary --header64"}, {"a.node", ""}, {"a.msh", "--no-boundary"}};
   for (const auto& [name, flags] : outs) {
     INFO(name << " " << flags);
-    Run r = run(d, "convert " + (d / "src.msh") + " " + (d / name) + " " + flags);
+    IoRun r = run(d, "convert " + (d / "src.msh") + " " + (d / name) + " " + flags);
     REQUIRE(r.rc == 0);
     TetMesh back = read_tet_mesh(d / name);
     REQUIRE(back.num_tets() == m.num_tets());
@@ -200,15 +200,15 @@ TEST_CASE("incise convert: every direction, and failures leave no trace", "[cli]
   // A failed conversion does not clobber an existing destination, nor leave temporaries.
   std::ofstream(d / "bad.vtk") << "# vtk DataFile Version 4.2\nx\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 2 double\n0 0\n";
   const std::string before = slurp(d / "a.vtu");
-  Run r = run(d, "convert " + (d / "bad.vtk") + " " + (d / "a.vtu"));
+  IoRun r = run(d, "convert " + (d / "bad.vtk") + " " + (d / "a.vtu"));
   require_one_line_error(r, d / "bad.vtk");
   CHECK(slurp(d / "a.vtu") == before);
-  Run r2 = run(d, "convert " + (d / "bad.vtk") + " " + (d / "fresh.vtu"));
+  IoRun r2 = run(d, "convert " + (d / "bad.vtk") + " " + (d / "fresh.vtu"));
   require_one_line_error(r2, d / "bad.vtk");
   CHECK_FALSE(fs::exists(d / "fresh.vtu"));
-  Run r3 = run(d, "convert " + (d / "src.msh") + " " + (d / "no_dir/x.vtu"));
+  IoRun r3 = run(d, "convert " + (d / "src.msh") + " " + (d / "no_dir/x.vtu"));
   require_one_line_error(r3, d / "no_dir/x.vtu");
-  Run r4 = run(d, "convert " + (d / "src.msh") + " " + (d / "x.unknown"));
+  IoRun r4 = run(d, "convert " + (d / "src.msh") + " " + (d / "x.unknown"));
   require_one_line_error(r4, d / "x.unknown");
   CHECK(d.temporaries() == 0);
   // Usage errors exit 1 too.
@@ -221,13 +221,13 @@ TEST_CASE("first hour: one wording for a missing file, info says which tags came
                                 "simulate " + (d / "missing.json") + " -o " + (d / "run"),
                                 "prepare " + (d / "missing.off") + " -o " + (d / "x.vtu")}) {
     INFO(cmd);
-    const Run r = run(d, cmd);
+    const IoRun r = run(d, cmd);
     CHECK(r.rc == 1);
     CHECK(r.err.find("missing.") != std::string::npos);
     CHECK(r.err.find(": no such file\n") != std::string::npos);
   }
   write_tet_mesh(make_box(Vec3(1, 1, 1), {1, 1, 1}), d / "b.vtu");
-  const Run j = run(d, "info --json " + (d / "b.vtu"));
+  const IoRun j = run(d, "info --json " + (d / "b.vtu"));
   REQUIRE(j.rc == 0);
   const auto info = nlohmann::json::parse(j.out);
   CHECK(info["boundary_tags"]["1"] == 12);
@@ -242,9 +242,9 @@ TEST_CASE("what prepare writes reads back: the improvement's sub-percent tangles
   // so incise reads its own output (it refused it at a tolerance of 1e-7).
   Dir d;
   const std::string out = d / "liver.vtu";
-  const Run p = run(d, "prepare " + std::string(INCISE_SOURCE_DIR) + "/samples/liver.inr.gz -o " + out + " --size 1.7% -q");
+  const IoRun p = run(d, "prepare " + std::string(INCISE_SOURCE_DIR) + "/samples/liver.inr.gz -o " + out + " --size 1.7% -q");
   REQUIRE(p.rc == 0);
-  const Run i = run(d, "info " + out);
+  const IoRun i = run(d, "info " + out);
   INFO(i.err);
   CHECK(i.rc == 0);
 }
@@ -268,7 +268,7 @@ TEST_CASE("first hour: a user's cut scene runs to the end, every frame reads bac
   "cuts": [{"blade": [[140, 40, 210], [140, 180, 210]], "sweep": [0, 0, -120], "from_frame": 10, "to_frame": 30}],
   "time": {"frames": 40}})";
   }
-  const Run r = run(d, "simulate " + (d / "scene.json") + " -o " + (d / "run") + " -q");
+  const IoRun r = run(d, "simulate " + (d / "scene.json") + " -o " + (d / "run") + " -q");
   INFO(r.err);
   REQUIRE(r.rc == 0);
   // In one unit system, as it states: no warning but the one about a slow frame, which depends
@@ -313,7 +313,7 @@ TEST_CASE("first hour: a user's cut scene runs to the end, every frame reads bac
                 R"(, "inversion_barrier": true, "solver": {"nonlinear_iterations": 2, "preconditioner": "amg"})");
     std::ofstream(d / "held.json") << text;
   }
-  const Run h = run(d, "simulate " + (d / "held.json") + " -o " + (d / "held") + " -q --json");
+  const IoRun h = run(d, "simulate " + (d / "held.json") + " -o " + (d / "held") + " -q --json");
   INFO(h.err);
   REQUIRE(h.rc == 0);
   const auto summary = nlohmann::json::parse(h.out);

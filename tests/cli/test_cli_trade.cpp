@@ -13,7 +13,7 @@ using namespace incise::testing;
 
 namespace {
 
-const char* kScene = R"({
+const char* kTradeScene = R"({
   "mesh": {"generate": "box", "size": [4, 1, 1], "cells": [8, 2, 2]},
   "model": "fem-corotational",
   "materials": {"*": {"young": 1e5, "poisson": 0.3}},
@@ -57,7 +57,7 @@ std::string trade_args(const fs::path& dir, const std::string& options) {
 TEST_CASE("incise trade writes the grid, the errors against a converged reference and the Pareto plot", "[cli][trade][long]") {
   const fs::path dir = scratch_dir("cli_trade");
   {
-    std::ofstream(dir / "scene.json") << kScene;
+    std::ofstream(dir / "scene.json") << kTradeScene;
   }
   const Run r = run_incise("trade '" + (dir / "scene.json").string() + "' -o '" + (dir / "out").string() +
                                "' --tolerances 1e-2 1e-6 --budgets 0 --resolutions 0 1 --formulations standard nodal-averaged"
@@ -234,7 +234,7 @@ TEST_CASE("incise trade: bad input is one line, nothing written", "[cli][trade][
   CHECK(r.err.rfind("incise: error: " + (dir / "missing.json").string(), 0) == 0);
   CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
   {
-    std::ofstream(dir / "scene.json") << kScene;
+    std::ofstream(dir / "scene.json") << kTradeScene;
   }
   r = run_incise("trade '" + (dir / "scene.json").string() + "' -o '" + (dir / "out").string() + "' --preconditioners ilu", dir);
   CHECK(r.code == 1);
@@ -265,7 +265,7 @@ TEST_CASE("incise trade: dynamic runs are compared at rest under the loads of th
   // ramp, and were compared pressed the whole way (docs/solver.md, *Like with like*).
   const fs::path dir = scratch_dir("cli_trade_at_rest");
   {
-    std::string scene = kScene;
+    std::string scene = kTradeScene;
     scene.replace(scene.find("\"to_frame\": 3"), 13, "\"to_frame\": 30");
     scene.replace(scene.find("\"frames\": 4"), 11, "\"frames\": 40");
     std::ofstream(dir / "scene.json") << scene;
@@ -290,7 +290,7 @@ TEST_CASE("incise trade: dynamic runs are compared at rest under the loads of th
 TEST_CASE("incise trade --spring-nodal-shares: a row per share of the nodal volume term", "[cli][trade][long]") {
   const fs::path dir = scratch_dir("cli_trade_shares");
   {
-    std::ofstream(dir / "scene.json") << kScene;
+    std::ofstream(dir / "scene.json") << kTradeScene;
   }
   const Run r = run_incise(trade_args(dir, "--models springs --spring-volumes nodal tet --spring-stiffness van-gelder "
                                           "--spring-connectivity edges --spring-nodal-shares 1 0.5 0 --resolutions 0 "

@@ -18,7 +18,7 @@ using namespace incise::testing;
 
 namespace {
 
-double tagged_area(const TetMesh& m, std::uint16_t tag) {
+double face_tag_area(const TetMesh& m, std::uint16_t tag) {
   double a = 0;
   for (const auto& f : m.boundary_faces())
     if (f.tag == tag)
@@ -34,7 +34,7 @@ TEST_CASE("generated meshes are valid, closed and have the analytic volume", "[m
   CHECK(box.num_tets() == 6 * 3 * 4 * 5);
   CHECK(box.num_vertices() == 4 * 5 * 6);
   CHECK(box.total_volume() == Approx(24.0).epsilon(1e-12));
-  CHECK(tagged_area(box, kTagSurface) == Approx(2 * (6 + 8 + 12)).epsilon(1e-12));
+  CHECK(face_tag_area(box, kTagSurface) == Approx(2 * (6 + 8 + 12)).epsilon(1e-12));
   // The mirrored split (diagonals alternate) conforms too: no face left open inside, so the
   // tagged boundary is the box's surface alone.
   TetMesh mirrored = make_box(Vec3(2, 3, 4), {3, 4, 5}, 1, BoxSplit::Mirrored);
@@ -42,7 +42,7 @@ TEST_CASE("generated meshes are valid, closed and have the analytic volume", "[m
   CHECK(mirrored.num_tets() == 6 * 3 * 4 * 5);
   CHECK(mirrored.boundary_faces().size() == box.boundary_faces().size());
   CHECK(mirrored.total_volume() == Approx(24.0).epsilon(1e-12));
-  CHECK(tagged_area(mirrored, kTagSurface) == Approx(2 * (6 + 8 + 12)).epsilon(1e-12));
+  CHECK(face_tag_area(mirrored, kTagSurface) == Approx(2 * (6 + 8 + 12)).epsilon(1e-12));
 
   for (int n : {1, 2, 5, 10}) {
     TetMesh ball = make_ellipsoid(Vec3(1, 1, 1), n);
@@ -75,7 +75,7 @@ TEST_CASE("thousands of random edits keep every invariant, the volume and the ta
   for (TetMesh& m : meshes) {
     std::mt19937 rng(seed++);
     const double vol = m.total_volume();
-    const double area = tagged_area(m, kTagSurface);
+    const double area = face_tag_area(m, kTagSurface);
     int edits = 0;
     for (int i = 0; i < 1500; ++i) {
       if (!random_edit(m, rng)) continue;
@@ -87,7 +87,7 @@ TEST_CASE("thousands of random edits keep every invariant, the volume and the ta
     m.validate({true, true});
     CHECK(edits > 300);
     CHECK(m.total_volume() == Approx(vol).epsilon(1e-9));
-    CHECK(tagged_area(m, kTagSurface) == Approx(area).epsilon(1e-9));
+    CHECK(face_tag_area(m, kTagSurface) == Approx(area).epsilon(1e-9));
   }
 }
 
@@ -102,7 +102,7 @@ TEST_CASE("cavity insertions keep every invariant, the volume, the labels and th
       if (m.label(t) == lab) v += m.volume(t);
     return v;
   };
-  const double vol0 = label_volume(0), vol3 = label_volume(3), area = tagged_area(m, kTagSurface);
+  const double vol0 = label_volume(0), vol3 = label_volume(3), area = face_tag_area(m, kTagSurface);
   std::mt19937 rng(4);
   int done = 0, multi = 0;
   m.discard_change();
@@ -118,7 +118,7 @@ TEST_CASE("cavity insertions keep every invariant, the volume, the labels and th
   CHECK(multi > 20);
   CHECK(label_volume(0) == Approx(vol0).epsilon(1e-12));
   CHECK(label_volume(3) == Approx(vol3).epsilon(1e-12));
-  CHECK(tagged_area(m, kTagSurface) == Approx(area).epsilon(1e-12));
+  CHECK(face_tag_area(m, kTagSurface) == Approx(area).epsilon(1e-12));
   const TopologyChange ch = m.take_change();
   CHECK(ch.added_vertices.size() == static_cast<std::size_t>(done));
   // Each new vertex sits where its record's parents put it.
@@ -136,7 +136,7 @@ TEST_CASE("boundary cavity insertions split a boundary face or edge in place, ke
   for (TetId t : m.tets())  // a second tag on part of the surface
     for (int f = 0; f < 4; ++f)
       if (!m.neighbor(t, f).is_valid() && t.idx() % 3 == 0) m.set_face_tag(t, f, kTagCut);
-  const double vol = m.total_volume(), surface = tagged_area(m, kTagSurface), cut = tagged_area(m, kTagCut);
+  const double vol = m.total_volume(), surface = face_tag_area(m, kTagSurface), cut = face_tag_area(m, kTagCut);
   const std::size_t faces = m.boundary_faces().size();
   std::mt19937 rng(9);
   int on_face = 0, on_edge = 0;
@@ -174,8 +174,8 @@ TEST_CASE("boundary cavity insertions split a boundary face or edge in place, ke
   CHECK(on_face > 30);
   CHECK(on_edge > 30);
   CHECK(m.total_volume() == Approx(vol).epsilon(1e-12));
-  CHECK(tagged_area(m, kTagSurface) == Approx(surface).epsilon(1e-12));
-  CHECK(tagged_area(m, kTagCut) == Approx(cut).epsilon(1e-12));
+  CHECK(face_tag_area(m, kTagSurface) == Approx(surface).epsilon(1e-12));
+  CHECK(face_tag_area(m, kTagCut) == Approx(cut).epsilon(1e-12));
   CHECK(m.boundary_faces().size() == faces + 2 * std::size_t(on_face + on_edge));
   // A face point must lie inside its face; an interior face is not a boundary face.
   const TetId t = m.tets().front();

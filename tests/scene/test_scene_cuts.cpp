@@ -32,7 +32,7 @@ std::string beam_scene(const std::string& cut, const std::string& extra = "") {
   "cuts": [)" + cut + "]" + extra + "}";
 }
 
-fs::path temp_dir(const std::string& name) {
+fs::path cuts_temp_dir(const std::string& name) {
   fs::path d = fs::temp_directory_path() / ("incise_scene_cuts_" + name);
   fs::remove_all(d);
   return d;
@@ -40,7 +40,7 @@ fs::path temp_dir(const std::string& name) {
 
 // Plays s into a fresh temporary directory `name` (out: that directory).
 SceneRunSummary run_in(const Scene& s, const std::string& name, fs::path& out) {
-  out = temp_dir(name);
+  out = cuts_temp_dir(name);
   SceneRunOptions ro;
   ro.out_dir = out.string();
   return run_scene(s, ro);

@@ -61,7 +61,7 @@ std::function<void(SceneRunner&)> sever_at(int frame) {
   };
 }
 
-fs::path temp_dir(const std::string& name) {
+fs::path guards_temp_dir(const std::string& name) {
   fs::path p = fs::temp_directory_path() / ("incise_test_scene_guards_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(p);
   return p;
@@ -87,7 +87,7 @@ std::string error_of(const Scene& s, const SceneRunOptions& ro) {
 }  // namespace
 
 TEST_CASE("a static scene that keeps a part a cut freed is refused, naming the frame and the part", "[scene][guards]") {
-  const fs::path out = temp_dir("keep");
+  const fs::path out = guards_temp_dir("keep");
   SceneRunOptions ro;
   ro.out_dir = out.string();
   ro.before_frame = sever_at(2);
@@ -140,7 +140,7 @@ TEST_CASE("the same severed scene runs with remove, fix, auto, and keeps the par
 }
 
 TEST_CASE("a frame whose solution blew up stops the run, naming the frame", "[scene][guards]") {
-  const fs::path out = temp_dir("blowup");
+  const fs::path out = guards_temp_dir("blowup");
   SceneRunOptions ro;
   ro.out_dir = out.string();
   SECTION("static FEM: a tip load far beyond the material, from frame 2") {

@@ -53,14 +53,14 @@ std::vector<Eigen::VectorXd> play_by_hand(SceneRunner& run, int frames) {
   return out;
 }
 
-fs::path temp_dir(const std::string& name) {
+fs::path inputs_temp_dir(const std::string& name) {
   const fs::path d = fs::temp_directory_path() / ("incise_scene_inputs_" + name);
   fs::remove_all(d);
   fs::create_directories(d);
   return d;
 }
 
-std::string error_of(const std::string& text) {
+std::string inputs_error_of(const std::string& text) {
   try {
     parse_scene(text, "rec.json");
   } catch (const IoError& e) {
@@ -108,7 +108,7 @@ TEST_CASE("scene inputs: a run by hand, written back as a scene, replays to the 
 
   // Through a file, as `incise simulate` reads and writes it: same final state. (Writing the
   // frames once changed the run: the stress output refreshed the solver's rotations.)
-  const fs::path dir = temp_dir("file");
+  const fs::path dir = inputs_temp_dir("file");
   std::ofstream(dir / "rec.json") << text;
   SceneRunOptions ro;
   ro.out_dir = (dir / "out").string();
@@ -160,24 +160,24 @@ TEST_CASE("scene inputs: inputs a scene cannot say make the run not replayable",
 
 TEST_CASE("scene inputs: bad inputs are refused naming the key", "[scene][errors]") {
   auto with = [](const std::string& inputs) { return beam_text(", \"inputs\": " + inputs); };
-  CHECK(error_of(with(R"([{"frame": 2, "blade": [[0, 0, 2], [1, 0, 2]]}, {"frame": 3, "finish": true}])")) == "(no error)");
-  CHECK_THAT(error_of(with("{}")), Catch::Contains("inputs: expected an array"));
-  CHECK_THAT(error_of(with(R"([{"blade": [[0, 0, 2], [1, 0, 2]]}])")), Catch::Contains("inputs[0].frame: missing"));
-  CHECK_THAT(error_of(with(R"([{"frame": 10, "finish": true}])")), Catch::Contains("inputs[0].frame: frame 10 is after the run's last frame (9)"));
-  CHECK_THAT(error_of(with(R"([{"frame": 3, "finish": true}, {"frame": 2, "finish": true}])")),
+  CHECK(inputs_error_of(with(R"([{"frame": 2, "blade": [[0, 0, 2], [1, 0, 2]]}, {"frame": 3, "finish": true}])")) == "(no error)");
+  CHECK_THAT(inputs_error_of(with("{}")), Catch::Contains("inputs: expected an array"));
+  CHECK_THAT(inputs_error_of(with(R"([{"blade": [[0, 0, 2], [1, 0, 2]]}])")), Catch::Contains("inputs[0].frame: missing"));
+  CHECK_THAT(inputs_error_of(with(R"([{"frame": 10, "finish": true}])")), Catch::Contains("inputs[0].frame: frame 10 is after the run's last frame (9)"));
+  CHECK_THAT(inputs_error_of(with(R"([{"frame": 3, "finish": true}, {"frame": 2, "finish": true}])")),
              Catch::Contains("inputs[1].frame: inputs must be in frame order"));
-  CHECK_THAT(error_of(with(R"([{"frame": 3, "finish": true, "release": true}])")), Catch::Contains("inputs[0]: expected exactly one of"));
-  CHECK_THAT(error_of(with(R"([{"frame": 3}])")), Catch::Contains("inputs[0]: expected exactly one of"));
-  CHECK_THAT(error_of(with(R"([{"frame": 3, "finish": false}])")), Catch::Contains("inputs[0].finish: expected true"));
-  CHECK_THAT(error_of(with(R"([{"frame": 3, "blade": [[0, 0, 2], [0, 0, 2]]}])")), Catch::Contains("inputs[0].blade: the blade's two ends are the same point"));
-  CHECK_THAT(error_of(with(R"([{"frame": 3, "blade": [[0, 0, 2]]}])")), Catch::Contains("inputs[0].blade: expected [[ax,ay,az],[bx,by,bz]]"));
-  CHECK_THAT(error_of(with(R"([{"frame": 3, "blade": [[0, 0, 2], [1, 0, "x"]]}])")), Catch::Contains("inputs[0].blade[1]"));
-  CHECK_THAT(error_of(with(R"([{"frame": 3, "grab": [4, 0.5, 1]}])")), Catch::Contains("inputs[0].radius: missing"));
-  CHECK_THAT(error_of(with(R"([{"frame": 3, "grab": [4, 0.5, 1], "radius": -1}])")), Catch::Contains("inputs[0].radius: expected a positive number"));
-  CHECK_THAT(error_of(with(R"([{"frame": 3, "probe": [0, 0, 1], "radius": 1}])")), Catch::Contains("inputs[0].radius: only for a grab input"));
-  CHECK_THAT(error_of(with(R"([{"frame": 3, "finish": true, "snap": 0.1}])")), Catch::Contains("inputs[0].snap: only for a blade input"));
-  CHECK_THAT(error_of(with(R"([{"frame": 3, "blade": [[0, 0, 2], [1, 0, 2]], "snap": 0.7}])")), Catch::Contains("inputs[0].snap"));
-  CHECK_THAT(error_of(with(R"([{"frame": 3, "blade": [[0, 0, 2], [1, 0, 2]], "mode": "carve"}])")), Catch::Contains("inputs[0].mode: expected"));
-  CHECK_THAT(error_of(with(R"([{"frame": 3, "probe": [0, 0, 1e999]}])")), Catch::Contains("rec.json"));
-  CHECK_THAT(error_of(with(R"([{"frame": 3, "finish": true, "speed": 2}])")), Catch::Contains("inputs[0].speed: unknown key"));
+  CHECK_THAT(inputs_error_of(with(R"([{"frame": 3, "finish": true, "release": true}])")), Catch::Contains("inputs[0]: expected exactly one of"));
+  CHECK_THAT(inputs_error_of(with(R"([{"frame": 3}])")), Catch::Contains("inputs[0]: expected exactly one of"));
+  CHECK_THAT(inputs_error_of(with(R"([{"frame": 3, "finish": false}])")), Catch::Contains("inputs[0].finish: expected true"));
+  CHECK_THAT(inputs_error_of(with(R"([{"frame": 3, "blade": [[0, 0, 2], [0, 0, 2]]}])")), Catch::Contains("inputs[0].blade: the blade's two ends are the same point"));
+  CHECK_THAT(inputs_error_of(with(R"([{"frame": 3, "blade": [[0, 0, 2]]}])")), Catch::Contains("inputs[0].blade: expected [[ax,ay,az],[bx,by,bz]]"));
+  CHECK_THAT(inputs_error_of(with(R"([{"frame": 3, "blade": [[0, 0, 2], [1, 0, "x"]]}])")), Catch::Contains("inputs[0].blade[1]"));
+  CHECK_THAT(inputs_error_of(with(R"([{"frame": 3, "grab": [4, 0.5, 1]}])")), Catch::Contains("inputs[0].radius: missing"));
+  CHECK_THAT(inputs_error_of(with(R"([{"frame": 3, "grab": [4, 0.5, 1], "radius": -1}])")), Catch::Contains("inputs[0].radius: expected a positive number"));
+  CHECK_THAT(inputs_error_of(with(R"([{"frame": 3, "probe": [0, 0, 1], "radius": 1}])")), Catch::Contains("inputs[0].radius: only for a grab input"));
+  CHECK_THAT(inputs_error_of(with(R"([{"frame": 3, "finish": true, "snap": 0.1}])")), Catch::Contains("inputs[0].snap: only for a blade input"));
+  CHECK_THAT(inputs_error_of(with(R"([{"frame": 3, "blade": [[0, 0, 2], [1, 0, 2]], "snap": 0.7}])")), Catch::Contains("inputs[0].snap"));
+  CHECK_THAT(inputs_error_of(with(R"([{"frame": 3, "blade": [[0, 0, 2], [1, 0, 2]], "mode": "carve"}])")), Catch::Contains("inputs[0].mode: expected"));
+  CHECK_THAT(inputs_error_of(with(R"([{"frame": 3, "probe": [0, 0, 1e999]}])")), Catch::Contains("rec.json"));
+  CHECK_THAT(inputs_error_of(with(R"([{"frame": 3, "finish": true, "speed": 2}])")), Catch::Contains("inputs[0].speed: unknown key"));
 }

@@ -15,7 +15,7 @@ using namespace incise;
 namespace {
 
 // A 4 x 1 x 1 beam clamped at x = 0 under gravity; `extra` is spliced in as further keys.
-Scene beam(const std::string& extra = "") {
+Scene runner_beam(const std::string& extra = "") {
   return parse_scene(R"({
   "mesh": {"generate": "box", "size": [4, 1, 1], "cells": [8, 2, 2]},
   "model": "fem-linear",
@@ -45,7 +45,7 @@ double max_abs_difference(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
 
 TEST_CASE("stepping a scene frame by frame gives run_scene's frames", "[scene][runner]") {
   // A probe ramped over frames 1..4 and a blade cutting in over frames 2..3: every frame differs.
-  const Scene s = beam(R"(, "loads": [{"type": "gravity", "g": [0, 0, -1]},
+  const Scene s = runner_beam(R"(, "loads": [{"type": "gravity", "g": [0, 0, -1]},
       {"type": "probe", "box": [4, 0, 0, 4, 1, 1], "displacement": [0, 0, -0.2], "from_frame": 1, "to_frame": 4}],
     "cuts": [{"blade": [[2.03, -0.5, 1.2], [2.03, 1.5, 1.2]], "sweep": [0, 0, -0.6], "from_frame": 2, "to_frame": 3}])");
   const std::vector<Eigen::VectorXd> whole = run_all(s);
@@ -78,10 +78,10 @@ TEST_CASE("a blade advanced from outside between frames cuts the deformed beam l
   const std::string cut = R"(, "cuts": [{"blade": [[2.03, -0.5, 1.3], [2.03, 1.5, 1.3]], "sweep": [0, 0, -1.6],
                                          "from_frame": 1, "to_frame": 1}])";
   SceneRunOptions none;
-  const SceneRunSummary scripted = run_scene(beam(cut), none);
+  const SceneRunSummary scripted = run_scene(runner_beam(cut), none);
   REQUIRE(scripted.fragments_handled == 1);
 
-  SceneRunner runner(beam());
+  SceneRunner runner(runner_beam());
   const SceneFrame first = runner.step();
   const std::size_t tets = runner.mesh().num_tets();
   // Placed, then swept down through the body in two moves (the beam sags under gravity: the
@@ -110,7 +110,7 @@ TEST_CASE("a blade advanced from outside between frames cuts the deformed beam l
 }
 
 TEST_CASE("a probe set from outside holds the vertices it grabs until released", "[scene][runner]") {
-  SceneRunner runner(beam());
+  SceneRunner runner(runner_beam());
   const SceneFrame sag = runner.step();
   // The free end's vertices, grabbed around where it hangs now (it sags by a few hundredths).
   const std::vector<VertexId> grabbed = runner.vertices_near(Vec3(4, 0.5, 0.5), 0.8);
@@ -130,10 +130,10 @@ TEST_CASE("a probe set from outside holds the vertices it grabs until released",
 }
 
 TEST_CASE("a runner checks the scene before the first frame", "[scene][runner][errors]") {
-  CHECK_THROWS_WITH(SceneRunner(beam(R"(, "fixed": [{"box": [9, 9, 9, 9, 9, 9]}])")),
+  CHECK_THROWS_WITH(SceneRunner(runner_beam(R"(, "fixed": [{"box": [9, 9, 9, 9, 9, 9]}])")),
                     Catch::Contains("scene.json: fixed[0].box: selects no vertex"));
   // A static FEM scene told to keep a part a blade from outside freed is refused, naming the frame.
-  SceneRunner keep(beam(R"(, "fragments": "keep")"));
+  SceneRunner keep(runner_beam(R"(, "fragments": "keep")"));
   keep.step();
   keep.advance_blade({Vec3(2.03, -0.5, 1.3), Vec3(2.03, 1.5, 1.3)});
   CHECK_THROWS_WITH(keep.advance_blade({Vec3(2.03, -0.5, -0.3), Vec3(2.03, 1.5, -0.3)}),

@@ -14,7 +14,7 @@ using namespace incise::testing;
 
 namespace {
 
-const std::string kData = INCISE_CGAL_DATA_DIR;
+const std::string kRepairData = INCISE_CGAL_DATA_DIR;
 
 double union_of_spheres(double r, double d) {
   const double lens = M_PI * (4 * r + d) * (2 * r - d) * (2 * r - d) / 12;
@@ -96,8 +96,8 @@ TEST_CASE("Repair resolves self-intersecting shells to their union", "[tetra][cg
 }
 
 TEST_CASE("Repair of CGAL's elephant-with-holes", "[tetra][cgal]") {
-  const SurfaceMesh holes = read_surface(kData + "/meshes/elephant-with-holes.off");
-  const SurfaceMesh closed = read_surface(kData + "/meshes/elephant.off");
+  const SurfaceMesh holes = read_surface(kRepairData + "/meshes/elephant-with-holes.off");
+  const SurfaceMesh closed = read_surface(kRepairData + "/meshes/elephant.off");
   PipelineOptions po;
   po.tetra.size = Length{0.04, true};
   CHECK_THROWS_WITH(mesh_surface(holes, po), Catch::Contains("--repair"));

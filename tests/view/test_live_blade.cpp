@@ -11,11 +11,13 @@
 
 #include "scene/scene_runner.h"
 #include "view/live_session.h"
+#include "live_test_util.h"
 #include "testing/draws.h"
 
 using namespace incise;
 using incise::testing::draw_vec3;
 using namespace incise::view;
+using incise::view::testing::status;
 
 namespace {
 
@@ -36,7 +38,6 @@ InputMessage blade(InputKind kind, const Vec3& a, const Vec3& b) {
   return m;
 }
 
-nlohmann::json status(const LiveSession& s) { return nlohmann::json::parse(s.status_json()); }
 
 }  // namespace
 

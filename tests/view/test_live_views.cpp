@@ -20,7 +20,7 @@ namespace {
 
 // 4 x 1 x 1, 12 x 3 x 3 cubes of 6 Kuhn tets (smallest dihedral 45 deg): clamped at x = 0,
 // pulled at the tip face x = 4.
-const char* kBeam = R"({
+const char* kViewsBeam = R"({
   "mesh": {"generate": "box", "size": [4, 1, 1], "cells": [12, 3, 3]},
   "model": "fem-linear",
   "materials": {"*": {"young": 1e4, "poisson": 0.3}},
@@ -40,7 +40,7 @@ std::size_t flagged(const Snapshot& s, std::uint32_t flag) {
 }  // namespace
 
 TEST_CASE("live views: loaded regions are flagged, and the clip view draws the tets below an angle", "[view]") {
-  LiveSession live(parse_scene(kBeam, "beam.json"));
+  LiveSession live(parse_scene(kViewsBeam, "beam.json"));
   // The end faces: 3 x 3 squares, 2 triangles each.
   auto snap = live.snapshot();
   CHECK(flagged(*snap, kTriangleFixed) == 18);
