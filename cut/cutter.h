@@ -90,12 +90,12 @@ struct CutOptions {
   // contractions as they are, moving volume by a hair each, and lets vertices slide on curved
   // surfaces (docs/cut.md#label-volumes says what each way costs).
   bool exact_volumes = true;
-  // Used when improve (rings, budget, ...); frozen is set per step. With exact_volumes off,
-  // contraction tolerance 0.01:
+  // Used when improve (rings, budget, ...); frozen is set per step. Contraction tolerance 0.01:
   // where the rim passes within a hair of a surface vertex, the edge between them may go even
   // on the curved surface (moving it by at most that hair, well inside the snap threshold).
   // Contraction deviation 0.05 (the default snap): short edges on bent cut sheets and along the
-  // rim go too, the surface moving by at most what snapping moves it.
+  // rim go too, the surface moving by at most what snapping moves it. With exact_volumes the
+  // kept vertex then gives the label the volume back (see there).
   // One ring around the step's tets, not two: queueing two rings cost more than a small
   // budget before any operation, for about the same quality (docs/cut.md#the-defaults).
   // The budget counts operations (max_work: attempted flips, smoothings, contractions), not
