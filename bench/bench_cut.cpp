@@ -25,7 +25,8 @@
 //                  deformed writes each cut mesh there; INCISE_BENCH_QUALITY_OUT=DIR: --only quality each
 //                  variant's; INCISE_BENCH_CURVED_OUT=DIR: --only curved writes each
 //                  path's cut mesh there, and the offset drags' below 10 deg; --only curved-organ each drag's;
-//                  INCISE_BENCH_STEPS=1: --only curved-organ prints every step's times on stderr)
+//                  INCISE_BENCH_STEPS=1: --only curved-organ prints every step's times on stderr;
+//                  INCISE_BENCH_DRAGS=1: --only curved and curved-organ print each offset drag on stderr)
 #include <algorithm>
 #include <cctype>
 #include <chrono>
@@ -821,7 +822,7 @@ void curved_organ(const TetMesh& organ, const std::string& name, double toleranc
     std::vector<double> ms;
     double finish_ms = 0;
   };
-  auto drag = [&](TetMesh m, const P& p, double per_step) {
+  auto drag = [&](TetMesh m, const P& p, double per_step, const std::string& tag) {
     m.discard_change();
     CutOptions opt;
     opt.provisional = g_provisional;
@@ -844,7 +845,7 @@ void curved_organ(const TetMesh& organ, const std::string& name, double toleranc
     d.finish_ms = cutter.finish().ms;
     d.tets = m.num_tets();
     if (const char* dir = std::getenv("INCISE_BENCH_CURVED_OUT"))  // the organ's cut meshes too
-      write_tet_mesh(m, std::string(dir) + "/organ-" + p.name + "-" + std::to_string(d.steps) + ".vtu");
+      write_tet_mesh(m, std::string(dir) + "/organ-" + p.name + "-" + std::to_string(d.steps) + tag + ".vtu");
     d.parts = vertex_parts(m);
     d.pp = path_parts(m, p.side, h, own.speck_boxes);
     d.q = quality_range(m, 10.0);
@@ -855,7 +856,7 @@ void curved_organ(const TetMesh& organ, const std::string& name, double toleranc
     for (double per_step : {0.1, 0.3, 0.05}) {
       if (!only_case.empty() && p.name.find(only_case) == std::string::npos) continue;
       if (only_steps > 0 && int(std::ceil(p.length / (per_step * h))) != only_steps) continue;
-      const Drag d = drag(organ, p, per_step);
+      const Drag d = drag(organ, p, per_step, "");
       std::printf("%s,%d,%zu,%zu,%zu,%zu,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f\n", p.name.c_str(), d.steps, d.tets, d.parts,
                   d.pp.joined, d.pp.specks, d.q.min_dihedral, 100.0 * double(d.q.below) / double(d.tets),
                   percentile(d.ms, 0.5), percentile(d.ms, 0.95), percentile(d.ms, 1.0), d.finish_ms);
@@ -871,7 +872,10 @@ void curved_organ(const TetMesh& organ, const std::string& name, double toleranc
     std::vector<double> below, max_ms;
     for (int k = 0; k < 10; ++k) {
       const P p = paths_at((k - 2) * 0.037 * ext.x(), (k % 3 - 1) * 0.021 * ext.y())[std::size_t(shape)];
-      const Drag d = drag(organ, p, k % 2 ? 0.1 : 0.25);
+      const Drag d = drag(organ, p, k % 2 ? 0.1 : 0.25, "-offset" + std::to_string(k));
+      if (std::getenv("INCISE_BENCH_DRAGS"))  // each drag on stderr, to trace one
+        std::fprintf(stderr, "%s offset %d (%d steps): joined %zu, specks %zu, min dihedral %.4f\n", p.name.c_str(), k,
+                     d.steps, d.pp.joined, d.pp.specks, d.q.min_dihedral);
       joined += d.pp.joined > 0;
       specks += d.pp.specks;
       worst = std::min(worst, d.q.min_dihedral);
