@@ -26,7 +26,8 @@
 //                  variant's; INCISE_BENCH_CURVED_OUT=DIR: --only curved writes each
 //                  path's cut mesh there, and the offset drags' below 10 deg; --only curved-organ each drag's;
 //                  INCISE_BENCH_STEPS=1: --only curved-organ prints every step's times on stderr;
-//                  INCISE_BENCH_DRAGS=1: --only curved and curved-organ print each offset drag on stderr)
+//                  INCISE_BENCH_DRAGS=1: --only curved and curved-organ print each offset drag on stderr;
+//                  INCISE_BENCH_OFFSET=K: curved-organ runs only the offset drags K)
 #include <algorithm>
 #include <cctype>
 #include <chrono>
@@ -852,8 +853,10 @@ void curved_organ(const TetMesh& organ, const std::string& name, double toleranc
     return d;
   };
   // A tenth of an edge per step, then about a third and twice as many steps.
+  const char* only_offset = std::getenv("INCISE_BENCH_OFFSET");  // one offset drag of each shape, to trace it
   for (const P& p : paths_at(0, 0))
     for (double per_step : {0.1, 0.3, 0.05}) {
+      if (only_offset) continue;
       if (!only_case.empty() && p.name.find(only_case) == std::string::npos) continue;
       if (only_steps > 0 && int(std::ceil(p.length / (per_step * h))) != only_steps) continue;
       const Drag d = drag(organ, p, per_step, "");
@@ -871,6 +874,7 @@ void curved_organ(const TetMesh& organ, const std::string& name, double toleranc
     double worst = 180;
     std::vector<double> below, max_ms;
     for (int k = 0; k < 10; ++k) {
+      if (only_offset && std::atoi(only_offset) != k) continue;
       const P p = paths_at((k - 2) * 0.037 * ext.x(), (k % 3 - 1) * 0.021 * ext.y())[std::size_t(shape)];
       const Drag d = drag(organ, p, k % 2 ? 0.1 : 0.25, "-offset" + std::to_string(k));
       if (std::getenv("INCISE_BENCH_DRAGS"))  // each drag on stderr, to trace one
