@@ -17,6 +17,10 @@ constexpr double kSnapFloor = 1e-6;
 // (times the tet's longest edge) to one of the face's edges, goes onto that edge
 // (CutStep::on_nearby_edge).
 constexpr double kEdgeSnap = 0.03;
+// The share of the snap distance within which a vertex by a crease front is put on the sheet
+// (CutStep::side). The whole snap distance put vertices on the sheet whose neighbours then
+// joined other drags at their creases (docs/cut.md#curved-paths).
+constexpr double kCreaseFrontShare = 0.1;
 // Relative tolerance of "inside the piece" for points that are on its plane.
 constexpr double kInsideTol = 1e-9;
 // At a sheet's finish, a vertex of the body's surface inside the swept polygon is put on the
@@ -510,6 +514,13 @@ int CutStep::side(const Piece& piece, std::size_t k, VertexId v) {
       flattens = flattens || zero == 3;
     }
     if (inside && !flattens) s = 0;
+    // At a sheet's finish whose front becomes the next sheet's crease: a vertex this close to
+    // the front too (kCreaseFrontShare of the snap distance) is on the sheet. Left on its side,
+    // its edges across the plane were split a hair from it, and the tets between it, those
+    // splits and the crease stayed shut across both sheets (an S across the organ stayed in
+    // one piece so; docs/cut.md#curved-paths). Its star reaches past the front, but the next
+    // sheet goes on from there, so the cut does not pinch through it.
+    else if (!inside && !provisional_ && !flattens && near_crease_front(x, kCreaseFrontShare * snap_length(v))) s = 0;
     else if (!inside && provisional_) {
       undecided_[k][v.idx()] = mesh_.counters().edits;
       return kUndecided;
@@ -560,6 +571,15 @@ bool CutStep::touches_surface_only(const Piece& piece, VertexId v) {
       }
     }
   return boundary;
+}
+
+bool CutStep::near_crease_front(const Vec3& x, double reach) const {
+  if (!crease_front_) return false;
+  const Vec3 &a = (*crease_front_)[0], d = (*crease_front_)[1] - a;
+  const double len2 = d.squaredNorm();
+  if (!(len2 > 0)) return false;
+  const double t = (x - a).dot(d) / len2;
+  return t >= 0 && t <= 1 && (x - (a + t * d)).norm() <= reach;
 }
 
 bool CutStep::move_snapped(const Piece& piece, std::size_t k, VertexId v) {

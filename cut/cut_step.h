@@ -3,6 +3,7 @@
 // the algorithm). CutStep owns the step's scratch (candidate tets, current positions of the
 // vertices it creates, the side of each vertex w.r.t. each piece), all sized by the region the
 // blade touches, never by the mesh.
+#include <array>
 #include <functional>
 #include <map>
 #include <optional>
@@ -58,6 +59,9 @@ public:
   void set_fixed(std::span<const VertexId> fixed) {
     for (VertexId v : fixed) fixed_.insert(v.idx());
   }
+  // A sheet's finish whose front [a, b] becomes the next sheet's crease (CutStep::side puts a
+  // vertex a hair from both the plane and the front on the sheet).
+  void set_crease_front(const Vec3& a, const Vec3& b) { crease_front_ = {a, b}; }
 
   // Current position of a vertex (created this step, or given by the caller, or rest).
   Vec3 position(VertexId v) const;
@@ -132,6 +136,8 @@ private:
   double snap_length(VertexId v);
   // Moves a snapped vertex onto the piece's plane (cut/snap_move.h); false where it may not.
   bool move_snapped(const Piece& piece, std::size_t k, VertexId v);
+  // Whether x lies within `reach` of the crease front (set_crease_front), beside the segment.
+  bool near_crease_front(const Vec3& x, double reach) const;
   // Whether v is on the boundary and every other vertex of its boundary faces lies beyond the
   // snap distance on one side of the piece's plane (the plane would only touch the surface at v).
   bool touches_surface_only(const Piece& piece, VertexId v);
@@ -176,6 +182,7 @@ private:
   bool no_moves_ = false;
   void decide(std::size_t k, VertexId v, int s);
   IdSet fixed_;
+  std::optional<std::array<Vec3, 2>> crease_front_;
   std::vector<TetId> cand_;
   IdSet in_cand_;
   IdMap<Vec3> created_pos_;

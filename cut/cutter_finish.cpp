@@ -31,6 +31,7 @@ void Cutter::Impl::finish_sheet(CutStepReport& rep, const PositionFn& positions,
   front_vertices_.clear();
   CutStep step(*mesh_, positions, opt_.snap, &pr.memory, false);
   step.set_fixed(opt_.frozen);
+  if (next_follows) step.set_crease_front(front.a, front.b);
   if (pr.back_known) step.add_known_segment(pr.back.a, pr.back.b, pr.back_vertices);
   step.add_candidates(closed);
   std::vector<TetId> seeds = pr.waiting;

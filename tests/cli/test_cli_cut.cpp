@@ -304,7 +304,10 @@ namespace {
 struct OrganArc {
   int joined = 0, apart = 0;
 };
-OrganArc cut_organ_arc(const std::string& name, double dx, double dy, int steps, const std::string& flags) {
+// The bench's half circle (shape "arc") or S (shape "S") across the organ, centre moved by dx
+// and dy of its extent (bench_cut --only curved-organ, paths_at).
+OrganArc cut_organ_arc(const std::string& name, double dx, double dy, int steps, const std::string& flags,
+                       const std::string& shape = "arc") {
   const fs::path dir = scratch_dir(name);
   const std::string organ = (dir / "organ.vtu").string(), out = (dir / "cut.vtu").string();
   const fs::path image = fs::path(INCISE_SOURCE_DIR) / "samples" / "liver.inr.gz";
@@ -324,12 +327,15 @@ OrganArc cut_organ_arc(const std::string& name, double dx, double dy, int steps,
   edge /= double(edges);
   const incise::Vec3 ext = hi - lo, c = 0.5 * (lo + hi);
   const double pi = std::acos(-1.0), r = 0.6 * ext.y(), y0 = lo.y() - 0.1 * ext.y() + dy * ext.y(), cx = c.x() + dx * ext.x();
-  if (steps == 0) steps = int(std::ceil(pi * r / (0.1 * edge)));
+  const bool s_curve = shape == "S";
+  auto s_x = [&](double y) { return cx + 0.15 * ext.x() * std::sin(2 * pi * (y - y0) / (1.2 * ext.y())); };
+  if (steps == 0) steps = int(std::ceil((s_curve ? 1.3 * ext.y() : pi * r) / (0.1 * edge)));
   {
     std::ofstream p(dir / "arc.path");
     p.precision(17);
     for (int k = 0; k <= steps; ++k) {
-      const double a = pi * (1 - double(k) / steps), x = cx + r * std::cos(a), y = y0 + r * std::sin(a);
+      const double t = double(k) / steps, a = pi * (1 - t);
+      const double y = s_curve ? y0 + t * 1.2 * ext.y() : y0 + r * std::sin(a), x = s_curve ? s_x(y) : cx + r * std::cos(a);
       p << x << " " << y << " " << lo.z() - 0.1 * ext.z() << " " << x << " " << y << " " << hi.z() + 0.1 * ext.z() << "\n";
     }
   }
@@ -350,7 +356,7 @@ OrganArc cut_organ_arc(const std::string& name, double dx, double dy, int steps,
   for (incise::TetId t : m.tets()) {
     incise::Vec3 x = incise::Vec3::Zero();
     for (incise::VertexId v : m.tet_vertices(t)) x += m.rest(v) / 4;
-    const double side = std::hypot(x.x() - cx, x.y() - y0) - r;
+    const double side = s_curve ? x.x() - s_x(x.y()) : std::hypot(x.x() - cx, x.y() - y0) - r;
     int& b = sides[find(m.tet_vertices(t)[0].idx())];
     if (side < -edge) b |= 1;
     if (side > edge) b |= 2;
@@ -383,6 +389,18 @@ TEST_CASE("incise cut --path: a face lying along a crease opens (the organ's off
   // centroid was a hair outside both polygons (in the wedge between their planes), so neither
   // opened it and the organ stayed in one piece (CutStep::crease_faces; docs/cut.md#curved-paths).
   const OrganArc a = cut_organ_arc("cli_cut_organ_arc_offset", 3 * 0.037, 0.021, 0, "--no-improve");
+  CHECK(a.joined == 0);
+  CHECK(a.apart >= 2);
+}
+
+TEST_CASE("incise cut --path: a vertex a hair from a crease goes on the sheet that ends there (the organ's offset S)",
+          "[cli][cut][scale]") {
+  // The bench's second offset S (a tenth of an edge per step, 253 steps). At one crease an
+  // original vertex lay a hair from the ending sheet's plane and from its front (the crease);
+  // its star reached past the front, so the sheet kept it on its side and split its edges a
+  // hair from it, and the tets between it, those splits and the crease stayed shut across both
+  // sheets: the organ in one piece (CutStep::side, kCreaseFrontShare; docs/cut.md#curved-paths).
+  const OrganArc a = cut_organ_arc("cli_cut_organ_s_offset", -0.037, 0, 253, "", "S");
   CHECK(a.joined == 0);
   CHECK(a.apart >= 2);
 }
