@@ -42,7 +42,7 @@ export INCISE_STUFFING_INPUTS=${INCISE_STUFFING_INPUTS:-24}
 # repeat straight liver cuts (the progressive and torture tests cut the liver too, and
 # exact_volumes is the default every cut test runs with), and the successive cuts' walk across
 # earlier cuts, which the torture test's repeated cuts of one body and the S across the liver
-# (through lobes its walk does not reach) run instrumented. CI then ran 63 min on a slow day:
+# (through lobes its walk does not reach) run instrumented. CI still ran past its target:
 # three more go whose code runs instrumented in other tests (the README's Tests section has
 # their times): the insertion's growth cap (the elephant improved three times, each under a
 # time limit that instrumented code can reach; the elephant's cavity insertion test stays),
