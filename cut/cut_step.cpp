@@ -10,6 +10,16 @@
 namespace incise::cut_detail {
 
 namespace {
+// Whether x lies beside the segment [a, b] (its projection on the line between a and b) within
+// `reach` of it: at a crease, the crease line.
+bool beside_segment(const Vec3& x, const Vec3& a, const Vec3& b, double reach) {
+  const Vec3 d = b - a;
+  const double len = d.norm();
+  if (!(len > 0)) return false;
+  const Vec3 f = d / len;
+  const double along = f.dot(x - a);
+  return along >= 0 && along <= len && ((x - a) - f * along).norm() <= reach;
+}
 // The floor of the snap threshold: points made by earlier splits are floating point, so a
 // vertex meant to lie on a blade is only within rounding of it.
 constexpr double kSnapFloor = 1e-6;
@@ -574,12 +584,7 @@ bool CutStep::touches_surface_only(const Piece& piece, VertexId v) {
 }
 
 bool CutStep::near_crease_front(const Vec3& x, double reach) const {
-  if (!crease_front_) return false;
-  const Vec3 &a = (*crease_front_)[0], d = (*crease_front_)[1] - a;
-  const double len2 = d.squaredNorm();
-  if (!(len2 > 0)) return false;
-  const double t = (x - a).dot(d) / len2;
-  return t >= 0 && t <= 1 && (x - (a + t * d)).norm() <= reach;
+  return crease_front_ && beside_segment(x, (*crease_front_)[0], (*crease_front_)[1], reach);
 }
 
 bool CutStep::move_snapped(const Piece& piece, std::size_t k, VertexId v) {
@@ -802,11 +807,7 @@ std::vector<CutFacePair> CutStep::crease_faces(const CreaseSides& prev, const Cr
   // At the crease itself (a face whose corners lie along it, within the snap distance): on the
   // edge of both polygons, where a corner a hair off the crease line puts it a hair outside
   // either (in the wedge between their planes); it is inside the union.
-  const double crease_len = (fb - fa).norm();
-  auto on_crease = [&](const Vec3& x, double reach) {
-    const double along = f.dot(x - fa);
-    return along >= 0 && along <= crease_len && ((x - fa) - f * along).norm() <= reach;
-  };
+  auto on_crease = [&](const Vec3& x, double reach) { return beside_segment(x, fa, fb, reach); };
   // A vertex a sheet decided keeps that side (snapped: 0); one it did not decide is on the side
   // its position says (exact).
   auto side = [&](VertexId v) {
