@@ -14,7 +14,10 @@ spring models are built before the cut and follow it through the cut's change re
 (SpringSimulation.apply), as in a scene. The last column builds each model afresh on the cut
 mesh: at rest it must equal the one that followed the cut.
 
-  /usr/bin/python3 bench/bench_springs_cut.py [--build DIR] [MESH]
+  /usr/bin/python3 bench/bench_springs_cut.py [--build DIR] [--only TEXT] [--no-fem] [MESH]
+
+--only keeps the spring rows whose name contains TEXT (repeatable); --no-fem leaves out the
+linear FEM and Taylor-Hood rows (the reference is still solved).
 """
 import argparse
 import os
@@ -28,6 +31,8 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("mesh", nargs="?", default=os.path.join(here, "..", "samples", "liver.msh"))
     ap.add_argument("--build", default=os.path.join(here, "..", "build"))
+    ap.add_argument("--only", action="append", default=[])
+    ap.add_argument("--no-fem", action="store_true")
     a = ap.parse_args()
     sys.path.insert(0, os.path.join(a.build, "python"))
     import incise
@@ -59,7 +64,11 @@ def main():
                ("volume nodal 0.9 (fitted)", dict(stiffness="fitted")),
                ("volume tet across-faces", dict(nodal_volume=False)),
                ("volume nodal across-faces", dict(nodal_share=1.0)),
-               ("volume nodal 0.75 across-faces", dict(nodal_share=0.75))]
+               ("volume nodal 0.75 across-faces", dict(nodal_share=0.75)),
+               ("volume nodal across-faces, guard 0.5", dict(nodal_share=1.0, inversion_guard=0.5)),
+               ("volume nodal across-faces, guard 0.25", dict(nodal_share=1.0, inversion_guard=0.25))]
+    if a.only:
+        configs = [c for c in configs if any(t in c[0] for t in a.only)]
     springs = []
     for name, kw in configs:
         s = incise.SpringSimulation(mesh, mat, damping=10.0, compute_energy=False, **kw)
@@ -98,7 +107,7 @@ def main():
         out[live] = u[vmap[live]]
         return out
 
-    fems = ["standard", "nodal-averaged", "mixed-quadratic"]
+    fems = [] if a.no_fem else ["standard", "nodal-averaged", "mixed-quadratic"]
     alive = np.unique(mesh.tets)
     ref = reference(mesh)
     before = {name: error(settle(s), ref, alive) for name, s in springs}

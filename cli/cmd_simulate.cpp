@@ -86,6 +86,7 @@ void add_simulate(CLI::App& app) {
                           {"frames_with_inverted", s.frames_with_inverted},
                           {"first_stable_dt", s.first_stable_dt},
                           {"min_stable_dt", s.min_stable_dt},
+                          {"estimated_stable_dt", s.estimated_stable_dt},
                           {"total_cut_ms", s.total_cut_ms},
                           {"fragments_handled", s.fragments_handled},
                           {"cuts", cuts},
@@ -105,7 +106,8 @@ void add_simulate(CLI::App& app) {
                 << o->out << "\n";
       if (s.min_stable_dt > 0)
         std::cout << "simulate: springs' stable explicit step " << s.first_stable_dt << " s at the start, "
-                  << s.min_stable_dt << " s at the smallest (cuts make smaller tets)\n";
+                  << s.min_stable_dt << " s at the smallest (cuts make smaller tets), bounds at rest; "
+                  << s.estimated_stable_dt << " s at the last frame, estimated from its fastest mode\n";
       // What each scene cut did (a cut that met nothing is also a warning above).
       for (std::size_t i = 0; i < s.cuts.size(); ++i)
         std::cout << "simulate: cuts[" << i << "]: " << s.cuts[i].tets_cut << " tets cut, " << s.cuts[i].faces_opened

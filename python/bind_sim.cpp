@@ -306,9 +306,10 @@ void bind_sim(py::module_& m) {
                        const py::object& volume_term, const py::object& compute_energy,
                        const py::object& nodal_volume, double viscosity, double stiffening,
                        const std::string& stiffness, const py::object& across_faces, double face_share,
-                       double nodal_share) {
+                       double nodal_share, double inversion_guard) {
              SpringOptions o;
              o.nodal_share = nodal_share;
+             o.inversion_guard = inversion_guard;
              o.face_share = face_share;
              const auto rule = parse_spring_stiffness(stiffness);
              if (!rule)
@@ -330,7 +331,8 @@ void bind_sim(py::module_& m) {
            py::arg("volume_term") = py::bool_(true), py::arg("compute_energy") = py::bool_(true),
            py::arg("nodal_volume") = py::bool_(SpringOptions{}.nodal_volume), py::arg("viscosity") = 0.0, py::arg("stiffening") = 0.0,
            py::arg("stiffness") = "van-gelder", py::arg("across_faces") = py::none(),
-           py::arg("face_share") = SpringOptions{}.face_share, py::arg("nodal_share") = SpringOptions{}.nodal_share)
+           py::arg("face_share") = SpringOptions{}.face_share, py::arg("nodal_share") = SpringOptions{}.nodal_share,
+           py::arg("inversion_guard") = SpringOptions{}.inversion_guard)
       .def("fix", [](Springs& s, const py::object& v) { for (VertexId x : to_vertices(s.mesh, v)) s.model.set_fixed(x, true); })
       .def("release", [](Springs& s, const py::object& v) {
         for (VertexId x : to_vertices(s.mesh, v)) {
@@ -347,6 +349,14 @@ void bind_sim(py::module_& m) {
         for (VertexId x : to_vertices(s.mesh, v)) s.model.set_external_force(x, g);
       }, py::arg("vertices"), py::arg("force"))
       .def("set_gravity", [](Springs& s, const py::object& g) { s.model.set_gravity(to_vec3(g, "gravity")); })
+      .def("set_positions", [](Springs& s, const py::object& x) {
+        const std::vector<Vec3> p = to_points(x, s.mesh.vertex_capacity(), "SpringSimulation.set_positions");
+        for (VertexId v : s.mesh.vertices()) s.model.set_position(v, p[v.idx()]);
+      }, py::arg("positions"), "Every live vertex's position (vertex_capacity by 3, row = vertex id): initial conditions")
+      .def("set_velocities", [](Springs& s, const py::object& u) {
+        const std::vector<Vec3> p = to_points(u, s.mesh.vertex_capacity(), "SpringSimulation.set_velocities");
+        for (VertexId v : s.mesh.vertices()) s.model.set_velocity(v, p[v.idx()]);
+      }, py::arg("velocities"), "Every live vertex's velocity (vertex_capacity by 3, row = vertex id)")
       .def("apply", [](Springs& s, const TopologyChange& c) { s.model.apply(s.mesh, c); }, py::arg("change"))
       .def("step", [](Springs& s, double dt, const std::string& integrator) {
         return step_dict(s.model.step(dt, parse_integrator(integrator)));
@@ -354,7 +364,12 @@ void bind_sim(py::module_& m) {
          "explicit-euler, symplectic-euler, verlet or implicit-euler")
       .def("stable_time_step", [](const Springs& s, const std::string& integrator) {
         return s.model.stable_time_step(parse_integrator(integrator));
-      }, py::arg("integrator") = "symplectic-euler")
+      }, py::arg("integrator") = "symplectic-euler",
+         "The stable step from Gershgorin's bound at rest: cheap, loose")
+      .def("estimated_stable_time_step", [](Springs& s, const std::string& integrator, int iterations) {
+        return s.model.estimated_stable_time_step(parse_integrator(integrator), iterations);
+      }, py::arg("integrator") = "symplectic-euler", py::arg("iterations") = 60,
+         "The stable step at the current state from an estimate of its fastest mode: tight, O(iterations x mesh)")
       .def_property_readonly("positions", [](const Springs& s) { return to_array(per_vertex(s, s.model.positions())); })
       .def_property_readonly("velocities", [](const Springs& s) { return to_array(per_vertex(s, s.model.velocities())); })
       .def_property_readonly("displacement", [](const Springs& s) {
@@ -403,6 +418,7 @@ void bind_sim(py::module_& m) {
         d["volume_term"] = s.springs_volume != "none";
         d["nodal_volume"] = s.springs_volume == "nodal";
         d["nodal_share"] = s.springs_nodal_share;
+        d["inversion_guard"] = s.springs_inversion_guard;
         d["stiffness"] = s.springs_stiffness;
         d["across_faces"] = s.springs_connectivity == "across-faces";
         d["viscosity"] = s.springs_viscosity;
@@ -442,6 +458,7 @@ void bind_sim(py::module_& m) {
         d["frames_with_inverted"] = r.frames_with_inverted;
         d["first_stable_dt"] = r.first_stable_dt;
         d["min_stable_dt"] = r.min_stable_dt;
+        d["estimated_stable_dt"] = r.estimated_stable_dt;
         d["vertices"] = r.vertices;
         d["tets"] = r.tets;
         d["total_cut_ms"] = r.total_cut_ms;

@@ -168,6 +168,7 @@ SceneRunSummary run_scene(const Scene& s, const SceneRunOptions& opt) {
     throw;
   }
   finish();
+  if (SpringModel* sp = runner.springs(); sp && sum.frames > 0) sum.estimated_stable_dt = sp->estimated_stable_time_step();
   sum.total_cut_ms = runner.total_cut_ms();
   sum.fragments_handled = runner.fragments_handled();
   for (const SceneRunner::CutTally& c : runner.cut_tallies()) sum.cuts.push_back({c.tets_cut, c.faces_opened, c.parts});

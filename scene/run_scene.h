@@ -54,6 +54,9 @@ struct SceneRunSummary {
   // Springs: the explicit step's stable bound (stats.csv stable_dt) at the first frame and its
   // smallest over the run (cuts lower it); 0 for FEM.
   double first_stable_dt = 0, min_stable_dt = 0;
+  // Springs: the stable step at the last frame from an estimate of its fastest mode
+  // (SpringModel::estimated_stable_time_step: tight, and it sees the state); 0 for FEM.
+  double estimated_stable_dt = 0;
   std::size_t vertices = 0, tets = 0;
   std::vector<std::string> files;     // written, relative to out_dir
   // What the user should know although nothing failed, one line each: a scene cut whose blade

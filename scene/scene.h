@@ -116,6 +116,8 @@ struct Scene {
   // springs, volume "nodal": the share of the bulk modulus averaged at the vertices, the rest
   // per tet (SpringOptions::nodal_share).
   double springs_nodal_share = 0.9;
+  // springs: the volume ratio below which a tet's inversion guard acts (SpringOptions::inversion_guard).
+  double springs_inversion_guard = 0;
   // springs: each spring's constant, "van-gelder" (default) or "fitted" to each tet's FEM
   // stiffness (SpringOptions::stiffness; docs/solver.md#spring-stiffness).
   std::string springs_stiffness = "van-gelder";

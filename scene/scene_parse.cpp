@@ -417,9 +417,13 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     const json& jsp = j["springs"];
     if (!jsp.is_object())
       rd.fail("springs", "expected {\"volume\": \"tet\" | \"nodal\" | \"none\", \"stiffness\": \"van-gelder\" | "
-                         "\"fitted\", \"connectivity\": \"edges\" | \"across-faces\", \"nodal_share\": S, \"viscosity\": T, "
-                         "\"stiffening\": B}");
-    rd.keys(jsp, "springs", {"volume", "stiffness", "connectivity", "nodal_share", "viscosity", "stiffening"});
+                         "\"fitted\", \"connectivity\": \"edges\" | \"across-faces\", \"nodal_share\": S, "
+                         "\"inversion_guard\": J, \"viscosity\": T, \"stiffening\": B}");
+    rd.keys(jsp, "springs", {"volume", "stiffness", "connectivity", "nodal_share", "inversion_guard", "viscosity", "stiffening"});
+    if (jsp.contains("inversion_guard")) {
+      s.springs_inversion_guard = rd.non_negative(jsp["inversion_guard"], "springs.inversion_guard");
+      if (!(s.springs_inversion_guard < 1)) rd.fail("springs.inversion_guard", "expected a volume ratio in [0, 1)");
+    }
     if (jsp.contains("nodal_share")) {
       s.springs_nodal_share = rd.non_negative(jsp["nodal_share"], "springs.nodal_share");
       if (s.springs_nodal_share > 1) rd.fail("springs.nodal_share", "expected a value in [0, 1]");
@@ -448,6 +452,8 @@ Scene parse_scene(const std::string& text, const std::string& path) {
     }
     if (jsp.contains("nodal_share") && s.springs_volume != "nodal")
       rd.fail("springs.nodal_share", "is the nodal volume term's share; \"volume\" is \"" + s.springs_volume + "\"");
+    if (s.springs_inversion_guard > 0 && s.springs_volume == "none")
+      rd.fail("springs.inversion_guard", "acts beside a volume term; \"volume\" is \"none\"");
   }
   if (j.contains("inversion_barrier")) {
     // true: the defaults; an object: {"j_min": J, "stiffness": K}, either optional.

@@ -201,6 +201,7 @@ SceneRunner::SceneRunner(const Scene& scene, const TetMesh* mesh) : scene_(scene
     so.volume_term = s.springs_volume != "none";
     so.nodal_volume = s.springs_volume == "nodal";
     so.nodal_share = s.springs_nodal_share;
+    so.inversion_guard = s.springs_inversion_guard;
     so.stiffness = parse_spring_stiffness(s.springs_stiffness).value_or(SpringStiffness::VanGelder);
     so.across_faces = s.springs_connectivity == "across-faces";
     so.viscosity = s.springs_viscosity;

@@ -16,8 +16,9 @@ void SpringModel::warn_once(Integrator integrator, double dt, double limit) {
   warned_ |= bit;
   std::cerr << "incise: warn: " << integrator_name(integrator) << " time step " << dt;
   if (limit > 0)
-    std::cerr << " exceeds the estimated stable step " << limit << " (w_max = " << max_angular_frequency()
-              << " rad/s); the motion may blow up";
+    std::cerr << " exceeds the stable step's bound " << limit << " (Gershgorin at rest, w_max <= "
+              << max_angular_frequency() << " rad/s); the motion may blow up (the bound is loose: "
+              << "estimated_stable_time_step() is tight)";
   else
     std::cerr << " is unstable: explicit Euler without damping gains energy at any time step";
   std::cerr << " (reported once)\n";
@@ -124,16 +125,11 @@ StepStats SpringModel::step(double dt, Integrator integrator) {
   return st;
 }
 
-// Linearized backward Euler (Baraff & Witkin 1998):
-//   (M (1 + c dt) + dt^2 K) dv = dt (f(x_n, v_n) - dt K v_n),  v += dv,  x += dt v
-// with K = -df/dx made positive semidefinite: a spring's transverse term k (1 - l0/l) is
-// clamped at 0 when compressed (Choi & Ko 2002) and the barrier keeps only its Gauss-Newton
-// part W''(J) grad J grad J^T. Hence the matrix is SPD on the free dofs and CG applies.
-int SpringModel::implicit_step(double dt, double& relative_residual) {
-  const std::size_t n = x_.size();
-  const double dt2 = dt * dt, mc = 1 + opt_.damping * dt;
-  compute_forces(x_, v_, force_);
-
+// The tangent at the current state, as implicit_step and the stable step's estimate use it:
+// K = -df/dx made positive semidefinite: a spring's transverse term k (1 - l0/l) is clamped at
+// 0 when compressed (Choi & Ko 2002) and the volume terms keep only their Gauss-Newton parts
+// W''(J) grad J grad J^T.
+void SpringModel::linearize() {
   spring_n_.resize(springs_.size());
   spring_alpha_.resize(springs_.size());
   spring_axial_.resize(springs_.size());
@@ -152,59 +148,75 @@ int SpringModel::implicit_step(double dt, double& relative_residual) {
     const Volume& vol = volumes_[t];
     volume_grad_[t] = volume_gradient_of(vol);
     const double J = (x_[vol.v[1]] - x_[vol.v[0]]).dot(volume_grad_[t][1]) / vol.rest_volume;
-    volume_beta_[t] = barrier_curvature(J, tet_part() * vol.kappa, vol.rest_volume) / (vol.rest_volume * vol.rest_volume);
+    volume_beta_[t] = (barrier_curvature(J, tet_part() * vol.kappa, vol.rest_volume) +
+                       guard_curvature(J, vol.kappa, vol.rest_volume)) /
+                      (vol.rest_volume * vol.rest_volume);
   }
-  // y = a M p + b K p + c C p (C: the springs' Kelvin-Voigt damping, viscosity x k along each)
-  auto apply_op = [&](const std::vector<Vec3>& p, std::vector<Vec3>& y, double a, double b, double c) {
-    y.resize(n);
-    for (std::size_t i = 0; i < n; ++i) y[i] = (a * mass_[i]) * p[i];
-    for (std::size_t s = 0; s < springs_.size(); ++s) {
-      const Spring& sp = springs_[s];
-      const Vec3& nn = spring_n_[s];
-      const Vec3 d = p[sp.a] - p[sp.b];
-      const double nd = nn.dot(d);
-      const Vec3 ye = (b * sp.k) * (spring_axial_[s] * nd * nn + spring_alpha_[s] * (d - nd * nn)) +
-                      (c * sp.tau * sp.k * nd) * nn;
-      y[sp.a] += ye;
-      y[sp.b] -= ye;
-    }
-    if (opt_.nodal_volume) {
-      // Gauss-Newton on sum_a W_a(J_a): beta_a g_a g_a^T with g_a = sum_{t at a} grad V_t / 4,
-      // in three passes (per tet g_t . p, per vertex its quarter sums, per tet the forces),
-      // the per-tet part of a blend riding in the first and the last.
-      nodal_dot_.assign(n, 0.0);
-      tet_dot_.resize(volumes_.size());
-      for (std::size_t t = 0; t < volumes_.size(); ++t) {
-        const Volume& vol = volumes_[t];
-        const auto& g = volume_grad_[t];
-        double s = 0;
-        for (int k = 0; k < 4; ++k) s += g[k].dot(p[vol.v[k]]);
-        tet_dot_[t] = s;
-        for (int k = 0; k < 4; ++k) nodal_dot_[vol.v[k]] += 0.25 * s;
-      }
-      for (std::size_t a = 0; a < n; ++a) nodal_dot_[a] *= b * nodal_[a].beta;
-      for (std::size_t t = 0; t < volumes_.size(); ++t) {
-        const Volume& vol = volumes_[t];
-        const auto& g = volume_grad_[t];
-        double s = b * volume_beta_[t] * tet_dot_[t];
-        for (int k = 0; k < 4; ++k) s += 0.25 * nodal_dot_[vol.v[k]];
-        for (int k = 0; k < 4; ++k) y[vol.v[k]] += s * g[k];
-      }
-      return;
-    }
+}
+
+// y = a M p + b K p + c C p (C: the springs' Kelvin-Voigt damping, viscosity x k along each),
+// K as linearize() left it (and nodal_ at x_, which compute_forces or nodal_volumes fill).
+void SpringModel::apply_tangent(const std::vector<Vec3>& p, std::vector<Vec3>& y, double a, double b, double c) {
+  const std::size_t n = x_.size();
+  y.resize(n);
+  for (std::size_t i = 0; i < n; ++i) y[i] = (a * mass_[i]) * p[i];
+  for (std::size_t s = 0; s < springs_.size(); ++s) {
+    const Spring& sp = springs_[s];
+    const Vec3& nn = spring_n_[s];
+    const Vec3 d = p[sp.a] - p[sp.b];
+    const double nd = nn.dot(d);
+    const Vec3 ye = (b * sp.k) * (spring_axial_[s] * nd * nn + spring_alpha_[s] * (d - nd * nn)) +
+                    (c * sp.tau * sp.k * nd) * nn;
+    y[sp.a] += ye;
+    y[sp.b] -= ye;
+  }
+  if (opt_.nodal_volume) {
+    // Gauss-Newton on sum_a W_a(J_a): beta_a g_a g_a^T with g_a = sum_{t at a} grad V_t / 4,
+    // in three passes (per tet g_t . p, per vertex its quarter sums, per tet the forces),
+    // the per-tet part of a blend riding in the first and the last.
+    nodal_dot_.assign(n, 0.0);
+    tet_dot_.resize(volumes_.size());
     for (std::size_t t = 0; t < volumes_.size(); ++t) {
       const Volume& vol = volumes_[t];
       const auto& g = volume_grad_[t];
       double s = 0;
       for (int k = 0; k < 4; ++k) s += g[k].dot(p[vol.v[k]]);
-      s *= b * volume_beta_[t];
+      tet_dot_[t] = s;
+      for (int k = 0; k < 4; ++k) nodal_dot_[vol.v[k]] += 0.25 * s;
+    }
+    for (std::size_t a = 0; a < n; ++a) nodal_dot_[a] *= b * nodal_[a].beta;
+    for (std::size_t t = 0; t < volumes_.size(); ++t) {
+      const Volume& vol = volumes_[t];
+      const auto& g = volume_grad_[t];
+      double s = b * volume_beta_[t] * tet_dot_[t];
+      for (int k = 0; k < 4; ++k) s += 0.25 * nodal_dot_[vol.v[k]];
       for (int k = 0; k < 4; ++k) y[vol.v[k]] += s * g[k];
     }
-  };
+    return;
+  }
+  for (std::size_t t = 0; t < volumes_.size(); ++t) {
+    const Volume& vol = volumes_[t];
+    const auto& g = volume_grad_[t];
+    double s = 0;
+    for (int k = 0; k < 4; ++k) s += g[k].dot(p[vol.v[k]]);
+    s *= b * volume_beta_[t];
+    for (int k = 0; k < 4; ++k) y[vol.v[k]] += s * g[k];
+  }
+}
+
+// Linearized backward Euler (Baraff & Witkin 1998):
+//   (M (1 + c dt) + dt^2 K) dv = dt (f(x_n, v_n) - dt K v_n),  v += dv,  x += dt v
+// with K the positive semidefinite tangent of linearize(), so the matrix is SPD on the free
+// dofs and CG applies.
+int SpringModel::implicit_step(double dt, double& relative_residual) {
+  const std::size_t n = x_.size();
+  const double dt2 = dt * dt, mc = 1 + opt_.damping * dt;
+  compute_forces(x_, v_, force_);
+  linearize();  // nodal_ is at x_: compute_forces filled it
 
   // Right-hand side and the known dv of constrained vertices.
   std::vector<Vec3>& rhs = z_;
-  apply_op(v_, rhs, 0.0, 1.0, 0.0);  // K v
+  apply_tangent(v_, rhs, 0.0, 1.0, 0.0);  // K v
   dv_.assign(n, Vec3::Zero());
   for (std::size_t i = 0; i < n; ++i) {
     const auto u = static_cast<std::uint32_t>(i);
@@ -217,7 +229,7 @@ int SpringModel::implicit_step(double dt, double& relative_residual) {
   for (std::size_t i = 0; i < n; ++i)
     if (free_dof(static_cast<std::uint32_t>(i))) bnorm2 += rhs[i].squaredNorm();
   // r = b - A dv0 on the free dofs
-  apply_op(dv_, r_, mc, dt2, dt);
+  apply_tangent(dv_, r_, mc, dt2, dt);
   for (std::size_t i = 0; i < n; ++i) r_[i] = free_dof(static_cast<std::uint32_t>(i)) ? Vec3(rhs[i] - r_[i]) : Vec3::Zero();
 
   // Jacobi preconditioner: the diagonal of A.
@@ -253,7 +265,7 @@ int SpringModel::implicit_step(double dt, double& relative_residual) {
     }
     const double tol = opt_.cg_tolerance * bnorm;
     while (std::sqrt(rr) > tol && it < opt_.cg_max_iterations) {
-      apply_op(p_, ap_, mc, dt2, dt);
+      apply_tangent(p_, ap_, mc, dt2, dt);
       double pap = 0;
       for (std::size_t i = 0; i < n; ++i)
         if (free_dof(static_cast<std::uint32_t>(i))) pap += p_[i].dot(ap_[i]);

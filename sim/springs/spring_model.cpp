@@ -76,6 +76,10 @@ SpringModel::SpringModel(const TetMesh& mesh, const MaterialTable& materials, co
     throw InvalidArgument("springs.face_share: expected a value in [0, 1)");
   if (!(opt_.nodal_share >= 0 && opt_.nodal_share <= 1))
     throw InvalidArgument("springs.nodal_share: expected a value in [0, 1]");
+  if (!(opt_.inversion_guard >= 0 && opt_.inversion_guard < 1))
+    throw InvalidArgument("springs.inversion_guard: expected a volume ratio in [0, 1)");
+  if (opt_.inversion_guard > 0 && !opt_.volume_term)
+    throw InvalidArgument("springs.inversion_guard: acts beside a volume term, and there is none");
 
   // Headroom so the first cuts do not reallocate every per-vertex array (an O(n) hitch).
   const std::size_t nv = mesh.vertex_capacity(), nt = mesh.tet_capacity();
@@ -615,6 +619,24 @@ double SpringModel::barrier_curvature(double J, double kappa, double V0) const {
   return kappa * V0 / (j * j);
 }
 
+// The guard is the barrier of J / j scaled by j: W = j W_b(J / j), zero with zero slope at
+// J = j, curvature kappa V0 / j there, unbounded as J -> 0 (the barrier's Taylor tail below
+// barrier_limit of j).
+double SpringModel::guard_energy(double J, double kappa, double V0) const {
+  const double j = opt_.inversion_guard;
+  return j > 0 && J < j ? j * barrier_energy(J / j, kappa, V0) : 0.0;
+}
+
+double SpringModel::guard_slope(double J, double kappa, double V0) const {
+  const double j = opt_.inversion_guard;
+  return j > 0 && J < j ? barrier_slope(J / j, kappa, V0) : 0.0;
+}
+
+double SpringModel::guard_curvature(double J, double kappa, double V0) const {
+  const double j = opt_.inversion_guard;
+  return j > 0 && J < j ? barrier_curvature(J / j, kappa, V0) / j : 0.0;
+}
+
 std::array<Vec3, 4> SpringModel::volume_gradient_of(const Volume& vol) const {
   return volume_gradient(x_[vol.v[0]], x_[vol.v[1]], x_[vol.v[2]], x_[vol.v[3]]);
 }
@@ -641,7 +663,9 @@ void SpringModel::compute_forces(const std::vector<Vec3>& x, const std::vector<V
     const Vec3 &x0 = x[vol.v[0]], &x1 = x[vol.v[1]], &x2 = x[vol.v[2]], &x3 = x[vol.v[3]];
     const auto g = volume_gradient(x0, x1, x2, x3);
     double s = 0;  // dW/dV_t: the tet's own barrier, and a quarter of each corner's nodal slope
-    if (own > 0) s = barrier_slope((x1 - x0).dot(g[1]) / vol.rest_volume, own * vol.kappa, vol.rest_volume) / vol.rest_volume;
+    const double J = (x1 - x0).dot(g[1]) / vol.rest_volume;
+    if (own > 0) s = barrier_slope(J, own * vol.kappa, vol.rest_volume) / vol.rest_volume;
+    s += guard_slope(J, vol.kappa, vol.rest_volume) / vol.rest_volume;
     if (opt_.nodal_volume)
       for (int k = 0; k < 4; ++k) s += 0.25 * nodal_[vol.v[k]].slope;
     for (int k = 0; k < 4; ++k) f[vol.v[k]] -= s * g[k];
@@ -682,42 +706,15 @@ double SpringModel::potential_energy() const {
     for (const NodalVolume& n : nodal_)
       if (n.rest > 0) e += barrier_energy(n.current / n.rest, n.kappa_rest / n.rest, n.rest);
   }
-  if (const double own = tet_part(); own > 0)
+  if (const double own = tet_part(); own > 0 || opt_.inversion_guard > 0)
     for (const Volume& vol : volumes_) {
-      const double V = signed_volume(x_[vol.v[0]], x_[vol.v[1]], x_[vol.v[2]], x_[vol.v[3]]);
-      e += barrier_energy(V / vol.rest_volume, own * vol.kappa, vol.rest_volume);
+      const double J = signed_volume(x_[vol.v[0]], x_[vol.v[1]], x_[vol.v[2]], x_[vol.v[3]]) / vol.rest_volume;
+      if (own > 0) e += barrier_energy(J, own * vol.kappa, vol.rest_volume);
+      e += guard_energy(J, vol.kappa, vol.rest_volume);
     }
   for (std::size_t i = 0; i < x_.size(); ++i)
     if (active(static_cast<std::uint32_t>(i))) e -= (mass_[i] * gravity_ + f_ext_[i]).dot(x_[i]);
   return e;
-}
-
-double SpringModel::max_angular_frequency() const {
-  return bound_leaves_ ? std::sqrt(bound_tree_[1]) : 0.0;
-}
-
-double SpringModel::stable_time_step() const {
-  const double w2 = bound_leaves_ ? bound_tree_[1] : 0.0;
-  // Kelvin-Voigt damps a mode of frequency w at viscosity x w^2: the fastest mode's rate.
-  const double c = opt_.damping + max_tau_ * w2;
-  if (!(w2 > 0)) return c > 0 ? 2 / c : std::numeric_limits<double>::infinity();
-  // Symplectic Euler on x'' = -w^2 x - c x' is stable iff w^2 dt^2 + 2 c dt < 4.
-  return (-c + std::sqrt(c * c + 4 * w2)) / w2;
-}
-
-double SpringModel::stable_time_step(Integrator integrator) const {
-  switch (integrator) {
-    case Integrator::ImplicitEuler: return std::numeric_limits<double>::infinity();
-    case Integrator::ExplicitEuler: {
-      // Step matrix [[1, dt], [-w^2 dt, 1 - c dt]]: det = 1 - c dt + w^2 dt^2 < 1 needs
-      // dt < c / w^2 (worst at w_max), trace >= -(1 + det) needs c dt < 2.
-      const double w2 = bound_leaves_ ? bound_tree_[1] : 0.0;
-      const double c = opt_.damping + max_tau_ * w2;
-      if (!(c > 0)) return 0.0;
-      return w2 > 0 ? std::min(c / w2, 2 / c) : 2 / c;
-    }
-    default: return stable_time_step();
-  }
 }
 
 }  // namespace incise

@@ -76,6 +76,14 @@ struct SpringOptions {
   // the spurious soft modes that nodal averaging leaves on coarse meshes; below 1 it also
   // brings back part of the locking. docs/solver.md#spring-volume-terms measures the share.
   double nodal_share = 0.9;
+  // A per-tet guard beside the volume terms: each tet whose volume ratio J fell below
+  // inversion_guard = j gets the energy kappa V0 j (J/j - 1 - ln(J/j)) (the barrier's shape,
+  // moved to J = j), and none above it. At rest and under moderate strain it adds nothing, so
+  // unlike the per-tet part of a blend it does not stiffen the small tets a cut makes; as
+  // J -> 0 its energy grows without bound, so no tet is pushed through a face, which the nodal
+  // term alone (it holds only each vertex's whole star) does not ensure. 0: none.
+  // docs/solver.md#spring-volume-terms.
+  double inversion_guard = 0;
   // Connectivity: besides the mesh's edges, a spring across every interior face, joining the
   // two apexes of its tets (Van Gelder's stiffness only). The edges of a lattice mesh (six tets
   // per cube) point along few directions, so the network is anisotropic: too stiff in tension
@@ -180,6 +188,14 @@ public:
   // undamped, it gains energy at any step); implicit Euler returns infinity.
   double stable_time_step(Integrator integrator) const;
   double max_angular_frequency() const;  // the bound w_max [rad/s]
+  // The same at the current state from an estimate of its fastest mode (Lanczos on the tangent
+  // M^-1/2 K M^-1/2 over the free dofs, `iterations` products, the Ritz value's residual added
+  // so it errs short; sim/springs/spring_stability.cpp). Gershgorin's bound above holds at
+  // rest and costs nothing to keep, but it is loose, and a squeezed tet's barrier stiffens
+  // past it; this one is tight and sees the state: O(iterations x (springs + tets)), for
+  // reports (after a cut), not for every step. docs/solver.md#spring-stable-step.
+  double estimated_max_angular_frequency(int iterations = 60);
+  double estimated_stable_time_step(Integrator integrator = Integrator::SymplecticEuler, int iterations = 60);
 
   const std::vector<Vec3>& positions() const { return x_; }
   const std::vector<Vec3>& velocities() const { return v_; }
@@ -276,12 +292,19 @@ private:
   double barrier_energy(double J, double kappa, double V0) const;
   double barrier_slope(double J, double kappa, double V0) const;  // dW/dJ
   double barrier_curvature(double J, double kappa, double V0) const;  // d2W/dJ2
+  // The inversion guard's energy, dW/dJ and d2W/dJ2 (zero for J >= inversion_guard).
+  double guard_energy(double J, double kappa, double V0) const;
+  double guard_slope(double J, double kappa, double V0) const;
+  double guard_curvature(double J, double kappa, double V0) const;
   // A spring's tension (k l0 e Hookean, k l0 (exp(b e) - 1) / b stiffening), its energy and its
   // axial tangent over k, at length l.
   double spring_tension(const Spring& s, double l) const;
   double spring_energy(const Spring& s, double l) const;
   double spring_axial(const Spring& s, double l) const;
   int implicit_step(double dt, double& relative_residual);
+  // The tangent at x_ into the scratch below (spring_integrators.cpp), and its product.
+  void linearize();
+  void apply_tangent(const std::vector<Vec3>& p, std::vector<Vec3>& y, double a, double b, double c);
   void warn_once(Integrator integrator, double dt, double limit);
 
   SpringOptions opt_;

@@ -105,6 +105,28 @@ def test_springs_fixed_vertices_stay(box):
     assert sim.displacement[:, 2].min() < 0
 
 
+def test_springs_estimated_stable_step_and_initial_state(box):
+    # The estimate from the fastest mode (docs/solver.md#spring-stable-step) is tighter than
+    # Gershgorin's bound at rest, never below it there; half of it holds undamped.
+    sim = incise.SpringSimulation(box, incise.Material(1e4, 0.3, 1000), damping=0.0)
+    sim.fix(np.nonzero(box.points[:, 0] == 0)[0])
+    bound, est = sim.stable_time_step(), sim.estimated_stable_time_step()
+    assert bound <= est < 5 * bound
+    assert sim.estimated_stable_time_step("implicit-euler") == np.inf
+    with pytest.raises(incise.InvalidArgument, match="at least 2 iterations"):
+        sim.estimated_stable_time_step("symplectic-euler", 1)
+    # Initial conditions: a rigid velocity moves the free body rigidly; positions read back.
+    free = incise.SpringSimulation(box, incise.Material(1e4, 0.3, 1000), damping=0.0)
+    moved = box.points + np.array([0.0, 0.0, 0.5])
+    free.set_positions(moved)
+    assert np.array_equal(free.positions, moved)
+    free.set_velocities(np.tile([1.0, 0.0, 0.0], (box.vertex_capacity, 1)))
+    free.step(0.5 * est)
+    assert np.allclose(free.positions, moved + [0.5 * est, 0, 0], rtol=0, atol=1e-12)
+    with pytest.raises(incise.InvalidArgument, match="set_positions"):
+        free.set_positions(np.zeros((3, 3)))
+
+
 def test_scene_file(source_dir, tmp_path):
     beam = str(source_dir / "samples" / "scenes" / "beam.json")
     summary = incise.run_scene(beam, str(tmp_path / "out"), frames=2)
@@ -496,6 +518,13 @@ def test_springs_nodal_volume_term_sags_its_own_way(box):
     assert sag(nodal_volume=True, nodal_share=0.0) == pytest.approx(per_tet, rel=1e-9)
     with pytest.raises(incise.InvalidArgument, match="nodal_share"):
         incise.SpringSimulation(box, nodal_volume=True, nodal_share=-0.5)
+    # The inversion guard (docs/solver.md#spring-volume-terms) adds nothing where no tet is
+    # squeezed below its ratio: a sag is such a load.
+    assert sag(nodal_share=1.0, inversion_guard=0.3) == sag(nodal_share=1.0)
+    with pytest.raises(incise.InvalidArgument, match="inversion_guard: expected a volume ratio"):
+        incise.SpringSimulation(box, inversion_guard=1.0)
+    with pytest.raises(incise.InvalidArgument, match="inversion_guard: acts beside a volume term"):
+        incise.SpringSimulation(box, volume_term=False, inversion_guard=0.5)
 
 
 def test_springs_viscosity_and_stiffening(box):

@@ -284,6 +284,7 @@ TEST_CASE("springs.volume: per tet, averaged at the vertices, or none, bad value
   const Scene plain = parse_scene(text, "scene.json");
   CHECK(plain.springs_volume == (SpringOptions{}.nodal_volume ? "nodal" : "tet"));
   CHECK(plain.springs_nodal_share == SpringOptions{}.nodal_share);
+  CHECK(plain.springs_inversion_guard == SpringOptions{}.inversion_guard);
   CHECK(plain.springs_connectivity == (SpringOptions{}.across_faces ? "across-faces" : "edges"));
   CHECK(plain.springs_volume == "nodal");
   double last = -1;
@@ -337,6 +338,16 @@ TEST_CASE("springs.volume: per tet, averaged at the vertices, or none, bad value
   std::string stray_share = text;
   stray_share.insert(stray_share.rfind('}'), R"(, "springs": {"volume": "tet", "nodal_share": 0.5})");
   CHECK(error_of(stray_share) == "scene.json: springs.nodal_share: is the nodal volume term's share; \"volume\" is \"tet\"");
+  // The inversion guard's volume ratio.
+  std::string guarded = text;
+  guarded.insert(guarded.rfind('}'), R"(, "springs": {"inversion_guard": 0.3})");
+  CHECK(parse_scene(guarded, "scene.json").springs_inversion_guard == 0.3);
+  std::string bad_guard = text;
+  bad_guard.insert(bad_guard.rfind('}'), R"(, "springs": {"inversion_guard": 1})");
+  CHECK(error_of(bad_guard) == "scene.json: springs.inversion_guard: expected a volume ratio in [0, 1)");
+  std::string unguarded = text;
+  unguarded.insert(unguarded.rfind('}'), R"(, "springs": {"volume": "none", "inversion_guard": 0.3})");
+  CHECK(error_of(unguarded) == "scene.json: springs.inversion_guard: acts beside a volume term; \"volume\" is \"none\"");
   // Kelvin-Voigt viscosity and strain-stiffening ride in the same key.
   std::string viscous = text;
   viscous.insert(viscous.rfind('}'), R"(, "springs": {"viscosity": 0.002, "stiffening": 5})");
@@ -374,6 +385,11 @@ TEST_CASE("springs: the stable explicit step is reported every frame, and a cut 
   const SceneRunSummary r = run_scene(parse_scene(text, "scene.json"), ro);
   CHECK(r.first_stable_dt > 0);
   CHECK(r.min_stable_dt < r.first_stable_dt);
+  // The estimate from the last frame's fastest mode: Gershgorin's bound is loose, never tighter
+  // at a state this close to rest.
+  INFO("estimated " << r.estimated_stable_dt << " s, bound at rest " << r.min_stable_dt << " s");
+  CHECK(r.estimated_stable_dt >= 0.95 * r.min_stable_dt);
+  CHECK(r.estimated_stable_dt < 5 * r.min_stable_dt);
   std::ifstream csv(dir / "stats.csv");
   std::string header;
   std::getline(csv, header);

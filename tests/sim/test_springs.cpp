@@ -296,6 +296,54 @@ TEST_CASE("the stable step estimate bounds the real limit and is not far below i
   CHECK(blows_up(3.0));  // Gershgorin is within a factor 3 of the true limit here
 }
 
+TEST_CASE("the estimated stable step: 0.9 of it holds and 1.1 of it blows up, at rest and squeezed",
+          "[springs]") {
+  // The estimate takes the state: squeezed by a fifth, the volume terms stiffen (W'' ~ 1 / J^2).
+  TetMesh m = make_box(Vec3(1, 1, 1), {3, 3, 3});
+  jitter(m, 0.2, 6);
+  const bool squeezed = GENERATE(false, true);
+  const double nu = GENERATE(0.3, 0.45);
+  const double share = GENERATE(1.0, 0.9);
+  const double guard = share == 1.0 ? 0.95 : 0.0;  // near 1 so the squeeze reaches the guard
+  CAPTURE(squeezed, nu, share, guard);
+  SpringOptions o;
+  o.nodal_share = share;
+  o.inversion_guard = guard;
+  o.damping = 0;
+  auto start = [&](SpringModel& s) {
+    if (!squeezed) return;
+    for (VertexId v : m.vertices()) {
+      if (m.rest(v).z() < 1e-9) s.set_fixed(v, true);
+      if (m.rest(v).z() > 1 - 1e-9) s.set_prescribed(v, m.rest(v) - Vec3(0, 0, 0.2));
+    }
+    for (int n = 0; n < 20; ++n) s.step(1e3, Integrator::ImplicitEuler);
+    for (VertexId v : m.vertices()) s.set_velocity(v, Vec3::Zero());
+  };
+  auto blows_up = [&](double factor, double& dt_estimate, double& dt_bound) {
+    SpringModel s(m, table(1e5, nu), o);
+    start(s);
+    std::mt19937 rng(2);
+    std::uniform_real_distribution<double> u(-1e-5, 1e-5);
+    for (VertexId v : m.vertices()) s.set_position(v, s.positions()[v.idx()] + draw_vec3(u, rng));
+    dt_estimate = s.estimated_stable_time_step(Integrator::SymplecticEuler);
+    dt_bound = s.stable_time_step();
+    const double e0 = total_energy(s), dt = factor * dt_estimate;
+    CaptureCerr quiet;
+    try {
+      for (int n = 0; n < 3000; ++n) s.step(dt, Integrator::SymplecticEuler);
+    } catch (const Error&) {
+      return true;
+    }
+    return !(std::abs(total_energy(s)) < 100 * std::abs(e0));
+  };
+  double est = 0, bound = 0;
+  CHECK(!blows_up(0.9, est, bound));
+  CHECK(blows_up(1.1, est, bound));
+  INFO("estimate " << est << " s, Gershgorin at rest " << bound << " s");
+  if (!squeezed) CHECK(est >= bound);  // at rest Gershgorin bounds w_max: it cannot be tighter
+  CHECK(est < 4 * bound);
+}
+
 TEST_CASE("a step above the stable step warns once and is flagged", "[springs]") {
   TetMesh m = make_box(Vec3(1, 1, 1), {2, 2, 2});
   SpringOptions o;
@@ -753,6 +801,69 @@ TEST_CASE("the nodal volume term: forces are minus its energy's gradient, volume
   INFO("volume after a 10% squeeze: per tet " << per_tet << ", nodal " << nodal);
   CHECK(nodal > 0.95);
   CHECK(per_tet > 0.95);
+}
+
+TEST_CASE("the inversion guard: nothing above its ratio, minus its energy's gradient below, and no tet "
+          "pushed through a face", "[springs]") {
+  auto min_ratio = [](const TetMesh& m, const std::vector<Vec3>& x) {
+    double j = 1e300;
+    for (TetId t : m.tets()) {
+      const auto& tv = m.tet_vertices(t);
+      const Vec3 &a = x[tv[0].idx()], &b = x[tv[1].idx()], &c = x[tv[2].idx()], &d = x[tv[3].idx()];
+      j = std::min(j, (b - a).dot((c - a).cross(d - a)) / 6 / m.volume(t));
+    }
+    return j;
+  };
+  SECTION("forces against central differences of the energy, with tets below the guard") {
+    TetMesh m = make_box(Vec3(1, 1, 1), {2, 2, 2});
+    SpringOptions o;
+    o.nodal_share = 1;
+    o.inversion_guard = 0.9;
+    SpringModel s(m, table(1e4, 0.45), o);
+    perturb(s, m, 0.08, 5);
+    REQUIRE(min_ratio(m, s.positions()) < 0.9);
+    CHECK(force_gradient_error(s, m) < 1e-5);
+  }
+  SECTION("a point load: the nodal term alone lets tets invert, the guard does not; below its reach it is the same model") {
+    TetMesh m = make_box(Vec3(1, 1, 1), {4, 4, 4});
+    VertexId centre;
+    for (VertexId v : m.vertices())
+      if ((m.rest(v) - Vec3(0.5, 0.5, 1)).norm() < 1e-9) centre = v;
+    REQUIRE(centre.is_valid());
+    auto pressed = [&](double load, double guard) {
+      SpringOptions o;
+      o.nodal_share = 1;
+      o.inversion_guard = guard;
+      o.damping = 20;
+      SpringModel s(m, table(1e4, 0.45), o);
+      for (VertexId v : select_plane(m, 2, 0)) s.set_fixed(v, true);
+      s.set_external_force(centre, Vec3(0, 0, -load));
+      for (int n = 0; n < 200; ++n) s.step(0.01, Integrator::ImplicitEuler);
+      return s.positions();
+    };
+    const auto alone = pressed(1e3, 0), guarded = pressed(1e3, 0.5);
+    INFO("min volume ratio: nodal alone " << min_ratio(m, alone) << ", guarded " << min_ratio(m, guarded));
+    CHECK(min_ratio(m, alone) < 0);
+    CHECK(min_ratio(m, guarded) > 0);
+    // A tenth of the load squeezes no tet below half its volume: the guard adds nothing.
+    const auto light = pressed(1e2, 0), light_guarded = pressed(1e2, 0.5);
+    REQUIRE(min_ratio(m, light) > 0.5);
+    double d = 0;
+    for (VertexId v : m.vertices()) d = std::max(d, (light[v.idx()] - light_guarded[v.idx()]).norm());
+    CHECK(d < 1e-12);
+  }
+  SECTION("checked") {
+    TetMesh m = make_box(Vec3(1, 1, 1), {1, 1, 1});
+    for (double bad : {-0.1, 1.0, std::nan("")}) {
+      SpringOptions o;
+      o.inversion_guard = bad;
+      CHECK_THROWS_WITH(SpringModel(m, table(1e4, 0.45), o), Catch::Contains("springs.inversion_guard: expected a volume ratio"));
+    }
+    SpringOptions none;
+    none.volume_term = false;
+    none.inversion_guard = 0.5;
+    CHECK_THROWS_WITH(SpringModel(m, table(1e4, 0.45), none), Catch::Contains("there is none"));
+  }
 }
 
 TEST_CASE("the nodal share: 0 is the per-tet term, 1 the nodal one, and it is checked", "[springs]") {
