@@ -25,6 +25,8 @@ import sys
 
 import numpy as np
 
+from bench_util import SaggingBody  # bench/ (the script's own folder)
+
 
 def main():
     here = os.path.dirname(os.path.abspath(__file__))
@@ -37,17 +39,8 @@ def main():
     sys.path.insert(0, os.path.join(a.build, "python"))
     import incise
 
-    mesh = incise.read(a.mesh)
-    mesh.take_change()
-    p = mesh.points
-    lo, hi = p.min(0), p.max(0)
-    ext = hi - lo
-    # Young's modulus for a sag of a few percent of the size under gravity (rho g L / E = 0.03).
-    mat = incise.Material(young=1000.0 * 9.81 * ext.max() / 0.03, poisson=0.45, density=1000.0)
-    g = (0.0, 0.0, -9.81)
-
-    def held(m):
-        return np.nonzero(m.points[:, 0] < lo[0] + 0.15 * ext[0])[0]
+    body = SaggingBody(incise, a.mesh)
+    mesh, mat, g, held = body.mesh, body.material, body.gravity, body.held
 
     def fem_rest(m, formulation="mixed-quadratic"):
         f = incise.FemSimulation(m, mat, kind="corotational", formulation=formulation, gravity=g,
@@ -114,22 +107,11 @@ def main():
     for f in fems:
         before["FEM " + f] = error(fem_rest(mesh, f), ref, alive)
 
-    cutter = incise.Cutter(mesh)
-    c = lo + 0.5 * ext
-    # A slot across the middle half of the body's width, half its height deep: nothing hangs by
-    # a thread (a cut across the whole width left a lobe on a neck that swung down).
-    a0 = np.array([c[0], lo[1] + 0.25 * ext[1], hi[2] + 0.05 * ext[2]])
-    b0 = np.array([c[0], lo[1] + 0.75 * ext[1], hi[2] + 0.05 * ext[2]])
-    step = np.array([0.0, 0.0, -0.55 * ext[2] / 10])
-    cutter.start(a0, b0)
-
-    def follow(report):  # each change before the mesh is edited again
+    def follow(change):  # each change before the mesh is edited again
         for _, s in springs:
-            s.apply(report["change"])
+            s.apply(change)
 
-    for k in range(1, 11):
-        follow(cutter.advance(a0 + k * step, b0 + k * step))
-    follow(cutter.finish())
+    body.cut_slot(follow)
     alive = np.unique(mesh.tets)
     ref = reference(mesh)
     print(f"# {os.path.basename(a.mesh)}: {mesh.num_tets} tets after the cut; at rest against "

@@ -22,6 +22,8 @@ import time
 
 import numpy as np
 
+from bench_util import SaggingBody  # bench/ (the script's own folder)
+
 
 def main():
     here = os.path.dirname(os.path.abspath(__file__))
@@ -33,16 +35,9 @@ def main():
     sys.path.insert(0, os.path.join(a.build, "python"))
     import incise
 
-    mesh = incise.read(a.mesh)
-    mesh.take_change()
-    p = mesh.points
-    lo, hi = p.min(0), p.max(0)
-    ext = hi - lo
-    mat = incise.Material(young=1000.0 * 9.81 * ext.max() / 0.03, poisson=0.45, density=1000.0)
-    g = (0.0, 0.0, -9.81)
-
-    def held(m):
-        return np.nonzero(m.points[:, 0] < lo[0] + 0.15 * ext[0])[0]
+    body = SaggingBody(incise, a.mesh)
+    mesh, mat, g, held = body.mesh, body.material, body.gravity, body.held
+    hi, ext = body.hi, body.ext
 
     def model(m):
         """A default spring model of m, held on its low-x 15%, damped to settle."""
@@ -141,15 +136,7 @@ def main():
     settle(sq)
     measure("squeezed", mesh, sq)
     # After a cut through the middle, the model following it.
-    cutter = incise.Cutter(mesh)
-    c = lo + 0.5 * ext
-    a0 = np.array([c[0], lo[1] + 0.25 * ext[1], hi[2] + 0.05 * ext[2]])
-    b0 = np.array([c[0], lo[1] + 0.75 * ext[1], hi[2] + 0.05 * ext[2]])
-    step = np.array([0.0, 0.0, -0.55 * ext[2] / 10])
-    cutter.start(a0, b0)
-    for k in range(1, 11):
-        s.apply(cutter.advance(a0 + k * step, b0 + k * step)["change"])
-    s.apply(cutter.finish()["change"])
+    body.cut_slot(s.apply)
     settle(s)
     measure("cut, sagging", mesh, s, g)
 
