@@ -166,7 +166,10 @@ void configuration_costs(bool quick) {
   configs.push_back({"nodal 0.9, edges, fitted", with(true, true, 0.9, false, true)});
   configs.push_back({"tet, across faces", with(true, false, 1, true, false)});
   configs.push_back({"nodal 1, across faces", with(true, true, 1, true, false)});
-  SpringOptions o = base;
+  SpringOptions o = with(true, true, 1, true, false);
+  o.inversion_guard = 0.25;
+  configs.push_back({"nodal 1+faces, guard 0.25", o});
+  o = base;
   o.viscosity = 1e-3;
   configs.push_back({"viscosity 1e-3 s", o});
   o = base;
