@@ -53,15 +53,28 @@ class SaggingBody:
         m = self.mesh if m is None else m
         return self.np.nonzero(m.points[:, 0] < self.lo[0] + 0.15 * self.ext[0])[0]
 
+    def slot_bounds(self):
+        """The rectangle the slot's blade sweeps: its plane x = c and its y and z ranges."""
+        lo, hi, ext = self.lo, self.hi, self.ext
+        return (lo[0] + 0.5 * ext[0], (lo[1] + 0.25 * ext[1], lo[1] + 0.75 * ext[1]),
+                (hi[2] + 0.05 * ext[2] - 0.55 * ext[2], hi[2] + 0.05 * ext[2]))
+
+    def distance_to_slot(self, points):
+        """Each point's distance to the rectangle the slot's blade sweeps."""
+        np = self.np
+        x, (y0, y1), (z0, z1) = self.slot_bounds()
+        dy = np.maximum(0, np.maximum(y0 - points[:, 1], points[:, 1] - y1))
+        dz = np.maximum(0, np.maximum(z0 - points[:, 2], points[:, 2] - z1))
+        return np.sqrt((points[:, 0] - x) ** 2 + dy ** 2 + dz ** 2)
+
     def cut_slot(self, follow):
         """Cuts the slot through the mesh, giving each step's change to follow(change) before the
         mesh is edited again. A slot, not a cut across the whole width: nothing hangs by a thread
         (a cut across the whole width left a lobe on a neck that swung down)."""
-        np, lo, hi, ext = self.np, self.lo, self.hi, self.ext
-        c = lo + 0.5 * ext
-        a0 = np.array([c[0], lo[1] + 0.25 * ext[1], hi[2] + 0.05 * ext[2]])
-        b0 = np.array([c[0], lo[1] + 0.75 * ext[1], hi[2] + 0.05 * ext[2]])
-        step = np.array([0.0, 0.0, -0.55 * ext[2] / 10])
+        np = self.np
+        x, (y0, y1), (z0, z1) = self.slot_bounds()
+        a0, b0 = np.array([x, y0, z1]), np.array([x, y1, z1])
+        step = np.array([0.0, 0.0, (z0 - z1) / 10])
         cutter = self.incise.Cutter(self.mesh)
         cutter.start(a0, b0)
         for k in range(1, 11):
