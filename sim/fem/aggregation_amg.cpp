@@ -174,11 +174,12 @@ void AggregationAmg::build(const LinearOperator& a, const std::vector<std::uint8
   p_.assign(nv, Eigen::Matrix<double, 3, 6>::Zero());
   pos_.assign(nv, Eigen::Vector3d::Zero());
   rows_.assign(na, {});
+  vol_u_.assign(model_->nodal_averaged() ? nv : 0, {});
   std::vector<std::uint32_t> all(na);
   for (std::uint32_t k = 0; k < na; ++k) all[k] = k;
   prolongator(all);
   const double t2 = now_ms();
-  coarse_rows(all);
+  coarse_rows(all, 0);
   const double t3 = now_ms();
   factor();
   if (opt_.smoother_weight > 0) weight_ = opt_.smoother_weight;
@@ -264,11 +265,16 @@ void AggregationAmg::patch(const LinearOperator& a, const std::vector<std::uint8
   const double t1 = now_ms();
   prolongator(fresh);
   const double t2 = now_ms();
-  coarse_rows(fresh);
+  const bool nodal = model_->nodal_averaged();
+  if (nodal) {
+    if (vol_u_.size() < nv) vol_u_.resize(nv);
+    exchange_volumetric(first, -1);  // before coarse_rows keeps the new B_a P
+  }
+  coarse_rows(fresh, first);
   for (std::uint32_t k : fresh)  // the untouched neighbours' blocks towards the new aggregates
     for (const auto& [b, m] : rows_[k])
       if (std::size_t(b) < first) rows_[std::size_t(b)].emplace_back(std::int32_t(k), m.transpose());
-  if (model_->nodal_averaged()) refresh_halo(first);
+  if (nodal) exchange_volumetric(first, +1);
   const double t3 = now_ms();
   factor();
   if (!coarse_->ok) stale_ = true;  // setup() rebuilds at once
@@ -282,39 +288,41 @@ void AggregationAmg::patch(const LinearOperator& a, const std::vector<std::uint8
   ++version_;
 }
 
-// Nodal-averaged K reaches the 2-ring: a changed vertex's V_a enters the rows of its whole
-// 1-ring. The surviving aggregates (ids below `first`) holding that 1-ring get their rows of
-// A_c recomputed, and their other neighbours the transposed blocks, so the patched A_c is the
-// Galerkin product of the current K, as after a rebuild. O(change): the 1-ring of the pending
-// vertices, an aggregate each.
-void AggregationAmg::refresh_halo(std::size_t first) {
-  const TetMesh& mesh = model_->mesh();
-  std::vector<std::uint32_t> halo;
-  for (std::uint32_t v : pending_) {
-    if (v >= mesh.vertex_capacity() || !mesh.is_alive(VertexId(v))) continue;
-    for (TetId t : mesh.incident_tets(VertexId(v)))
-      for (VertexId w : mesh.tet_vertices(t)) {
-        const std::int32_t a = w.idx() < agg_.of.size() ? agg_.of[w.idx()] : -1;
-        if (a >= 0 && std::size_t(a) < first) halo.push_back(std::uint32_t(a));
+// Nodal-averaged K reaches the 2-ring: a vertex a adds c (B_a P)^T (B_a P) to A_c, coupling
+// every pair of aggregates its row of B reaches. A cut changes the rows of B of the vertices
+// it names (their tets, V_a and kappa_a), and no other: the terms of those vertices are
+// exchanged in the blocks between aggregates the patch left (the fresh aggregates' rows are
+// made whole by coarse_rows, and the dissolved ones' are gone). The term taken out is the one
+// put in (vol_u_), so the blocks stay the sums of the terms they hold: with rotations, each
+// term of the frame it was made in, as the rest of a patched A_c. O(change): the pending
+// vertices' rows of B, where recomputing the rows of every aggregate holding their 1-ring read
+// those aggregates' whole 2-rings.
+void AggregationAmg::exchange_volumetric(std::size_t first, double sign) {
+  const double c = sign * stiffness_coeff_;
+  auto kept = [&](std::int32_t b) { return b >= 0 && std::size_t(b) < first && !agg_.members[std::size_t(b)].empty(); };
+  std::vector<std::pair<std::uint32_t, Eigen::Vector3d>> brow;
+  std::vector<std::pair<std::int32_t, Vec6>> fresh_u;
+  for (std::uint32_t a : pending_) {
+    if (a >= vol_u_.size()) continue;
+    auto& u = vol_u_[a];
+    if (sign > 0) {
+      coarse_b_row(a, brow, fresh_u);
+      u.assign(fresh_u.begin(), fresh_u.end());
+    }
+    for (const auto& [h, uh] : u) {
+      if (!kept(h)) continue;
+      auto& row = rows_[std::size_t(h)];
+      for (const auto& [g, ug] : u) {
+        if (!kept(g)) continue;
+        auto it = std::find_if(row.begin(), row.end(), [&](const auto& e) { return e.first == g; });
+        if (it == row.end()) {
+          row.emplace_back(g, Mat6::Zero());
+          it = row.end() - 1;
+        }
+        it->second.noalias() += (c * uh) * ug.transpose();
       }
+    }
   }
-  std::sort(halo.begin(), halo.end());
-  halo.erase(std::unique(halo.begin(), halo.end()), halo.end());
-  if (halo.empty()) return;
-  auto in_halo = [&](std::int32_t b) { return std::binary_search(halo.begin(), halo.end(), std::uint32_t(b)); };
-  // The other rows' blocks towards the halo go first (a cut may have ended a coupling); the
-  // fresh aggregates' rows are current already.
-  auto outside = [&](std::int32_t b, std::uint32_t h) { return b != std::int32_t(h) && std::size_t(b) < first && !in_halo(b); };
-  for (std::uint32_t h : halo)
-    for (const auto& [b, m] : rows_[h])
-      if (outside(b, h)) {
-        auto& rb = rows_[std::size_t(b)];
-        rb.erase(std::remove_if(rb.begin(), rb.end(), [&](const auto& e) { return e.first == std::int32_t(h); }), rb.end());
-      }
-  coarse_rows(halo);
-  for (std::uint32_t h : halo)
-    for (const auto& [b, m] : rows_[h])
-      if (outside(b, h)) rows_[std::size_t(b)].emplace_back(std::int32_t(h), m.transpose());
 }
 
 void AggregationAmg::prolongator(const std::vector<std::uint32_t>& which) {
@@ -368,7 +376,7 @@ void AggregationAmg::prolongator(const std::vector<std::uint32_t>& which) {
 // (rigid modes before the per-aggregate orthonormalization T) as B_v^T A_vw B_w, and finally
 // T_a^T (.) T_b. Summing the fine blocks first does the 6x6 work once per vertex pair instead
 // of once per tet corner pair (about 5 tets share an edge).
-void AggregationAmg::coarse_rows(const std::vector<std::uint32_t>& which) {
+void AggregationAmg::coarse_rows(const std::vector<std::uint32_t>& which, std::size_t keep_from) {
   const TetMesh& mesh = model_->mesh();
   const double c = stiffness_coeff_, am = mass_coeff_;
   const Eigen::VectorXd& mass = model_->lumped_mass();
@@ -437,7 +445,7 @@ void AggregationAmg::coarse_rows(const std::vector<std::uint32_t>& which) {
       }
   // Into the orthonormal coarse basis.
       for (auto& [b, m] : row) m = t_[ai].transpose() * m * t_[std::size_t(b)];
-      if (nodal) volumetric_rows(ai, row, arows, brow, coarse_b);
+      if (nodal) volumetric_rows(ai, keep_from, row, arows, brow, coarse_b);
     }
   });
 }
@@ -447,10 +455,10 @@ void AggregationAmg::coarse_rows(const std::vector<std::uint32_t>& which) {
 // aggregate a's B row reaches. Only the a whose B row reaches ai's members count: the 1-rings
 // of the members. Each B row is made once per aggregate (not once per member whose ring holds
 // it) and no 2-ring of fine blocks is built.
-void AggregationAmg::volumetric_rows(std::size_t ai, std::vector<std::pair<std::int32_t, Mat6>>& row,
+void AggregationAmg::volumetric_rows(std::size_t ai, std::size_t keep_from, std::vector<std::pair<std::int32_t, Mat6>>& row,
                                      std::vector<std::uint32_t>& arows,
                                      std::vector<std::pair<std::uint32_t, Eigen::Vector3d>>& brow,
-                                     std::vector<std::pair<std::int32_t, Vec6>>& coarse_b) const {
+                                     std::vector<std::pair<std::int32_t, Vec6>>& coarse_b) {
   const TetMesh& mesh = model_->mesh();
   const double c = stiffness_coeff_;
   // The members' 1-rings, each vertex once (stamps per thread, not a sort: a row reads a few
@@ -478,23 +486,32 @@ void AggregationAmg::volumetric_rows(std::size_t ai, std::vector<std::pair<std::
     return row.back().second;
   };
   for (std::uint32_t a : arows) {
-    model_->nodal_b_row(a, brow);
-    coarse_b.clear();
+    coarse_b_row(a, brow, coarse_b);
     const Vec6* mine = nullptr;
-    for (const auto& [w, d] : brow) {
-      const std::int32_t b = agg_.of[w];
-      if (b < 0) continue;
-      const Vec6 r = p_[w].transpose() * d;  // d^T P_w, P_w = B_w T_b
-      auto it = std::find_if(coarse_b.begin(), coarse_b.end(), [&](const auto& e) { return e.first == b; });
-      if (it == coarse_b.end())
-        coarse_b.emplace_back(b, r);
-      else
-        it->second += r;
-    }
-    for (const auto& [b, r] : coarse_b)
+    std::int32_t keeper = -1;  // the smallest aggregate at or above keep_from: its task keeps a's B_a P
+    for (const auto& [b, r] : coarse_b) {
       if (std::size_t(b) == ai) mine = &r;
+      if (std::size_t(b) >= keep_from && (keeper < 0 || b < keeper)) keeper = b;
+    }
     if (!mine) continue;
     for (const auto& [b, r] : coarse_b) block(b).noalias() += (c * *mine) * r.transpose();
+    if (std::size_t(keeper) == ai) vol_u_[a].assign(coarse_b.begin(), coarse_b.end());
+  }
+}
+
+void AggregationAmg::coarse_b_row(std::uint32_t a, std::vector<std::pair<std::uint32_t, Eigen::Vector3d>>& brow,
+                                  std::vector<std::pair<std::int32_t, Vec6>>& out) const {
+  model_->nodal_b_row(a, brow);
+  out.clear();
+  for (const auto& [w, d] : brow) {
+    const std::int32_t b = agg_.of[w];
+    if (b < 0) continue;
+    const Vec6 r = p_[w].transpose() * d;  // d^T P_w, P_w = B_w T_b
+    auto it = std::find_if(out.begin(), out.end(), [&](const auto& e) { return e.first == b; });
+    if (it == out.end())
+      out.emplace_back(b, r);
+    else
+      it->second += r;
   }
 }
 

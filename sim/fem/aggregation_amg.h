@@ -39,8 +39,9 @@
 // is due) and a budget that cannot afford one uses cheaper() (block-Jacobi) for the frame.
 // Nodal-averaged models (sim/fem/formulation.h): A_c also carries the Galerkin product of the
 // volumetric term, sum_a kappa_a V_a (B_a P)^T (B_a P), summed into the fine rows from the
-// model's rows of B; a patch also recomputes the rows of the surviving aggregates that hold the
-// 1-ring of a changed vertex (K's rows there changed with the V_a they read).
+// model's rows of B. A cut changes the rows of B of the vertices it names (their tets and V_a
+// changed), and K's coupling between two surviving aggregates with them: a patch keeps each
+// vertex's last B_a P and exchanges the named vertices' terms in those blocks, O(change).
 // Costs and iterations on the organ cut scene: docs/solver.md.
 #include <cstdint>
 #include <memory>
@@ -114,13 +115,22 @@ private:
   void build(const LinearOperator& a, const std::vector<std::uint8_t>* free);
   void patch(const LinearOperator& a, const std::vector<std::uint8_t>* free);
   void prolongator(const std::vector<std::uint32_t>& aggregates);  // centre, scale, T, P rows
-  void coarse_rows(const std::vector<std::uint32_t>& aggregates);   // their rows_ of A_c
+  // Their rows_ of A_c; nodal-averaged, the B_a P of each vertex a whose smallest reached
+  // aggregate at or above `keep_from` is among them are kept in vol_u_.
+  void coarse_rows(const std::vector<std::uint32_t>& aggregates, std::size_t keep_from);
   // Nodal-averaged: the volumetric part of aggregate ai's row (scratch vectors per thread).
-  void volumetric_rows(std::size_t ai, std::vector<std::pair<std::int32_t, Eigen::Matrix<double, 6, 6>>>& row,
+  void volumetric_rows(std::size_t ai, std::size_t keep_from,
+                       std::vector<std::pair<std::int32_t, Eigen::Matrix<double, 6, 6>>>& row,
                        std::vector<std::uint32_t>& arows,
                        std::vector<std::pair<std::uint32_t, Eigen::Vector3d>>& brow,
-                       std::vector<std::pair<std::int32_t, Eigen::Matrix<double, 6, 1>>>& coarse_b) const;
-  void refresh_halo(std::size_t first);  // nodal-averaged: rows the patch's 1-ring changed
+                       std::vector<std::pair<std::int32_t, Eigen::Matrix<double, 6, 1>>>& coarse_b);
+  // B_a P, one 6-vector per aggregate the row of B reaches (brow: scratch).
+  void coarse_b_row(std::uint32_t a, std::vector<std::pair<std::uint32_t, Eigen::Vector3d>>& brow,
+                    std::vector<std::pair<std::int32_t, Eigen::Matrix<double, 6, 1>>>& out) const;
+  // Nodal-averaged, in a patch: the pending vertices' volumetric terms between aggregates that
+  // survive it (ids below `first`), the kept ones taken out (sign -1) or the current ones put
+  // in and kept (sign +1).
+  void exchange_volumetric(std::size_t first, double sign);
   void factor();                                                    // A_c from rows_, factored
   double estimate_lambda_max(const LinearOperator& a, const std::vector<std::uint8_t>* free) const;
   void project(Eigen::VectorXd& v) const;
@@ -153,6 +163,10 @@ private:
   std::vector<Eigen::Matrix<double, 3, 6>> p_;
   // Per aggregate: its row of A_c, (aggregate, k_a x k_b block in the top-left of a 6x6).
   std::vector<std::vector<std::pair<std::int32_t, Eigen::Matrix<double, 6, 6>>>> rows_;
+  // Nodal-averaged: per vertex a, the B_a P (one 6-vector per aggregate it reaches, without the
+  // system's stiffness coefficient) whose term c (B_a P)^T (B_a P) A_c holds, so that a patch
+  // can take it out where a cut changed a's row of B.
+  std::vector<std::vector<std::pair<std::int32_t, Eigen::Matrix<double, 6, 1>>>> vol_u_;
   std::vector<std::uint32_t> pending_;  // vertices named by changes since the last build/patch
   std::vector<std::uint8_t> eligible_;   // patch(): per vertex, all zero between patches
   std::unique_ptr<Coarse> coarse_;
