@@ -176,8 +176,9 @@ public:
   void set_position(VertexId v, const Vec3& x);           // initial conditions
   void set_velocity(VertexId v, const Vec3& u);
 
-  // Advances by dt. Explicit integrators above the stable step still step, but set
-  // stable_step_exceeded and warn once on stderr ("incise: warn: ...").
+  // Advances by dt. Explicit integrators above the stable step's bound still step and set
+  // stable_step_exceeded; above the step estimated from the state (checked when the bound is
+  // first exceeded) they also warn once on stderr ("incise: warn: ...").
   StepStats step(double dt, Integrator integrator);
 
   // Stable step of symplectic Euler and Verlet: the largest dt with w^2 dt^2 + 2 c dt < 4
@@ -356,6 +357,11 @@ private:
   std::vector<std::uint64_t> edge_scratch_;
   bool acc_valid_ = false;
   unsigned warned_ = 0;  // bit per Integrator
+  // Per Integrator: the stable step estimated when a step first exceeded the bound (warn_once).
+  struct EstimateCheck {
+    double bound = -1, dt = 0, estimate = 0;
+  };
+  std::array<EstimateCheck, 4> checked_{};
 
   SpringUpdateCounters counters_;
   ChangeFollower follower_;  // apply() takes the mesh's changes in order, each once
