@@ -498,7 +498,8 @@ private:
 };
 
 // Thread scaling (issue 37): each parallel pass of a frame, and the organ cut scene's whole
-// frame, on 1, 2, 4, ... threads up to the machine's (tbb::global_control), with the serial
+// frame (standard, nodal-averaged and edge-smoothed tets), on 1, 2, 4, ... threads up to the
+// machine's (tbb::global_control), with the serial
 // share Amdahl's law gives from the speed-up S on p threads: s = (p / S - 1) / (p - 1).
 // Passes (median of 15, ms): K x, the block-Jacobi and multigrid applications, the
 // relinearization (every tet's rotation and the diagonal blocks) and a tenth of it (what a budget too
@@ -638,7 +639,7 @@ void section_scaling(const std::vector<std::string>& organ_files, long box_tets,
     const std::filesystem::path dir = std::filesystem::temp_directory_path() / "incise-bench-scaling";
     std::printf("  organ cut scene (default settings), frames 10-50: median / p95 frame, median cut, setup, solve "
                 "(of it the preconditioner's setup), iterations med/max\n");
-    for (Formulation form : {Formulation::Standard, Formulation::NodalAveraged}) {
+    for (Formulation form : {Formulation::Standard, Formulation::NodalAveraged, Formulation::EdgeSmoothed}) {
       Scene sc = scene;
       sc.formulation = form;
       std::vector<double> frame_med;
