@@ -426,9 +426,11 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
     AggregationAmgOptions amg = {};
     bool settle_amg = false;  // the factor's settle policy with amg instead of block-Jacobi
   };
-  AggregationAmgOptions multiplicative, ring1, ring1_multiplicative, lazy;
+  AggregationAmgOptions multiplicative, ring1, ring1_multiplicative, lazy, ring2, ring3;
   multiplicative.cycle = AggregationAmgOptions::Cycle::Multiplicative;
   ring1.ring = 1;
+  ring2.ring = 2;
+  ring3.ring = 3;
   ring1_multiplicative = ring1;
   ring1_multiplicative.cycle = AggregationAmgOptions::Cycle::Multiplicative;
   lazy.topology_rebuild_iterations = 20;
@@ -439,6 +441,8 @@ void section_cut_scene(const std::string& organ_file, Csv& csv) {
                             {"amg", Preconditioner::Amg, 0},
                             {"amg multiplicative", Preconditioner::Amg, 0, 0, multiplicative},
                             {"amg ring 1", Preconditioner::Amg, 0, 0, ring1},
+                            {"amg ring 2", Preconditioner::Amg, 0, 0, ring2},
+                            {"amg ring 3", Preconditioner::Amg, 0, 0, ring3},
                             {"amg lazy (rebuild >20 it)", Preconditioner::Amg, 0, 0, lazy},
                             {"cholesky settle 3 + amg (default)", Preconditioner::Cholesky, 3, 0, {}, true},
                             {"settle block-jacobi 16 ms", Preconditioner::Cholesky, 3, 16.0},
@@ -675,7 +679,7 @@ void section_amg_build(const std::string& organ_file, Csv& csv) {
     bool rotations, nodal;  // nodal: nodal-averaged tets (their K reaches the 2-ring)
   };
   for (const Variant& var : {Variant{1, true, false}, Variant{1, false, false}, Variant{2, true, false},
-                             Variant{2, false, false}, Variant{2, true, true}}) {
+                             Variant{2, false, false}, Variant{2, true, true}, Variant{3, true, false}}) {
       const int ring = var.ring;
       const bool rotations = var.rotations, nodal = var.nodal;
       FemSimulationOptions opt;

@@ -163,7 +163,12 @@ void AggregationAmg::build(const LinearOperator& a, const std::vector<std::uint8
   const std::size_t nv = std::size_t(a.rows() / 3);
   std::vector<std::uint8_t> eligible(nv, 0);
   for (std::size_t v = 0; v < nv; ++v) eligible[v] = all_free(free, v);
-  agg_ = aggregate_vertices(model_->mesh(), eligible, opt_.ring);
+  ring_ = opt_.ring > 0 ? opt_.ring : 2;
+  agg_ = aggregate_vertices(model_->mesh(), eligible, ring_);
+  if (opt_.ring <= 0 && agg_.count() > std::size_t(std::max(0, opt_.ring3_above))) {
+    ring_ = 3;
+    agg_ = aggregate_vertices(model_->mesh(), eligible, ring_);
+  }
   agg_.of.resize(nv, -1);
   const double t1 = now_ms();
   const std::size_t na = agg_.count();
@@ -188,6 +193,7 @@ void AggregationAmg::build(const LinearOperator& a, const std::vector<std::uint8
   stats_.prolongator_ms = t2 - t1;
   stats_.coarse_ms = t3 - t2;
   stats_.total_ms = build_ms_ = now_ms() - t0;
+  stats_.ring = ring_;
   pending_.clear();
   stale_ = topology_changed_ = false;
   ++builds_;
@@ -252,7 +258,7 @@ void AggregationAmg::patch(const LinearOperator& a, const std::vector<std::uint8
       }
   }
   const std::size_t first = agg_.count();
-  aggregate_more(model_->mesh(), eligible, opt_.ring, pool, agg_);
+  aggregate_more(model_->mesh(), eligible, ring_, pool, agg_);
   for (std::uint32_t v : marked) eligible[v] = 0;
   const std::size_t na = agg_.count();
   centre_.resize(na, Eigen::Vector3d::Zero());
@@ -283,6 +289,7 @@ void AggregationAmg::patch(const LinearOperator& a, const std::vector<std::uint8
   stats_.coarse_ms = t3 - t2;
   stats_.total_ms = patch_ms_ = now_ms() - t0;
   stats_.patched_aggregates = fresh.size();
+  stats_.ring = ring_;
   pending_.clear();
   ++patches_;
   ++version_;

@@ -61,8 +61,12 @@ struct AggregationAmgOptions {
   Cycle cycle = Cycle::Additive;
   // Phase-1 aggregates: the root and `ring` rings of neighbours. 2: larger aggregates and a
   // coarse level a few times smaller than ring 1's, whose factor costs less than the extra
-  // iterations it brings (figures: docs/solver.md#the-aggregation-multigrid-amg).
-  int ring = 2;
+  // iterations it brings (figures: docs/solver.md#the-aggregation-multigrid-amg). 0 (the
+  // default): 2, or 3 where ring 2 leaves more than `ring3_above` aggregates: on large meshes
+  // the coarse factor, refactored after every cut step, outgrows the frame, and a coarser
+  // level costs fewer milliseconds than its extra iterations (docs/solver.md#what-each-core-buys).
+  int ring = 0;
+  int ring3_above = 1100;
   bool rotations = true;            // rotational modes in the coarse space (false: translations only)
   double smoother_weight = 0;       // w of the damped block-Jacobi; 0: 4/3 / lambda_max estimated
   int rebuild_iterations = 1 << 30;  // corotational: a frame above this many iterations rebuilds A_c
@@ -82,6 +86,7 @@ struct AmgBuildStats {
   bool factor_ok = false;
   bool block_factor = false;           // the block Cholesky factored A_c (not the general one)
   std::size_t patched_aggregates = 0;  // a patch: the aggregates it made
+  int ring = 0;                        // the aggregates' ring (AggregationAmgOptions::ring, chosen)
 };
 
 class AggregationAmg : public CgPreconditioner {
@@ -107,6 +112,7 @@ public:
   int failed_patches() const { return failed_patches_; }  // A_c not positive definite: rebuilt
   const AmgBuildStats& build_stats() const { return stats_; }
   const VertexAggregates& aggregates() const { return agg_; }
+  int ring() const { return ring_; }  // the ring the last build aggregated with
   double smoother_weight() const { return weight_; }
 
   struct Coarse;  // the coarse matrix and its factor (in the .cpp)
@@ -151,6 +157,7 @@ private:
   double weight_ = 0;  // of the damped smoother (multiplicative cycle)
 
   VertexAggregates agg_;
+  int ring_ = 2;  // chosen at a build (AggregationAmgOptions::ring), kept by its patches
   // Per aggregate: its centroid and scale (rigid modes of vertex v: B_v = [I | -[(x_v - c) / h]x]),
   // T (6 x k, zero-padded: Q = B T has orthonormal columns), k and its first coarse unknown.
   std::vector<Eigen::Vector3d> centre_;

@@ -87,6 +87,41 @@ TEST_CASE("aggregation: every free vertex in one aggregate, fixed ones in none",
   }
 }
 
+TEST_CASE("amg: ring 0 aggregates 2 rings, or 3 where 2 leave too many aggregates, and patches keep it",
+          "[amg][preconditioner][cut]") {
+  for (int above : {100000, 5}) {
+    INFO("ring 3 above " << above << " aggregates");
+    TetMesh m = make_box(Vec3(4, 1, 1), {16, 4, 4});
+    m.discard_change();
+    FemSimulationOptions opt;
+    opt.kind = FemKind::Corotational;
+    opt.cg.tolerance = 1e-8;
+    opt.cg.preconditioner = Preconditioner::Amg;
+    opt.amg.ring3_above = above;
+    FemSimulation sim(m, table(1e5, 0.45), opt);
+    fix_ends(m, sim);
+    const std::vector<VertexId> top = top_of(m);
+    for (VertexId v : top) sim.set_force(v, Vec3(0, 0, -2));
+    REQUIRE(sim.step().info == SolveInfo::Success);
+    // What the explicit rings give on the same free vertices.
+    std::vector<std::uint8_t> eligible(m.vertex_capacity(), 0);
+    for (VertexId v : m.vertices())
+      eligible[v.idx()] = sim.free_mask()[3 * v.idx()] && sim.free_mask()[3 * v.idx() + 1] && sim.free_mask()[3 * v.idx() + 2];
+    const std::size_t ring2 = aggregate_vertices(m, eligible, 2).count(), ring3 = aggregate_vertices(m, eligible, 3).count();
+    REQUIRE(ring3 < ring2);
+    REQUIRE(ring2 > 5);
+    const int want = ring2 > std::size_t(above) ? 3 : 2;
+    CHECK(sim.amg()->ring() == want);
+    CHECK(sim.amg()->aggregates().count() == (want == 3 ? ring3 : ring2));
+    crack(m, 0, 2.0, 2, 0.5);
+    sim.apply(m.take_change());
+    CHECK(sim.step().info == SolveInfo::Success);
+    CHECK(sim.amg()->patches() == 1);
+    CHECK(sim.amg()->build_stats().ring == want);
+    check_equals_direct(m, opt, top, sim);
+  }
+}
+
 TEST_CASE("amg: M^-1 is symmetric positive definite", "[amg][preconditioner]") {
   TetMesh m = make_box(Vec3(4, 1, 1), {16, 4, 4});
   jitter(m, 0.25, 7);
