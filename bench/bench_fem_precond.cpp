@@ -549,7 +549,7 @@ void section_scaling(const std::vector<std::string>& organ_files, long box_tets,
     std::printf("\nthread scaling on %s (%zu tets), corotational, ms per pass (median of 15) on each thread count\n",
                 me.name.c_str(), m.num_tets());
     header("pass");
-    for (Formulation form : {Formulation::Standard, Formulation::NodalAveraged}) {
+    for (Formulation form : {Formulation::Standard, Formulation::NodalAveraged, Formulation::EdgeSmoothed}) {
       const Box b(m);
       FemSimulationOptions opt;
       opt.kind = FemKind::Corotational;

@@ -24,6 +24,7 @@
 
 #include "mesh/tet_mesh.h"
 #include "sim/linalg/linear_operator.h"
+#include "sim/fem/edge_tet_lists.h"
 #include "sim/fem/formulation.h"
 #include "sim/fem/inversion_barrier.h"
 #include "sim/material.h"
@@ -301,7 +302,7 @@ private:
   std::vector<std::uint8_t> ring_mark_;     // per vertex, all clear between apply() calls
   // EdgeSmoothed: the edges. Ids are reused (free list); an edge lives while a tet holds it.
   std::unordered_map<std::uint64_t, std::uint32_t> edge_index_;  // (min, max) vertex ids -> edge
-  std::vector<std::vector<std::uint32_t>> edge_tets_;            // per edge: its tets
+  EdgeTetLists edge_tets_;                                       // per edge: its tets
   std::vector<double> edge_vol_, edge_mu_, edge_lambda_;         // per edge
   std::vector<std::uint32_t> free_edges_;
   std::vector<std::array<std::uint32_t, 6>> tet_edges_;  // per tet

@@ -25,11 +25,11 @@ namespace {
 // The smoothed product's two passes between its sweeps, over a range: per edge its tets'
 // (V_t / 6) sym strains summed into its stress, per tet the mean of its six edges' stresses.
 // Six numbers a tet or edge; the AVX2 versions add them as a 4- and a 2-vector.
-void edge_stresses(std::size_t begin, std::size_t end, const std::vector<std::vector<std::uint32_t>>& edge_tets,
+void edge_stresses(std::size_t begin, std::size_t end, const EdgeTetLists& edge_tets,
                    const double* tsym, const double* vol, const double* mu, const double* lam, double* esym) {
   for (std::size_t e = begin; e < end; ++e) {
     double* out = esym + 6 * e;
-    if (edge_tets[e].empty() || !(vol[e] > 0)) {
+    if (edge_tets.empty(e) || !(vol[e] > 0)) {
       std::fill(out, out + 6, 0.0);
       continue;
     }
@@ -55,12 +55,12 @@ void tet_stresses(std::size_t begin, std::size_t end, const std::uint8_t* alive,
 
 #ifdef INCISE_EDGES_AVX2
 __attribute__((target("avx2,fma"))) void edge_stresses_avx2(std::size_t begin, std::size_t end,
-                                                            const std::vector<std::vector<std::uint32_t>>& edge_tets,
+                                                            const EdgeTetLists& edge_tets,
                                                             const double* tsym, const double* vol, const double* mu,
                                                             const double* lam, double* esym) {
   for (std::size_t e = begin; e < end; ++e) {
     double* out = esym + 6 * e;
-    const auto& list = edge_tets[e];
+    const std::span<const std::uint32_t> list = edge_tets[e];
     if (list.empty() || !(vol[e] > 0)) {
       _mm256_storeu_pd(out, _mm256_setzero_pd());
       _mm_storeu_pd(out + 4, _mm_setzero_pd());
@@ -112,7 +112,7 @@ void FemModel::register_tet(std::uint32_t ti) {
     if (fresh) {
       if (free_edges_.empty()) {
         it->second = std::uint32_t(edge_tets_.size());
-        edge_tets_.emplace_back();
+        edge_tets_.add_edge();
         edge_vol_.push_back(0);
         edge_mu_.push_back(0);
         edge_lambda_.push_back(0);
@@ -122,7 +122,7 @@ void FemModel::register_tet(std::uint32_t ti) {
         free_edges_.pop_back();
       }
     }
-    edge_tets_[it->second].push_back(ti);
+    edge_tets_.push(it->second, ti);
     tet_edges_[ti][std::size_t(k)] = it->second;
   }
   registered_[ti] = 1;
@@ -131,13 +131,8 @@ void FemModel::register_tet(std::uint32_t ti) {
 void FemModel::unregister_tet(std::uint32_t ti) {
   for (int k = 0; k < 6; ++k) {
     const std::uint32_t e = tet_edges_[ti][std::size_t(k)];
-    auto& list = edge_tets_[e];
-    auto it = std::find(list.begin(), list.end(), ti);
-    if (it != list.end()) {
-      *it = list.back();
-      list.pop_back();
-    }
-    if (list.empty()) {
+    edge_tets_.remove(e, ti);
+    if (edge_tets_.empty(e)) {
       edge_index_.erase(edge_key(verts_[ti][std::size_t(kTetEdge[k][0])], verts_[ti][std::size_t(kTetEdge[k][1])]));
       free_edges_.push_back(e);
       edge_vol_[e] = edge_mu_[e] = edge_lambda_[e] = 0;
@@ -241,7 +236,7 @@ void FemModel::deviatoric_pass(const Eigen::VectorXd* x, bool rotation, double s
     teps_[ti] = (vol_[ti] / 12) * (h + h.transpose());  // (V_t / 6) sym(h)
   });
   for_each_index(edge_tets_.size(), serial, [&](std::size_t e) {
-    if (edge_tets_[e].empty() || !(edge_vol_[e] > 0)) return;
+    if (edge_tets_.empty(e) || !(edge_vol_[e] > 0)) return;
     Eigen::Matrix3d eps = Eigen::Matrix3d::Zero();
     for (std::uint32_t t : edge_tets_[e]) eps += teps_[t];
     eps /= edge_vol_[e];
@@ -272,7 +267,7 @@ Eigen::SparseMatrix<double> FemModel::smoothed_rows() const {
   // so that the squares sum to V sigma : eps.
   std::vector<std::vector<Eigen::Triplet<double>>> trip(ne);
   parallel_range(ne, [&](std::size_t e) {
-    if (edge_tets_[e].empty() || !(edge_vol_[e] > 0)) return;
+    if (edge_tets_.empty(e) || !(edge_vol_[e] > 0)) return;
     std::vector<std::pair<std::uint32_t, std::array<Eigen::Matrix3d, 3>>> dom;
     for (std::uint32_t t : edge_tets_[e]) {
       const Eigen::Matrix3d r = corot ? Eigen::Matrix3d(quat_[t].toRotationMatrix()) : Eigen::Matrix3d::Identity();

@@ -6,10 +6,13 @@
 // against Timoshenko beam theory.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include "mesh/generate.h"
+#include "sim/fem/edge_tet_lists.h"
 #include "sim/fem/fem_model.h"
 #include "sim/fem/fem_simulation.h"
 #include "tests/sim/fem_test_util.h"
@@ -197,4 +200,47 @@ TEST_CASE("nodal-averaged and edge-smoothed: the fused products equal the assemb
         CHECK((y - k * x).norm() <= 1e-12 * y.norm());
       }
     }
+}
+
+// The per-edge tet lists: short lists in their records, long ones spilled to a list of their own
+// and back, the same tets in the same order as a plain vector with the same edits (push at the
+// back, removal by swapping the last in).
+TEST_CASE("edge tet lists keep a vector's order through spills and removals", "[edge-smoothed]") {
+  EdgeTetLists lists;
+  std::vector<std::vector<std::uint32_t>> plain;
+  std::mt19937 rng(3);
+  const std::size_t edges = 40;
+  for (std::size_t e = 0; e < edges; ++e) {
+    lists.add_edge();
+    plain.emplace_back();
+  }
+  std::uint32_t next = 0;
+  for (int round = 0; round < 4000; ++round) {
+    const std::size_t e = rng() % edges;
+    // Grow up to twice the inline size, then shrink: every edge crosses the spill both ways.
+    const bool add = plain[e].empty() || (plain[e].size() < 2 * EdgeTetLists::kInline && rng() % 5 < 3);
+    if (add) {
+      lists.push(e, next);
+      plain[e].push_back(next++);
+    } else {
+      const std::uint32_t t = plain[e][rng() % plain[e].size()];
+      lists.remove(e, t);
+      auto it = std::find(plain[e].begin(), plain[e].end(), t);
+      *it = plain[e].back();
+      plain[e].pop_back();
+    }
+    const auto got = lists[e];
+    REQUIRE(std::vector<std::uint32_t>(got.begin(), got.end()) == plain[e]);
+    REQUIRE(lists.empty(e) == plain[e].empty());
+  }
+  std::size_t spilled = 0;
+  for (std::size_t e = 0; e < edges; ++e) {
+    const auto got = lists[e];
+    CHECK(std::vector<std::uint32_t>(got.begin(), got.end()) == plain[e]);
+    spilled += plain[e].size() > EdgeTetLists::kInline;
+  }
+  CHECK(spilled > 0);
+  lists.remove(0, 0xffffffffu);  // not there: nothing
+  const auto got = lists[0];
+  CHECK(std::vector<std::uint32_t>(got.begin(), got.end()) == plain[0]);
 }
