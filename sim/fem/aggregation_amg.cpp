@@ -319,14 +319,15 @@ void AggregationAmg::exchange_volumetric(std::size_t first, double sign) {
     for (const auto& [h, uh] : u) {
       if (!kept(h)) continue;
       auto& row = rows_[std::size_t(h)];
-      for (const auto& [g, ug] : u) {
+      for (const auto& term : u) {
+        const std::int32_t g = term.first;
         if (!kept(g)) continue;
         auto it = std::find_if(row.begin(), row.end(), [&](const auto& e) { return e.first == g; });
         if (it == row.end()) {
           row.emplace_back(g, Mat6::Zero());
           it = row.end() - 1;
         }
-        it->second.noalias() += (c * uh) * ug.transpose();
+        it->second.noalias() += (c * uh) * term.second.transpose();
       }
     }
   }
