@@ -15,7 +15,7 @@ void SpringModel::warn_once(Integrator integrator, double dt, double limit) {
   if (warned_ & bit) return;
   double estimate = 0;
   if (limit > 0) {
-    // The local bound is about a third of the real limit (docs/solver.md#spring-stable-step):
+    // The local bound is loose, well below the real limit (docs/solver.md#spring-stable-step):
     // a step above it is measured against the state's fastest mode before it is warned about,
     // once per bound (a cut moves both) unless the step grows. O(mesh), so not every step: a
     // squeeze that stiffens the state later is not seen.
