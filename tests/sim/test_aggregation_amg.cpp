@@ -25,6 +25,21 @@ std::vector<VertexId> top_of(const TetMesh& m) {
   return top;
 }
 
+// The cut tests' beam (4 x 1 x 1 in 16 x 4 x 4 cells, no change pending) and CG to 1e-8.
+TetMesh cut_beam() {
+  TetMesh m = make_box(Vec3(4, 1, 1), {16, 4, 4});
+  m.discard_change();
+  return m;
+}
+
+FemSimulationOptions cg_options(FemKind kind, Preconditioner pc) {
+  FemSimulationOptions opt;
+  opt.kind = kind;
+  opt.cg.tolerance = 1e-8;
+  opt.cg.preconditioner = pc;
+  return opt;
+}
+
 // The face-connected part of each tet.
 std::vector<int> parts(const TetMesh& m) {
   std::vector<int> part(m.tet_capacity(), -1);
@@ -91,12 +106,8 @@ TEST_CASE("amg: ring 0 aggregates 2 rings, or 3 where 2 leave too many aggregate
           "[amg][preconditioner][cut]") {
   for (int above : {100000, 5}) {
     INFO("ring 3 above " << above << " aggregates");
-    TetMesh m = make_box(Vec3(4, 1, 1), {16, 4, 4});
-    m.discard_change();
-    FemSimulationOptions opt;
-    opt.kind = FemKind::Corotational;
-    opt.cg.tolerance = 1e-8;
-    opt.cg.preconditioner = Preconditioner::Amg;
+    TetMesh m = cut_beam();
+    FemSimulationOptions opt = cg_options(FemKind::Corotational, Preconditioner::Amg);
     opt.amg.ring3_above = above;
     FemSimulation sim(m, table(1e5, 0.45), opt);
     fix_ends(m, sim);
@@ -153,12 +164,8 @@ TEST_CASE("amg: CG equals the direct solution through cuts, aggregates never spa
   for (Cycle cycle : {Cycle::Multiplicative, Cycle::Additive})
     for (FemKind kind : {FemKind::Linear, FemKind::Corotational}) {
       INFO("cycle " << int(cycle) << ", kind " << int(kind) << ", block factor " << block);
-      TetMesh m = make_box(Vec3(4, 1, 1), {16, 4, 4});
-      m.discard_change();
-      FemSimulationOptions opt;
-      opt.kind = kind;
-      opt.cg.tolerance = 1e-8;
-      opt.cg.preconditioner = Preconditioner::Amg;
+      TetMesh m = cut_beam();
+      FemSimulationOptions opt = cg_options(kind, Preconditioner::Amg);
       opt.amg.cycle = cycle;
       opt.amg.block_factor_aggregates = block;
       FemSimulation sim(m, table(1e5, 0.45), opt);
@@ -225,12 +232,8 @@ TEST_CASE("settle policy with amg: the multigrid while the blade moves, the fact
   int cut_iterations[2] = {0, 0};
   for (bool with_amg : {false, true}) {
     INFO("settle_with_amg " << with_amg);
-    TetMesh m = make_box(Vec3(4, 1, 1), {16, 4, 4});
-    m.discard_change();
-    FemSimulationOptions opt;
-    opt.kind = FemKind::Corotational;
-    opt.cg.tolerance = 1e-8;
-    opt.cg.preconditioner = Preconditioner::Cholesky;
+    TetMesh m = cut_beam();
+    FemSimulationOptions opt = cg_options(FemKind::Corotational, Preconditioner::Cholesky);
     opt.cholesky.background = false;  // deterministic: a started factorization lands in the same frame
     opt.cholesky.settle_frames = 2;
     opt.cholesky.settle_with_amg = with_amg;
@@ -275,13 +278,9 @@ TEST_CASE("amg: the coarse matrix is the Galerkin product P^T K P through cuts, 
   for (Formulation form : {Formulation::Standard, Formulation::NodalAveraged})
     for (int block : {700, 0}) {
       INFO("formulation " << formulation_name(form) << ", block factor " << block);
-      TetMesh m = make_box(Vec3(4, 1, 1), {16, 4, 4});
-      m.discard_change();
-      FemSimulationOptions opt;
-      opt.kind = FemKind::Linear;  // no rotations to refresh: every cut is a patch
+      TetMesh m = cut_beam();
+      FemSimulationOptions opt = cg_options(FemKind::Linear, Preconditioner::Amg);  // no rotations to refresh: every cut is a patch
       opt.formulation = form;
-      opt.cg.tolerance = 1e-8;
-      opt.cg.preconditioner = Preconditioner::Amg;
       opt.amg.block_factor_aggregates = block;
       FemSimulation sim(m, table(1e5, 0.45), opt);
       fix_ends(m, sim);
